@@ -1,0 +1,60 @@
+// Constitutive laws behind one interface: energy density psi(F), first Piola-Kirchhoff stress
+// P = dpsi/dF and its differential dP[dF], all in SI units (Pa = J/m^3).
+//
+// The frame method (paper eq. 18-26) works with the Green-Lagrange strain E (eq. 5) and the second
+// Piola-Kirchhoff stress S (eq. 19); P = F S. Writing the interface in (F, P) lets laws that are
+// not functions of E alone (neo-Hookean) share the same force and tangent code.
+#pragma once
+
+#include "core/small_math.hpp"
+#include "material/neo_hookean.hpp"
+#include "material/stvk.hpp"
+
+#include <string>
+
+namespace fascia {
+
+enum class MaterialLaw : int { stvk = 0, neo_hookean = 1 };
+
+struct Material {
+  MaterialLaw law = MaterialLaw::stvk;
+  double lambda = 0;   // first Lame coefficient, Pa
+  double mu = 0;       // shear modulus, Pa
+  double density = 0;  // kg/m^3
+};
+
+// Lame coefficients from Young's modulus E (Pa) and Poisson ratio nu.
+// @pre E > 0, -1 < nu < 0.5 (throws std::invalid_argument otherwise).
+Material make_material(MaterialLaw law, double young, double poisson, double density);
+
+const char* to_string(MaterialLaw law);
+
+// Per-sample quantities reused by every tangent product of one Newton iteration.
+// StVK: a = S (second Piola-Kirchhoff). Neo-Hookean: a = F^{-T}, c = mu - lambda ln J.
+struct MaterialCache {
+  Mat3 a;
+  double c;
+};
+
+// psi(F) in J/m^3; +infinity for a neo-Hookean element with det F <= 0 (inverted).
+FASCIA_HD double energy_density(const Material& m, const Mat3& F) {
+  return m.law == MaterialLaw::stvk ? stvk_energy(m.lambda, m.mu, F) : neo_hookean_energy(m.lambda, m.mu, F);
+}
+
+// P(F) and the cache for pk1_differential.
+FASCIA_HD Mat3 first_piola(const Material& m, const Mat3& F, MaterialCache& cache) {
+  if (m.law == MaterialLaw::stvk) {
+    cache.a = stvk_second_piola(m.lambda, m.mu, F);
+    cache.c = 0;
+    return F * cache.a;
+  }
+  return neo_hookean_first_piola(m.lambda, m.mu, F, cache.a, cache.c);
+}
+
+// dP = (d^2 psi / dF^2) : dF at the state described by F and cache.
+FASCIA_HD Mat3 pk1_differential(const Material& m, const Mat3& F, const MaterialCache& cache, const Mat3& dF) {
+  return m.law == MaterialLaw::stvk ? stvk_pk1_differential(m.lambda, m.mu, F, cache.a, dF)
+                                    : neo_hookean_pk1_differential(m.lambda, m.mu, cache.a, cache.c, dF);
+}
+
+}  // namespace fascia

@@ -1,0 +1,247 @@
+#include "mechanics/elasticity.hpp"
+
+#include "mechanics/frame_sample.hpp"
+
+#include <cmath>
+#include <omp.h>
+
+namespace fascia {
+namespace {
+
+// Reductions sum fixed chunks of samples, then the chunk sums in order: the result does not
+// depend on the number of threads.
+constexpr int kChunk = 1024;
+
+}  // namespace
+
+Elasticity::Elasticity(const Model& model, int threads)
+    : m_model(model), m_threads(threads > 0 ? threads : omp_get_max_threads()) {
+  const NeighbourTable& nb = model.neighbours;
+  m_table = PairTableView{nb.offsets.data(), nb.frames.data(), nb.weights.data(), nb.weight_gradients.data(),
+                          nb.rest_offsets.data()};
+  const int s_count = model.sample_count();
+  m_offsets.resize(3 * model.pair_count());
+  m_F.resize(9 * s_count);
+  m_P.resize(9 * s_count);
+  m_cache.resize(s_count);
+  m_frame_blocks.resize(9 * model.frame_count());
+  m_pair.resize(6 * model.pair_count());
+  m_chunk.resize((s_count + kChunk - 1) / kChunk);
+}
+
+void Elasticity::compute_rotations(const State& state) { rotation_matrices(state, m_rotations); }
+
+double Elasticity::energy(const State& state) {
+  compute_rotations(state);
+  const int s_count = m_model.sample_count();
+  const int chunks = static_cast<int>(m_chunk.size());
+  const double* x = state.positions.data();
+  const double* R = m_rotations.data();
+#pragma omp parallel for schedule(static) num_threads(m_threads)
+  for (int c = 0; c < chunks; ++c) {
+    double sum = 0;
+    const int end = std::min(s_count, (c + 1) * kChunk);
+    for (int s = c * kChunk; s < end; ++s) {
+      const Mat3 F = sample_deformation_gradient(m_table, s, x, R);
+      const Material& mat = m_model.materials[m_model.samples.materials[s]];
+      sum += m_model.samples.volumes[s] * energy_density(mat, F);
+    }
+    m_chunk[c] = sum;
+  }
+  double w = 0;
+  for (double c : m_chunk) w += c;
+  return w;
+}
+
+double Elasticity::prepare(const State& state) {
+  compute_rotations(state);
+  const int s_count = m_model.sample_count();
+  const int chunks = static_cast<int>(m_chunk.size());
+  const double* x = state.positions.data();
+  const double* R = m_rotations.data();
+  const NeighbourTable& nb = m_model.neighbours;
+#pragma omp parallel for schedule(static) num_threads(m_threads)
+  for (int c = 0; c < chunks; ++c) {
+    double sum = 0;
+    const int end = std::min(s_count, (c + 1) * kChunk);
+    for (int s = c * kChunk; s < end; ++s) {
+      const Mat3 F = sample_deformation_gradient(m_table, s, x, R);
+      const Material& mat = m_model.materials[m_model.samples.materials[s]];
+      const double v = m_model.samples.volumes[s];
+      sum += v * energy_density(mat, F);
+      const Mat3 P = first_piola(mat, F, m_cache[s]);
+      store_mat3(&m_F[9 * s], F);
+      store_mat3(&m_P[9 * s], P);
+      for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+        const int i = nb.frames[p];
+        const Mat3 Ri = load_mat3(R + 9 * i);
+        const Vec3 a = Ri * load3(&nb.rest_offsets[3 * p]);
+        const Vec3 g = load3(&nb.weight_gradients[3 * p]);
+        store3(&m_offsets[3 * p], a);
+        // Pair buffer: energy gradient share (columns 0-5) ...
+        pair_virtual_work(P, a, g, nb.weights[p], Ri, v, &m_pair[6 * p]);
+      }
+    }
+    m_chunk[c] = sum;
+  }
+  // ... and the rotational geometric block, summed per frame through the reverse table.
+  const int n = m_model.frame_count();
+#pragma omp parallel for schedule(static) num_threads(m_threads)
+  for (int i = 0; i < n; ++i) {
+    Mat3 K = zero3();
+    const Mat3 Ri = load_mat3(R + 9 * i);
+    for (int k = m_model.reverse.offsets[i]; k < m_model.reverse.offsets[i + 1]; ++k) {
+      const int p = m_model.reverse.pairs[k];
+      const int s = m_model.reverse.pair_samples[p];
+      K += pair_rotational_geometric_block(load_mat3(&m_P[9 * s]), load3(&m_offsets[3 * p]),
+                                           load3(&nb.weight_gradients[3 * p]), nb.weights[p], Ri,
+                                           m_model.samples.volumes[s]);
+    }
+    store_mat3(&m_frame_blocks[9 * i], K);
+  }
+  double w = 0;
+  for (double c : m_chunk) w += c;
+  return w;
+}
+
+double Elasticity::gradient(const State& state, double* gradient) {
+  compute_rotations(state);
+  const int s_count = m_model.sample_count();
+  const int chunks = static_cast<int>(m_chunk.size());
+  const double* x = state.positions.data();
+  const double* R = m_rotations.data();
+  const NeighbourTable& nb = m_model.neighbours;
+#pragma omp parallel for schedule(static) num_threads(m_threads)
+  for (int c = 0; c < chunks; ++c) {
+    double sum = 0;
+    const int end = std::min(s_count, (c + 1) * kChunk);
+    for (int s = c * kChunk; s < end; ++s) {
+      const Mat3 F = sample_deformation_gradient(m_table, s, x, R);
+      const Material& mat = m_model.materials[m_model.samples.materials[s]];
+      const double v = m_model.samples.volumes[s];
+      sum += v * energy_density(mat, F);
+      MaterialCache cache;
+      const Mat3 P = first_piola(mat, F, cache);
+      for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+        const int i = nb.frames[p];
+        const Mat3 Ri = load_mat3(R + 9 * i);
+        const Vec3 a = Ri * load3(&nb.rest_offsets[3 * p]);
+        pair_virtual_work(P, a, load3(&nb.weight_gradients[3 * p]), nb.weights[p], Ri, v, &m_pair[6 * p]);
+      }
+    }
+    m_chunk[c] = sum;
+  }
+  gather(gradient);
+  double w = 0;
+  for (double c : m_chunk) w += c;
+  return w;
+}
+
+void Elasticity::gather(double* out) const {
+  const int n = m_model.frame_count();
+  const ReverseTable& rev = m_model.reverse;
+#pragma omp parallel for schedule(static) num_threads(m_threads)
+  for (int i = 0; i < n; ++i) {
+    double acc[6] = {0, 0, 0, 0, 0, 0};
+    for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
+      const double* q = &m_pair[6 * rev.pairs[k]];
+      for (int j = 0; j < 6; ++j) acc[j] += q[j];
+    }
+    for (int j = 0; j < 6; ++j) out[6 * i + j] = acc[j];
+  }
+}
+
+void Elasticity::apply_tangent(const double* d, double* out) {
+  const int s_count = m_model.sample_count();
+  const NeighbourTable& nb = m_model.neighbours;
+  const double* R = m_rotations.data();
+  // Pass 1 (samples): dF = sum_p B_p d_i (eq. 11), dP = C[dF] (eq. 22-24 in the P form), then
+  // each pair's share B_p^T dP v (eq. 21, 23) and the stress part dF S (eq. 25-26).
+#pragma omp parallel for schedule(static) num_threads(m_threads)
+  for (int s = 0; s < s_count; ++s) {
+    Mat3 dF = zero3();
+    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+      const int i = nb.frames[p];
+      dF += pair_deformation_differential(load3(d + 6 * i), load3(d + 6 * i + 3), load3(&m_offsets[3 * p]),
+                                          load3(&nb.weight_gradients[3 * p]), nb.weights[p], load_mat3(R + 9 * i));
+    }
+    const Material& mat = m_model.materials[m_model.samples.materials[s]];
+    const Mat3 dP = pk1_differential(mat, load_mat3(&m_F[9 * s]), m_cache[s], dF);
+    const double v = m_model.samples.volumes[s];
+    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+      const int i = nb.frames[p];
+      pair_virtual_work(dP, load3(&m_offsets[3 * p]), load3(&nb.weight_gradients[3 * p]), nb.weights[p],
+                        load_mat3(R + 9 * i), v, &m_pair[6 * p]);
+    }
+  }
+  // Pass 2 (frames): sum the pairs, add the rotational geometric block.
+  gather(out);
+  const int n = m_model.frame_count();
+#pragma omp parallel for schedule(static) num_threads(m_threads)
+  for (int i = 0; i < n; ++i) {
+    const Vec3 r = load_mat3(&m_frame_blocks[9 * i]) * load3(d + 6 * i + 3);
+    out[6 * i + 3] += r.x;
+    out[6 * i + 4] += r.y;
+    out[6 * i + 5] += r.z;
+  }
+}
+
+void Elasticity::material_matrix(int s, double* D) const {
+  const Material& mat = m_model.materials[m_model.samples.materials[s]];
+  const Mat3 F = load_mat3(&m_F[9 * s]);
+  for (int k = 0; k < 9; ++k) {
+    Mat3 E = zero3();
+    E.m[k / 3][k % 3] = 1;
+    store_mat3(D + 9 * k, pk1_differential(mat, F, m_cache[s], E));
+  }
+}
+
+void Elasticity::pair_jacobian(int p, double* B) const {
+  const NeighbourTable& nb = m_model.neighbours;
+  const int i = nb.frames[p];
+  const Vec3 a = load3(&m_offsets[3 * p]);
+  const Vec3 g = load3(&nb.weight_gradients[3 * p]);
+  const Mat3 Ri = load_mat3(&m_rotations[9 * i]);
+  for (int k = 0; k < 6; ++k) {
+    Vec3 dx{0, 0, 0}, dr{0, 0, 0};
+    (k < 3 ? dx : dr) = Vec3{k % 3 == 0 ? 1.0 : 0.0, k % 3 == 1 ? 1.0 : 0.0, k % 3 == 2 ? 1.0 : 0.0};
+    const Mat3 dF = pair_deformation_differential(dx, dr, a, g, nb.weights[p], Ri);
+    for (int r = 0; r < 9; ++r) B[6 * r + k] = dF.m[r / 3][r % 3];
+  }
+}
+
+void Elasticity::tangent_diagonal_blocks(double* blocks) {
+  const int n = m_model.frame_count();
+  const ReverseTable& rev = m_model.reverse;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(m_threads)
+  for (int i = 0; i < n; ++i) {
+    double K[36] = {0};
+    double D[81], B[54], DB[54];
+    for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
+      const int p = rev.pairs[k];
+      const int s = rev.pair_samples[p];
+      material_matrix(s, D);
+      pair_jacobian(p, B);
+      const double v = m_model.samples.volumes[s];
+      // K_ii += v B^T D^T B; D is symmetric for a hyperelastic law (D = d^2 psi / dF^2), rows of D
+      // are vec(dP[E_k]).
+      for (int r = 0; r < 9; ++r)
+        for (int c = 0; c < 6; ++c) {
+          double acc = 0;
+          for (int q = 0; q < 9; ++q) acc += D[9 * q + r] * B[6 * q + c];
+          DB[6 * r + c] = acc;
+        }
+      for (int a = 0; a < 6; ++a)
+        for (int b = 0; b < 6; ++b) {
+          double acc = 0;
+          for (int r = 0; r < 9; ++r) acc += B[6 * r + a] * DB[6 * r + b];
+          K[6 * a + b] += v * acc;
+        }
+    }
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) K[6 * (3 + a) + 3 + b] += m_frame_blocks[9 * i + 3 * a + b];
+    for (int j = 0; j < 36; ++j) blocks[36 * i + j] = K[j];
+  }
+}
+
+}  // namespace fascia

@@ -1,0 +1,92 @@
+#include "mechanics/external_loads.hpp"
+
+#include "mechanics/frame_sample.hpp"
+
+#include <cmath>
+
+namespace fascia {
+namespace {
+
+PairTableView view(const Model& model) {
+  const NeighbourTable& nb = model.neighbours;
+  return PairTableView{nb.offsets.data(), nb.frames.data(), nb.weights.data(), nb.weight_gradients.data(),
+                       nb.rest_offsets.data()};
+}
+
+Vec3 sample_weight(const Model& model, const ExternalLoads& loads, int s) {
+  const double m = model.materials[model.samples.materials[s]].density * model.samples.volumes[s];
+  return (loads.scale * m) * loads.gravity;
+}
+
+}  // namespace
+
+double load_potential(const Model& model, const ExternalLoads& loads, const State& state) {
+  std::vector<double> R;
+  rotation_matrices(state, R);
+  const PairTableView t = view(model);
+  double v = 0;
+  for (int s = 0; s < model.sample_count(); ++s)
+    v -= dot(sample_weight(model, loads, s), sample_position(t, s, state.positions.data(), R.data()));
+  for (const PointForce& f : loads.point_forces)
+    v -= loads.scale * dot(f.force, load3(&state.positions[3 * f.frame]));
+  return v;
+}
+
+void add_load_gradient(const Model& model, const ExternalLoads& loads, const State& state, double* gradient) {
+  std::vector<double> R;
+  rotation_matrices(state, R);
+  const NeighbourTable& nb = model.neighbours;
+  for (int s = 0; s < model.sample_count(); ++s) {
+    const Vec3 b = sample_weight(model, loads, s);
+    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+      const int i = nb.frames[p];
+      const double w = nb.weights[p];
+      const Vec3 a = load_mat3(&R[9 * i]) * load3(&nb.rest_offsets[3 * p]);
+      const Vec3 t = cross(a, b);
+      double* g = gradient + 6 * i;
+      g[0] -= w * b.x, g[1] -= w * b.y, g[2] -= w * b.z;
+      g[3] -= w * t.x, g[4] -= w * t.y, g[5] -= w * t.z;
+    }
+  }
+  for (const PointForce& f : loads.point_forces) {
+    double* g = gradient + 6 * f.frame;
+    g[0] -= loads.scale * f.force.x, g[1] -= loads.scale * f.force.y, g[2] -= loads.scale * f.force.z;
+  }
+}
+
+void add_load_rotational_blocks(const Model& model, const ExternalLoads& loads, const State& state, double* blocks) {
+  std::vector<double> R;
+  rotation_matrices(state, R);
+  const NeighbourTable& nb = model.neighbours;
+  for (int s = 0; s < model.sample_count(); ++s) {
+    const Vec3 b = sample_weight(model, loads, s);
+    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+      const int i = nb.frames[p];
+      const Vec3 a = load_mat3(&R[9 * i]) * load3(&nb.rest_offsets[3 * p]);
+      const Mat3 K = pair_body_force_block(b, a, nb.weights[p]);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) blocks[9 * i + 3 * r + c] += K.m[r][c];
+    }
+  }
+}
+
+double load_force_norm(const Model& model, const ExternalLoads& loads) {
+  std::vector<double> f(3 * model.frame_count(), 0.0);
+  const NeighbourTable& nb = model.neighbours;
+  for (int s = 0; s < model.sample_count(); ++s) {
+    const Vec3 b = sample_weight(model, loads, s);
+    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+      double* fi = &f[3 * nb.frames[p]];
+      fi[0] += nb.weights[p] * b.x, fi[1] += nb.weights[p] * b.y, fi[2] += nb.weights[p] * b.z;
+    }
+  }
+  for (const PointForce& pf : loads.point_forces) {
+    double* fi = &f[3 * pf.frame];
+    fi[0] += loads.scale * pf.force.x, fi[1] += loads.scale * pf.force.y, fi[2] += loads.scale * pf.force.z;
+  }
+  double n = 0;
+  for (double x : f) n += x * x;
+  return std::sqrt(n);
+}
+
+}  // namespace fascia

@@ -1,0 +1,38 @@
+// External loads as potentials on the frame configuration: gravity acting on every sample's
+// mass through eq. (3), and point forces on frames. Conservative, so static equilibrium is the
+// minimum of W + V and the line search works on one energy.
+#pragma once
+
+#include "core/small_math.hpp"
+#include "model/model.hpp"
+#include "model/state.hpp"
+
+#include <vector>
+
+namespace fascia {
+
+struct PointForce {
+  int frame;
+  Vec3 force;  // N, world axes, constant
+};
+
+struct ExternalLoads {
+  Vec3 gravity{0, 0, 0};  // m/s^2
+  std::vector<PointForce> point_forces;
+  double scale = 1.0;  // load factor (load stepping)
+};
+
+// V = -scale (sum_s rho_s v_s g . p_s + sum_k f_k . x_k), J.
+double load_potential(const Model& model, const ExternalLoads& loads, const State& state);
+
+// Adds dV/d(theta) at theta = 0 to gradient [N][6].
+void add_load_gradient(const Model& model, const ExternalLoads& loads, const State& state, double* gradient);
+
+// Adds the rotational blocks of the Hessian of V (the gravity moment arm a = R l turns with the
+// frame) to blocks [N][9].
+void add_load_rotational_blocks(const Model& model, const ExternalLoads& loads, const State& state, double* blocks);
+
+// Total external force on translations (N), for convergence scales.
+double load_force_norm(const Model& model, const ExternalLoads& loads);
+
+}  // namespace fascia
