@@ -1,0 +1,11 @@
+// JSON Schema (draft-07) of the scene language, generated from the parameter registry, for YAML
+// editors (e.g. the YAML language server's `# yaml-language-server: $schema=...`).
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+namespace fascia::dsl {
+
+nlohmann::json scene_json_schema();
+
+}  // namespace fascia::dsl
