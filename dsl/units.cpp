@@ -187,7 +187,7 @@ std::optional<Quantity> parse_quantity(const std::string& text_in, std::string& 
   }
   std::optional<Quantity> unit = parse_unit(rest, error);
   if (!unit) return std::nullopt;
-  return Quantity{number * unit->value, unit->dimension};
+  return Quantity{number * unit->value, unit->dimension, trim(rest).empty()};
 }
 
 std::string format_si(double value, const Dimension& d) {

@@ -37,6 +37,7 @@ std::string si_unit(const Dimension& d);
 struct Quantity {
   double value = 0;  // SI
   Dimension dimension;
+  bool bare = false;  // a number without unit: SI in whatever dimension is expected
 };
 
 // Parses a unit expression: products and quotients of units with optional integer powers, e.g.

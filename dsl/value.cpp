@@ -60,12 +60,10 @@ struct Validator {
       diagnostics.error(node.where, what + ": expected " + spec.expected() + ", got '" + node.text + "' (" + err + ")");
       return false;
     }
-    if (q->dimension != spec.unit) {
+    if (q->dimension != spec.unit && !q->bare) {
       if (spec.unit == dim::none) {
         diagnostics.error(node.where, what + ": expected a dimensionless number, got '" + node.text + "' (a " +
                                           dimension_name(q->dimension) + ")");
-      } else if (q->dimension == dim::none && node.text.find_first_not_of("0123456789+-.eE ") != std::string::npos) {
-        diagnostics.error(node.where, what + ": '" + node.text + "' has no unit of " + dimension_name(spec.unit));
       } else {
         diagnostics.error(node.where, what + ": expected a " + dimension_name(spec.unit) + " in " + si_unit(spec.unit) +
                                           " or a compatible unit, got '" + node.text + "' (a " +
@@ -93,7 +91,7 @@ struct Validator {
   Value scalar_value(const SourceNode& node, const ParamSpec& spec) {
     Value v;
     v.where = node.where;
-    v.spec = &spec;
+    v.unit = spec.unit;
     return v;
   }
 
@@ -384,7 +382,11 @@ void report_missing(const SourceNode& node, const ParamSpec& spec, const std::st
       for (const ParamSpec& c : spec.children) {
         const SourceNode* child = node.find(c.name);
         if (!child) {
-          if (c.required)
+          // A misspelt key ('yuong') is reported as unknown with a suggestion; not also as missing.
+          bool misspelt = false;
+          for (const auto& field : node.fields)
+            misspelt = misspelt || (!spec.child(field.first) && closest_match(field.first, spec.child_names()) == c.name);
+          if (c.required && !misspelt)
             diagnostics.error(node.where, what + ": missing required key '" + c.name + "' (" + c.doc + "; " +
                                               c.expected() + ")");
           continue;
@@ -425,7 +427,7 @@ namespace {
 
 void emit(YAML::Emitter& out, const Value& v) {
   switch (v.kind) {
-    case Value::Kind::number: out << format_si(v.number, v.spec ? v.spec->unit : dim::none); break;
+    case Value::Kind::number: out << format_si(v.number, v.unit); break;
     case Value::Kind::integer: out << v.integer; break;
     case Value::Kind::boolean: out << (v.boolean ? "true" : "false"); break;
     case Value::Kind::string: out << v.text; break;

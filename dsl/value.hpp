@@ -23,7 +23,7 @@ struct Value {
   std::vector<Value> items;
   std::vector<std::pair<std::string, Value>> fields;
   Location where;
-  const ParamSpec* spec = nullptr;
+  Dimension unit = dim::none;  // number, and each component of a vector
   bool defaulted = false;  // filled in from the registry's default
 
   const Value* find(const std::string& key) const;
