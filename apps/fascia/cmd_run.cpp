@@ -310,6 +310,8 @@ int run(const RunOptions& options) {
   }
 
   progress.finish(figures, status);
+  // Logs of batch jobs must say why a run stopped, even with --quiet.
+  if (options.quiet && exit_code == kStoppedOnSignal) std::cerr << "fascia: " << status << "\n";
   if (!failure.empty()) std::cerr << "fascia: error: " << failure << "\n";
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   if (options.json) {
