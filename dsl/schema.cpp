@@ -113,7 +113,34 @@ json schema_of(const ParamSpec& spec) {
   return s;
 }
 
+void markdown_rows(const ParamSpec& spec, const std::string& path, std::string& out) {
+  for (const ParamSpec& c : spec.children) {
+    std::string p = path;
+    if (spec.type == ParamType::named_map) p += ".<name>";
+    else if (spec.type == ParamType::list) p += "[]";
+    else p += (p.empty() ? "" : ".") + c.name;
+    if (spec.type == ParamType::named_map || spec.type == ParamType::list) {
+      markdown_rows(c, p, out);
+      continue;
+    }
+    std::string type = c.expected();
+    if (c.type == ParamType::object || c.type == ParamType::one_of) type = c.type == ParamType::one_of ? "one of" : "map";
+    if (c.type == ParamType::named_map) type = "named map";
+    if (c.type == ParamType::list) type = "list";
+    std::string unit = si_unit(c.unit);
+    out += "| `" + p + "` | " + type + " | " + (unit.empty() ? "" : unit) + " | " + c.range_text() + " | " +
+           (c.required ? "**required**" : c.default_value) + " | " + c.doc + " |\n";
+    markdown_rows(c, p, out);
+  }
+}
+
 }  // namespace
+
+std::string registry_markdown() {
+  std::string out = "| key | type | SI unit | range | default | meaning |\n| --- | --- | --- | --- | --- | --- |\n";
+  markdown_rows(scene_registry(), "", out);
+  return out;
+}
 
 nlohmann::json scene_json_schema() {
   json s = schema_of(scene_registry());

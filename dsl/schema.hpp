@@ -4,8 +4,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include <string>
+
 namespace fascia::dsl {
 
 nlohmann::json scene_json_schema();
+
+// The registry as a Markdown table (key path, type, unit, range, default, doc), for docs/.
+std::string registry_markdown();
 
 }  // namespace fascia::dsl
