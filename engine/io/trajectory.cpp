@@ -214,8 +214,26 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
     m_impl->particles.push_back(
         make_series(samples.get(), "position", {static_cast<hsize_t>(layout.samples), 3}, false, "m", path));
   }
-  if (!layout.surfaces.empty()) {
+  {
     Handle connectivity = group(f, "connectivity", path);
+    // Point clouds get explicit vertex connectivity (0..n-1) so that XDMF readers need not infer it.
+    auto vertices = [&](const char* name, int count) {
+      std::vector<int> ids(static_cast<std::size_t>(count));
+      for (int i = 0; i < count; ++i) ids[static_cast<std::size_t>(i)] = i;
+      const hsize_t count_h = ids.size();
+      Handle space(H5Screate_simple(1, &count_h, nullptr), H5Sclose);
+      Handle ds(checked(H5Dcreate2(connectivity.get(), name, H5T_STD_I32LE, space.get(), H5P_DEFAULT, H5P_DEFAULT,
+                                   H5P_DEFAULT),
+                        path, std::string("create connectivity of ") + name),
+                H5Dclose);
+      if (count > 0)
+        checked(H5Dwrite(ds.get(), H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, ids.data()), path,
+                std::string("write connectivity of ") + name, 0);
+      string_attribute(ds.get(), "cell_type", "vertex", path);
+      string_attribute(ds.get(), "particles_group", std::string("/particles/") + name, path);
+    };
+    vertices("frames", layout.frames);
+    if (layout.samples > 0) vertices("samples", layout.samples);
     for (const SurfaceLayout& s : layout.surfaces) {
       if (s.name == "frames" || s.name == "samples") fail(path, "surface name '" + s.name + "' is reserved");
       Handle g = group(particles.get(), s.name, path);

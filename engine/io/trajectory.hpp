@@ -5,6 +5,7 @@
 //   /particles/samples/           box; position
 //   /particles/<surface>/         box; position (surface vertices); frames [V] (frame of each vertex)
 //   /connectivity/<surface>       [F][3|4] int, indices into /particles/<surface>/position
+//   /connectivity/frames, samples [n] int, 0..n-1 (vertex cells for XDMF point clouds)
 //   /observables/<name>/          step, time, value [T]
 //   /parameters/                  scene (resolved YAML), scene_file, command_line, version, environment
 //

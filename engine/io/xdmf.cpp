@@ -22,7 +22,9 @@ void hyperslab(std::ostringstream& out, const std::string& source, int k, std::s
 void point_cloud(std::ostringstream& out, const std::string& name, const std::string& h5, int k, std::size_t t,
                  std::size_t n) {
   out << "        <Grid Name=\"" << name << "\" GridType=\"Uniform\">\n"
-      << "          <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\"/>\n"
+      << "          <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\">\n"
+      << "            <DataItem Dimensions=\"" << n << "\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">" << h5
+      << ":/connectivity/" << name << "</DataItem>\n          </Topology>\n"
       << "          <Geometry GeometryType=\"XYZ\">\n";
   hyperslab(out, h5 + ":/particles/" + name + "/position/value", k, t, n, 3, "            ");
   out << "          </Geometry>\n        </Grid>\n";
