@@ -15,6 +15,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -219,7 +220,10 @@ int run(const RunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   Simulation simulation(built.model, built.loads, built.settings, built.motions);
   StepRecorder recorder(built, out_spec.samples);
-  const TrajectoryLayout layout = recorder.layout();
+  TrajectoryLayout layout = recorder.layout();
+  // Rows to preallocate: the initial state, every output step, and one written on a signal. All
+  // of them up front: growing datasets later is the one write a kill could corrupt.
+  layout.capacity = 2 + (built.steps + out_spec.every - 1) / out_spec.every;
 
   std::unique_ptr<TrajectoryWriter> writer;
   const std::string xmf = xdmf_path_for(output);
@@ -232,7 +236,8 @@ int run(const RunOptions& options) {
     if (!out_spec.xdmf) return;
     const auto now = std::chrono::steady_clock::now();
     if (!force && written_times.size() > 100 && std::chrono::duration<double>(now - last_xdmf).count() < 1.0) return;
-    write_xdmf(xmf, h5_name, layout, written_times);
+    write_xdmf(xmf, h5_name, layout, written_times,
+               writer ? static_cast<std::size_t>(writer->rows_allocated()) : written_times.size());
     last_xdmf = now;
   };
 
@@ -302,8 +307,8 @@ int run(const RunOptions& options) {
         break;
       }
     }
+    writer->close();  // shrinks the datasets to the written steps
     update_xdmf(true);
-    writer->close();
   } catch (const TrajectoryError& e) {
     std::cerr << "fascia: error: " << e.what() << "\n";
     return kIoError;

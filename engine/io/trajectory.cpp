@@ -110,37 +110,74 @@ void write_box(hid_t particles_group, const std::string& path) {
   checked(H5Awrite(attr.get(), type.get(), data), path, "write attribute boundary", 0);
 }
 
-// An extensible dataset [T][shape...] with one chunk per step (arrays) or 256 steps (scalars).
+// How a killed run stays readable. Any change of HDF5 metadata (dataset extents, chunk index
+// nodes, the end-of-allocation in the superblock) written only in part leaves a file in which even
+// earlier steps fail to read ("addr overflow"), and H5Fflush itself is not atomic. So the file's
+// structure is fixed before the first step: every dataset is created with room for `capacity`
+// rows and all its chunks allocated (H5D_ALLOC_TIME_EARLY), and a step writes raw data only, with
+// no chunk cache, so the writes reach the operating system in program order: value, time, then
+// step. `step` rows are -1 (and `time` rows NaN) until written; a killed run leaves those
+// never-completed rows at the end, and readers count the leading rows with step >= 0. A run that
+// ends normally, on a signal or on a solver failure shrinks every dataset to the written rows.
+// Exceeding the capacity doubles it (metadata changes, flushed at once).
 Handle series_dataset(hid_t parent, const std::string& name, hid_t file_type, const std::vector<hsize_t>& shape,
-                      const std::string& path) {
-  std::vector<hsize_t> dims{0}, maxdims{H5S_UNLIMITED}, chunk{shape.empty() ? hsize_t(256) : hsize_t(1)};
+                      hsize_t capacity, const std::string& path) {
+  // Chunks of about 64 KiB or one row, whichever is larger (fewer chunks to preallocate).
+  hsize_t row_bytes = 8;
+  for (hsize_t s : shape) row_bytes *= std::max<hsize_t>(s, 1);
+  const hsize_t rows_per_chunk = std::max<hsize_t>(1, std::min<hsize_t>(1024, (hsize_t(64) << 10) / row_bytes));
+  std::vector<hsize_t> dims{capacity}, maxdims{H5S_UNLIMITED}, chunk{rows_per_chunk};
   for (hsize_t s : shape) {
     dims.push_back(s);
     maxdims.push_back(s);
     chunk.push_back(std::max<hsize_t>(s, 1));
   }
   Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), maxdims.data()), H5Sclose);
-  Handle plist(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
-  H5Pset_chunk(plist.get(), static_cast<int>(chunk.size()), chunk.data());
-  return Handle(checked(H5Dcreate2(parent, name.c_str(), file_type, space.get(), H5P_DEFAULT, plist.get(), H5P_DEFAULT),
+  Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data());
+  H5Pset_alloc_time(dcpl.get(), H5D_ALLOC_TIME_EARLY);
+  H5Pset_obj_track_times(dcpl.get(), 0);
+  if (name == "step") {
+    const int fill = -1;
+    H5Pset_fill_value(dcpl.get(), H5T_NATIVE_INT, &fill);
+    H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_ALLOC);
+  } else if (name == "time") {
+    const double fill = std::numeric_limits<double>::quiet_NaN();
+    H5Pset_fill_value(dcpl.get(), H5T_NATIVE_DOUBLE, &fill);
+    H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_ALLOC);
+  } else {
+    H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_NEVER);  // rows are meaningful once their step is written
+  }
+  Handle dapl(H5Pcreate(H5P_DATASET_ACCESS), H5Pclose);
+  H5Pset_chunk_cache(dapl.get(), 0, 0, 1.0);  // write through, in program order
+  return Handle(checked(H5Dcreate2(parent, name.c_str(), file_type, space.get(), H5P_DEFAULT, dcpl.get(), dapl.get()),
                         path, "create dataset " + name),
                 H5Dclose);
 }
 
-void append_row(hid_t ds, hid_t mem_type, const void* data, hsize_t row, const std::string& path, const std::string& what) {
+std::vector<hsize_t> dataset_dims(hid_t ds) {
   Handle fspace(H5Dget_space(ds), H5Sclose);
   const int rank = H5Sget_simple_extent_ndims(fspace.get());
-  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
-  H5Sget_simple_extent_dims(fspace.get(), dims.data(), nullptr);
-  dims[0] = row + 1;
-  checked(H5Dset_extent(ds, dims.data()), path, "extend " + what, 0);
-  fspace = Handle(H5Dget_space(ds), H5Sclose);
-  std::vector<hsize_t> start(static_cast<std::size_t>(rank), 0), count = dims;
+  std::vector<hsize_t> dims(static_cast<std::size_t>(std::max(rank, 0)));
+  if (rank > 0) H5Sget_simple_extent_dims(fspace.get(), dims.data(), nullptr);
+  return dims;
+}
+
+void set_rows(hid_t ds, hsize_t rows, const std::string& path, const std::string& what) {
+  std::vector<hsize_t> dims = dataset_dims(ds);
+  dims[0] = rows;
+  checked(H5Dset_extent(ds, dims.data()), path, "resize " + what, 0);
+}
+
+void write_row(hid_t ds, hid_t mem_type, const void* data, hsize_t row, const std::string& path, const std::string& what) {
+  std::vector<hsize_t> dims = dataset_dims(ds);
+  Handle fspace(H5Dget_space(ds), H5Sclose);
+  std::vector<hsize_t> start(dims.size(), 0), count = dims;
   start[0] = row;
   count[0] = 1;
   checked(H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr), path,
           "select " + what, 0);
-  Handle mspace(H5Screate_simple(rank, count.data(), nullptr), H5Sclose);
+  Handle mspace(H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr), H5Sclose);
   checked(H5Dwrite(ds, mem_type, mspace.get(), fspace.get(), H5P_DEFAULT, data), path, "write " + what, 0);
 }
 
@@ -152,14 +189,14 @@ struct Series {
 };
 
 Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& shape, bool integer,
-                   const std::string& unit, const std::string& path) {
+                   const std::string& unit, hsize_t capacity, const std::string& path) {
   Series s;
   s.name = name;
   s.group = group(parent, name, path);
-  s.step = series_dataset(s.group.get(), "step", H5T_STD_I32LE, {}, path);
-  s.time = series_dataset(s.group.get(), "time", H5T_IEEE_F64LE, {}, path);
+  s.step = series_dataset(s.group.get(), "step", H5T_STD_I32LE, {}, capacity, path);
+  s.time = series_dataset(s.group.get(), "time", H5T_IEEE_F64LE, {}, capacity, path);
   string_attribute(s.time.get(), "unit", "s", path);
-  s.value = series_dataset(s.group.get(), "value", integer ? H5T_STD_I32LE : H5T_IEEE_F64LE, shape, path);
+  s.value = series_dataset(s.group.get(), "value", integer ? H5T_STD_I32LE : H5T_IEEE_F64LE, shape, capacity, path);
   if (!unit.empty()) string_attribute(s.value.get(), "unit", unit, path);
   s.mem_type = integer ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE;
   for (hsize_t d : shape) s.count *= d;
@@ -178,7 +215,22 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
                                    const TrajectoryLayout& layout)
     : m_path(path), m_layout(layout), m_impl(std::make_unique<Impl>()) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with our messages
-  m_impl->file = Handle(checked(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), path, "cannot create file"),
+  // Metadata is written only by H5Fflush: with evictions enabled the metadata cache may write a
+  // chunk index node that points past the end-of-allocation recorded on disk while a step is half
+  // written, and a run killed then leaves earlier steps unreadable ("addr overflow"). Keeping dirty
+  // metadata in memory until the flush closes that window except during the flush itself.
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5AC_cache_config_t cache;
+  cache.version = H5AC__CURR_CACHE_CONFIG_VERSION;
+  checked(H5Pget_mdc_config(fapl.get(), &cache), path, "get metadata cache configuration", 0);
+  cache.incr_mode = H5C_incr__off;
+  cache.flash_incr_mode = H5C_flash_incr__off;
+  cache.decr_mode = H5C_decr__off;
+  cache.evictions_enabled = false;
+  cache.set_initial_size = true;
+  cache.initial_size = std::min<std::size_t>(cache.max_size, 8u << 20);
+  checked(H5Pset_mdc_config(fapl.get(), &cache), path, "set metadata cache configuration", 0);
+  m_impl->file = Handle(checked(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), path, "cannot create file"),
                         H5Fclose);
   const hid_t f = m_impl->file.get();
 
@@ -202,17 +254,19 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
 
   Handle particles = group(f, "particles", path);
   const hsize_t n = static_cast<hsize_t>(layout.frames);
+  const hsize_t capacity = static_cast<hsize_t>(std::max(layout.capacity, 1));
+  m_capacity = static_cast<int>(capacity);
   {
     Handle frames = group(particles.get(), "frames", path);
     write_box(frames.get(), path);
-    m_impl->particles.push_back(make_series(frames.get(), "position", {n, 3}, false, "m", path));
-    m_impl->particles.push_back(make_series(frames.get(), "orientation", {n, 4}, false, "", path));
+    m_impl->particles.push_back(make_series(frames.get(), "position", {n, 3}, false, "m", capacity, path));
+    m_impl->particles.push_back(make_series(frames.get(), "orientation", {n, 4}, false, "", capacity, path));
   }
   if (layout.samples > 0) {
     Handle samples = group(particles.get(), "samples", path);
     write_box(samples.get(), path);
     m_impl->particles.push_back(
-        make_series(samples.get(), "position", {static_cast<hsize_t>(layout.samples), 3}, false, "m", path));
+        make_series(samples.get(), "position", {static_cast<hsize_t>(layout.samples), 3}, false, "m", capacity, path));
   }
   {
     Handle connectivity = group(f, "connectivity", path);
@@ -239,7 +293,7 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
       Handle g = group(particles.get(), s.name, path);
       write_box(g.get(), path);
       const hsize_t v = s.vertex_frames.size();
-      m_impl->particles.push_back(make_series(g.get(), "position", {v, 3}, false, "m", path));
+      m_impl->particles.push_back(make_series(g.get(), "position", {v, 3}, false, "m", capacity, path));
       {
         Handle space(H5Screate_simple(1, &v, nullptr), H5Sclose);
         Handle ds(checked(H5Dcreate2(g.get(), "frames", H5T_STD_I32LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
@@ -266,7 +320,7 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
     std::string unit;
     if (name.find("energy") != std::string::npos || name.find("potential") != std::string::npos) unit = "J";
     if (name == "wall_time") unit = "s";
-    m_impl->observables.push_back(make_series(observables.get(), name, {}, integer, unit, path));
+    m_impl->observables.push_back(make_series(observables.get(), name, {}, integer, unit, capacity, path));
   }
   checked(H5Fflush(f, H5F_SCOPE_GLOBAL), path, "flush", 0);
 }
@@ -281,7 +335,17 @@ TrajectoryWriter::~TrajectoryWriter() {
 
 void TrajectoryWriter::close() {
   if (!m_impl) return;
-  if (m_impl->file.valid()) H5Fflush(m_impl->file.get(), H5F_SCOPE_GLOBAL);
+  if (m_impl->file.valid()) {
+    // Shrink the preallocated rows to the written steps: a finished file has exact lengths.
+    try {
+      resize_all(static_cast<hsize_t>(m_steps));
+    } catch (const TrajectoryError&) {
+      m_impl->file.reset();
+      m_impl.reset();
+      throw;
+    }
+    H5Fflush(m_impl->file.get(), H5F_SCOPE_GLOBAL);
+  }
   m_impl->particles.clear();
   m_impl->observables.clear();
   m_impl->file.reset();
@@ -316,10 +380,16 @@ void TrajectoryWriter::append(const TrajectoryStep& step) {
   if (!std::isfinite(step.time)) throw TrajectoryError(m_path + ": non-finite time");
 
   const hsize_t row = static_cast<hsize_t>(m_steps);
+  if (m_steps >= m_capacity) {
+    // Out of preallocated rows: double them (a metadata change, flushed before any data lands).
+    m_capacity *= 2;
+    resize_all(static_cast<hsize_t>(m_capacity));
+    checked(H5Fflush(m_impl->file.get(), H5F_SCOPE_GLOBAL), m_path, "flush", 0);
+  }
   auto write_series = [&](Series& s, const void* data) {
-    append_row(s.value.get(), s.mem_type, data, row, m_path, s.name + "/value");
-    append_row(s.time.get(), H5T_NATIVE_DOUBLE, &step.time, row, m_path, s.name + "/time");
-    append_row(s.step.get(), H5T_NATIVE_INT, &step.step, row, m_path, s.name + "/step");
+    write_row(s.value.get(), s.mem_type, data, row, m_path, s.name + "/value");
+    write_row(s.time.get(), H5T_NATIVE_DOUBLE, &step.time, row, m_path, s.name + "/time");
+    write_row(s.step.get(), H5T_NATIVE_INT, &step.step, row, m_path, s.name + "/step");
   };
   for (std::size_t i = 0; i < m_impl->particles.size(); ++i) write_series(m_impl->particles[i], arrays[i].first);
   for (std::size_t i = 0; i < m_impl->observables.size(); ++i) {
@@ -333,6 +403,16 @@ void TrajectoryWriter::append(const TrajectoryStep& step) {
   }
   checked(H5Fflush(m_impl->file.get(), H5F_SCOPE_GLOBAL), m_path, "flush", 0);
   ++m_steps;
+}
+
+void TrajectoryWriter::resize_all(unsigned long long rows) {
+  auto resize = [&](Series& s) {
+    set_rows(s.value.get(), rows, m_path, s.name + "/value");
+    set_rows(s.time.get(), rows, m_path, s.name + "/time");
+    set_rows(s.step.get(), rows, m_path, s.name + "/step");
+  };
+  for (Series& s : m_impl->particles) resize(s);
+  for (Series& s : m_impl->observables) resize(s);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -395,37 +475,6 @@ std::string read_string_attribute(hid_t object, const std::string& name) {
 
 }  // namespace
 
-struct TrajectoryReader::Impl {
-  std::string path;
-  Handle file;
-  std::vector<std::string> series;  // paths of all time-series groups
-};
-
-TrajectoryReader::TrajectoryReader(const std::string& path) : m_impl(std::make_unique<Impl>()) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  m_impl->path = path;
-  m_impl->file = Handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (!m_impl->file.valid()) throw TrajectoryError(path + ": not a readable HDF5 file");
-  const hid_t f = m_impl->file.get();
-  if (!exists(f, "/h5md")) throw TrajectoryError(path + ": not an H5MD file (no /h5md group)");
-  for (const std::string& g : children(f, "/particles"))
-    for (const std::string& e : children(f, "/particles/" + g))
-      if (exists(f, "/particles/" + g + "/" + e + "/step")) m_impl->series.push_back("/particles/" + g + "/" + e);
-  for (const std::string& o : children(f, "/observables"))
-    if (exists(f, "/observables/" + o + "/step")) m_impl->series.push_back("/observables/" + o);
-  long steps = m_impl->series.empty() ? 0 : std::numeric_limits<long>::max();
-  for (const std::string& s : m_impl->series) {
-    for (const char* part : {"step", "time", "value"}) {
-      Handle ds(H5Dopen2(f, (s + "/" + part).c_str(), H5P_DEFAULT), H5Dclose);
-      if (!ds.valid()) throw TrajectoryError(path + ": cannot open " + s + "/" + part);
-      steps = std::min<long>(steps, static_cast<long>(extent(ds.get()).at(0)));
-    }
-  }
-  m_steps = static_cast<int>(steps);
-}
-
-TrajectoryReader::~TrajectoryReader() = default;
-
 namespace {
 
 template <class T>
@@ -452,6 +501,46 @@ std::vector<T> read_rows(hid_t file, const std::string& path, hid_t mem_type, hs
 }
 
 }  // namespace
+
+struct TrajectoryReader::Impl {
+  std::string path;
+  Handle file;
+  std::vector<std::string> series;  // paths of all time-series groups
+};
+
+TrajectoryReader::TrajectoryReader(const std::string& path) : m_impl(std::make_unique<Impl>()) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  m_impl->path = path;
+  m_impl->file = Handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!m_impl->file.valid()) throw TrajectoryError(path + ": not a readable HDF5 file");
+  const hid_t f = m_impl->file.get();
+  if (!exists(f, "/h5md")) throw TrajectoryError(path + ": not an H5MD file (no /h5md group)");
+  for (const std::string& g : children(f, "/particles"))
+    for (const std::string& e : children(f, "/particles/" + g))
+      if (exists(f, "/particles/" + g + "/" + e + "/step")) m_impl->series.push_back("/particles/" + g + "/" + e);
+  for (const std::string& o : children(f, "/observables"))
+    if (exists(f, "/observables/" + o + "/step")) m_impl->series.push_back("/observables/" + o);
+  long steps = m_impl->series.empty() ? 0 : std::numeric_limits<long>::max();
+  for (const std::string& s : m_impl->series) {
+    for (const char* part : {"step", "time", "value"}) {
+      Handle ds(H5Dopen2(f, (s + "/" + part).c_str(), H5P_DEFAULT), H5Dclose);
+      if (!ds.valid()) throw TrajectoryError(path + ": cannot open " + s + "/" + part);
+      steps = std::min<long>(steps, static_cast<long>(extent(ds.get()).at(0)));
+    }
+  }
+  // A killed run leaves preallocated rows whose step was never written (-1): not complete.
+  for (const std::string& s : m_impl->series) {
+    const std::vector<int> rows =
+        read_rows<int>(f, s + "/step", H5T_NATIVE_INT, 0, static_cast<hsize_t>(steps), path);
+    long valid = 0;
+    while (valid < steps && rows[static_cast<std::size_t>(valid)] >= 0) ++valid;
+    steps = valid;
+  }
+  m_steps = static_cast<int>(steps);
+}
+
+TrajectoryReader::~TrajectoryReader() = default;
+
 
 std::vector<int> TrajectoryReader::steps() const {
   if (m_impl->series.empty()) return {};

@@ -11,9 +11,10 @@
 //
 // Each time-dependent element is a group {step [T] int32, time [T] float64, value [T][...]},
 // chunked and unlimited in T. A step is written value -> time -> step for every element, then
-// the file is flushed (H5Fflush): a run killed at any moment leaves a file in which the steps
-// recorded in every `step` dataset read back completely. Readers take the shortest `step` length
-// as the number of complete steps.
+// the file is flushed (H5Fflush). To survive kill -9 at any moment the rows are preallocated
+// (see trajectory.cpp): a finished, stopped or failed run has datasets of exactly T rows; a killed
+// run keeps trailing rows whose step is -1 (time NaN). Readers take as complete the leading rows
+// with step >= 0 common to all elements (and never more than the shortest dataset).
 #pragma once
 
 #include <cstdint>
@@ -53,6 +54,9 @@ struct TrajectoryLayout {
   std::vector<SurfaceLayout> surfaces;
   // Observables recorded each step, in this order; integers are stored as int32.
   std::vector<std::pair<std::string, bool>> observables;  // (name, is_integer)
+  // Rows preallocated for the steps to come (doubled when exceeded): the number of output steps
+  // the run plans, plus one for a step written on a signal.
+  int capacity = 16;
 };
 
 struct TrajectoryStep {
@@ -77,15 +81,20 @@ class TrajectoryWriter {
   // values: a diverged state is never written.
   void append(const TrajectoryStep& step);
   int steps_written() const { return m_steps; }
+  // Rows currently allocated in every dataset (>= steps_written() until close()).
+  int rows_allocated() const { return m_impl ? m_capacity : m_steps; }
   const std::string& path() const { return m_path; }
   const TrajectoryLayout& layout() const { return m_layout; }
   void close();
 
  private:
   struct Impl;
+  void resize_all(unsigned long long rows);
+
   std::string m_path;
   TrajectoryLayout m_layout;
   int m_steps = 0;
+  int m_capacity = 0;
   std::unique_ptr<Impl> m_impl;
 };
 

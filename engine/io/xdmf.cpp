@@ -32,13 +32,14 @@ void point_cloud(std::ostringstream& out, const std::string& name, const std::st
 
 }  // namespace
 
-std::string xdmf_text(const std::string& h5_name, const TrajectoryLayout& layout, const std::vector<double>& times) {
+std::string xdmf_text(const std::string& h5_name, const TrajectoryLayout& layout, const std::vector<double>& times,
+                      std::size_t rows) {
   std::ostringstream out;
   out.precision(17);
-  const std::size_t t = times.size();
+  const std::size_t t = rows ? rows : times.size();
   out << "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"3.0\">\n  <Domain>\n"
       << "    <Grid Name=\"fascia\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  for (std::size_t k = 0; k < t; ++k) {
+  for (std::size_t k = 0; k < times.size(); ++k) {
     out << "      <Grid Name=\"step " << k << "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n"
         << "        <Time Value=\"" << times[k] << "\"/>\n";
     for (const SurfaceLayout& s : layout.surfaces) {
@@ -64,11 +65,11 @@ std::string xdmf_text(const std::string& h5_name, const TrajectoryLayout& layout
 }
 
 void write_xdmf(const std::string& xmf_path, const std::string& h5_name, const TrajectoryLayout& layout,
-                const std::vector<double>& times) {
+                const std::vector<double>& times, std::size_t rows) {
   const std::string tmp = xmf_path + ".tmp";
   {
     std::ofstream out(tmp, std::ios::trunc);
-    out << xdmf_text(h5_name, layout, times);
+    out << xdmf_text(h5_name, layout, times, rows);
     out.flush();
     if (!out) throw TrajectoryError(tmp + ": cannot write the XDMF sidecar");
   }

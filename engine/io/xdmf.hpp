@@ -11,14 +11,16 @@
 
 namespace fascia {
 
-// The XDMF text for `steps` complete steps at `times`; `h5_name` is the HDF5 file as seen from
-// the sidecar's folder (its file name: they sit side by side).
-std::string xdmf_text(const std::string& h5_name, const TrajectoryLayout& layout, const std::vector<double>& times);
+// The XDMF text for the complete steps at `times`; `h5_name` is the HDF5 file as seen from the
+// sidecar's folder (its file name: they sit side by side); `rows` is the datasets' current length
+// in time (preallocated rows while a run writes; 0 = times.size()).
+std::string xdmf_text(const std::string& h5_name, const TrajectoryLayout& layout, const std::vector<double>& times,
+                      std::size_t rows = 0);
 
 // Writes the sidecar atomically (temporary file, then rename), so that it is valid at any moment.
 // Throws TrajectoryError on I/O failure.
 void write_xdmf(const std::string& xmf_path, const std::string& h5_name, const TrajectoryLayout& layout,
-                const std::vector<double>& times);
+                const std::vector<double>& times, std::size_t rows = 0);
 
 // "run.h5" -> "run.xmf".
 std::string xdmf_path_for(const std::string& h5_path);

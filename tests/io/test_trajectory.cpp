@@ -26,6 +26,7 @@ TrajectoryLayout small_layout() {
   s.vertex_frames = {0, 1, 2};
   layout.surfaces.push_back(s);
   layout.observables = {{"elastic_energy", false}, {"newton_iterations", true}};
+  layout.capacity = 2;  // the third step doubles the preallocated rows
   return layout;
 }
 
@@ -79,6 +80,7 @@ TEST_CASE("trajectories round-trip through the H5MD layout", "[io]") {
     bad.x[4] = std::nan("");
     CHECK_THROWS_AS(writer.append(step_of(bad, 3)), TrajectoryError);
     CHECK(writer.steps_written() == 3);
+    CHECK(writer.rows_allocated() == 4);
   }
   TrajectoryReader reader(path.string());
   CHECK(reader.step_count() == 3);

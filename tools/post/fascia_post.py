@@ -7,8 +7,8 @@
     fp.plot_tip(run, out="tip.png")             # tip displacement over time
     fp.plot_convergence("study.jsonl", out="convergence.png")   # `fascia study beam --json` lines
 
-Only complete steps are returned: a file from a run that was killed may have datasets of
-different lengths; the shortest `step` dataset decides (DESIGN.md "Output").
+Only complete steps are returned: a file from a run killed with SIGKILL keeps preallocated rows
+whose `step` is -1 after the last complete step; they are left out (see complete_steps).
 
 Command line:  python3 tools/post/fascia_post.py RUN.h5 [--tip tip.png] [--summary]
 """
@@ -57,15 +57,25 @@ def _text(value) -> str:
 
 
 def complete_steps(f: h5py.File) -> int:
-    """Number of steps that every time series holds completely."""
-    lengths = []
+    """Number of steps that every time series holds completely: the shortest dataset, and within it
+    the leading rows whose step is written (a run killed with SIGKILL leaves preallocated rows with
+    step -1 at the end)."""
+    groups = []
 
     def visit(name, obj):
         if isinstance(obj, h5py.Group) and "step" in obj and "time" in obj and "value" in obj:
-            lengths.extend([obj["step"].shape[0], obj["time"].shape[0], obj["value"].shape[0]])
+            groups.append(obj)
 
     f.visititems(visit)
-    return min(lengths) if lengths else 0
+    if not groups:
+        return 0
+    t = min(min(g["step"].shape[0], g["time"].shape[0], g["value"].shape[0]) for g in groups)
+    for g in groups:
+        steps = g["step"][:t]
+        unwritten = np.nonzero(steps < 0)[0]
+        if len(unwritten):
+            t = int(unwritten[0])
+    return t
 
 
 def load(path: Union[str, Path]) -> Run:
