@@ -1,0 +1,29 @@
+// Subcommands of the fascia program. Each registers itself on the CLI11 app and runs through a
+// callback that returns the process exit code (sysexits, DESIGN.md).
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+
+namespace fascia::app {
+
+// Exit codes (sysexits.h): the command-line contract of DESIGN.md.
+enum ExitCode : int {
+  kOk = 0,
+  kSolverFailed = 1,
+  kUsage = 64,
+  kDataError = 65,
+  kNoInput = 66,
+  kIoError = 74,
+  kStoppedOnSignal = 75,
+  kBadScene = 78,
+};
+
+// The command that ran sets this; main() returns it.
+using Action = std::function<int()>;
+
+void register_study(CLI::App& app, Action& action);
+void register_bench(CLI::App& app, Action& action);
+
+}  // namespace fascia::app

@@ -1,0 +1,25 @@
+// fascia: frame-based simulation of connective tissues from the command line.
+#include "commands.hpp"
+
+#include <iostream>
+
+int main(int argc, char** argv) {
+  CLI::App app{"fascia " FASCIA_VERSION " - frame-based simulation of connective tissues"};
+  app.set_version_flag("--version", "fascia " FASCIA_VERSION);
+  app.require_subcommand(1);
+  fascia::app::Action action;
+  fascia::app::register_study(app, action);
+  fascia::app::register_bench(app, action);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : fascia::app::kUsage;
+  }
+  try {
+    return action ? action() : fascia::app::kUsage;
+  } catch (const std::exception& e) {
+    std::cerr << "fascia: error: " << e.what() << "\n";
+    return fascia::app::kSolverFailed;
+  }
+}
