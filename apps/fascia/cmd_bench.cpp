@@ -2,6 +2,9 @@
 #include "commands.hpp"
 
 #include "bench/step_bench.hpp"
+#if FASCIA_WITH_CUDA
+#include "cmd_bench_gpu.hpp"
+#endif
 
 #include <nlohmann/json.hpp>
 #include <omp.h>
@@ -61,6 +64,9 @@ void register_bench(CLI::App& app, Action& action) {
   cpu->add_option("--min-seconds", options->min_seconds, "Minimum timed seconds per size")->check(CLI::PositiveNumber);
   cpu->add_option("--samples", options->sizes, "Only these Table 3 sizes");
   cpu->callback([options, &action] { action = [options] { return run_cpu(*options); }; });
+#if FASCIA_WITH_CUDA
+  add_bench_gpu_command(*bench, action);
+#endif
 }
 
 }  // namespace fascia::app
