@@ -27,5 +27,7 @@ void register_run(CLI::App& app, Action& action);
 void register_check(CLI::App& app, Action& action);
 void register_info(CLI::App& app, Action& action);
 void register_schema(CLI::App& app, Action& action);
+void register_study(CLI::App& app, Action& action);
+void register_bench(CLI::App& app, Action& action);
 
 }  // namespace fascia::app

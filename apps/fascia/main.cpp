@@ -12,6 +12,8 @@ int main(int argc, char** argv) {
   fascia::app::register_check(app, action);
   fascia::app::register_info(app, action);
   fascia::app::register_schema(app, action);
+  fascia::app::register_study(app, action);
+  fascia::app::register_bench(app, action);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

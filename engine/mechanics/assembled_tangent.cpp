@@ -11,7 +11,7 @@ Eigen::SparseMatrix<double> assemble_tangent(const Elasticity& elasticity) {
   const int s_count = model.sample_count();
   const int nthreads = elasticity.threads();
   std::vector<std::vector<Eigen::Triplet<double>>> triplets(nthreads);
-#pragma omp parallel num_threads(nthreads)
+#pragma omp parallel num_threads(nthreads) if (s_count > 1024)
   {
     auto& out = triplets[omp_get_thread_num()];
     Eigen::Matrix<double, 9, 9, Eigen::RowMajor> D;

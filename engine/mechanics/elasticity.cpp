@@ -11,6 +11,8 @@ namespace {
 // Reductions sum fixed chunks of samples, then the chunk sums in order: the result does not
 // depend on the number of threads.
 constexpr int kChunk = 1024;
+// Below this many items a loop runs on one thread: a parallel region costs more than it saves.
+constexpr int kParallelMin = 1024;
 
 }  // namespace
 
@@ -37,7 +39,7 @@ double Elasticity::energy(const State& state) {
   const int chunks = static_cast<int>(m_chunk.size());
   const double* x = state.positions.data();
   const double* R = m_rotations.data();
-#pragma omp parallel for schedule(static) num_threads(m_threads)
+#pragma omp parallel for schedule(static) num_threads(m_threads) if (chunks > 1)
   for (int c = 0; c < chunks; ++c) {
     double sum = 0;
     const int end = std::min(s_count, (c + 1) * kChunk);
@@ -60,7 +62,7 @@ double Elasticity::prepare(const State& state) {
   const double* x = state.positions.data();
   const double* R = m_rotations.data();
   const NeighbourTable& nb = m_model.neighbours;
-#pragma omp parallel for schedule(static) num_threads(m_threads)
+#pragma omp parallel for schedule(static) num_threads(m_threads) if (chunks > 1)
   for (int c = 0; c < chunks; ++c) {
     double sum = 0;
     const int end = std::min(s_count, (c + 1) * kChunk);
@@ -86,7 +88,7 @@ double Elasticity::prepare(const State& state) {
   }
   // ... and the rotational geometric block, summed per frame through the reverse table.
   const int n = m_model.frame_count();
-#pragma omp parallel for schedule(static) num_threads(m_threads)
+#pragma omp parallel for schedule(static) num_threads(m_threads) if (n > kParallelMin)
   for (int i = 0; i < n; ++i) {
     Mat3 K = zero3();
     const Mat3 Ri = load_mat3(R + 9 * i);
@@ -111,7 +113,7 @@ double Elasticity::gradient(const State& state, double* gradient) {
   const double* x = state.positions.data();
   const double* R = m_rotations.data();
   const NeighbourTable& nb = m_model.neighbours;
-#pragma omp parallel for schedule(static) num_threads(m_threads)
+#pragma omp parallel for schedule(static) num_threads(m_threads) if (chunks > 1)
   for (int c = 0; c < chunks; ++c) {
     double sum = 0;
     const int end = std::min(s_count, (c + 1) * kChunk);
@@ -140,7 +142,7 @@ double Elasticity::gradient(const State& state, double* gradient) {
 void Elasticity::gather(double* out) const {
   const int n = m_model.frame_count();
   const ReverseTable& rev = m_model.reverse;
-#pragma omp parallel for schedule(static) num_threads(m_threads)
+#pragma omp parallel for schedule(static) num_threads(m_threads) if (n > kParallelMin)
   for (int i = 0; i < n; ++i) {
     double acc[6] = {0, 0, 0, 0, 0, 0};
     for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
@@ -157,7 +159,7 @@ void Elasticity::apply_tangent(const double* d, double* out) {
   const double* R = m_rotations.data();
   // Pass 1 (samples): dF = sum_p B_p d_i (eq. 11), dP = C[dF] (eq. 22-24 in the P form), then
   // each pair's share B_p^T dP v (eq. 21, 23) and the stress part dF S (eq. 25-26).
-#pragma omp parallel for schedule(static) num_threads(m_threads)
+#pragma omp parallel for schedule(static) num_threads(m_threads) if (s_count > kParallelMin)
   for (int s = 0; s < s_count; ++s) {
     Mat3 dF = zero3();
     for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
@@ -177,7 +179,7 @@ void Elasticity::apply_tangent(const double* d, double* out) {
   // Pass 2 (frames): sum the pairs, add the rotational geometric block.
   gather(out);
   const int n = m_model.frame_count();
-#pragma omp parallel for schedule(static) num_threads(m_threads)
+#pragma omp parallel for schedule(static) num_threads(m_threads) if (n > kParallelMin)
   for (int i = 0; i < n; ++i) {
     const Vec3 r = load_mat3(&m_frame_blocks[9 * i]) * load3(d + 6 * i + 3);
     out[6 * i + 3] += r.x;
@@ -213,7 +215,7 @@ void Elasticity::pair_jacobian(int p, double* B) const {
 void Elasticity::tangent_diagonal_blocks(double* blocks) {
   const int n = m_model.frame_count();
   const ReverseTable& rev = m_model.reverse;
-#pragma omp parallel for schedule(dynamic, 64) num_threads(m_threads)
+#pragma omp parallel for schedule(dynamic, 64) num_threads(m_threads) if (n > kParallelMin)
   for (int i = 0; i < n; ++i) {
     double K[36] = {0};
     double D[81], B[54], DB[54];

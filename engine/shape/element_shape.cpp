@@ -29,17 +29,34 @@ ElementShape<4> tet_linear_shape(const std::array<Vec3, 4>& X, const std::array<
   return map_to_physical<4>(X, N, dN);
 }
 
-ElementShape<8> hex_trilinear_shape(const std::array<Vec3, 8>& X, const std::array<double, 3>& xi) {
+namespace {
+
+void hex_reference(const std::array<double, 3>& xi, std::array<double, 8>& N, std::array<Vec3, 8>& dN) {
   static const int sign[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
                                  {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
-  std::array<double, 8> N;
-  std::array<Vec3, 8> dN;
   for (int a = 0; a < 8; ++a) {
     const double fx = 1 + sign[a][0] * xi[0], fy = 1 + sign[a][1] * xi[1], fz = 1 + sign[a][2] * xi[2];
     N[a] = fx * fy * fz / 8;
     dN[a] = Vec3{sign[a][0] * fy * fz / 8, sign[a][1] * fx * fz / 8, sign[a][2] * fx * fy / 8};
   }
+}
+
+}  // namespace
+
+ElementShape<8> hex_trilinear_shape(const std::array<Vec3, 8>& X, const std::array<double, 3>& xi) {
+  std::array<double, 8> N;
+  std::array<Vec3, 8> dN;
+  hex_reference(xi, N, dN);
   return map_to_physical<8>(X, N, dN);
+}
+
+Mat3 hex_trilinear_jacobian(const std::array<Vec3, 8>& X, const std::array<double, 3>& xi) {
+  std::array<double, 8> N;
+  std::array<Vec3, 8> dN;
+  hex_reference(xi, N, dN);
+  Mat3 J = zero3();
+  for (int a = 0; a < 8; ++a) J += outer(X[a], dN[a]);
+  return J;
 }
 
 }  // namespace fascia

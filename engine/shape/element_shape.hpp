@@ -24,4 +24,7 @@ ElementShape<4> tet_linear_shape(const std::array<Vec3, 4>& X, const std::array<
 // (0,1,1) in the corners of [-1,1]^3), at reference point xi in [-1,1]^3.
 ElementShape<8> hex_trilinear_shape(const std::array<Vec3, 8>& X, const std::array<double, 3>& xi);
 
+// dX/dxi of the trilinear map at xi (3x3, column c = dX/dxi_c).
+Mat3 hex_trilinear_jacobian(const std::array<Vec3, 8>& X, const std::array<double, 3>& xi);
+
 }  // namespace fascia

@@ -1,0 +1,99 @@
+// `fascia study beam`: the paper's cantilever convergence study (§4.1, Figure 3).
+#include "commands.hpp"
+
+#include "study/beam_study.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+namespace fascia::app {
+namespace {
+
+struct StudyOptions {
+  bool json = false;
+  std::vector<std::string> methods;
+  std::vector<std::string> resolutions;  // "NXxNYxNZ"
+  int threads = 0;
+};
+
+std::vector<BeamCase> select_cases(const StudyOptions& o) {
+  std::vector<BeamCase> cases;
+  if (o.resolutions.empty()) {
+    cases = default_beam_cases();
+  } else {
+    for (const char* m : {"frame-hex", "frame-tet", "fem-hex", "fem-tet"})
+      for (const std::string& r : o.resolutions) {
+        BeamCase c{m, 0, 0, 0};
+        char x1 = 0, x2 = 0;
+        std::istringstream in(r);
+        if (!(in >> c.nx >> x1 >> c.ny >> x2 >> c.nz) || x1 != 'x' || x2 != 'x' || c.nx < 1 || c.ny < 1 || c.nz < 1)
+          throw CLI::ValidationError("--resolution", "expected NXxNYxNZ with positive integers, got '" + r + "'");
+        cases.push_back(c);
+      }
+  }
+  if (!o.methods.empty()) {
+    std::vector<BeamCase> kept;
+    for (const BeamCase& c : cases)
+      for (const std::string& m : o.methods)
+        if (c.method == m) kept.push_back(c);
+    cases = kept;
+  }
+  return cases;
+}
+
+int run_beam(const StudyOptions& o) {
+  BeamSettings settings;
+  settings.threads = o.threads;
+  const std::vector<BeamCase> cases = select_cases(o);
+  if (!o.json) {
+    std::printf("Cantilever 16 x 1 x 1 m, 5 kg, E = 40 kPa, nu = 0.3, own weight (paper §4.1)\n");
+    std::printf("small-deflection estimate qL^4/(8EI) = %.3f m (the real deflection is nonlinear)\n\n",
+                beam_linear_deflection(settings));
+    std::printf("%-10s %-10s %7s %8s %7s %10s %10s %10s %8s\n", "method", "resolution", "frames", "samples", "dofs",
+                "tip dx", "tip dz", "|tip|", "seconds");
+  }
+  bool all_converged = true;
+  for (const BeamCase& c : cases) {
+    const BeamResult r = run_beam_case(c, settings);
+    all_converged = all_converged && r.converged;
+    const Vec3 u = r.tip_displacement;
+    if (o.json) {
+      nlohmann::json j = {{"method", c.method},
+                          {"resolution", {c.nx, c.ny, c.nz}},
+                          {"frames", r.frames},
+                          {"samples", r.samples},
+                          {"dofs", r.dofs},
+                          {"tip_displacement", {u.x, u.y, u.z}},
+                          {"seconds", r.seconds},
+                          {"converged", r.converged},
+                          {"newton_iterations", r.newton_iterations}};
+      std::cout << j.dump() << std::endl;
+    } else {
+      std::printf("%-10s %3dx%dx%-4d %7d %8d %7d %10.5f %10.5f %10.5f %8.2f%s\n", c.method.c_str(), c.nx, c.ny, c.nz,
+                  r.frames, r.samples, r.dofs, u.x, u.z, norm(u), r.seconds, r.converged ? "" : "  (not converged)");
+      std::fflush(stdout);
+    }
+    if (!r.converged) std::cerr << "fascia: " << c.method << " " << c.nx << "x" << c.ny << "x" << c.nz << ": " << r.message << "\n";
+  }
+  return all_converged ? kOk : kSolverFailed;
+}
+
+}  // namespace
+
+void register_study(CLI::App& app, Action& action) {
+  CLI::App* study = app.add_subcommand("study", "Reproduce the paper's studies");
+  study->require_subcommand(1);
+  auto options = std::make_shared<StudyOptions>();
+  CLI::App* beam = study->add_subcommand("beam", "Cantilever convergence study (paper §4.1, Figure 3)");
+  beam->add_flag("--json", options->json, "One JSON object per line on stdout");
+  beam->add_option("--method", options->methods, "Only these methods (frame-hex, frame-tet, fem-hex, fem-tet)")
+      ->check(CLI::IsMember({"frame-hex", "frame-tet", "fem-hex", "fem-tet"}));
+  beam->add_option("--resolution", options->resolutions, "Resolutions NXxNYxNZ (hexahedra per axis)");
+  beam->add_option("--threads", options->threads, "CPU threads (0 = all)")->check(CLI::NonNegativeNumber);
+  beam->callback([options, &action] { action = [options] { return run_beam(*options); }; });
+}
+
+}  // namespace fascia::app

@@ -1,0 +1,150 @@
+#include "integrate/simulation.hpp"
+
+#include "core/rotation.hpp"
+#include "integrate/step_potential.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace fascia {
+
+const char* to_string(Integrator integrator) {
+  return integrator == Integrator::static_equilibrium ? "static" : "backward_euler";
+}
+
+Integrator parse_integrator(const std::string& name) {
+  if (name == "static") return Integrator::static_equilibrium;
+  if (name == "backward_euler") return Integrator::backward_euler;
+  throw std::invalid_argument("unknown integrator '" + name + "' (expected static or backward_euler)");
+}
+
+double kinetic_energy(const Model& model, const State& state) {
+  double e = 0;
+  for (int i = 0; i < model.frame_count(); ++i) {
+    const Vec3 v = load3(&state.velocities[6 * i]), w = load3(&state.velocities[6 * i + 3]);
+    const Mat3 R = rotation_matrix(load_quat(&state.orientations[4 * i]));
+    const Mat3 I = R * load_mat3(&model.frame_inertias[9 * i]) * transpose(R);
+    e += 0.5 * (model.frame_masses[i] * dot(v, v) + dot(w, I * w));
+  }
+  return e;
+}
+
+struct Simulation::Impl {
+  Impl(const Model& model, const ExternalLoads& loads, int threads) : potential(model, loads, threads) {}
+  StepPotential potential;
+};
+
+Simulation::Simulation(Model model, ExternalLoads loads, SimulationSettings settings,
+                       std::vector<PrescribedMotion> motions)
+    : m_model(std::move(model)), m_loads(std::move(loads)), m_settings(settings), m_motions(std::move(motions)) {
+  if (m_model.fixed_dofs.size() != static_cast<size_t>(m_model.dof_count()))
+    m_model.fixed_dofs.resize(m_model.dof_count(), 0);
+  for (const PrescribedMotion& m : m_motions)
+    for (int f : m.frames)
+      for (int k = 0; k < 3; ++k) m_model.fixed_dofs[kFrameDofs * f + k] = 1;
+  validate(m_model);
+  if (!(m_settings.dt > 0)) throw std::invalid_argument("time step must be > 0 s");
+  m_state = rest_state(m_model);
+  m_impl = std::make_unique<Impl>(m_model, m_loads, settings.threads);
+}
+
+Simulation::~Simulation() = default;
+
+namespace {
+
+bool finite_state(const State& s) {
+  for (double x : s.positions)
+    if (!std::isfinite(x)) return false;
+  for (double x : s.orientations)
+    if (!std::isfinite(x)) return false;
+  return true;
+}
+
+void apply_motions(const Model& model, const std::vector<PrescribedMotion>& motions, double t, State& state) {
+  for (const PrescribedMotion& m : motions) {
+    const double active = std::clamp(t, m.start, m.end) - m.start;
+    for (int f : m.frames)
+      store3(&state.positions[3 * f], load3(&model.frame_rest_positions[3 * f]) + std::max(0.0, active) * m.velocity);
+  }
+}
+
+}  // namespace
+
+StepReport Simulation::step() {
+  const auto t0 = std::chrono::steady_clock::now();
+  StepPotential& potential = m_impl->potential;
+  StepReport report;
+  report.step = m_step + 1;
+  const double t_next = m_time + m_settings.dt;
+  const double reference = load_force_norm(m_model, m_loads);
+  State start = m_state;
+
+  if (m_settings.integrator == Integrator::backward_euler) {
+    potential.set_dynamic(start, m_settings.dt, m_settings.rayleigh_mass, m_settings.rayleigh_stiffness);
+    State trial = start;
+    apply_motions(m_model, m_motions, t_next, trial);
+    const NewtonResult r = minimise(potential, trial, m_settings.newton, reference);
+    report.newton_iterations = r.iterations;
+    report.cg_iterations = r.cg_iterations;
+    report.residual = r.residual;
+    if (!r.converged || !finite_state(trial)) {
+      std::ostringstream msg;
+      msg << "step " << report.step << " (t = " << t_next << " s): "
+          << (finite_state(trial) ? r.message : "the state became non-finite (diverged)");
+      throw SolverError(msg.str());
+    }
+    std::vector<double> delta;
+    potential.increments(trial, delta);
+    for (size_t k = 0; k < delta.size(); ++k) trial.velocities[k] = delta[k] / m_settings.dt;
+    m_state = std::move(trial);
+  } else {
+    // Static equilibrium with load stepping: the load factor goes to 1 in increments, halved on
+    // failure (down to 1/1024 of the load).
+    potential.set_static();
+    State trial = start;
+    apply_motions(m_model, m_motions, t_next, trial);
+    ExternalLoads& loads = m_loads;
+    double done = 0, increment = 1.0 / std::max(1, m_settings.load_steps);
+    NewtonResult last;
+    while (done < 1.0) {
+      const double target = std::min(1.0, done + increment);
+      loads.scale = target;
+      State attempt = trial;
+      const NewtonResult r = minimise(potential, attempt, m_settings.newton, load_force_norm(m_model, loads));
+      report.newton_iterations += r.iterations;
+      report.cg_iterations += r.cg_iterations;
+      if (r.converged && finite_state(attempt)) {
+        trial = std::move(attempt);
+        done = target;
+        last = r;
+        increment = std::min(1.0 - done, 2 * increment);
+        continue;
+      }
+      increment *= 0.5;
+      if (increment < 1.0 / 1024) {
+        loads.scale = 1.0;
+        std::ostringstream msg;
+        msg << "static solve failed at load factor " << target << ": " << r.message;
+        throw SolverError(msg.str());
+      }
+    }
+    loads.scale = 1.0;
+    report.residual = last.residual;
+    std::fill(trial.velocities.begin(), trial.velocities.end(), 0.0);
+    m_state = std::move(trial);
+  }
+  ++m_step;
+  m_time = t_next;
+  report.time = m_time;
+  report.converged = true;
+  report.elastic_energy = potential.elastic_energy(m_state);
+  report.kinetic_energy = kinetic_energy(m_model, m_state);
+  report.external_potential = load_potential(m_model, m_loads, m_state);
+  report.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return report;
+}
+
+}  // namespace fascia

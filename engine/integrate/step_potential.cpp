@@ -1,0 +1,183 @@
+#include "integrate/step_potential.hpp"
+
+#include "core/rotation.hpp"
+#include "mechanics/assembled_tangent.hpp"
+
+#include <cmath>
+
+namespace fascia {
+
+Mat3 inverse_left_jacobian(const Vec3& phi) {
+  const double t = norm(phi);
+  // Coefficient of [phi]x^2: 1/t^2 - (1 + cos t) / (2 t sin t); its Taylor series 1/12 + t^2/720
+  // below t = 1e-3, where the closed form loses about 10 digits to cancellation.
+  const double c = t < 1e-3 ? 1.0 / 12.0 + t * t / 720.0 : 1.0 / (t * t) - (1 + std::cos(t)) / (2 * t * std::sin(t));
+  const Mat3 K = skew(phi);
+  return identity3() - 0.5 * K + c * (K * K);
+}
+
+StepPotential::StepPotential(const Model& model, const ExternalLoads& loads, int threads)
+    : m_model(model), m_loads(loads), m_elasticity(model, threads) {
+  m_load_blocks.assign(9 * model.frame_count(), 0.0);
+}
+
+void StepPotential::set_static() { m_dynamic = false; }
+
+void StepPotential::set_dynamic(const State& start, double dt, double rayleigh_mass, double rayleigh_stiffness) {
+  m_dynamic = true;
+  m_start = start;
+  m_dt = dt;
+  m_alpha = rayleigh_mass;
+  m_beta = rayleigh_stiffness;
+  const int n = m_model.frame_count();
+  m_world_inertia.resize(9 * n);
+  for (int i = 0; i < n; ++i) {
+    const Mat3 R = rotation_matrix(load_quat(&start.orientations[4 * i]));
+    store_mat3(&m_world_inertia[9 * i], R * load_mat3(&m_model.frame_inertias[9 * i]) * transpose(R));
+  }
+  if (m_beta > 0) {
+    if (!m_start_elasticity) m_start_elasticity = std::make_unique<Elasticity>(m_model, m_elasticity.threads());
+    m_start_elasticity->prepare(start);
+  }
+}
+
+void StepPotential::increments(const State& state, std::vector<double>& delta) const {
+  const int n = m_model.frame_count();
+  delta.resize(6 * n);
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) delta[6 * i + k] = state.positions[3 * i + k] - m_start.positions[3 * i + k];
+    const Quat rel = load_quat(&state.orientations[4 * i]) * conjugate(load_quat(&m_start.orientations[4 * i]));
+    store3(&delta[6 * i + 3], quat_log(rel));
+  }
+}
+
+// Inertia and damping terms; adds their gradient (w.r.t. left increments) when asked.
+double StepPotential::inertia_value(const State& state, std::vector<double>* gradient) const {
+  const int n = m_model.frame_count();
+  std::vector<double> delta;
+  increments(state, delta);
+  const double h = m_dt;
+  std::vector<double> kd;
+  if (m_beta > 0) {
+    kd.resize(6 * n);
+    m_start_elasticity->apply_tangent(delta.data(), kd.data());
+  }
+  double value = 0;
+  for (int i = 0; i < n; ++i) {
+    const double m = m_model.frame_masses[i];
+    const Mat3 I = load_mat3(&m_world_inertia[9 * i]);
+    const Vec3 dx = load3(&delta[6 * i]), phi = load3(&delta[6 * i + 3]);
+    const Vec3 vx = load3(&m_start.velocities[6 * i]), w = load3(&m_start.velocities[6 * i + 3]);
+    const Vec3 ex = dx - h * vx, er = phi - h * w;
+    // 1/(2h^2) |Delta - h v|^2_M
+    value += 0.5 / (h * h) * (m * dot(ex, ex) + dot(er, I * er));
+    // 1/(2h) Delta^T (alpha M + beta K_n) Delta
+    Vec3 gx = (1 / (h * h)) * (m * ex) + (m_alpha / h) * (m * dx);
+    Vec3 gr = (1 / (h * h)) * (I * er) + (m_alpha / h) * (I * phi);
+    value += 0.5 * m_alpha / h * (m * dot(dx, dx) + dot(phi, I * phi));
+    if (m_beta > 0) {
+      value += 0.5 * m_beta / h * (dot(dx, load3(&kd[6 * i])) + dot(phi, load3(&kd[6 * i + 3])));
+      gx += (m_beta / h) * load3(&kd[6 * i]);
+      gr += (m_beta / h) * load3(&kd[6 * i + 3]);
+    }
+    if (gradient) {
+      const Vec3 grr = transpose(inverse_left_jacobian(phi)) * gr;
+      double* g = gradient->data() + 6 * i;
+      g[0] += gx.x, g[1] += gx.y, g[2] += gx.z;
+      if (!m_model.rotations_locked) g[3] += grr.x, g[4] += grr.y, g[5] += grr.z;
+    }
+  }
+  return value;
+}
+
+double StepPotential::value(const State& state) {
+  double phi = m_elasticity.energy(state) + load_potential(m_model, m_loads, state);
+  if (m_dynamic) phi += inertia_value(state, nullptr);
+  return phi;
+}
+
+double StepPotential::gradient(const State& state, std::vector<double>& g) {
+  g.assign(m_model.dof_count(), 0.0);
+  double phi = m_elasticity.gradient(state, g.data());
+  add_load_gradient(m_model, m_loads, state, g.data());
+  phi += load_potential(m_model, m_loads, state);
+  if (m_dynamic) phi += inertia_value(state, &g);
+  return phi;
+}
+
+void StepPotential::prepare_hessian(const State& state) {
+  m_elasticity.prepare(state);
+  std::fill(m_load_blocks.begin(), m_load_blocks.end(), 0.0);
+  add_load_rotational_blocks(m_model, m_loads, state, m_load_blocks.data());
+}
+
+LinearSystem StepPotential::system() {
+  LinearSystem sys;
+  sys.size = m_model.dof_count();
+  sys.fixed = m_model.fixed_dofs.data();
+  const int n = m_model.frame_count();
+  // Diagonal mass-like term per frame: (1 + alpha h)/h^2 [m I3, I_n] (dynamic only).
+  auto inertia_block = [this](int i, double* block6x6) {
+    const double h = m_dt, c = (1 + m_alpha * h) / (h * h);
+    for (int k = 0; k < 3; ++k) block6x6[6 * k + k] += c * m_model.frame_masses[i];
+    for (int r = 0; r < 3; ++r)
+      for (int col = 0; col < 3; ++col) block6x6[6 * (3 + r) + 3 + col] += c * m_world_inertia[9 * i + 3 * r + col];
+  };
+  sys.apply = [this, n, inertia_block](const double* d, double* out) {
+    m_elasticity.apply_tangent(d, out);
+    if (m_dynamic && m_beta > 0) {
+      m_scratch.resize(6 * n);
+      m_start_elasticity->apply_tangent(d, m_scratch.data());
+      for (int k = 0; k < 6 * n; ++k) out[k] += m_beta / m_dt * m_scratch[k];
+    }
+    for (int i = 0; i < n; ++i) {
+      const Vec3 r = load_mat3(&m_load_blocks[9 * i]) * load3(d + 6 * i + 3);
+      out[6 * i + 3] += r.x, out[6 * i + 4] += r.y, out[6 * i + 5] += r.z;
+      if (m_dynamic) {
+        double block[36] = {0};
+        inertia_block(i, block);
+        for (int a = 0; a < 6; ++a)
+          for (int b = 0; b < 6; ++b) out[6 * i + a] += block[6 * a + b] * d[6 * i + b];
+      }
+    }
+  };
+  sys.diagonal_blocks = [this, n, inertia_block](double* blocks) {
+    m_elasticity.tangent_diagonal_blocks(blocks);
+    std::vector<double> start_blocks;
+    if (m_dynamic && m_beta > 0) {
+      start_blocks.resize(36 * n);
+      m_start_elasticity->tangent_diagonal_blocks(start_blocks.data());
+    }
+    for (int i = 0; i < n; ++i) {
+      double* b = blocks + 36 * i;
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) b[6 * (3 + r) + 3 + c] += m_load_blocks[9 * i + 3 * r + c];
+      if (m_dynamic) {
+        inertia_block(i, b);
+        if (m_beta > 0)
+          for (int k = 0; k < 36; ++k) b[k] += m_beta / m_dt * start_blocks[36 * i + k];
+      }
+    }
+  };
+  sys.assemble = [this, n, inertia_block]() {
+    Eigen::SparseMatrix<double> H = assemble_tangent(m_elasticity);
+    std::vector<Eigen::Triplet<double>> t;
+    for (int i = 0; i < n; ++i) {
+      double block[36] = {0};
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) block[6 * (3 + r) + 3 + c] = m_load_blocks[9 * i + 3 * r + c];
+      if (m_dynamic) inertia_block(i, block);
+      for (int a = 0; a < 6; ++a)
+        for (int b = 0; b < 6; ++b)
+          if (block[6 * a + b] != 0) t.emplace_back(6 * i + a, 6 * i + b, block[6 * a + b]);
+    }
+    Eigen::SparseMatrix<double> extra(H.rows(), H.cols());
+    extra.setFromTriplets(t.begin(), t.end());
+    H += extra;
+    if (m_dynamic && m_beta > 0) H += (m_beta / m_dt) * assemble_tangent(*m_start_elasticity);
+    return H;
+  };
+  return sys;
+}
+
+}  // namespace fascia

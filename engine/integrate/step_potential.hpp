@@ -1,0 +1,63 @@
+// The potential Newton minimises at each step (DESIGN.md):
+//   static:          Phi(q) = W(q) + V(q)
+//   backward Euler:  Phi(q) = 1/(2h^2) |Delta - h v_n|^2_M + 1/(2h) Delta^T (alpha M + beta K_n) Delta
+//                             + W(q) + V(q)
+// with W the elastic energy, V the load potential, Delta = [x - x_n, log(R R_n^T)] per frame,
+// M the lumped frame masses and inertias at the step start (I_n = R_n I_0 R_n^T; gyroscopic
+// terms neglected), K_n the elastic tangent at the step start (Rayleigh damping).
+//
+// The value and gradient are exact (the rotational gradient carries the inverse left Jacobian of
+// SO(3), J_l^{-T}(phi), since d log(exp(theta) exp(phi)) / d theta = J_l^{-1}(phi)); the Hessian
+// uses J_l ~ I for the inertia and damping terms (exact for translations and at phi = 0), which
+// only changes Newton's convergence rate, not the solution.
+#pragma once
+
+#include "mechanics/elasticity.hpp"
+#include "mechanics/external_loads.hpp"
+#include "solve/newton.hpp"
+
+#include <memory>
+
+namespace fascia {
+
+class StepPotential : public Potential {
+ public:
+  StepPotential(const Model& model, const ExternalLoads& loads, int threads = 0);
+
+  // Static equilibrium: no inertia, no damping.
+  void set_static();
+  // Backward Euler step of size dt from start (positions, orientations, velocities).
+  void set_dynamic(const State& start, double dt, double rayleigh_mass, double rayleigh_stiffness);
+
+  const Model& model() const override { return m_model; }
+  double value(const State& state) override;
+  double gradient(const State& state, std::vector<double>& g) override;
+  void prepare_hessian(const State& state) override;
+  LinearSystem system() override;
+
+  Elasticity& elasticity() { return m_elasticity; }
+  const ExternalLoads& loads() const { return m_loads; }
+  double elastic_energy(const State& state) { return m_elasticity.energy(state); }
+
+  // Delta = [x - x_n, log(R R_n^T)] of every frame w.r.t. the step start, [N][6].
+  void increments(const State& state, std::vector<double>& delta) const;
+
+ private:
+  double inertia_value(const State& state, std::vector<double>* gradient) const;
+
+  const Model& m_model;
+  const ExternalLoads& m_loads;
+  Elasticity m_elasticity;
+  std::unique_ptr<Elasticity> m_start_elasticity;  // K_n for stiffness-proportional damping
+  std::vector<double> m_load_blocks;               // [N][9] rotational Hessian of V
+  bool m_dynamic = false;
+  State m_start;
+  double m_dt = 0, m_alpha = 0, m_beta = 0;
+  std::vector<double> m_world_inertia;  // [N][9] R_n I_0 R_n^T
+  std::vector<double> m_scratch;
+};
+
+// J_l^{-1}(phi), the inverse left Jacobian of SO(3) (Barfoot, State Estimation, eq. 7.77a).
+Mat3 inverse_left_jacobian(const Vec3& phi);
+
+}  // namespace fascia

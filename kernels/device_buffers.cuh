@@ -1,0 +1,78 @@
+// Owning device buffers and CUDA error checks for kernels/.
+#pragma once
+
+#include <cuda_runtime.h>
+
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace fascia::gpu {
+
+inline void cuda_check(cudaError_t e, const char* what) {
+  if (e != cudaSuccess) throw std::runtime_error(std::string("CUDA error in ") + what + ": " + cudaGetErrorString(e));
+}
+#define FASCIA_CUDA(call) ::fascia::gpu::cuda_check((call), #call)
+
+// A device array of T, move-only. upload() converts element types (double -> float).
+template <class T>
+class DeviceBuffer {
+ public:
+  DeviceBuffer() = default;
+  explicit DeviceBuffer(std::size_t n) { resize(n); }
+  ~DeviceBuffer() { release(); }
+  DeviceBuffer(const DeviceBuffer&) = delete;
+  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+  DeviceBuffer(DeviceBuffer&& o) noexcept : m_data(o.m_data), m_size(o.m_size) {
+    o.m_data = nullptr;
+    o.m_size = 0;
+  }
+
+  void resize(std::size_t n) {
+    if (n == m_size) return;
+    release();
+    if (n > 0) FASCIA_CUDA(cudaMalloc(&m_data, n * sizeof(T)));
+    m_size = n;
+  }
+  template <class U>
+  void upload(const std::vector<U>& host) {
+    resize(host.size());
+    if (host.empty()) return;
+    std::vector<T> tmp(host.begin(), host.end());
+    FASCIA_CUDA(cudaMemcpy(m_data, tmp.data(), tmp.size() * sizeof(T), cudaMemcpyHostToDevice));
+  }
+  template <class U>
+  void upload(const U* host, std::size_t n) {
+    resize(n);
+    if (n == 0) return;
+    std::vector<T> tmp(host, host + n);
+    FASCIA_CUDA(cudaMemcpy(m_data, tmp.data(), n * sizeof(T), cudaMemcpyHostToDevice));
+  }
+  template <class U>
+  void download(U* host) const {
+    if (m_size == 0) return;
+    std::vector<T> tmp(m_size);
+    FASCIA_CUDA(cudaMemcpy(tmp.data(), m_data, m_size * sizeof(T), cudaMemcpyDeviceToHost));
+    for (std::size_t k = 0; k < m_size; ++k) host[k] = static_cast<U>(tmp[k]);
+  }
+  void zero() {
+    if (m_size) FASCIA_CUDA(cudaMemset(m_data, 0, m_size * sizeof(T)));
+  }
+
+  T* data() { return m_data; }
+  const T* data() const { return m_data; }
+  std::size_t size() const { return m_size; }
+  std::size_t bytes() const { return m_size * sizeof(T); }
+
+ private:
+  void release() {
+    if (m_data) cudaFree(m_data);
+    m_data = nullptr;
+    m_size = 0;
+  }
+  T* m_data = nullptr;
+  std::size_t m_size = 0;
+};
+
+}  // namespace fascia::gpu

@@ -1,0 +1,582 @@
+#include "device_buffers.cuh"
+#include "device_elasticity.hpp"
+#include "elasticity_kernels.cuh"
+#include "sample_layout.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+namespace fascia::gpu {
+
+const char* to_string(Precision precision) {
+  return precision == Precision::double_precision ? "double" : "single";
+}
+const char* to_string(Design design) { return design == Design::paper ? "paper" : "fused"; }
+
+DeviceInfo device_info() {
+  DeviceInfo info;
+  int count = 0;
+  if (cudaGetDeviceCount(&count) != cudaSuccess || count <= 0) {
+    cudaGetLastError();  // clear the sticky "no device" error
+    return info;
+  }
+  info.device_count = count;
+  int dev = 0;
+  cudaGetDevice(&dev);
+  cudaDeviceProp prop{};
+  if (cudaGetDeviceProperties(&prop, dev) == cudaSuccess) {
+    info.name = prop.name;
+    info.multiprocessors = prop.multiProcessorCount;
+    info.memory_gib = static_cast<double>(prop.totalGlobalMem) / (1024.0 * 1024.0 * 1024.0);
+  }
+  int clock_khz = 0, bus_bits = 0;
+  if (cudaDeviceGetAttribute(&clock_khz, cudaDevAttrMemoryClockRate, dev) == cudaSuccess &&
+      cudaDeviceGetAttribute(&bus_bits, cudaDevAttrGlobalMemoryBusWidth, dev) == cudaSuccess)
+    info.peak_bandwidth_gbs = 2.0 * clock_khz * 1e3 * (bus_bits / 8.0) / 1e9;
+  cudaGetLastError();
+  return info;
+}
+
+namespace {
+
+constexpr int kThreads = 128;      // frame and sample kernels
+constexpr int kPaperGather = 96;   // paper §3.3: 6 threads per frame, 96 per block
+constexpr int kMaxBlockPairs = 1024;
+
+int grid_for(long long count, int threads) { return static_cast<int>(std::max<long long>(1, (count + threads - 1) / threads)); }
+
+}  // namespace
+
+// The implementation behind both public classes: abstract over the storage precision.
+struct DeviceElasticity::Impl {
+  virtual ~Impl() = default;
+  virtual void set_state(const State& state) = 0;
+  virtual void get_state(State& state) const = 0;
+  virtual double energy() = 0;
+  virtual double gradient(double* g) = 0;
+  virtual double prepare() = 0;
+  virtual void apply_tangent(const double* d, double* out) = 0;
+  virtual void diagonal_blocks(double* blocks) = 0;
+  virtual double time_tangent_ms(int repeats) = 0;
+  virtual double tangent_bytes() const = 0;
+  // Stepper.
+  virtual void configure_step(const StepOptions& options) = 0;
+  virtual StepReport step() = 0;
+  virtual void last_increment(double* delta) const = 0;
+  virtual double time_step_ms(int repeats) = 0;
+  virtual double time_cg_iteration_ms(int repeats) = 0;
+
+  DeviceOptions options;
+  Design design = Design::fused;
+};
+
+namespace {
+
+template <class R>
+class System final : public DeviceElasticity::Impl {
+ public:
+  System(const Model& input, const DeviceOptions& opts) {
+    options = opts;
+    FASCIA_CUDA(cudaStreamCreateWithFlags(&m_stream, cudaStreamNonBlocking));
+    FASCIA_CUDA(cudaEventCreate(&m_start));
+    FASCIA_CUDA(cudaEventCreate(&m_stop));
+    validate(input);
+    const Model model = opts.reorder_samples ? reorder_samples(input, spatial_sample_order(input)) : input;
+    design = opts.design;
+    if (design == Design::fused && !offsets_are_rest_differences(model)) design = Design::paper;
+    m_n = model.frame_count();
+    m_s = model.sample_count();
+    m_p = model.pair_count();
+    m_locked = model.rotations_locked;
+
+    // Origin: centre of the rest bounding box of the frames.
+    for (int k = 0; k < 3; ++k) {
+      double lo = HUGE_VAL, hi = -HUGE_VAL;
+      for (int i = 0; i < m_n; ++i) {
+        lo = std::min(lo, model.frame_rest_positions[3 * i + k]);
+        hi = std::max(hi, model.frame_rest_positions[3 * i + k]);
+      }
+      m_origin.x[k] = m_n > 0 ? 0.5 * (lo + hi) : 0.0;
+    }
+    std::vector<double> sample_rest = model.samples.rest_positions, frame_rest = model.frame_rest_positions;
+    for (size_t k = 0; k < sample_rest.size(); ++k) sample_rest[k] -= m_origin.x[k % 3];
+    for (size_t k = 0; k < frame_rest.size(); ++k) frame_rest[k] -= m_origin.x[k % 3];
+
+    const NeighbourTable& nb = model.neighbours;
+    m_offsets.upload(nb.offsets);
+    m_frames.upload(nb.frames);
+    m_weights.upload(nb.weights);
+    m_gradients.upload(nb.weight_gradients);
+    m_rest_offsets.upload(nb.rest_offsets);
+    m_rev_offsets.upload(model.reverse.offsets);
+    m_rev_pairs.upload(model.reverse.pairs);
+    m_pair_samples.upload(model.reverse.pair_samples);
+    m_volumes.upload(model.samples.volumes);
+    m_sample_materials.upload(model.samples.materials);
+    m_materials.upload(model.materials);
+    m_sample_rest.upload(sample_rest);
+    m_frame_rest.upload(frame_rest);
+    std::vector<double> masses = model.frame_masses, inertias = model.frame_inertias;
+    masses.resize(m_n, 0.0);
+    inertias.resize(9 * static_cast<size_t>(m_n), 0.0);
+    m_masses.upload(masses);
+    m_inertias.upload(inertias);
+    m_fixed.upload(model.fixed_dofs);
+
+    if (design == Design::fused) {
+      const BlockLayout L = build_block_layout(model, opts.block_samples, kMaxBlockPairs);
+      m_blocks = L.block_count();
+      m_slots = L.slot_count();
+      m_shared_bytes = static_cast<size_t>(L.max_block_pairs) * 6 * sizeof(R);
+      m_block_samples.upload(L.block_samples);
+      m_block_slots.upload(L.block_slots);
+      m_slot_frames.upload(L.slot_frames);
+      m_slot_pair_offsets.upload(L.slot_pair_offsets);
+      m_slot_pairs.upload(L.slot_pairs);
+      m_frame_slot_offsets.upload(L.frame_slot_offsets);
+      m_frame_slots.upload(L.frame_slots);
+      m_partials.resize(6 * static_cast<size_t>(m_slots));
+      const int max_shared = static_cast<int>(m_shared_bytes);
+      FASCIA_CUDA(cudaFuncSetAttribute(k_fused_samples<Pass::gradient, R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                       max_shared));
+      FASCIA_CUDA(cudaFuncSetAttribute(k_fused_samples<Pass::tangent, R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                       max_shared));
+    } else {
+      m_partials.resize(6 * static_cast<size_t>(m_p));
+      m_cache.resize(10 * static_cast<size_t>(m_s));
+      m_a.resize(3 * static_cast<size_t>(m_p));
+    }
+
+    m_view.samples = m_s;
+    m_view.frames = m_n;
+    m_view.pairs = m_p;
+    m_view.offsets = m_offsets.data();
+    m_view.frame_of = m_frames.data();
+    m_view.weights = m_weights.data();
+    m_view.gradients = m_gradients.data();
+    m_view.rest_offsets = m_rest_offsets.data();
+    m_view.rev_offsets = m_rev_offsets.data();
+    m_view.rev_pairs = m_rev_pairs.data();
+    m_view.pair_samples = m_pair_samples.data();
+    m_view.volumes = m_volumes.data();
+    m_view.sample_materials = m_sample_materials.data();
+    m_view.materials = m_materials.data();
+    m_view.sample_rest = m_sample_rest.data();
+    m_view.frame_rest = m_frame_rest.data();
+    m_view.masses = m_masses.data();
+    m_view.inertias = m_inertias.data();
+    m_view.fixed = m_fixed.data();
+    m_view.rotations_locked = m_locked;
+    m_view.blocks = m_blocks;
+    m_view.block_samples = m_block_samples.data();
+    m_view.block_slots = m_block_slots.data();
+    m_view.slot_frames = m_slot_frames.data();
+    m_view.slot_pair_offsets = m_slot_pair_offsets.data();
+    m_view.slot_pairs = m_slot_pairs.data();
+    m_view.frame_slot_offsets = m_frame_slot_offsets.data();
+    m_view.frame_slots = m_frame_slots.data();
+
+    const size_t dofs = 6 * static_cast<size_t>(m_n);
+    m_positions.resize(3 * static_cast<size_t>(m_n));
+    m_orientations.resize(4 * static_cast<size_t>(m_n));
+    m_velocities.resize(dofs);
+    m_x.resize(3 * static_cast<size_t>(m_n));
+    m_rot.resize(9 * static_cast<size_t>(m_n));
+    m_F.resize(9 * static_cast<size_t>(m_s));
+    m_geo.resize(9 * static_cast<size_t>(m_n));
+    m_inertia_world.resize(9 * static_cast<size_t>(m_n));
+    m_minv.resize(36 * static_cast<size_t>(m_n));
+    m_diag.resize(36 * static_cast<size_t>(m_n));
+    for (auto* v : {&m_grad, &m_d, &m_out, &m_cx, &m_cr, &m_cz, &m_cp, &m_cAp}) v->resize(dofs);
+    const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(6LL * m_n, kPaperGather), m_blocks, 1});
+    m_red_partials.resize(max_grid);
+    m_counter.resize(1);
+    m_counter.zero();
+    m_scalars.resize(1);
+    m_scalars.zero();
+    m_frame_view.rotations = m_rot.data();
+    m_frame_view.positions = m_x.data();
+  }
+
+  ~System() override {
+    destroy_graphs();
+    cudaEventDestroy(m_start);
+    cudaEventDestroy(m_stop);
+    cudaStreamDestroy(m_stream);
+  }
+
+  void set_state(const State& state) override {
+    if (state.frame_count() != m_n) throw std::invalid_argument("DeviceElasticity: state has the wrong frame count");
+    m_positions.upload(state.positions);
+    m_orientations.upload(state.orientations);
+    std::vector<double> v = state.velocities;
+    v.resize(6 * static_cast<size_t>(m_n), 0.0);
+    m_velocities.upload(v);
+  }
+
+  void get_state(State& state) const override {
+    state.positions.resize(3 * static_cast<size_t>(m_n));
+    state.orientations.resize(4 * static_cast<size_t>(m_n));
+    state.velocities.resize(6 * static_cast<size_t>(m_n));
+    m_positions.download(state.positions.data());
+    m_orientations.download(state.orientations.data());
+    m_velocities.download(state.velocities.data());
+  }
+
+  double energy() override {
+    enqueue_gradient_pass(false);
+    return read_scalars().energy;
+  }
+
+  double gradient(double* g) override {
+    enqueue_gradient_pass(true);
+    const double e = read_scalars().energy;
+    m_grad.download(g);
+    return e;
+  }
+
+  double prepare() override {
+    enqueue_gradient_pass(false);
+    enqueue_frame_prepare(0.0, true);
+    return read_scalars().energy;
+  }
+
+  void apply_tangent(const double* d, double* out) override {
+    m_d.upload(d, 6 * static_cast<size_t>(m_n));
+    enqueue_tangent(m_d.data(), m_out.data(), FrameTermsFlags{0.0, false}, false);
+    FASCIA_CUDA(cudaStreamSynchronize(m_stream));
+    m_out.download(out);
+  }
+
+  void diagonal_blocks(double* blocks) override {
+    FASCIA_CUDA(cudaStreamSynchronize(m_stream));
+    m_diag.download(blocks);
+  }
+
+  double time_tangent_ms(int repeats) override {
+    std::vector<double> d(6 * static_cast<size_t>(m_n));
+    for (size_t k = 0; k < d.size(); ++k) d[k] = 1e-3 * std::sin(0.37 * static_cast<double>(k));
+    m_d.upload(d);
+    for (int k = 0; k < 3; ++k) enqueue_tangent(m_d.data(), m_out.data(), FrameTermsFlags{0.0, false}, false);
+    FASCIA_CUDA(cudaEventRecord(m_start, m_stream));
+    for (int k = 0; k < repeats; ++k) enqueue_tangent(m_d.data(), m_out.data(), FrameTermsFlags{0.0, false}, false);
+    FASCIA_CUDA(cudaEventRecord(m_stop, m_stream));
+    FASCIA_CUDA(cudaEventSynchronize(m_stop));
+    float ms = 0;
+    FASCIA_CUDA(cudaEventElapsedTime(&ms, m_start, m_stop));
+    return ms / repeats;
+  }
+
+  double tangent_bytes() const override {
+    const double r = sizeof(R), P = m_p, S = m_s, N = m_n;
+    // Frames: rotation, position, d (read), out (write), geometric block (read), fixed flags.
+    const double frames = N * (9 * r + 3 * r + 6 * r + 6 * r + 9 * r + 6);
+    if (design == Design::fused) {
+      const double Q = m_slots;
+      return P * (4 + r + 3 * r) + S * (3 * r + r + 4 + 4) + N * 3 * r  // tables, rest positions
+             + P * 4 + Q * 4 * 2 + N * 4 + m_blocks * 8                  // slot tables
+             + Q * 6 * r * 2 + frames;                                    // slot partials out and in
+    }
+    // Paper: pair table with a = R l, F and cache per sample, the pair buffer written and read.
+    return P * (4 + r + 3 * r + 3 * r) + S * (9 * r + 10 * r + r + 4 + 4) + P * 6 * r * 2 + P * 4 + N * 4 + frames;
+  }
+
+  // ---- stepper -------------------------------------------------------------------------------
+
+  void configure_step(const StepOptions& o) override {
+    if (!(o.dt > 0)) throw std::invalid_argument("DeviceBackwardEuler: dt must be > 0 s");
+    if (o.max_cg_iterations < 1) throw std::invalid_argument("DeviceBackwardEuler: max_cg_iterations must be >= 1");
+    m_step = o;
+    if (m_step.check_every < 1) m_step.check_every = 1;
+    if (!o.external_forces.empty()) {
+      if (o.external_forces.size() != 6 * static_cast<size_t>(m_n))
+        throw std::invalid_argument("DeviceBackwardEuler: external_forces must be [N][6]");
+      m_external.upload(o.external_forces);
+    } else {
+      m_external.resize(0);
+    }
+    destroy_graphs();
+  }
+
+  StepReport step() override {
+    const bool fixed_count = m_step.cg_tolerance <= 0;
+    if (m_step.use_graphs) {
+      if (fixed_count) {
+        launch_graph(m_graph_full, [&] {
+          enqueue_step_begin();
+          for (int k = 0; k < m_step.max_cg_iterations; ++k) enqueue_cg_iteration();
+          enqueue_step_end();
+        });
+      } else {
+        launch_graph(m_graph_begin, [&] { enqueue_step_begin(); });
+        run_tolerance_loop();
+        launch_graph(m_graph_end, [&] { enqueue_step_end(); });
+      }
+    } else {
+      enqueue_step_begin();
+      if (fixed_count)
+        for (int k = 0; k < m_step.max_cg_iterations; ++k) enqueue_cg_iteration();
+      else
+        run_tolerance_loop();
+      enqueue_step_end();
+    }
+    const Scalars sc = read_scalars();
+    StepReport report;
+    report.cg_iterations = sc.iterations;
+    report.cg_relative_residual = sc.rz0 > 0 ? std::sqrt(std::max(0.0, sc.rz) / sc.rz0) : 0.0;
+    report.energy = sc.energy;
+    return report;
+  }
+
+  void last_increment(double* delta) const override {
+    FASCIA_CUDA(cudaStreamSynchronize(m_stream));
+    m_cx.download(delta);
+  }
+
+  double time_step_ms(int repeats) override {
+    for (int k = 0; k < 2; ++k) step();
+    FASCIA_CUDA(cudaEventRecord(m_start, m_stream));
+    for (int k = 0; k < repeats; ++k) {
+      if (m_step.use_graphs && m_step.cg_tolerance <= 0) {
+        FASCIA_CUDA(cudaGraphLaunch(m_graph_full, m_stream));
+      } else {
+        enqueue_step_begin();
+        for (int j = 0; j < m_step.max_cg_iterations; ++j) enqueue_cg_iteration();
+        enqueue_step_end();
+      }
+    }
+    FASCIA_CUDA(cudaEventRecord(m_stop, m_stream));
+    FASCIA_CUDA(cudaEventSynchronize(m_stop));
+    float ms = 0;
+    FASCIA_CUDA(cudaEventElapsedTime(&ms, m_start, m_stop));
+    return ms / repeats;
+  }
+
+  double time_cg_iteration_ms(int repeats) override {
+    const int iterations = m_step.max_cg_iterations;
+    launch_graph(m_graph_iterations, [&] {
+      for (int k = 0; k < iterations; ++k) enqueue_cg_iteration();
+    });
+    double total = 0;
+    for (int k = 0; k < repeats + 1; ++k) {
+      enqueue_step_begin();
+      FASCIA_CUDA(cudaEventRecord(m_start, m_stream));
+      FASCIA_CUDA(cudaGraphLaunch(m_graph_iterations, m_stream));
+      FASCIA_CUDA(cudaEventRecord(m_stop, m_stream));
+      FASCIA_CUDA(cudaEventSynchronize(m_stop));
+      float ms = 0;
+      FASCIA_CUDA(cudaEventElapsedTime(&ms, m_start, m_stop));
+      if (k > 0) total += ms;  // the first is the warm-up
+    }
+    return total / (repeats * static_cast<double>(iterations));
+  }
+
+ private:
+  Reduction reduction() { return Reduction{m_red_partials.data(), m_counter.data(), m_scalars.data()}; }
+
+  Scalars read_scalars() {
+    Scalars sc{};
+    FASCIA_CUDA(cudaMemcpyAsync(&sc, m_scalars.data(), sizeof(Scalars), cudaMemcpyDeviceToHost, m_stream));
+    FASCIA_CUDA(cudaStreamSynchronize(m_stream));
+    return sc;
+  }
+
+  void check_launch() { FASCIA_CUDA(cudaGetLastError()); }
+
+  // Kinematics and the force pass: energy into the scalars, gradient into m_grad when `gather`
+  // (always for the fused design's F), F (and the paper's cache and a) stored.
+  void enqueue_gradient_pass(bool gather) {
+    k_kinematics<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(m_n, m_positions.data(), m_orientations.data(),
+                                                                         m_origin, m_x.data(), m_rot.data());
+    check_launch();
+    const FrameTermsFlags none{0.0, false};
+    if (design == Design::fused) {
+      k_fused_samples<Pass::gradient, R><<<m_blocks, options.block_samples, m_shared_bytes, m_stream>>>(
+          m_view, m_frame_view, nullptr, m_F.data(), m_partials.data(), reduction(), nullptr);
+      check_launch();
+      if (gather) {
+        k_fused_gather<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
+            m_view, m_partials.data(), nullptr, nullptr, none, m_d.data(), m_grad.data(), reduction(), false);
+        check_launch();
+      }
+    } else {
+      k_paper_gradient<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(
+          m_view, m_frame_view, m_F.data(), m_cache.data(), m_a.data(), m_partials.data(), reduction());
+      check_launch();
+      if (gather) {
+        k_paper_gather<R><<<grid_for(6LL * m_n, kPaperGather), kPaperGather, 0, m_stream>>>(
+            m_view, m_partials.data(), nullptr, nullptr, none, m_d.data(), m_grad.data(), reduction(), false);
+        check_launch();
+      }
+    }
+  }
+
+  void enqueue_frame_prepare(double inv_h2, bool diag) {
+    k_frame_prepare<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
+        m_view, m_frame_view, m_F.data(), design == Design::fused, inv_h2, m_geo.data(), m_inertia_world.data(),
+        m_minv.data(), diag ? m_diag.data() : nullptr);
+    check_launch();
+  }
+
+  // out = (K + M/h^2) d with the given flags; in the PCG (`pcg`) also alpha = rz / d.out.
+  void enqueue_tangent(const R* d, R* out, FrameTermsFlags flags, bool pcg) {
+    const Scalars* sc = pcg ? m_scalars.data() : nullptr;
+    if (design == Design::fused) {
+      k_fused_samples<Pass::tangent, R><<<m_blocks, options.block_samples, m_shared_bytes, m_stream>>>(
+          m_view, m_frame_view, d, nullptr, m_partials.data(), reduction(), sc);
+      check_launch();
+      k_fused_gather<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
+          m_view, m_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(), pcg);
+    } else {
+      k_paper_tangent<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(
+          m_view, m_frame_view, m_F.data(), m_cache.data(), m_a.data(), d, m_partials.data(), sc);
+      check_launch();
+      k_paper_gather<R><<<grid_for(6LL * m_n, kPaperGather), kPaperGather, 0, m_stream>>>(
+          m_view, m_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(), pcg);
+    }
+    check_launch();
+  }
+
+  void enqueue_step_begin() {
+    const double h = m_step.dt;
+    enqueue_gradient_pass(true);
+    enqueue_frame_prepare(1.0 / (h * h), false);
+    k_pcg_init<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
+        m_view, m_grad.data(), m_inertia_world.data(), m_velocities.data(),
+        m_external.size() ? m_external.data() : nullptr, 1.0 / h, m_minv.data(), m_cx.data(), m_cr.data(), m_cz.data(),
+        m_cp.data(), reduction());
+    check_launch();
+  }
+
+  void enqueue_cg_iteration() {
+    const double h = m_step.dt;
+    enqueue_tangent(m_cp.data(), m_cAp.data(), FrameTermsFlags{1.0 / (h * h), true}, true);
+    k_pcg_update<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(m_n, m_minv.data(), m_cp.data(), m_cAp.data(),
+                                                                         m_cx.data(), m_cr.data(), m_cz.data(),
+                                                                         reduction(), m_step.cg_tolerance);
+    check_launch();
+    k_pcg_direction<R><<<grid_for(6LL * m_n, kThreads), kThreads, 0, m_stream>>>(6 * m_n, m_cz.data(), m_cp.data(),
+                                                                                  m_scalars.data());
+    check_launch();
+  }
+
+  void enqueue_step_end() {
+    k_step_update<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
+        m_n, m_locked, 1.0 / m_step.dt, m_cx.data(), m_positions.data(), m_orientations.data(), m_velocities.data());
+    check_launch();
+  }
+
+  // Runs the PCG in chunks of check_every iterations (graphs when enabled), reading the flag once
+  // per chunk: no host round trip per iteration.
+  void run_tolerance_loop() {
+    int done_iterations = 0;
+    while (done_iterations < m_step.max_cg_iterations) {
+      const int chunk = std::min(m_step.check_every, m_step.max_cg_iterations - done_iterations);
+      if (m_step.use_graphs) {
+        cudaGraphExec_t& g = chunk == m_step.check_every ? m_graph_chunk : m_graph_tail;
+        launch_graph(g, [&] {
+          for (int k = 0; k < chunk; ++k) enqueue_cg_iteration();
+        });
+      } else {
+        for (int k = 0; k < chunk; ++k) enqueue_cg_iteration();
+      }
+      done_iterations += chunk;
+      if (read_scalars().done) break;
+    }
+  }
+
+  template <class Body>
+  void launch_graph(cudaGraphExec_t& exec, Body body) {
+    if (!exec) {
+      cudaGraph_t graph = nullptr;
+      FASCIA_CUDA(cudaStreamBeginCapture(m_stream, cudaStreamCaptureModeThreadLocal));
+      body();
+      FASCIA_CUDA(cudaStreamEndCapture(m_stream, &graph));
+      FASCIA_CUDA(cudaGraphInstantiate(&exec, graph, 0));
+      FASCIA_CUDA(cudaGraphDestroy(graph));
+    }
+    FASCIA_CUDA(cudaGraphLaunch(exec, m_stream));
+  }
+
+  void destroy_graphs() {
+    for (cudaGraphExec_t* g : {&m_graph_full, &m_graph_begin, &m_graph_end, &m_graph_chunk, &m_graph_tail,
+                               &m_graph_iterations}) {
+      if (*g) cudaGraphExecDestroy(*g);
+      *g = nullptr;
+    }
+  }
+
+  int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0;
+  bool m_locked = false;
+  size_t m_shared_bytes = 0;
+  Origin m_origin{};
+  cudaStream_t m_stream = nullptr;
+  cudaEvent_t m_start = nullptr, m_stop = nullptr;
+  ModelView<R> m_view;
+  FrameView<R> m_frame_view;
+  StepOptions m_step;
+  cudaGraphExec_t m_graph_full = nullptr, m_graph_begin = nullptr, m_graph_end = nullptr, m_graph_chunk = nullptr,
+                  m_graph_tail = nullptr, m_graph_iterations = nullptr;
+
+  // Model.
+  DeviceBuffer<int> m_offsets, m_frames, m_rev_offsets, m_rev_pairs, m_pair_samples, m_sample_materials;
+  DeviceBuffer<R> m_weights, m_gradients, m_rest_offsets, m_volumes, m_sample_rest, m_frame_rest, m_masses, m_inertias;
+  DeviceBuffer<Material> m_materials;
+  DeviceBuffer<unsigned char> m_fixed;
+  DeviceBuffer<int> m_block_samples, m_block_slots, m_slot_frames, m_slot_pair_offsets, m_slot_pairs,
+      m_frame_slot_offsets, m_frame_slots;
+  // State (double) and per-iteration data (R).
+  DeviceBuffer<double> m_positions, m_orientations, m_velocities, m_external, m_diag;
+  DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_a, m_partials, m_geo, m_inertia_world, m_minv;
+  DeviceBuffer<R> m_grad, m_d, m_out, m_cx, m_cr, m_cz, m_cp, m_cAp;
+  // Reductions.
+  DeviceBuffer<double> m_red_partials;
+  DeviceBuffer<unsigned> m_counter;
+  DeviceBuffer<Scalars> m_scalars;
+};
+
+}  // namespace
+
+// ---- public classes ------------------------------------------------------------------------------
+
+DeviceElasticity::DeviceElasticity(const Model& model, const DeviceOptions& options) {
+  if (options.block_samples < 32 || options.block_samples % 32 != 0 || options.block_samples > 1024)
+    throw std::invalid_argument("DeviceOptions: block_samples must be a multiple of 32 in [32, 1024]");
+  if (options.precision == Precision::double_precision)
+    m_impl = std::make_unique<System<double>>(model, options);
+  else
+    m_impl = std::make_unique<System<float>>(model, options);
+}
+DeviceElasticity::~DeviceElasticity() = default;
+
+void DeviceElasticity::set_state(const State& state) { m_impl->set_state(state); }
+void DeviceElasticity::get_state(State& state) const { m_impl->get_state(state); }
+double DeviceElasticity::energy() { return m_impl->energy(); }
+double DeviceElasticity::gradient(double* g) { return m_impl->gradient(g); }
+double DeviceElasticity::prepare() { return m_impl->prepare(); }
+void DeviceElasticity::apply_tangent(const double* d, double* out) { m_impl->apply_tangent(d, out); }
+void DeviceElasticity::tangent_diagonal_blocks(double* blocks) { m_impl->diagonal_blocks(blocks); }
+Design DeviceElasticity::design() const { return m_impl->design; }
+Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
+const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }
+double DeviceElasticity::time_tangent_ms(int repeats) { return m_impl->time_tangent_ms(std::max(1, repeats)); }
+double DeviceElasticity::tangent_bytes() const { return m_impl->tangent_bytes(); }
+
+struct DeviceBackwardEuler::Impl {
+  DeviceElasticity::Impl* system;
+};
+
+DeviceBackwardEuler::DeviceBackwardEuler(DeviceElasticity& elasticity, const StepOptions& options)
+    : m_impl(std::make_unique<Impl>(Impl{elasticity.m_impl.get()})) {
+  m_impl->system->configure_step(options);
+}
+DeviceBackwardEuler::~DeviceBackwardEuler() = default;
+StepReport DeviceBackwardEuler::step() { return m_impl->system->step(); }
+void DeviceBackwardEuler::last_increment(double* delta) const { m_impl->system->last_increment(delta); }
+double DeviceBackwardEuler::time_step_ms(int repeats) { return m_impl->system->time_step_ms(std::max(1, repeats)); }
+double DeviceBackwardEuler::time_cg_iteration_ms(int repeats) {
+  return m_impl->system->time_cg_iteration_ms(std::max(1, repeats));
+}
+
+}  // namespace fascia::gpu

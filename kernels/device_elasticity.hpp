@@ -1,0 +1,136 @@
+// CUDA backend of the elastic forces, tangent products and the backward-Euler Newton-PCG step
+// (paper §3). Host API: including this header needs no CUDA toolkit; the implementation lives in
+// device_elasticity.cu behind a pointer. Only built with FASCIA_WITH_CUDA = 1.
+//
+// Semantics follow the CPU reference fascia::Elasticity (engine/mechanics/elasticity.hpp): the
+// same energy, gradient dW/d(theta) [N][6] (forces are its negative), symmetric tangent product
+// and 6x6 diagonal blocks. Results are deterministic: repeated runs on the same device give
+// bitwise-identical outputs (no floating-point atomics; every sum in an order fixed by the model).
+#pragma once
+
+#include "model/model.hpp"
+#include "model/state.hpp"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace fascia::gpu {
+
+// Storage precision of device data. Per-sample and per-frame arithmetic runs in double registers
+// in both; `single` stores the model tables, frame kinematics and CG vectors in float.
+enum class Precision { double_precision, single_precision };
+
+// Design of the force and tangent-product passes (elasticity_phases.hpp).
+//  paper: the paper's two kernels with a partial-force buffer of one 6-vector per pair.
+//  fused: F and S recomputed in the product pass, pair sums reduced per frame in shared memory.
+enum class Design { paper, fused };
+
+const char* to_string(Precision precision);
+const char* to_string(Design design);
+
+struct DeviceInfo {
+  int device_count = 0;  // 0 when there is no device or no driver
+  std::string name;
+  int multiprocessors = 0;
+  double memory_gib = 0;
+  // Peak DRAM bandwidth in GB/s from the device attributes: 2 * memory clock * bus width
+  // (double data rate), 0 where the attributes are unavailable.
+  double peak_bandwidth_gbs = 0;
+};
+
+// Never throws; device_count = 0 without a usable device.
+DeviceInfo device_info();
+
+struct DeviceOptions {
+  Precision precision = Precision::double_precision;
+  Design design = Design::fused;
+  bool reorder_samples = true;  // Morton order of samples on the device
+  int block_samples = 128;      // fused design: samples per thread block
+};
+
+class DeviceBackwardEuler;
+
+// The model uploaded once to the device; the state is uploaded with set_state and stays there.
+class DeviceElasticity {
+ public:
+  explicit DeviceElasticity(const Model& model, const DeviceOptions& options = {});
+  ~DeviceElasticity();
+  DeviceElasticity(const DeviceElasticity&) = delete;
+  DeviceElasticity& operator=(const DeviceElasticity&) = delete;
+
+  void set_state(const State& state);
+  void get_state(State& state) const;
+
+  double energy();
+  // Energy and gradient [N][6] (host memory), as Elasticity::gradient.
+  double gradient(double* gradient);
+  // Precomputes F, P (and, for the paper design, the material cache and a = R l) and the per-frame
+  // rotational blocks; returns the energy. Call before apply_tangent / tangent_diagonal_blocks.
+  double prepare();
+  // out = K d, [N][6] host memory, as Elasticity::apply_tangent.
+  void apply_tangent(const double* d, double* out);
+  // K_ii [N][36] row-major, as Elasticity::tangent_diagonal_blocks.
+  void tangent_diagonal_blocks(double* blocks);
+
+  // The design in use: `fused` falls back to `paper` when the model's rest offsets are not p_s - x_i.
+  Design design() const;
+  Precision precision() const;
+  const DeviceOptions& options() const;
+
+  // Benchmark support: mean ms of one tangent product (sample and frame passes) on device data,
+  // after prepare(), measured with CUDA events over `repeats` products after a warm-up; and the
+  // bytes one product must move between DRAM and the chip at least (every input read once, every
+  // output written once; frame data counted once), for the achieved-bandwidth figure.
+  double time_tangent_ms(int repeats);
+  double tangent_bytes() const;
+
+  struct Impl;
+
+ private:
+  friend class DeviceBackwardEuler;
+  std::unique_ptr<Impl> m_impl;
+};
+
+struct StepOptions {
+  double dt = 0.01;                     // s
+  int max_cg_iterations = 60;
+  double cg_tolerance = 0;              // relative, on sqrt(r.z / r0.z0); 0 = run max_cg_iterations
+  int check_every = 10;                 // CG iterations between host reads of the convergence flag
+  bool use_graphs = true;               // replay the CG iterations as one CUDA graph
+  std::vector<double> external_forces;  // [N][6] constant generalised forces (N, N m) or empty
+};
+
+struct StepReport {
+  int cg_iterations = 0;
+  double cg_relative_residual = 0;  // sqrt(r.z / r0.z0) at the end
+  double energy = 0;                // elastic energy at the start of the step, J
+};
+
+// One backward-Euler step solved by one Newton iteration, entirely on the device: gradient,
+// preparation (rotational blocks, block-Jacobi preconditioner), PCG on (M/h^2 + K) delta = -g with
+// g = dW - f_ext - M v / h, then x <- x (+) delta, v <- delta / h. The device state advances; read
+// it with DeviceElasticity::get_state. Scalars of the PCG stay on the device.
+class DeviceBackwardEuler {
+ public:
+  DeviceBackwardEuler(DeviceElasticity& elasticity, const StepOptions& options);
+  ~DeviceBackwardEuler();
+  DeviceBackwardEuler(const DeviceBackwardEuler&) = delete;
+  DeviceBackwardEuler& operator=(const DeviceBackwardEuler&) = delete;
+
+  StepReport step();
+  // The increment delta of the last step, [N][6] host memory.
+  void last_increment(double* delta) const;
+
+  // Benchmark support (CUDA events, after a warm-up): mean ms of a full step without host
+  // transfers, and mean ms of one CG iteration of the captured loop.
+  double time_step_ms(int repeats);
+  double time_cg_iteration_ms(int repeats);
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> m_impl;
+};
+
+}  // namespace fascia::gpu

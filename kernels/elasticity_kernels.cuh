@@ -1,0 +1,286 @@
+// The CUDA kernels of the elasticity passes and of the device PCG. Thin wrappers over the
+// per-thread bodies of elasticity_phases.hpp, plus deterministic reductions.
+//
+// Reductions: each block sums its values with a fixed shuffle tree and writes one partial; the
+// last block to finish (found with an integer atomic counter, the only atomic used) sums the
+// partials in block order and writes the scalar. The result does not depend on scheduling.
+#pragma once
+
+#include "elasticity_phases.hpp"
+
+#include <cuda_runtime.h>
+
+namespace fascia::gpu {
+
+// Scalars of the device PCG and of the energy reduction, kept in device memory.
+struct Scalars {
+  double energy;
+  double rz, rz0, alpha, beta;
+  int done;        // 1 converged, 2 breakdown (p.Ap <= 0 or not finite)
+  int iterations;
+};
+
+// Where a kernel's reduction goes: per-block partials, the last-block counter, the scalars.
+struct Reduction {
+  double* partials;   // [grid]
+  unsigned* counter;  // zero between kernels
+  Scalars* scalars;
+};
+
+enum class Finish { energy, alpha, beta, init };
+
+// Sum over the block, valid on thread 0. Every thread of the block must call it; blockDim.x is
+// a multiple of 32.
+__device__ inline double block_sum(double v) {
+  __shared__ double warp_sums[32];
+  for (int o = 16; o > 0; o >>= 1) v += __shfl_down_sync(0xffffffffu, v, o);
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+  __syncthreads();
+  if (lane == 0) warp_sums[warp] = v;
+  __syncthreads();
+  double total = 0;
+  if (threadIdx.x == 0)
+    for (int k = 0; k < static_cast<int>(blockDim.x + 31) / 32; ++k) total += warp_sums[k];
+  return total;
+}
+
+// Writes the block's value (thread 0's v) and, in the last block, sums all partials in block order
+// and applies `finish` to the scalars.
+__device__ inline void reduce_and_finish(double v, const Reduction& red, Finish finish, double tolerance) {
+  __shared__ bool is_last;
+  const double block = block_sum(v);
+  if (threadIdx.x == 0) {
+    red.partials[blockIdx.x] = block;
+    __threadfence();
+    is_last = atomicAdd(red.counter, 1u) == gridDim.x - 1;
+  }
+  __syncthreads();
+  if (!is_last) return;
+  double s = 0;
+  for (unsigned b = threadIdx.x; b < gridDim.x; b += blockDim.x) s += __ldcg(red.partials + b);
+  const double total = block_sum(s);
+  if (threadIdx.x != 0) return;
+  *red.counter = 0;
+  Scalars& sc = *red.scalars;
+  switch (finish) {
+    case Finish::energy:
+      sc.energy = total;
+      break;
+    case Finish::init:
+      sc.rz = sc.rz0 = total;
+      sc.alpha = sc.beta = 0;
+      sc.iterations = 0;
+      sc.done = total > 0 ? 0 : 1;
+      break;
+    case Finish::alpha:
+      if (total > 0 && total < HUGE_VAL) {
+        sc.alpha = sc.rz / total;
+      } else {
+        sc.alpha = 0;
+        sc.done = 2;
+      }
+      break;
+    case Finish::beta:
+      sc.beta = sc.rz > 0 ? total / sc.rz : 0;
+      sc.rz = total;
+      sc.iterations += 1;
+      if (tolerance > 0 && total <= tolerance * tolerance * sc.rz0) sc.done = 1;
+      if (!(total > 0)) sc.done = 1;
+      break;
+  }
+}
+
+__device__ inline bool finished(const Scalars* sc) { return sc != nullptr && *(volatile const int*)&sc->done != 0; }
+
+struct Origin {
+  double x[3];
+};
+
+template <class R>
+__global__ void k_kinematics(int n, const double* positions, const double* orientations, Origin origin, R* x_out,
+                             R* r_out) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  double x[3], r[9];
+  frame_kinematics(i, positions, orientations, origin.x, x, r);
+  for (int k = 0; k < 3; ++k) x_out[3 * i + k] = static_cast<R>(x[k]);
+  for (int k = 0; k < 9; ++k) r_out[9 * i + k] = static_cast<R>(r[k]);
+}
+
+// ---- paper design ----
+
+template <class R>
+__global__ void k_paper_gradient(ModelView<R> m, FrameView<R> f, R* F, R* cache, R* a, R* partials, Reduction red) {
+  const int s = blockIdx.x * blockDim.x + threadIdx.x;
+  double e = 0;
+  if (s < m.samples) e = paper_gradient_sample(m, f, s, F, cache, a, partials);
+  reduce_and_finish(e, red, Finish::energy, 0);
+}
+
+template <class R>
+__global__ void k_paper_tangent(ModelView<R> m, FrameView<R> f, const R* F, const R* cache, const R* a, const R* d,
+                                R* partials, const Scalars* sc) {
+  if (finished(sc)) return;
+  const int s = blockIdx.x * blockDim.x + threadIdx.x;
+  if (s < m.samples) paper_tangent_sample(m, f, F, cache, a, d, s, partials);
+}
+
+struct FrameTermsFlags {
+  double inv_h2;
+  bool project;
+};
+
+// Kernel 2 of the paper: 6 threads per frame (one per component), 96 threads per block. With
+// `red.scalars` set (PCG), also reduces d . out and finishes alpha.
+template <class R>
+__global__ void k_paper_gather(ModelView<R> m, const R* partials, const R* geo, const R* inertia_world,
+                               FrameTermsFlags flags, const R* d, R* out, Reduction red, bool pcg) {
+  if (pcg && finished(red.scalars)) return;
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  const int i = t / 6, k = t % 6;
+  double dot = 0;
+  if (i < m.frames) {
+    const double acc = frame_row(m, geo, inertia_world, flags.inv_h2, flags.project, d, i, k, paper_gather(m, partials, i, k));
+    out[6 * i + k] = static_cast<R>(acc);
+    if (pcg) dot = static_cast<double>(d[6 * i + k]) * static_cast<double>(static_cast<R>(acc));
+  }
+  if (pcg) reduce_and_finish(dot, red, Finish::alpha, 0);
+}
+
+// ---- fused design ----
+
+// One block of consecutive samples (ModelView::block_samples); dynamic shared memory holds one
+// 6-vector per pair of the block.
+template <Pass pass, class R>
+__global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, const R* d, R* F_out, R* slot_partials, Reduction red,
+                                const Scalars* sc) {
+  extern __shared__ unsigned char shared_raw[];
+  R* local = reinterpret_cast<R*>(shared_raw);
+  if (pass == Pass::tangent && finished(sc)) return;
+  const int b = blockIdx.x;
+  const int s0 = m.block_samples[b], s1 = m.block_samples[b + 1];
+  const int pair_base = m.offsets[s0];
+  const int s = s0 + static_cast<int>(threadIdx.x);
+  double e = 0;
+  if (s < s1) e = fused_sample<pass>(m, f, d, s, pair_base, local, F_out);
+  __syncthreads();
+  for (int q = m.block_slots[b] + threadIdx.x; q < m.block_slots[b + 1]; q += blockDim.x)
+    fused_slot_sum(m, local, q, slot_partials);
+  if (pass == Pass::gradient) reduce_and_finish(e, red, Finish::energy, 0);
+}
+
+// Frame pass of the fused design: one thread per frame.
+template <class R>
+__global__ void k_fused_gather(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
+                               FrameTermsFlags flags, const R* d, R* out, Reduction red, bool pcg) {
+  if (pcg && finished(red.scalars)) return;
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  double dot = 0;
+  if (i < m.frames) {
+    double acc[6];
+    fused_gather(m, slot_partials, i, acc);
+    for (int k = 0; k < 6; ++k) {
+      const double v = frame_row(m, geo, inertia_world, flags.inv_h2, flags.project, d, i, k, acc[k]);
+      out[6 * i + k] = static_cast<R>(v);
+      if (pcg) dot += static_cast<double>(d[6 * i + k]) * static_cast<double>(static_cast<R>(v));
+    }
+  }
+  if (pcg) reduce_and_finish(dot, red, Finish::alpha, 0);
+}
+
+// ---- frames: preparation and PCG ----
+
+template <class R>
+__global__ void k_frame_prepare(ModelView<R> m, FrameView<R> f, const R* F, bool fused, double inv_h2, R* geo,
+                                R* inertia_world, R* minv, double* diag) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < m.frames) frame_prepare(m, f, F, fused, inv_h2, i, geo, inertia_world, minv, diag);
+}
+
+template <class R>
+FASCIA_HD void block_jacobi(const R* minv, const R* r, int i, double* z) {
+  for (int a = 0; a < 6; ++a) {
+    double acc = 0;
+    for (int b = 0; b < 6; ++b) acc += static_cast<double>(minv[36 * i + 6 * a + b]) * static_cast<double>(r[6 * i + b]);
+    z[a] = acc;
+  }
+}
+
+// Right-hand side and start of the PCG: b = M v / h - dW + f_ext (fixed DOFs 0), x = 0, r = b,
+// z = M^-1 r, p = z, rz = r . z.
+template <class R>
+__global__ void k_pcg_init(ModelView<R> m, const R* gradient, const R* inertia_world, const double* velocities,
+                           const double* external, double inv_h, const R* minv, R* x, R* r, R* z, R* p, Reduction red) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  double dot = 0;
+  if (i < m.frames) {
+    double b[6];
+    const double mass = static_cast<double>(m.masses[i]);
+    const Vec3 w = ldm(inertia_world + 9 * i) * load3(velocities + 6 * i + 3);
+    const double mv[6] = {mass * velocities[6 * i], mass * velocities[6 * i + 1], mass * velocities[6 * i + 2],
+                          w.x, w.y, w.z};
+    for (int k = 0; k < 6; ++k) {
+      b[k] = inv_h * mv[k] - static_cast<double>(gradient[6 * i + k]) + (external ? external[6 * i + k] : 0.0);
+      if (m.fixed[6 * i + k]) b[k] = 0;
+      r[6 * i + k] = static_cast<R>(b[k]);
+      x[6 * i + k] = R(0);
+    }
+    double zz[6];
+    block_jacobi(minv, r, i, zz);
+    for (int k = 0; k < 6; ++k) {
+      z[6 * i + k] = static_cast<R>(zz[k]);
+      p[6 * i + k] = static_cast<R>(zz[k]);
+      dot += static_cast<double>(r[6 * i + k]) * static_cast<double>(static_cast<R>(zz[k]));
+    }
+  }
+  reduce_and_finish(dot, red, Finish::init, 0);
+}
+
+// x += alpha p, r -= alpha Ap, z = M^-1 r, rz_new = r . z; the last block sets beta and the flag.
+template <class R>
+__global__ void k_pcg_update(int n, const R* minv, const R* p, const R* Ap, R* x, R* r, R* z, Reduction red,
+                             double tolerance) {
+  if (finished(red.scalars)) return;
+  const double alpha = red.scalars->alpha;
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  double dot = 0;
+  if (i < n) {
+    for (int k = 0; k < 6; ++k) {
+      const int j = 6 * i + k;
+      x[j] = static_cast<R>(static_cast<double>(x[j]) + alpha * static_cast<double>(p[j]));
+      r[j] = static_cast<R>(static_cast<double>(r[j]) - alpha * static_cast<double>(Ap[j]));
+    }
+    double zz[6];
+    block_jacobi(minv, r, i, zz);
+    for (int k = 0; k < 6; ++k) {
+      z[6 * i + k] = static_cast<R>(zz[k]);
+      dot += static_cast<double>(r[6 * i + k]) * static_cast<double>(static_cast<R>(zz[k]));
+    }
+  }
+  reduce_and_finish(dot, red, Finish::beta, tolerance);
+}
+
+// p = z + beta p.
+template <class R>
+__global__ void k_pcg_direction(int count, const R* z, R* p, const Scalars* sc) {
+  if (finished(sc)) return;
+  const double beta = sc->beta;
+  const int j = blockIdx.x * blockDim.x + threadIdx.x;
+  if (j < count) p[j] = static_cast<R>(static_cast<double>(z[j]) + beta * static_cast<double>(p[j]));
+}
+
+// x <- x (+) delta, v <- delta / h (DESIGN.md: retract with world-axis rotation increments).
+template <class R>
+__global__ void k_step_update(int n, bool rotations_locked, double inv_h, const R* delta, double* positions,
+                              double* orientations, double* velocities) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  double dl[6];
+  for (int k = 0; k < 6; ++k) dl[k] = static_cast<double>(delta[6 * i + k]);
+  for (int k = 0; k < 3; ++k) positions[3 * i + k] += dl[k];
+  if (!rotations_locked)
+    store_quat(orientations + 4 * i, apply_increment(load_quat(orientations + 4 * i), Vec3{dl[3], dl[4], dl[5]}));
+  for (int k = 0; k < 6; ++k) velocities[6 * i + k] = inv_h * dl[k];
+}
+
+}  // namespace fascia::gpu

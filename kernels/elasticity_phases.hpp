@@ -1,0 +1,363 @@
+// The per-thread bodies of the CUDA elasticity kernels (paper §3.2), written as FASCIA_HD
+// functions over raw device pointers so that the same code is compiled into the kernels
+// (device_elasticity.cu) and can be stepped through on the host (tests/kernels).
+//
+// Storage precision is the template parameter R (double or float): the model tables, the frame
+// kinematics and the CG vectors are stored in R. All arithmetic of one sample or frame runs in
+// double registers through the shared mechanics of engine/ (frame_sample.hpp, material.hpp), so
+// the single-precision build loses accuracy only where values are rounded to float in memory.
+//
+// Two designs of the force and tangent-product passes:
+//  - paper: thread per sample writes one 6-vector per sample-frame pair into a buffer; a second
+//    kernel sums each frame's pairs through the reverse table with 6 threads per frame. F, the
+//    material cache and a = R l are precomputed once per Newton iteration.
+//  - fused: thread per sample recomputes F and the material cache from the frames in the same
+//    pass as dF (each pair's w, grad w and frame index are read once per product, a = R (p_s - x_i)
+//    from the rest positions), its pairs' 6-vectors are summed per frame inside the thread block in
+//    shared memory in a fixed order, and a frame pass sums the few block partials of each frame.
+// Both are deterministic: every sum runs in an order fixed by the model, with no atomics on data.
+#pragma once
+
+#include "core/rotation.hpp"
+#include "core/small_math.hpp"
+#include "material/material.hpp"
+#include "mechanics/frame_sample.hpp"
+
+namespace fascia::gpu {
+
+template <class R>
+FASCIA_HD Vec3 ld3(const R* p) {
+  return Vec3{static_cast<double>(p[0]), static_cast<double>(p[1]), static_cast<double>(p[2])};
+}
+template <class R>
+FASCIA_HD Mat3 ldm(const R* p) {
+  Mat3 a;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) a.m[r][c] = static_cast<double>(p[3 * r + c]);
+  return a;
+}
+template <class R>
+FASCIA_HD void st3(R* p, const Vec3& v) {
+  p[0] = static_cast<R>(v.x);
+  p[1] = static_cast<R>(v.y);
+  p[2] = static_cast<R>(v.z);
+}
+template <class R>
+FASCIA_HD void stm(R* p, const Mat3& a) {
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) p[3 * r + c] = static_cast<R>(a.m[r][c]);
+}
+
+// The model on the device (uploaded once). Positions are stored relative to `origin` (the centre
+// of the rest bounding box) so that float storage keeps the digits of small offsets.
+template <class R>
+struct ModelView {
+  int samples = 0, frames = 0, pairs = 0;
+  // Neighbour table (paper §3.1), CSR over samples.
+  const int* offsets = nullptr;     // [S+1]
+  const int* frame_of = nullptr;    // [P]
+  const R* weights = nullptr;       // [P]
+  const R* gradients = nullptr;     // [P][3] 1/m
+  const R* rest_offsets = nullptr;  // [P][3] m (paper design only)
+  // Reverse table, CSR over frames.
+  const int* rev_offsets = nullptr;   // [N+1]
+  const int* rev_pairs = nullptr;     // [P]
+  const int* pair_samples = nullptr;  // [P]
+  // Samples and frames.
+  const R* volumes = nullptr;          // [S] m^3
+  const int* sample_materials = nullptr;  // [S]
+  const Material* materials = nullptr;
+  const R* sample_rest = nullptr;  // [S][3] m, minus origin
+  const R* frame_rest = nullptr;   // [N][3] m, minus origin
+  const R* masses = nullptr;       // [N] kg
+  const R* inertias = nullptr;     // [N][9] kg m^2 at rest
+  const unsigned char* fixed = nullptr;  // [N][6]
+  bool rotations_locked = false;
+  // Fused design: blocks of consecutive samples and their distinct frames ("slots").
+  int blocks = 0;
+  const int* block_samples = nullptr;       // [B+1]
+  const int* block_slots = nullptr;         // [B+1] slots of block b: [block_slots[b], block_slots[b+1])
+  const int* slot_frames = nullptr;         // [Q]
+  const int* slot_pair_offsets = nullptr;   // [Q+1]
+  const int* slot_pairs = nullptr;          // [P] pair index relative to the block's first pair
+  const int* frame_slot_offsets = nullptr;  // [N+1]
+  const int* frame_slots = nullptr;         // [Q]
+};
+
+// Frame kinematics of the current state: R_i row-major and x_i - origin.
+template <class R>
+struct FrameView {
+  const R* rotations = nullptr;  // [N][9]
+  const R* positions = nullptr;  // [N][3]
+};
+
+// ---- frames: kinematics ------------------------------------------------------------------------
+
+FASCIA_HD void frame_kinematics(int i, const double* positions, const double* orientations, const double* origin,
+                                double* x_out, double* r_out) {
+  const Mat3 Ri = rotation_matrix(normalized(load_quat(orientations + 4 * i)));
+  for (int k = 0; k < 3; ++k) x_out[k] = positions[3 * i + k] - origin[k];
+  store_mat3(r_out, Ri);
+}
+
+// ---- paper design ------------------------------------------------------------------------------
+
+// Kernel 1 of the force pass: F and P of sample s in registers, one partial 6-vector per pair
+// (eq. 18) into `partials` [P][6]. Stores F [S][9], the material cache [S][10] and a = R l [P][3]
+// that the tangent products of this Newton iteration reuse. Returns v psi(F).
+template <class R>
+FASCIA_HD double paper_gradient_sample(const ModelView<R>& m, const FrameView<R>& f, int s, R* F_out, R* cache_out,
+                                       R* a_out, R* partials) {
+  Mat3 F = zero3();
+  for (int p = m.offsets[s]; p < m.offsets[s + 1]; ++p) {
+    const int i = m.frame_of[p];
+    const Mat3 Ri = ldm(f.rotations + 9 * i);
+    const Vec3 a = Ri * ld3(m.rest_offsets + 3 * p);
+    st3(a_out + 3 * p, a);
+    F += outer(ld3(f.positions + 3 * i) + a, ld3(m.gradients + 3 * p)) + static_cast<double>(m.weights[p]) * Ri;
+  }
+  const Material mat = m.materials[m.sample_materials[s]];
+  const double v = static_cast<double>(m.volumes[s]);
+  MaterialCache cache;
+  const Mat3 P = first_piola(mat, F, cache);
+  stm(F_out + 9 * s, F);
+  stm(cache_out + 10 * s, cache.a);
+  cache_out[10 * s + 9] = static_cast<R>(cache.c);
+  for (int p = m.offsets[s]; p < m.offsets[s + 1]; ++p) {
+    const int i = m.frame_of[p];
+    double out[6];
+    pair_virtual_work(P, ld3(a_out + 3 * p), ld3(m.gradients + 3 * p), static_cast<double>(m.weights[p]),
+                      ldm(f.rotations + 9 * i), v, out);
+    for (int k = 0; k < 6; ++k) partials[6 * p + k] = static_cast<R>(out[k]);
+  }
+  return v * energy_density(mat, F);
+}
+
+// Kernel 1 of the tangent product: dF = sum_p B_p d_i (eq. 11), dP = C[dF] (eq. 22-24), one
+// partial B_p^T dP v per pair (eq. 21, 23 with the dF S part of eq. 25-26).
+template <class R>
+FASCIA_HD void paper_tangent_sample(const ModelView<R>& m, const FrameView<R>& f, const R* F, const R* cache,
+                                    const R* a_in, const R* d, int s, R* partials) {
+  Mat3 dF = zero3();
+  for (int p = m.offsets[s]; p < m.offsets[s + 1]; ++p) {
+    const int i = m.frame_of[p];
+    dF += pair_deformation_differential(ld3(d + 6 * i), ld3(d + 6 * i + 3), ld3(a_in + 3 * p),
+                                        ld3(m.gradients + 3 * p), static_cast<double>(m.weights[p]),
+                                        ldm(f.rotations + 9 * i));
+  }
+  const Material mat = m.materials[m.sample_materials[s]];
+  MaterialCache c;
+  c.a = ldm(cache + 10 * s);
+  c.c = static_cast<double>(cache[10 * s + 9]);
+  const Mat3 dP = pk1_differential(mat, ldm(F + 9 * s), c, dF);
+  const double v = static_cast<double>(m.volumes[s]);
+  for (int p = m.offsets[s]; p < m.offsets[s + 1]; ++p) {
+    const int i = m.frame_of[p];
+    double out[6];
+    pair_virtual_work(dP, ld3(a_in + 3 * p), ld3(m.gradients + 3 * p), static_cast<double>(m.weights[p]),
+                      ldm(f.rotations + 9 * i), v, out);
+    for (int k = 0; k < 6; ++k) partials[6 * p + k] = static_cast<R>(out[k]);
+  }
+}
+
+// Kernel 2: component k of frame i's sum over its pairs, in reverse-table order.
+template <class R>
+FASCIA_HD double paper_gather(const ModelView<R>& m, const R* partials, int i, int k) {
+  double acc = 0;
+  for (int q = m.rev_offsets[i]; q < m.rev_offsets[i + 1]; ++q)
+    acc += static_cast<double>(partials[6 * m.rev_pairs[q] + k]);
+  return acc;
+}
+
+// ---- fused design ------------------------------------------------------------------------------
+
+enum class Pass { gradient = 0, tangent = 1 };
+
+// One sample of the fused pass. F is rebuilt from the frames (eq. 8, l = p_s - x_i, eq. 2 with
+// rest orientation I); in the gradient pass T = P (and F is stored for the frame preparation), in
+// the tangent pass T = dP[dF]. Each pair's v B_p^T T goes to local[6 (p - pair_base) + k]
+// (shared memory on the device). Returns v psi(F) in the gradient pass, 0 otherwise.
+template <Pass pass, class R>
+FASCIA_HD double fused_sample(const ModelView<R>& m, const FrameView<R>& f, const R* d, int s, int pair_base,
+                              R* local, R* F_out) {
+  const Vec3 ps = ld3(m.sample_rest + 3 * s);
+  const int begin = m.offsets[s], end = m.offsets[s + 1];
+  Mat3 F = zero3();
+  Mat3 dF = zero3();
+  for (int p = begin; p < end; ++p) {
+    const int i = m.frame_of[p];
+    const Mat3 Ri = ldm(f.rotations + 9 * i);
+    const Vec3 a = Ri * (ps - ld3(m.frame_rest + 3 * i));
+    const Vec3 g = ld3(m.gradients + 3 * p);
+    const double w = static_cast<double>(m.weights[p]);
+    F += outer(ld3(f.positions + 3 * i) + a, g) + w * Ri;
+    if (pass == Pass::tangent) dF += pair_deformation_differential(ld3(d + 6 * i), ld3(d + 6 * i + 3), a, g, w, Ri);
+  }
+  const Material mat = m.materials[m.sample_materials[s]];
+  const double v = static_cast<double>(m.volumes[s]);
+  MaterialCache cache;
+  Mat3 T = first_piola(mat, F, cache);
+  double energy = 0;
+  if (pass == Pass::gradient) {
+    energy = v * energy_density(mat, F);
+    if (F_out) stm(F_out + 9 * s, F);
+  } else {
+    T = pk1_differential(mat, F, cache, dF);
+  }
+  for (int p = begin; p < end; ++p) {
+    const int i = m.frame_of[p];
+    const Mat3 Ri = ldm(f.rotations + 9 * i);
+    const Vec3 a = Ri * (ps - ld3(m.frame_rest + 3 * i));
+    double out[6];
+    pair_virtual_work(T, a, ld3(m.gradients + 3 * p), static_cast<double>(m.weights[p]), Ri, v, out);
+    R* dst = local + 6 * (p - pair_base);
+    for (int k = 0; k < 6; ++k) dst[k] = static_cast<R>(out[k]);
+  }
+  return energy;
+}
+
+// Sum of the pairs of block slot q (one frame of one block), in increasing pair order.
+template <class R>
+FASCIA_HD void fused_slot_sum(const ModelView<R>& m, const R* local, int q, R* partials) {
+  double acc[6] = {0, 0, 0, 0, 0, 0};
+  for (int k = m.slot_pair_offsets[q]; k < m.slot_pair_offsets[q + 1]; ++k) {
+    const R* src = local + 6 * m.slot_pairs[k];
+    for (int j = 0; j < 6; ++j) acc[j] += static_cast<double>(src[j]);
+  }
+  for (int j = 0; j < 6; ++j) partials[6 * q + j] = static_cast<R>(acc[j]);
+}
+
+// Frame i's sum of its block slots, in block order.
+template <class R>
+FASCIA_HD void fused_gather(const ModelView<R>& m, const R* partials, int i, double* acc) {
+  for (int j = 0; j < 6; ++j) acc[j] = 0;
+  for (int k = m.frame_slot_offsets[i]; k < m.frame_slot_offsets[i + 1]; ++k) {
+    const R* src = partials + 6 * m.frame_slots[k];
+    for (int j = 0; j < 6; ++j) acc[j] += static_cast<double>(src[j]);
+  }
+}
+
+// ---- frames: the rest of the operator ------------------------------------------------------------
+
+// Row k of the frame terms added after the gather: the rotational geometric block (`geo` [N][9],
+// tangent products only, null otherwise) times d_r, the inertia M_i / h^2 times d (translations
+// m_i, rotations R_i J_i R_i^T in `inertia_world` [N][9]; gyroscopic terms are neglected), and, when
+// `project` is set, the projection of fixed DOFs (they leave the unknowns: row set to 0).
+template <class R>
+FASCIA_HD double frame_row(const ModelView<R>& m, const R* geo, const R* inertia_world, double inv_h2, bool project,
+                           const R* d, int i, int k, double acc) {
+  if (project && m.fixed[6 * i + k]) return 0.0;
+  if (k >= 3) {
+    const R* dr = d + 6 * i + 3;
+    if (geo) {
+      const R* row = geo + 9 * i + 3 * (k - 3);
+      acc += static_cast<double>(row[0]) * static_cast<double>(dr[0]) +
+             static_cast<double>(row[1]) * static_cast<double>(dr[1]) +
+             static_cast<double>(row[2]) * static_cast<double>(dr[2]);
+    }
+    if (inv_h2 != 0) {
+      const R* jr = inertia_world + 9 * i + 3 * (k - 3);
+      acc += inv_h2 * (static_cast<double>(jr[0]) * static_cast<double>(dr[0]) +
+                       static_cast<double>(jr[1]) * static_cast<double>(dr[1]) +
+                       static_cast<double>(jr[2]) * static_cast<double>(dr[2]));
+    }
+  } else if (inv_h2 != 0) {
+    acc += inv_h2 * static_cast<double>(m.masses[i]) * static_cast<double>(d[6 * i + k]);
+  }
+  return acc;
+}
+
+// In-place inverse of a 6x6 matrix by Gauss-Jordan elimination with partial pivoting. Returns
+// false if singular.
+FASCIA_HD bool invert6(double* a, double* inv) {
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) inv[6 * r + c] = r == c ? 1.0 : 0.0;
+  for (int c = 0; c < 6; ++c) {
+    int piv = c;
+    for (int r = c + 1; r < 6; ++r)
+      if (std::fabs(a[6 * r + c]) > std::fabs(a[6 * piv + c])) piv = r;
+    if (a[6 * piv + c] == 0.0) return false;
+    if (piv != c)
+      for (int k = 0; k < 6; ++k) {
+        double t = a[6 * c + k];
+        a[6 * c + k] = a[6 * piv + k];
+        a[6 * piv + k] = t;
+        t = inv[6 * c + k];
+        inv[6 * c + k] = inv[6 * piv + k];
+        inv[6 * piv + k] = t;
+      }
+    const double s = 1.0 / a[6 * c + c];
+    for (int k = 0; k < 6; ++k) {
+      a[6 * c + k] *= s;
+      inv[6 * c + k] *= s;
+    }
+    for (int r = 0; r < 6; ++r) {
+      if (r == c) continue;
+      const double t = a[6 * r + c];
+      if (t == 0.0) continue;
+      for (int k = 0; k < 6; ++k) {
+        a[6 * r + k] -= t * a[6 * c + k];
+        inv[6 * r + k] -= t * inv[6 * c + k];
+      }
+    }
+  }
+  return true;
+}
+
+// Per-frame preparation of a Newton iteration, from F [S][9] of the gradient pass: the
+// rotational geometric block (frame_sample.hpp), the rotated inertia R J R^T, the 6x6 diagonal
+// block K_ii (material + geometric, = Elasticity::tangent_diagonal_blocks) and the block-Jacobi
+// preconditioner inv(K_ii + M_i / h^2) with fixed DOFs replaced by identity rows and columns.
+// `fused` selects a = R (p_s - x_i) (fused design) or a = R l from the table (paper design).
+template <class R>
+FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, double inv_h2, int i,
+                             R* geo_out, R* inertia_out, R* minv_out, double* diag_out) {
+  const Mat3 Ri = ldm(f.rotations + 9 * i);
+  Mat3 Kr = zero3();
+  double K[36];
+  for (int k = 0; k < 36; ++k) K[k] = 0;
+  for (int q = m.rev_offsets[i]; q < m.rev_offsets[i + 1]; ++q) {
+    const int p = m.rev_pairs[q];
+    const int s = m.pair_samples[p];
+    const Vec3 l = fused ? ld3(m.sample_rest + 3 * s) - ld3(m.frame_rest + 3 * i) : ld3(m.rest_offsets + 3 * p);
+    const Vec3 a = Ri * l;
+    const Vec3 g = ld3(m.gradients + 3 * p);
+    const double w = static_cast<double>(m.weights[p]);
+    const double v = static_cast<double>(m.volumes[s]);
+    const Material mat = m.materials[m.sample_materials[s]];
+    const Mat3 Fs = ldm(F + 9 * s);
+    MaterialCache cache;
+    const Mat3 P = first_piola(mat, Fs, cache);
+    Kr += pair_rotational_geometric_block(P, a, g, w, Ri, v);
+    for (int c = 0; c < 6; ++c) {
+      Vec3 dx{0, 0, 0}, dr{0, 0, 0};
+      Vec3& e = c < 3 ? dx : dr;
+      e = Vec3{c % 3 == 0 ? 1.0 : 0.0, c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0};
+      const Mat3 dP = pk1_differential(mat, Fs, cache, pair_deformation_differential(dx, dr, a, g, w, Ri));
+      double col[6];
+      pair_virtual_work(dP, a, g, w, Ri, v, col);
+      for (int r = 0; r < 6; ++r) K[6 * r + c] += col[r];
+    }
+  }
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) K[6 * (3 + r) + 3 + c] += Kr.m[r][c];
+  const Mat3 J = Ri * ldm(m.inertias + 9 * i) * transpose(Ri);
+  stm(geo_out + 9 * i, Kr);
+  stm(inertia_out + 9 * i, J);
+  if (diag_out)
+    for (int k = 0; k < 36; ++k) diag_out[36 * i + k] = K[k];
+  const double mass = static_cast<double>(m.masses[i]);
+  for (int r = 0; r < 3; ++r) {
+    K[6 * r + r] += inv_h2 * mass;
+    for (int c = 0; c < 3; ++c) K[6 * (3 + r) + 3 + c] += inv_h2 * J.m[r][c];
+  }
+  for (int k = 0; k < 6; ++k)
+    if (m.fixed[6 * i + k])
+      for (int j = 0; j < 6; ++j) K[6 * k + j] = K[6 * j + k] = (j == k ? 1.0 : 0.0);
+  double inv[36];
+  if (!invert6(K, inv))
+    for (int k = 0; k < 36; ++k) inv[k] = (k % 7 == 0) ? 1.0 : 0.0;  // identity: plain CG on this frame
+  for (int k = 0; k < 36; ++k) minv_out[36 * i + k] = static_cast<R>(inv[k]);
+}
+
+}  // namespace fascia::gpu

@@ -1,0 +1,141 @@
+#include "sample_layout.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+
+namespace fascia::gpu {
+namespace {
+
+// Spreads the low 21 bits of v to every third bit.
+std::uint64_t spread_bits(std::uint64_t v) {
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffffULL;
+  v = (v | v << 16) & 0x1f0000ff0000ffULL;
+  v = (v | v << 8) & 0x100f00f00f00f00fULL;
+  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+  v = (v | v << 2) & 0x1249249249249249ULL;
+  return v;
+}
+
+}  // namespace
+
+std::vector<int> spatial_sample_order(const Model& model) {
+  const int s_count = model.sample_count();
+  const std::vector<double>& x = model.samples.rest_positions;
+  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  for (int s = 0; s < s_count; ++s)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], x[3 * s + k]);
+      hi[k] = std::max(hi[k], x[3 * s + k]);
+    }
+  // One cell size for all axes keeps the curve's cells cubic.
+  const double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-300});
+  const double scale = ((1 << 21) - 1) / extent;
+  std::vector<std::uint64_t> code(s_count);
+  for (int s = 0; s < s_count; ++s) {
+    std::uint64_t c = 0;
+    for (int k = 0; k < 3; ++k)
+      c |= spread_bits(static_cast<std::uint64_t>((x[3 * s + k] - lo[k]) * scale)) << k;
+    code[s] = c;
+  }
+  std::vector<int> order(s_count);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return code[a] < code[b]; });
+  return order;
+}
+
+Model reorder_samples(const Model& model, const std::vector<int>& order) {
+  Model out;
+  out.frame_rest_positions = model.frame_rest_positions;
+  out.materials = model.materials;
+  out.frame_masses = model.frame_masses;
+  out.frame_inertias = model.frame_inertias;
+  out.fixed_dofs = model.fixed_dofs;
+  out.rotations_locked = model.rotations_locked;
+  const NeighbourTable& nb = model.neighbours;
+  NeighbourTable& o = out.neighbours;
+  o.offsets.reserve(nb.offsets.size());
+  o.offsets.push_back(0);
+  for (int s : order) {
+    out.samples.rest_positions.insert(out.samples.rest_positions.end(), &model.samples.rest_positions[3 * s],
+                                      &model.samples.rest_positions[3 * s] + 3);
+    out.samples.volumes.push_back(model.samples.volumes[s]);
+    out.samples.materials.push_back(model.samples.materials[s]);
+    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+      o.frames.push_back(nb.frames[p]);
+      o.weights.push_back(nb.weights[p]);
+      o.weight_gradients.insert(o.weight_gradients.end(), &nb.weight_gradients[3 * p], &nb.weight_gradients[3 * p] + 3);
+      o.rest_offsets.insert(o.rest_offsets.end(), &nb.rest_offsets[3 * p], &nb.rest_offsets[3 * p] + 3);
+    }
+    o.offsets.push_back(static_cast<int>(o.frames.size()));
+  }
+  build_reverse_table(out);
+  return out;
+}
+
+bool offsets_are_rest_differences(const Model& model, double rel_tol) {
+  const NeighbourTable& nb = model.neighbours;
+  double lo = HUGE_VAL, hi = -HUGE_VAL;
+  for (double v : model.frame_rest_positions) {
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  const double tol = rel_tol * std::max(hi - lo, 1e-300);
+  for (int s = 0; s < model.sample_count(); ++s)
+    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+      const int i = nb.frames[p];
+      for (int k = 0; k < 3; ++k) {
+        const double l = model.samples.rest_positions[3 * s + k] - model.frame_rest_positions[3 * i + k];
+        if (std::abs(l - nb.rest_offsets[3 * p + k]) > tol) return false;
+      }
+    }
+  return true;
+}
+
+BlockLayout build_block_layout(const Model& model, int max_samples, int max_pairs) {
+  BlockLayout L;
+  const NeighbourTable& nb = model.neighbours;
+  const int s_count = model.sample_count();
+  const int n = model.frame_count();
+  L.block_samples.push_back(0);
+  for (int s = 0; s < s_count;) {
+    const int first = s;
+    while (s < s_count && s - first < max_samples &&
+           (s == first || nb.offsets[s + 1] - nb.offsets[first] <= max_pairs))
+      ++s;
+    L.block_samples.push_back(s);
+    L.max_block_pairs = std::max(L.max_block_pairs, nb.offsets[s] - nb.offsets[first]);
+  }
+  const int blocks = L.block_count();
+  L.block_slots.push_back(0);
+  L.slot_pair_offsets.push_back(0);
+  std::vector<std::pair<int, int>> frame_pair;  // (frame, local pair), sorted
+  for (int b = 0; b < blocks; ++b) {
+    const int p0 = nb.offsets[L.block_samples[b]], p1 = nb.offsets[L.block_samples[b + 1]];
+    frame_pair.clear();
+    for (int p = p0; p < p1; ++p) frame_pair.emplace_back(nb.frames[p], p - p0);
+    std::sort(frame_pair.begin(), frame_pair.end());
+    for (size_t k = 0; k < frame_pair.size(); ++k) {
+      if (k == 0 || frame_pair[k].first != frame_pair[k - 1].first) {
+        if (k > 0) L.slot_pair_offsets.push_back(static_cast<int>(L.slot_pairs.size()));
+        L.slot_frames.push_back(frame_pair[k].first);
+      }
+      L.slot_pairs.push_back(frame_pair[k].second);
+    }
+    if (!frame_pair.empty()) L.slot_pair_offsets.push_back(static_cast<int>(L.slot_pairs.size()));
+    L.block_slots.push_back(static_cast<int>(L.slot_frames.size()));
+  }
+  // Frame -> its slots, in slot (= block) order.
+  const int q_count = L.slot_count();
+  L.frame_slot_offsets.assign(n + 1, 0);
+  for (int q = 0; q < q_count; ++q) ++L.frame_slot_offsets[L.slot_frames[q] + 1];
+  for (int i = 0; i < n; ++i) L.frame_slot_offsets[i + 1] += L.frame_slot_offsets[i];
+  L.frame_slots.assign(q_count, 0);
+  std::vector<int> cursor(L.frame_slot_offsets.begin(), L.frame_slot_offsets.end() - 1);
+  for (int q = 0; q < q_count; ++q) L.frame_slots[cursor[L.slot_frames[q]]++] = q;
+  return L;
+}
+
+}  // namespace fascia::gpu

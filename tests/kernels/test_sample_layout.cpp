@@ -1,0 +1,183 @@
+// Host-side checks of the device layout (sample_layout.hpp) and of the kernels' per-thread bodies
+// (elasticity_phases.hpp) stepped through on the CPU in the device's order: no GPU needed.
+#include "reference_step.hpp"
+#include "sample_layout.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <numeric>
+
+using namespace fascia;
+using namespace fascia::gpu;
+using namespace fascia::test;
+
+namespace {
+
+// Host copies of what the device holds, with a ModelView over them.
+struct HostDevice {
+  Model model;
+  BlockLayout layout;
+  std::vector<double> sample_rest, frame_rest, x, rot;
+  ModelView<double> view;
+  FrameView<double> frames;
+
+  HostDevice(const Model& input, const State& state, int block_samples, int block_pairs)
+      : model(reorder_samples(input, spatial_sample_order(input))),
+        layout(build_block_layout(model, block_samples, block_pairs)) {
+    sample_rest = model.samples.rest_positions;
+    frame_rest = model.frame_rest_positions;
+    const double origin[3] = {0.1, 0.05, 0.025};
+    for (size_t k = 0; k < sample_rest.size(); ++k) sample_rest[k] -= origin[k % 3];
+    for (size_t k = 0; k < frame_rest.size(); ++k) frame_rest[k] -= origin[k % 3];
+    const int n = model.frame_count();
+    x.resize(3 * n);
+    rot.resize(9 * n);
+    for (int i = 0; i < n; ++i) frame_kinematics(i, state.positions.data(), state.orientations.data(), origin, &x[3 * i], &rot[9 * i]);
+    const NeighbourTable& nb = model.neighbours;
+    view = ModelView<double>{};
+    view.samples = model.sample_count();
+    view.frames = n;
+    view.pairs = model.pair_count();
+    view.offsets = nb.offsets.data();
+    view.frame_of = nb.frames.data();
+    view.weights = nb.weights.data();
+    view.gradients = nb.weight_gradients.data();
+    view.rest_offsets = nb.rest_offsets.data();
+    view.rev_offsets = model.reverse.offsets.data();
+    view.rev_pairs = model.reverse.pairs.data();
+    view.pair_samples = model.reverse.pair_samples.data();
+    view.volumes = model.samples.volumes.data();
+    view.sample_materials = model.samples.materials.data();
+    view.materials = model.materials.data();
+    view.sample_rest = sample_rest.data();
+    view.frame_rest = frame_rest.data();
+    view.masses = model.frame_masses.data();
+    view.inertias = model.frame_inertias.data();
+    view.fixed = model.fixed_dofs.data();
+    view.blocks = layout.block_count();
+    view.block_samples = layout.block_samples.data();
+    view.block_slots = layout.block_slots.data();
+    view.slot_frames = layout.slot_frames.data();
+    view.slot_pair_offsets = layout.slot_pair_offsets.data();
+    view.slot_pairs = layout.slot_pairs.data();
+    view.frame_slot_offsets = layout.frame_slot_offsets.data();
+    view.frame_slots = layout.frame_slots.data();
+    frames = FrameView<double>{rot.data(), x.data()};
+  }
+
+  // The fused pass as the device runs it: blocks, shared-memory slots, frame gather.
+  template <Pass pass>
+  std::vector<double> fused(const std::vector<double>& d, std::vector<double>* F) {
+    std::vector<double> partials(6 * static_cast<size_t>(layout.slot_count()));
+    for (int b = 0; b < layout.block_count(); ++b) {
+      const int s0 = layout.block_samples[b];
+      std::vector<double> local(6 * static_cast<size_t>(layout.max_block_pairs));
+      for (int s = s0; s < layout.block_samples[b + 1]; ++s)
+        fused_sample<pass>(view, frames, d.data(), s, model.neighbours.offsets[s0], local.data(), F ? F->data() : nullptr);
+      for (int q = layout.block_slots[b]; q < layout.block_slots[b + 1]; ++q) fused_slot_sum(view, local.data(), q, partials.data());
+    }
+    std::vector<double> out(model.dof_count());
+    for (int i = 0; i < model.frame_count(); ++i) fused_gather(view, partials.data(), i, &out[6 * i]);
+    return out;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("Morton sample order is a permutation and leaves the mechanics unchanged", "[kernels][layout]") {
+  const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::stvk);
+  const std::vector<int> order = spatial_sample_order(model);
+  std::vector<int> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<int> identity(model.sample_count());
+  std::iota(identity.begin(), identity.end(), 0);
+  REQUIRE(sorted == identity);
+  const Model reordered = reorder_samples(model, order);
+  REQUIRE_NOTHROW(validate(reordered));
+  REQUIRE(offsets_are_rest_differences(reordered));
+  const State state = kernels_test_state(model, 3);
+  std::vector<double> g0(model.dof_count()), g1(model.dof_count());
+  Elasticity a(model, 1), b(reordered, 1);
+  const double w0 = a.gradient(state, g0.data());
+  const double w1 = b.gradient(state, g1.data());
+  REQUIRE(w1 == Approx(w0).epsilon(1e-13));
+  REQUIRE(relative_difference(g1, g0) < 1e-13);
+}
+
+TEST_CASE("block layout lists every pair once, per frame, in increasing order", "[kernels][layout]") {
+  const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::stvk, 5, 4, 3);
+  const int block_samples = GENERATE(32, 128);
+  const int block_pairs = GENERATE(8, 1024);  // 8: a block per sample (8 neighbours each)
+  const BlockLayout L = build_block_layout(model, block_samples, block_pairs);
+  REQUIRE(L.block_samples.front() == 0);
+  REQUIRE(L.block_samples.back() == model.sample_count());
+  std::vector<int> seen(model.pair_count(), 0);
+  for (int b = 0; b < L.block_count(); ++b) {
+    const int s0 = L.block_samples[b], s1 = L.block_samples[b + 1];
+    REQUIRE(s1 > s0);
+    REQUIRE(s1 - s0 <= block_samples);
+    const int p0 = model.neighbours.offsets[s0];
+    REQUIRE((s1 - s0 == 1 || model.neighbours.offsets[s1] - p0 <= block_pairs));
+    for (int q = L.block_slots[b]; q < L.block_slots[b + 1]; ++q) {
+      if (q > L.block_slots[b]) REQUIRE(L.slot_frames[q] > L.slot_frames[q - 1]);
+      for (int k = L.slot_pair_offsets[q]; k < L.slot_pair_offsets[q + 1]; ++k) {
+        const int p = p0 + L.slot_pairs[k];
+        REQUIRE(model.neighbours.frames[p] == L.slot_frames[q]);
+        ++seen[p];
+      }
+    }
+  }
+  REQUIRE(std::all_of(seen.begin(), seen.end(), [](int c) { return c == 1; }));
+  for (int i = 0; i < model.frame_count(); ++i)
+    for (int k = L.frame_slot_offsets[i]; k < L.frame_slot_offsets[i + 1]; ++k) {
+      REQUIRE(L.slot_frames[L.frame_slots[k]] == i);
+      if (k > L.frame_slot_offsets[i]) REQUIRE(L.frame_slots[k] > L.frame_slots[k - 1]);
+    }
+}
+
+TEST_CASE("kernel bodies stepped on the host reproduce the CPU reference", "[kernels][emulation]") {
+  const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
+  const MaterialLaw law = GENERATE(MaterialLaw::stvk, MaterialLaw::neo_hookean);
+  const Model model = kernels_test_model(type, law);
+  const State state = kernels_test_state(model, 5);
+  HostDevice dev(model, state, 32, 96);
+  const int n = model.frame_count(), dofs = model.dof_count();
+
+  Elasticity el(model, 1);
+  std::vector<double> g(dofs), d(dofs), Kd(dofs), blocks(36 * n);
+  const double w = el.gradient(state, g.data());
+  el.prepare(state);
+  el.tangent_diagonal_blocks(blocks.data());
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int j = 0; j < dofs; ++j) d[j] = (j % 6 < 3 ? 0.01 : 1.0) * u(rng);
+  el.apply_tangent(d.data(), Kd.data());
+
+  // Fused design.
+  std::vector<double> F(9 * static_cast<size_t>(model.sample_count()));
+  const std::vector<double> fg = dev.fused<Pass::gradient>(d, &F);
+  CHECK(relative_difference(fg, g) < 1e-12);
+  std::vector<double> geo(9 * n), jw(9 * n), minv(36 * n), diag(36 * n);
+  for (int i = 0; i < n; ++i) frame_prepare(dev.view, dev.frames, F.data(), true, 0.0, i, geo.data(), jw.data(), minv.data(), diag.data());
+  CHECK(relative_difference(diag, blocks) < 1e-12);
+  std::vector<double> fk = dev.fused<Pass::tangent>(d, nullptr);
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < 6; ++k) fk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, fk[6 * i + k]);
+  CHECK(relative_difference(fk, Kd) < 1e-12);
+
+  // Paper design.
+  const int P = model.pair_count(), S = model.sample_count();
+  std::vector<double> pF(9 * S), cache(10 * S), a(3 * P), partials(6 * P), pg(dofs), pk(dofs);
+  double energy = 0;
+  for (int s = 0; s < S; ++s) energy += paper_gradient_sample(dev.view, dev.frames, s, pF.data(), cache.data(), a.data(), partials.data());
+  CHECK(energy == Approx(w).epsilon(1e-12));
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < 6; ++k) pg[6 * i + k] = paper_gather(dev.view, partials.data(), i, k);
+  CHECK(relative_difference(pg, g) < 1e-12);
+  for (int i = 0; i < n; ++i) frame_prepare(dev.view, dev.frames, pF.data(), false, 0.0, i, geo.data(), jw.data(), minv.data(), diag.data());
+  for (int s = 0; s < S; ++s) paper_tangent_sample(dev.view, dev.frames, pF.data(), cache.data(), a.data(), d.data(), s, partials.data());
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < 6; ++k)
+      pk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, paper_gather(dev.view, partials.data(), i, k));
+  CHECK(relative_difference(pk, Kd) < 1e-12);
+}
