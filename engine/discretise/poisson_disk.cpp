@@ -33,7 +33,6 @@ std::uint64_t Random::next() {  // xoshiro256**
 std::vector<double> poisson_disk_sample(const VoxelDomain& domain, const PoissonDiskOptions& options) {
   const double r = options.radius;
   if (!(r > 0)) throw std::invalid_argument("Poisson-disk radius must be positive");
-  constexpr double kPi = 3.14159265358979323846;
   // Cells of r / sqrt(3): a cell holds at most one point; the disk test looks two cells away.
   PointGrid grid(domain.lower(), domain.upper(), r / std::sqrt(3.0), 2);
   VoxelDomain::Probe probe(domain);
@@ -43,10 +42,9 @@ std::vector<double> poisson_disk_sample(const VoxelDomain& domain, const Poisson
 
   // Accepts x if inside, in the grid and at least r from every point.
   const auto try_add = [&](const Vec3& x) {
-    std::array<int, 3> ijk;
-    const long long cell = grid.cell_of(x, ijk);
+    const long long cell = grid.cell_of(x);
     if (cell < 0 || grid.at(cell) >= 0) return false;  // an occupied cell is closer than r
-    if (grid.any_within(x, ijk, r, points)) return false;
+    if (grid.any_within(x, cell, r, points)) return false;
     if (!probe.inside(x)) return false;
     const int id = static_cast<int>(points.size() / 3);
     points.insert(points.end(), {x.x, x.y, x.z});
@@ -62,10 +60,14 @@ std::vector<double> poisson_disk_sample(const VoxelDomain& domain, const Poisson
       const Vec3 centre = load3(&points[3 * active[slot]]);
       bool added = false;
       for (int a = 0; a < options.attempts && !added; ++a) {
-        const double rho = r * std::cbrt(1 + 7 * rng.uniform());
-        const double z = 2 * rng.uniform() - 1, phi = 2 * kPi * rng.uniform();
-        const double s = std::sqrt(std::max(0.0, 1 - z * z));
-        added = try_add(centre + rho * Vec3{s * std::cos(phi), s * std::sin(phi), z});
+        // Uniform in the shell by rejection from the cube [-2r, 2r]^3 (acceptance 7 pi / 48).
+        Vec3 d;
+        double d2;
+        do {
+          d = (4 * r) * Vec3{rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5};
+          d2 = dot(d, d);
+        } while (d2 < r * r || d2 >= 4 * r * r);
+        added = try_add(centre + d);
       }
       if (!added) {
         active[slot] = active.back();

@@ -16,8 +16,7 @@ SampleVolumes sample_volumes(const VoxelDomain& domain, const std::vector<double
   const int reach = 1 + static_cast<int>(std::ceil(reach_distance / cell));
   PointGrid grid(domain.lower(), domain.upper(), cell, reach);
   for (int s = 0; s < s_count; ++s) {
-    std::array<int, 3> ijk;
-    const long long c = grid.cell_of(load3(&samples[3 * s]), ijk);
+    const long long c = grid.cell_of(load3(&samples[3 * s]));
     if (c < 0 || grid.at(c) >= 0)
       throw std::invalid_argument("sample_volumes: samples must lie in the domain and be at least `radius` apart");
     grid.set(c, s);
