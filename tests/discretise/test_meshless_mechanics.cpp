@@ -30,7 +30,7 @@ TEST_CASE("meshless: forces are minus the gradient of the energy", "[discretise]
   const Model model = small_meshless_box(kind, law).model;
   // Displacements of 2 mm on 40 mm frame spacing: strains ~ 0.05 to 0.1, no inversion.
   const State state = random_state(model, 7, 0.002, 0.3, 2.0);
-  Elasticity elasticity(model);
+  Elasticity elasticity(model, 1);  // tiny model: one thread avoids OpenMP overhead
   std::vector<double> g(model.dof_count());
   const double w = elasticity.gradient(state, g.data());
   REQUIRE(std::isfinite(w));
@@ -51,7 +51,7 @@ TEST_CASE("meshless: tangent product is the Hessian of the energy and symmetric"
   const MeshlessShapeKind kind = GENERATE(MeshlessShapeKind::mls, MeshlessShapeKind::rbf);
   const Model model = small_meshless_box(kind, MaterialLaw::stvk).model;
   const State state = random_state(model, 11, 0.002, 0.5, 2.5);
-  Elasticity elasticity(model);
+  Elasticity elasticity(model, 1);  // tiny model: one thread avoids OpenMP overhead
   elasticity.prepare(state);
   const Energy energy = [&](const State& s) { return elasticity.energy(s); };
   const std::vector<double> d = random_direction(model, 1, 0.01), e2 = random_direction(model, 2, 0.01);
@@ -84,7 +84,7 @@ TEST_CASE("meshless: rigid motions give zero energy and force; forces rotate wit
     }
     return m;
   };
-  Elasticity elasticity(model);
+  Elasticity elasticity(model, 1);  // tiny model: one thread avoids OpenMP overhead
   std::vector<double> g(model.dof_count()), gm(model.dof_count());
   // Energy scale E * volume = 1e4 * 1e-3 = 10 J, force scale E * area ~ 1e2 N; round-off only.
   REQUIRE(std::abs(elasticity.gradient(moved(rest_state(model)), g.data())) <= 1e-12);
