@@ -1,0 +1,98 @@
+// A simulation: a model, its loads, prescribed motions and an integrator advanced step by step.
+// This is what `fascia run` drives; each step reports what the HDF5 observables record.
+#pragma once
+
+#include "mechanics/external_loads.hpp"
+#include "model/model.hpp"
+#include "model/state.hpp"
+#include "solve/newton.hpp"
+
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace fascia {
+
+enum class Integrator { static_equilibrium, backward_euler };
+
+const char* to_string(Integrator integrator);
+Integrator parse_integrator(const std::string& name);  // "static" | "backward_euler"
+
+// Frames moved along a prescribed path (e.g. a tool pulling tissue): their translations are
+// fixed DOFs, displaced by velocity * (t - start) for start <= t <= end, then held.
+struct PrescribedMotion {
+  std::vector<int> frames;
+  Vec3 velocity{0, 0, 0};  // m/s
+  double start = 0;        // s
+  double end = std::numeric_limits<double>::infinity();  // s
+};
+
+struct SimulationSettings {
+  Integrator integrator = Integrator::backward_euler;
+  double dt = 0.01;                 // s (backward Euler); static: pseudo-time per load step
+  double rayleigh_mass = 0;         // alpha, 1/s:   damping D = alpha M + beta K
+  double rayleigh_stiffness = 0;    // beta,  s
+  int load_steps = 1;               // static: initial number of load increments (halved on failure)
+  int threads = 0;                  // 0 = all
+  NewtonSettings newton;
+};
+
+struct StepReport {
+  int step = 0;
+  double time = 0;                  // s, after the step
+  bool converged = false;
+  int newton_iterations = 0;
+  int cg_iterations = 0;
+  double residual = 0;              // relative, see NewtonResult
+  double elastic_energy = 0;        // J
+  double kinetic_energy = 0;        // J
+  double external_potential = 0;    // J (gravity and point forces)
+  double wall_seconds = 0;
+  std::string message;
+};
+
+class Simulation {
+ public:
+  Simulation(Model model, ExternalLoads loads, SimulationSettings settings,
+             std::vector<PrescribedMotion> motions = {});
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  // One step: a backward-Euler time step, or for static equilibrium a full solve with load
+  // stepping (repeated static steps follow prescribed motions in pseudo-time dt). Throws
+  // SolverError when Newton fails or the state becomes non-finite; the state is then left at
+  // the last converged step.
+  StepReport step();
+
+  const Model& model() const { return m_model; }
+  const State& state() const { return m_state; }
+  State& state() { return m_state; }
+  const ExternalLoads& loads() const { return m_loads; }
+  const SimulationSettings& settings() const { return m_settings; }
+  double time() const { return m_time; }
+  int steps_taken() const { return m_step; }
+
+ private:
+  struct Impl;
+  Model m_model;
+  ExternalLoads m_loads;
+  SimulationSettings m_settings;
+  std::vector<PrescribedMotion> m_motions;
+  State m_state;
+  double m_time = 0;
+  int m_step = 0;
+  std::unique_ptr<Impl> m_impl;
+};
+
+// Newton failure or divergence: what() is a one-line message for the user.
+class SolverError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Kinetic energy 1/2 v^T M v with the lumped masses and inertias (J).
+double kinetic_energy(const Model& model, const State& state);
+
+}  // namespace fascia
