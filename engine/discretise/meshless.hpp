@@ -40,6 +40,10 @@ struct MeshlessOptions {
   // rounds convex edges (measured about +0.13 h^2 per metre of 90-degree edge), which matters
   // for coarse voxels on boxy shapes such as the cantilever beam.
   bool normalise_volumes = true;
+  // Frames placed by the caller, [K][3] m, e.g. a grid on a clamped face: Dirichlet conditions
+  // fix frames, and Poisson-disk frames (all strictly inside) sit up to r_f from the boundary.
+  // Poisson-disk frames closer than r_f / 2 to one of these are dropped.
+  std::vector<double> extra_frames;
   bool require_closed_surface = true;  // throw on holes, flipped or self-intersecting faces
 };
 

@@ -127,3 +127,27 @@ TEST_CASE("thin sheets: stop names the region and radius, repair adds frames", "
     REQUIRE(f_error <= 1e-11);
   }
 }
+
+TEST_CASE("caller-placed frames (a clamped face) join the Poisson-disk frames", "[discretise][meshless]") {
+  MeshlessOptions options;
+  options.frame_spacing = 0.04;
+  options.sample_spacing = 0.018;
+  for (double y : {0.0, 0.05, 0.1})
+    for (double z : {0.0, 0.05}) options.extra_frames.insert(options.extra_frames.end(), {0.0, y, z});
+  const MeshlessBuild b = build_meshless_model(box_surface({0, 0, 0}, {0.2, 0.1, 0.05}),
+                                               make_material(MaterialLaw::stvk, 1e4, 0.3, 1000), options);
+  Model m = b.model;
+  REQUIRE_NOTHROW(validate(m));
+  int on_face = 0;
+  for (int i = 0; i < m.frame_count(); ++i) {
+    const Vec3 x = load3(&m.frame_rest_positions[3 * i]);
+    if (x.x == 0.0) ++on_face;
+    for (int j = 0; j < 6; ++j)  // no Poisson frame left within r_f / 2 of a face frame
+      if (x.x != 0.0) REQUIRE(norm(x - load3(&options.extra_frames[3 * j])) >= 0.02);
+  }
+  REQUIRE(on_face == 6);
+  REQUIRE(fix_frames(m, [](double x, double, double) { return x == 0.0; }) == 6);
+  double f_error, p_error;
+  affine_errors(m, identity3(), Vec3{0, 0, 0}, f_error, p_error);
+  REQUIRE(f_error <= 1e-12);
+}
