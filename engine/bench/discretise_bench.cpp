@@ -11,7 +11,7 @@ DiscretiseBenchRow bench_discretise_once(long target, const DiscretiseBenchOptio
   const double volume = 4.0;
   DiscretiseBenchRow row;
   row.target = target;
-  row.sample_spacing = std::cbrt(volume / (1.44 * static_cast<double>(target)));
+  row.sample_spacing = std::cbrt(volume / (1.66 * static_cast<double>(target)));
   row.frame_spacing = row.sample_spacing * std::cbrt(10.0);
   MeshlessOptions m;
   m.sample_spacing = row.sample_spacing;

@@ -23,7 +23,7 @@ struct DiscretiseBenchRow {
 };
 
 // The object is a 4 x 1 x 1 m box surface (12 triangles); r_s is chosen so that a maximal
-// Poisson-disk set holds about `target` samples (1.44 r_s^3 per sample, measured at 10^6) and
+// Poisson-disk set holds about `target` samples (1.66 r_s^3 per sample, measured at 10^6) and
 // r_f = r_s * 10^(1/3) gives about target / 10 frames.
 DiscretiseBenchRow bench_discretise_once(long target, const DiscretiseBenchOptions& options);
 
