@@ -2,6 +2,7 @@
 #include "commands.hpp"
 
 #include "bench/step_bench.hpp"
+#include "cmd_bench_discretise.hpp"
 #if FASCIA_WITH_CUDA
 #include "cmd_bench_gpu.hpp"
 #endif
@@ -64,6 +65,7 @@ void register_bench(CLI::App& app, Action& action) {
   cpu->add_option("--min-seconds", options->min_seconds, "Minimum timed seconds per size")->check(CLI::PositiveNumber);
   cpu->add_option("--samples", options->sizes, "Only these Table 3 sizes");
   cpu->callback([options, &action] { action = [options] { return run_cpu(*options); }; });
+  add_bench_discretise(*bench, action);
 #if FASCIA_WITH_CUDA
   add_bench_gpu_command(*bench, action);
 #endif

@@ -1,0 +1,153 @@
+// The meshless model: tables, volumes, statistics, F at rest, patch test, thin parts.
+#include "discretise/meshless.hpp"
+#include "mechanics/frame_sample.hpp"
+#include "model/state.hpp"
+#include "support/meshless_fixtures.hpp"
+
+#include <catch2/catch.hpp>
+
+using namespace fascia;
+using namespace fascia::test;
+
+namespace {
+
+PairTableView view(const Model& m) {
+  const NeighbourTable& nb = m.neighbours;
+  return PairTableView{nb.offsets.data(), nb.frames.data(), nb.weights.data(), nb.weight_gradients.data(),
+                       nb.rest_offsets.data()};
+}
+
+// Largest |F - A| (Frobenius) and |p - (A p_rest + t)| over samples when frames move affinely
+// with R = I.
+void affine_errors(const Model& model, const Mat3& A, const Vec3& t, double& f_error, double& p_error) {
+  State s = rest_state(model);
+  for (int i = 0; i < model.frame_count(); ++i)
+    store3(&s.positions[3 * i], A * load3(&model.frame_rest_positions[3 * i]) + t);
+  std::vector<double> R;
+  rotation_matrices(s, R);
+  f_error = p_error = 0;
+  for (int sm = 0; sm < model.sample_count(); ++sm) {
+    const Mat3 F = sample_deformation_gradient(view(model), sm, s.positions.data(), R.data());
+    f_error = std::max(f_error, std::sqrt(ddot(F - A, F - A)));
+    const Vec3 p = sample_position(view(model), sm, s.positions.data(), R.data());
+    p_error = std::max(p_error, norm(p - (A * load3(&model.samples.rest_positions[3 * sm]) + t)));
+  }
+}
+
+}  // namespace
+
+TEST_CASE("meshless model: valid tables, volumes summing to the object, statistics", "[discretise][meshless]") {
+  const MeshlessShapeKind kind = GENERATE(MeshlessShapeKind::mls, MeshlessShapeKind::rbf);
+  const MeshlessBuild b = small_meshless_box(kind);
+  const Model& m = b.model;
+  REQUIRE_NOTHROW(validate(m));
+  const MeshlessStatistics& st = b.statistics;
+  INFO(st.describe());
+  REQUIRE(st.frames == m.frame_count());
+  REQUIRE(st.samples == m.sample_count());
+  REQUIRE(st.frames >= 10);
+  REQUIRE(st.samples > 5 * st.frames);
+  REQUIRE(st.neighbours_min == 12);  // k nearest (default 12), no repair needed in a box
+  REQUIRE(st.neighbours_max == 12);
+  REQUIRE(st.added_frames == 0);
+  REQUIRE(st.min_spread >= 0.15);
+  // Box 0.2 x 0.1 x 0.05 (area 0.07 m^2, edges 1.4 m) with h = r_s / 2 = 0.009: the voxel
+  // tolerance of test_voxel_domain.cpp, 0.02 area h + 0.25 h^2 edges = 4.1e-5 m^3 (4 % of 1e-3:
+  // the box is only 5.5 voxels thick).
+  REQUIRE(std::abs(st.voxel_volume - 1e-3) <= 0.02 * 0.07 * 0.009 + 0.25 * 0.009 * 0.009 * 1.4);
+  REQUIRE(st.volume_error == Approx((st.voxel_volume - 1e-3) / 1e-3).epsilon(1e-12));
+  // Normalised: the sample volumes sum to the enclosed volume of the surface.
+  REQUIRE(m.total_volume() == Approx(1e-3).epsilon(1e-12));
+  REQUIRE(st.sample_volume == Approx(1e-3).epsilon(1e-12));
+  REQUIRE(m.total_mass() == Approx(1000 * m.total_volume()).epsilon(1e-12));  // partition of unity
+  for (int s = 0; s < m.sample_count(); ++s) REQUIRE(m.samples.volumes[s] > 0);
+}
+
+TEST_CASE("F = I at rest for both meshless shape functions", "[discretise][meshless]") {
+  // With frames, F = p (sum grad w)^T + sum w I at rest, so partition of unity suffices.
+  const MeshlessShapeKind kind = GENERATE(MeshlessShapeKind::mls, MeshlessShapeKind::rbf);
+  const Model m = small_meshless_box(kind).model;
+  double f_error, p_error;
+  affine_errors(m, identity3(), Vec3{0, 0, 0}, f_error, p_error);
+  REQUIRE(f_error <= 1e-12);  // round-off: sums of 12 terms of size |grad w| |p| ~ 30 * 0.2
+  REQUIRE(p_error <= 1e-15);
+}
+
+TEST_CASE("meshless affine patch test: exact with MLS, not with Shepard RBF", "[discretise][meshless][patch]") {
+  const Mat3 A = Mat3{{{1.1, 0.05, -0.02}, {0.03, 0.95, 0.04}, {-0.01, 0.02, 1.05}}};
+  const Vec3 t{0.01, -0.02, 0.03};
+  double f_error, p_error;
+  affine_errors(small_meshless_box(MeshlessShapeKind::mls).model, A, t, f_error, p_error);
+  REQUIRE(f_error <= 1e-12);
+  REQUIRE(p_error <= 1e-15);
+  // RBF: F = I + (A - I) G with G = sum x_i grad w_i^T != I, so an error of order |A - I| |G - I|
+  // remains; the test documents it (and fails if RBF ever became linear-precise by accident).
+  affine_errors(small_meshless_box(MeshlessShapeKind::rbf).model, A, t, f_error, p_error);
+  REQUIRE(f_error > 1e-3);
+}
+
+TEST_CASE("the same seed builds the same model", "[discretise][meshless]") {
+  const Model a = small_meshless_box(MeshlessShapeKind::mls, MaterialLaw::stvk, 5).model;
+  const Model b = small_meshless_box(MeshlessShapeKind::mls, MaterialLaw::stvk, 5).model;
+  const Model c = small_meshless_box(MeshlessShapeKind::mls, MaterialLaw::stvk, 6).model;
+  REQUIRE(a.frame_rest_positions == b.frame_rest_positions);
+  REQUIRE(a.samples.rest_positions == b.samples.rest_positions);
+  REQUIRE(a.samples.volumes == b.samples.volumes);
+  REQUIRE(a.neighbours.weights == b.neighbours.weights);
+  REQUIRE(a.neighbours.weight_gradients == b.neighbours.weight_gradients);
+  REQUIRE(a.frame_rest_positions != c.frame_rest_positions);
+}
+
+TEST_CASE("thin sheets: stop names the region and radius, repair adds frames", "[discretise][meshless][thin]") {
+  // A 0.6 x 0.6 m sheet 0.03 m thick, meshed with frames 0.12 m apart: one layer of frames.
+  const SurfaceMesh sheet = box_surface({0, 0, 0}, {0.6, 0.6, 0.03});
+  const Material mat = make_material(MaterialLaw::stvk, 1e4, 0.3, 1000);
+  MeshlessOptions options;
+  options.frame_spacing = 0.12;
+  options.sample_spacing = 0.03;
+  options.voxel_size = 0.005;
+  options.thin_parts = ThinParts::stop;
+  REQUIRE_THROWS_WITH(build_meshless_model(sheet, mat, options),
+                      Catch::Contains("thick there") && Catch::Contains("use frame_spacing <=") &&
+                          Catch::Contains("region box"));
+  options.thin_parts = ThinParts::repair;
+  const MeshlessShapeKind kind = GENERATE(MeshlessShapeKind::mls, MeshlessShapeKind::rbf);
+  options.shape.kind = kind;
+  const MeshlessBuild b = build_meshless_model(sheet, mat, options);
+  INFO(b.statistics.describe());
+  REQUIRE(b.statistics.added_frames > 0);
+  REQUIRE(b.statistics.min_spread >= options.min_spread);
+  REQUIRE_NOTHROW(validate(b.model));
+  double f_error, p_error;
+  affine_errors(b.model, identity3(), Vec3{0, 0, 0}, f_error, p_error);
+  REQUIRE(f_error <= 1e-11);
+  if (kind == MeshlessShapeKind::mls) {
+    affine_errors(b.model, Mat3{{{1.1, 0.05, -0.02}, {0.03, 0.95, 0.04}, {-0.01, 0.02, 1.05}}}, Vec3{0, 0, 0},
+                  f_error, p_error);
+    REQUIRE(f_error <= 1e-11);
+  }
+}
+
+TEST_CASE("caller-placed frames (a clamped face) join the Poisson-disk frames", "[discretise][meshless]") {
+  MeshlessOptions options;
+  options.frame_spacing = 0.04;
+  options.sample_spacing = 0.018;
+  for (double y : {0.0, 0.05, 0.1})
+    for (double z : {0.0, 0.05}) options.extra_frames.insert(options.extra_frames.end(), {0.0, y, z});
+  const MeshlessBuild b = build_meshless_model(box_surface({0, 0, 0}, {0.2, 0.1, 0.05}),
+                                               make_material(MaterialLaw::stvk, 1e4, 0.3, 1000), options);
+  Model m = b.model;
+  REQUIRE_NOTHROW(validate(m));
+  int on_face = 0;
+  for (int i = 0; i < m.frame_count(); ++i) {
+    const Vec3 x = load3(&m.frame_rest_positions[3 * i]);
+    if (x.x == 0.0) ++on_face;
+    for (int j = 0; j < 6; ++j)  // no Poisson frame left within r_f / 2 of a face frame
+      if (x.x != 0.0) REQUIRE(norm(x - load3(&options.extra_frames[3 * j])) >= 0.02);
+  }
+  REQUIRE(on_face == 6);
+  REQUIRE(fix_frames(m, [](double x, double, double) { return x == 0.0; }) == 6);
+  double f_error, p_error;
+  affine_errors(m, identity3(), Vec3{0, 0, 0}, f_error, p_error);
+  REQUIRE(f_error <= 1e-12);
+}

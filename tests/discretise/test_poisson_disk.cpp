@@ -1,0 +1,81 @@
+// Poisson-disk sampling: inside, minimum distance, maximality, determinism.
+#include "discretise/poisson_disk.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+using namespace fascia;
+
+namespace {
+
+double min_pair_distance(const std::vector<double>& p) {
+  double best = 1e300;
+  const size_t n = p.size() / 3;
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j) best = std::min(best, norm(load3(&p[3 * i]) - load3(&p[3 * j])));
+  return best;
+}
+
+}  // namespace
+
+TEST_CASE("Poisson-disk points are inside, at least r apart, and leave no room for another", "[discretise][poisson]") {
+  const SurfaceMesh surface = GENERATE(sphere_surface({0.1, 0.0, -0.05}, 0.25, 3),
+                                       torus_surface({0, 0, 0}, 0.3, 0.1, 64, 24));
+  const double h = 0.01, r = 0.04;
+  const VoxelDomain domain(surface, h);
+  const std::vector<double> points = poisson_disk_sample(domain, PoissonDiskOptions{r, 42, 30});
+  const int n = static_cast<int>(points.size() / 3);
+  REQUIRE(n > 100);
+  for (int i = 0; i < n; ++i) REQUIRE(domain.signed_distance(load3(&points[3 * i])) < 0);
+  REQUIRE(min_pair_distance(points) >= r);
+  // Maximality, by brute force: every voxel centre inside lies closer than r to some point.
+  std::vector<CoveredVoxel> voxels;
+  int interior = 0;
+  for (int k = 0; k < domain.slice_count(); ++k) {
+    voxels.clear();
+    domain.covered_voxels(k, voxels);
+    for (const CoveredVoxel& v : voxels) {
+      if (v.fraction <= 0.5) continue;
+      ++interior;
+      double nearest = 1e300;
+      for (int i = 0; i < n; ++i) nearest = std::min(nearest, norm(v.centre - load3(&points[3 * i])));
+      REQUIRE(nearest < r);
+    }
+  }
+  REQUIRE(interior > 10 * n);
+  // Density: the balls of radius r/2 around the points are disjoint and lie in the object dilated
+  // by r/2, so n (pi/6) r^3 <= 0.7405 (densest packing) V(dilated); the balls of radius r cover
+  // the inside, so n (4/3) pi r^3 >= V.
+  const double dilated = domain.volume() + surface_area(surface) * r / 2 + 4.0 / 3 * 3.14159 * std::pow(r / 2, 3);
+  INFO("volume per point / r^3 = " << domain.volume() / n / (r * r * r));
+  REQUIRE(n * 3.14159 / 6 * r * r * r <= 0.7405 * dilated);
+  REQUIRE(n * 4.0 / 3 * 3.14159 * r * r * r >= domain.volume());
+}
+
+TEST_CASE("the same seed gives the same points; another seed other points", "[discretise][poisson]") {
+  const VoxelDomain domain(box_surface({0, 0, 0}, {0.3, 0.2, 0.1}), 0.01);
+  const std::vector<double> a = poisson_disk_sample(domain, PoissonDiskOptions{0.03, 7, 30});
+  const std::vector<double> b = poisson_disk_sample(domain, PoissonDiskOptions{0.03, 7, 30});
+  const std::vector<double> c = poisson_disk_sample(domain, PoissonDiskOptions{0.03, 8, 30});
+  REQUIRE(a == b);  // bitwise
+  REQUIRE(a != c);
+}
+
+TEST_CASE("every connected component and thin sheet receives points", "[discretise][poisson]") {
+  // Two disjoint boxes and a sheet three voxels thick, much thinner than r.
+  SurfaceMesh s = box_surface({0, 0, 0}, {0.2, 0.2, 0.2});
+  const SurfaceMesh sheet = box_surface({0.5, 0.0, 0.0}, {0.9, 0.4, 0.03});
+  const int offset = s.vertex_count();
+  s.vertices.insert(s.vertices.end(), sheet.vertices.begin(), sheet.vertices.end());
+  for (int v : sheet.triangles) s.triangles.push_back(v + offset);
+  const VoxelDomain domain(s, 0.01);
+  const double r = 0.08;
+  const std::vector<double> points = poisson_disk_sample(domain, PoissonDiskOptions{r, 1, 30});
+  int in_box = 0, in_sheet = 0;
+  for (size_t i = 0; i < points.size() / 3; ++i) (points[3 * i] < 0.3 ? in_box : in_sheet)++;
+  REQUIRE(in_box > 0);
+  // A maximal disk set in a 0.4 x 0.4 sheet with r = 0.08: at least (0.4 / (2 r))^2 ~ 6 points.
+  REQUIRE(in_sheet >= 6);
+  REQUIRE(min_pair_distance(points) >= r);
+}
