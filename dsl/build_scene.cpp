@@ -1,6 +1,9 @@
 #include "dsl/build_scene.hpp"
 
 #include "discretise/mesh_based.hpp"
+#include "discretise/meshless.hpp"
+#include "discretise/surface_mesh.hpp"
+#include "shape/meshless_shape.hpp"
 #include "io/boundary_surface.hpp"
 #include "io/volume_mesh_io.hpp"
 
@@ -112,6 +115,10 @@ double face_area(const VolumeMesh& mesh, const BoundarySurface& s, int f, Vec3d&
   return 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
 }
 
+void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const VolumeMesh* mesh_ptr,
+                  const BoundarySurface* boundary_ptr, BuiltScene& built, Diagnostics& diagnostics);
+BuiltScene build_meshless(const SceneSpec& scene, const ObjectSpec& o, const Material& material);
+
 }  // namespace
 
 DiscretisationStats discretisation_stats(const Model& model) {
@@ -149,11 +156,6 @@ BuiltScene build_scene(const SceneSpec& scene) {
                                           "'; coupling with organs and bones comes in a later version)");
       continue;
     }
-    if (o.surface) {
-      diagnostics.error(o.surface->where, "meshless tissue from a surface is not supported yet ('" + o.name +
-                                              "'); use a volume mesh or a box");
-      continue;
-    }
     if (tissue) {
       diagnostics.error(o.where, "several tissue objects are not supported yet ('" + tissue->name + "' and '" +
                                      o.name + "'); coupling comes in a later version");
@@ -167,12 +169,14 @@ BuiltScene build_scene(const SceneSpec& scene) {
   if (!diagnostics.empty()) throw SceneError(diagnostics);
   if (!tissue) throw SceneError(diagnostics);
 
-  // Discretisation.
-  VolumeMesh mesh = object_mesh(*tissue, diagnostics);
-  if (!diagnostics.empty()) throw SceneError(diagnostics);
   const MaterialSpec* m = scene.material(tissue->material->value);
   const MaterialLaw law = m->law.value == "neo_hookean" ? MaterialLaw::neo_hookean : MaterialLaw::stvk;
   const Material material = make_material(law, m->young.value, m->poisson.value, m->density.value);
+  if (tissue->surface) return build_meshless(scene, *tissue, material);
+
+  // Discretisation.
+  VolumeMesh mesh = object_mesh(*tissue, diagnostics);
+  if (!diagnostics.empty()) throw SceneError(diagnostics);
   const int q = tissue->quadrature.value;
   const bool tet = mesh.type == CellType::tetrahedron;
   if (q != 0 && (tet ? (q != 1 && q != 4) : (q != 1 && q != 8 && q != 27))) {
@@ -191,7 +195,6 @@ BuiltScene build_scene(const SceneSpec& scene) {
     throw SceneError(diagnostics);
   }
   if (tissue->lock_rotations) lock_rotations(built.model);
-  Model& model = built.model;
 
   const BoundarySurface boundary = boundary_surface(mesh);
   BuiltObject object;
@@ -200,8 +203,22 @@ BuiltScene build_scene(const SceneSpec& scene) {
   object.surface.nodes_per_face = boundary.nodes_per_face;
   object.surface.faces = boundary.faces;
   object.surface.vertex_frames = boundary.vertices;  // mesh-based: frame i = vertex i
+  object.discretisation = std::string("mesh-based, ") + std::to_string(mesh.cell_count()) +
+                          (tet ? " tetrahedra" : " hexahedra");
   built.objects.push_back(object);
 
+  finish_scene(scene, *tissue, &mesh, &boundary, built, diagnostics);
+  return built;
+}
+
+namespace {
+
+// Constraints, loads and solver settings, common to mesh-based and meshless tissues. `mesh` and
+// `boundary` are null for meshless tissues (surface forces need boundary faces).
+void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const VolumeMesh* mesh_ptr,
+                  const BoundarySurface* boundary_ptr, BuiltScene& built, Diagnostics& diagnostics) {
+  const ObjectSpec* tissue = &tissue_spec;
+  Model& model = built.model;
   // Constraints.
   bool fixed_any = false;
   for (const ConstraintSpec& c : scene.constraints) {
@@ -222,6 +239,12 @@ BuiltScene build_scene(const SceneSpec& scene) {
     }
     const std::string& name = l.object->value;
     if (l.kind == LoadSpec::Kind::surface_force) {
+      if (!boundary_ptr) {
+        diagnostics.error(l.where, "surface_force on a meshless tissue is not supported yet ('" + name + "')");
+        continue;
+      }
+      const VolumeMesh& mesh = *mesh_ptr;
+      const BoundarySurface& boundary = *boundary_ptr;
       std::vector<double> nodal(3 * static_cast<std::size_t>(model.frame_count()), 0.0);
       const double tol = region_tolerance(model);
       int selected = 0;
@@ -291,7 +314,62 @@ BuiltScene build_scene(const SceneSpec& scene) {
   settings.newton.linear.fixed_iterations = s.linear_fixed_iterations;
   built.steps = scene.run.step_count;
   built.stats = discretisation_stats(model);
+}
+
+BuiltScene build_meshless(const SceneSpec& scene, const ObjectSpec& o, const Material& material) {
+  Diagnostics diagnostics;
+  BuiltScene built;
+  SurfaceMesh surface;
+  try {
+    surface = read_surface_mesh(o.surface->value);
+  } catch (const std::exception& e) {
+    diagnostics.error(o.surface->where, std::string("surface: ") + e.what(), ExitCode::bad_data);
+    throw SceneError(diagnostics);
+  }
+  for (int v = 0; v < surface.vertex_count(); ++v) {
+    double* x = &surface.vertices[3 * static_cast<std::size_t>(v)];
+    const Vec3d p = o.transform.apply({x[0], x[1], x[2]});
+    x[0] = p[0];
+    x[1] = p[1];
+    x[2] = p[2];
+  }
+  const MeshlessSpec& ml = *o.meshless;
+  MeshlessOptions options;
+  options.frame_spacing = ml.frame_spacing.value;
+  options.sample_spacing = ml.sample_spacing.value;
+  options.shape.kind = ml.shape.value == "rbf" ? MeshlessShapeKind::rbf : MeshlessShapeKind::mls;
+  if (!(options.sample_spacing < options.frame_spacing)) {
+    diagnostics.error(ml.sample_spacing.where, "sample_spacing must be smaller than frame_spacing");
+    throw SceneError(diagnostics);
+  }
+  MeshlessBuild result;
+  try {
+    result = build_meshless_model(surface, material, options);
+  } catch (const std::exception& e) {
+    diagnostics.error(ml.frame_spacing.where, "cannot discretise '" + o.name + "': " + e.what());
+    throw SceneError(diagnostics);
+  }
+  built.model = std::move(result.model);
+  if (o.lock_rotations) lock_rotations(built.model);
+
+  // The input surface, carried by the frames like samples: weights at its vertices.
+  BuiltObject object;
+  object.name = o.name;
+  object.surface.name = o.name;
+  object.surface.nodes_per_face = 3;
+  object.surface.faces = surface.triangles;
+  object.surface.vertex_frames.assign(static_cast<std::size_t>(surface.vertex_count()), -1);
+  object.skinned = true;
+  object.skin = build_meshless_table(built.model.frame_rest_positions, surface.vertices, options.shape).neighbours;
+  object.discretisation = "meshless (" + ml.shape.value + "), " + std::to_string(surface.triangle_count()) +
+                          " surface triangles, " + std::to_string(result.statistics.added_frames) +
+                          " frames added in thin parts";
+  built.objects.push_back(object);
+
+  finish_scene(scene, o, nullptr, nullptr, built, diagnostics);
   return built;
 }
+
+}  // namespace
 
 }  // namespace fascia::dsl

@@ -21,7 +21,13 @@ struct DiscretisationStats {
 
 struct BuiltObject {
   std::string name;
-  SurfaceLayout surface;  // boundary surface; vertex_frames index the model's frames
+  // Boundary surface. Mesh-based objects: its vertices are frames (vertex_frames). Meshless
+  // objects: the input surface, its vertices placed through the frames like samples (eq. 3) with
+  // the weights in `skin` (vertex_frames are -1).
+  SurfaceLayout surface;
+  bool skinned = false;
+  NeighbourTable skin;  // [V] rows: surface vertex -> frames, weights, rest offsets
+  std::string discretisation;  // one-line description for `fascia check`
 };
 
 struct BuiltScene {
@@ -34,8 +40,9 @@ struct BuiltScene {
   DiscretisationStats stats;
 };
 
-// Builds the model. Throws SceneError (all problems at once) for unsupported features
-// (shells, rigid bodies, meshless tissue, couplings, several tissues: "not supported yet"),
+// Builds the model: a mesh-based tissue (box or volume mesh) or a meshless tissue (closed
+// surface). Throws SceneError (all problems at once) for unsupported features (shells, rigid
+// bodies, couplings, several tissues, surface forces on meshless tissue: "not supported yet"),
 // unreadable meshes (ExitCode::missing_input / bad_data), empty region selections, frame ids out
 // of range, and a static solve without fixed frames.
 BuiltScene build_scene(const SceneSpec& scene);

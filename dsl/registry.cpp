@@ -204,7 +204,7 @@ ParamSpec build_registry() {
                   object("meshless", "meshless discretisation of a closed surface",
                          {required(above(quantity("frame_spacing", dim::length, "Poisson-disk radius of frames"), 0)),
                           required(above(quantity("sample_spacing", dim::length, "Poisson-disk radius of samples"), 0)),
-                          with_default(enumeration("shape", {"mls"}, "meshless shape functions"), "mls")})}),
+                          with_default(enumeration("shape", {"mls", "rbf"}, "meshless shape functions: moving least squares or Shepard-normalised Wendland kernel"), "mls")})}),
           object("transform", "applied to the geometry before discretisation: scale, then rotate, then translate",
                  {with_default(above(quantity("scale", dim::none, "uniform scale factor"), 0), "1"),
                   with_default(vec3("rotate", dim::none, "rotations about x, then y, then z (radians; '90 deg' works)"),

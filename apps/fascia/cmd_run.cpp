@@ -150,14 +150,30 @@ class StepRecorder {
       }
       step.sample_positions = m_sample_positions.data();
     }
-    // Mesh-based objects: surface vertices are frames.
+    // Mesh-based objects: surface vertices are frames. Meshless objects: surface vertices are
+    // carried by the frames like samples, eq. (3), with their own weights.
     m_surfaces.resize(m_built.objects.size());
     for (std::size_t o = 0; o < m_built.objects.size(); ++o) {
-      const std::vector<int>& frames = m_built.objects[o].surface.vertex_frames;
+      const dsl::BuiltObject& object = m_built.objects[o];
+      const std::vector<int>& frames = object.surface.vertex_frames;
       std::vector<double>& out = m_surfaces[o];
       out.resize(3 * frames.size());
-      for (std::size_t v = 0; v < frames.size(); ++v)
-        for (std::size_t k = 0; k < 3; ++k) out[3 * v + k] = state.positions[3 * static_cast<std::size_t>(frames[v]) + k];
+      if (object.skinned) {
+        if (!m_samples) rotation_matrices(state, m_rotations);
+        const NeighbourTable& t = object.skin;
+        const PairTableView view{t.offsets.data(), t.frames.data(), t.weights.data(), t.weight_gradients.data(),
+                                 t.rest_offsets.data()};
+        for (std::size_t v = 0; v < frames.size(); ++v) {
+          const Vec3 p = sample_position(view, static_cast<int>(v), state.positions.data(), m_rotations.data());
+          out[3 * v] = p.x;
+          out[3 * v + 1] = p.y;
+          out[3 * v + 2] = p.z;
+        }
+      } else {
+        for (std::size_t v = 0; v < frames.size(); ++v)
+          for (std::size_t k = 0; k < 3; ++k)
+            out[3 * v + k] = state.positions[3 * static_cast<std::size_t>(frames[v]) + k];
+      }
       step.surface_positions.push_back(out.data());
     }
     step.observables = {report.elastic_energy,

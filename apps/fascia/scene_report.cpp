@@ -37,7 +37,7 @@ std::string stats_text(const dsl::DiscretisationStats& s, const LoadedScene& sce
   os.precision(6);
   os << "discretisation:\n";
   for (const dsl::BuiltObject& o : scene.built.objects)
-    os << "  object " << o.name << ": boundary " << o.surface.faces.size() / static_cast<std::size_t>(o.surface.nodes_per_face)
+    os << "  object " << o.name << ": " << o.discretisation << "; boundary " << o.surface.faces.size() / static_cast<std::size_t>(o.surface.nodes_per_face)
        << (o.surface.nodes_per_face == 3 ? " triangles, " : " quadrilaterals, ") << o.surface.vertex_frames.size()
        << " vertices\n";
   os << "  frames: " << s.frames << "\n"

@@ -62,7 +62,7 @@ TEST_CASE("the resolved scene parses again to the same values", "[dsl]") {
   CHECK(again.resolved_yaml == s.resolved_yaml);
 }
 
-TEST_CASE("--set overrides values, creating sections, before validation", "[dsl]") {
+TEST_CASE("overrides (--set) replace values, creating sections, before validation", "[dsl]") {
   const SceneSpec s = parse_scene_text(kSlab, "slab.yaml",
                                        {"materials.soft.young=50kPa", "solver.dt=5ms", "solver.newton.tolerance=1e-9",
                                         "loads.0.gravity=[0, 0, -1]", "run.duration=20 ms"});

@@ -18,7 +18,7 @@ def test_load_and_plot_a_run(fascia_bin, root, tmp_path):
     assert r.returncode == 0, r.stderr
     run = fp.load(out)
     assert run.step_count == 5
-    assert run.frames.shape == (5, 378, 3)
+    assert run.frames.shape == (5, 11 * 5 * 3, 3)
     assert run.samples.shape[0] == 5
     assert set(run.surfaces) == {"slab"}
     assert run.surfaces["slab"].connectivity.shape[1] == 4
