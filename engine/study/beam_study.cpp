@@ -37,7 +37,7 @@ BeamResult run_beam_case(const BeamCase& beam, const BeamSettings& s) {
   settings.integrator = Integrator::static_equilibrium;
   settings.threads = s.threads;
   settings.newton.tolerance = s.tolerance;
-  settings.newton.max_iterations = 60;
+  settings.newton.max_iterations = 400;
   settings.newton.linear.method = LinearMethod::cholmod;
   Simulation sim(std::move(model), loads, settings);
   const Vec3 rest = probe_position(tip, sim.state());
