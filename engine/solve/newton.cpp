@@ -1,8 +1,6 @@
 #include "solve/newton.hpp"
 
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <sstream>
 
 namespace fascia {
