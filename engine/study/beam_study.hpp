@@ -33,6 +33,7 @@ struct BeamResult {
   Vec3 tip_displacement{0, 0, 0};  // of the free end's centre (16, 0.5, 0.5), m
   double seconds = 0;
   int newton_iterations = 0;
+  double residual = 0;  // relative to the weight, when converged
   bool converged = false;
   std::string message;
 };
