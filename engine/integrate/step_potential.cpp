@@ -160,7 +160,8 @@ LinearSystem StepPotential::system() {
     }
   };
   sys.assemble = [this, n, inertia_block]() {
-    Eigen::SparseMatrix<double> H = assemble_tangent(m_elasticity);
+    if (!m_assembler) m_assembler = std::make_unique<TangentAssembler>(m_model);
+    Eigen::SparseMatrix<double> H = m_assembler->assemble(m_elasticity);
     std::vector<Eigen::Triplet<double>> t;
     for (int i = 0; i < n; ++i) {
       double block[36] = {0};

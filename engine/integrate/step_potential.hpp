@@ -12,6 +12,7 @@
 // only changes Newton's convergence rate, not the solution.
 #pragma once
 
+#include "mechanics/assembled_tangent.hpp"
 #include "mechanics/elasticity.hpp"
 #include "mechanics/external_loads.hpp"
 #include "solve/newton.hpp"
@@ -48,6 +49,7 @@ class StepPotential : public Potential {
   const Model& m_model;
   const ExternalLoads& m_loads;
   Elasticity m_elasticity;
+  std::unique_ptr<TangentAssembler> m_assembler;  // built on the first direct solve
   std::unique_ptr<Elasticity> m_start_elasticity;  // K_n for stiffness-proportional damping
   std::vector<double> m_load_blocks;               // [N][9] rotational Hessian of V
   bool m_dynamic = false;
