@@ -115,8 +115,17 @@ double face_area(const VolumeMesh& mesh, const BoundarySurface& s, int f, Vec3d&
   return 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
 }
 
-void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const VolumeMesh* mesh_ptr,
-                  const BoundarySurface* boundary_ptr, BuiltScene& built, Diagnostics& diagnostics);
+// The geometry a surface force needs: the volume mesh boundary (mesh-based) or the input surface
+// with the shape functions that carry it (meshless).
+struct ForceSurface {
+  const VolumeMesh* mesh = nullptr;
+  const BoundarySurface* boundary = nullptr;
+  const SurfaceMesh* surface = nullptr;
+  const MeshlessShapeOptions* shape = nullptr;
+};
+
+void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const ForceSurface& geometry,
+                  BuiltScene& built, Diagnostics& diagnostics);
 BuiltScene build_meshless(const SceneSpec& scene, const ObjectSpec& o, const Material& material);
 
 }  // namespace
@@ -207,16 +216,15 @@ BuiltScene build_scene(const SceneSpec& scene) {
                           (tet ? " tetrahedra" : " hexahedra");
   built.objects.push_back(object);
 
-  finish_scene(scene, *tissue, &mesh, &boundary, built, diagnostics);
+  finish_scene(scene, *tissue, ForceSurface{&mesh, &boundary, nullptr, nullptr}, built, diagnostics);
   return built;
 }
 
 namespace {
 
-// Constraints, loads and solver settings, common to mesh-based and meshless tissues. `mesh` and
-// `boundary` are null for meshless tissues (surface forces need boundary faces).
-void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const VolumeMesh* mesh_ptr,
-                  const BoundarySurface* boundary_ptr, BuiltScene& built, Diagnostics& diagnostics) {
+// Constraints, loads and solver settings, common to mesh-based and meshless tissues.
+void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const ForceSurface& geometry,
+                  BuiltScene& built, Diagnostics& diagnostics) {
   const ObjectSpec* tissue = &tissue_spec;
   Model& model = built.model;
   // Constraints.
@@ -239,12 +247,42 @@ void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const V
     }
     const std::string& name = l.object->value;
     if (l.kind == LoadSpec::Kind::surface_force) {
-      if (!boundary_ptr) {
-        diagnostics.error(l.where, "surface_force on a meshless tissue is not supported yet ('" + name + "')");
+      if (geometry.surface) {
+        // Meshless: one material-point force per selected triangle, traction x area at its
+        // centroid, carried by the frames through the shape functions there (consistent with eq. 3).
+        const SurfaceMesh& surf = *geometry.surface;
+        const double tol = region_tolerance(model);
+        std::vector<double> centroids, forces;
+        for (int t = 0; t < surf.triangle_count(); ++t) {
+          Vec3 p[3];
+          for (int j = 0; j < 3; ++j) p[j] = load3(&surf.vertices[3 * static_cast<std::size_t>(surf.triangles[3 * static_cast<std::size_t>(t) + static_cast<std::size_t>(j)])]);
+          const Vec3 c = (1.0 / 3.0) * (p[0] + p[1] + p[2]);
+          if (!l.region->contains({c.x, c.y, c.z}, tol)) continue;
+          const double area = 0.5 * norm(cross(p[1] - p[0], p[2] - p[0]));
+          centroids.insert(centroids.end(), {c.x, c.y, c.z});
+          for (int k = 0; k < 3; ++k) forces.push_back(l.vector.value[static_cast<std::size_t>(k)] * area);
+        }
+        if (centroids.empty()) {
+          diagnostics.error(l.region->where, "region selects no surface triangles of object '" + name +
+                                                 "' (a triangle is selected when its centre is inside)");
+          continue;
+        }
+        const MeshlessTable table = build_meshless_table(model.frame_rest_positions, centroids, *geometry.shape);
+        for (std::size_t q = 0; q < centroids.size() / 3; ++q) {
+          MaterialPointForce f;
+          for (int pr = table.neighbours.offsets[q]; pr < table.neighbours.offsets[q + 1]; ++pr) {
+            f.frames.push_back(table.neighbours.frames[static_cast<std::size_t>(pr)]);
+            f.weights.push_back(table.neighbours.weights[static_cast<std::size_t>(pr)]);
+            for (int k = 0; k < 3; ++k)
+              f.rest_offsets.push_back(table.neighbours.rest_offsets[3 * static_cast<std::size_t>(pr) + static_cast<std::size_t>(k)]);
+          }
+          f.force = Vec3{forces[3 * q], forces[3 * q + 1], forces[3 * q + 2]};
+          built.loads.material_point_forces.push_back(std::move(f));
+        }
         continue;
       }
-      const VolumeMesh& mesh = *mesh_ptr;
-      const BoundarySurface& boundary = *boundary_ptr;
+      const VolumeMesh& mesh = *geometry.mesh;
+      const BoundarySurface& boundary = *geometry.boundary;
       std::vector<double> nodal(3 * static_cast<std::size_t>(model.frame_count()), 0.0);
       const double tol = region_tolerance(model);
       int selected = 0;
@@ -303,6 +341,7 @@ void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const V
   settings.rayleigh_mass = s.rayleigh_mass;
   settings.rayleigh_stiffness = s.rayleigh_stiffness;
   settings.load_steps = s.load_steps;
+  settings.max_load_halvings = s.max_load_halvings;
   settings.threads = s.threads;
   settings.newton.tolerance = s.newton_tolerance;
   settings.newton.max_iterations = s.newton_max_iterations;
@@ -366,7 +405,7 @@ BuiltScene build_meshless(const SceneSpec& scene, const ObjectSpec& o, const Mat
                           " frames added in thin parts";
   built.objects.push_back(object);
 
-  finish_scene(scene, o, nullptr, nullptr, built, diagnostics);
+  finish_scene(scene, o, ForceSurface{nullptr, nullptr, &surface, &options.shape}, built, diagnostics);
   return built;
 }
 

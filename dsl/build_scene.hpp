@@ -42,7 +42,7 @@ struct BuiltScene {
 
 // Builds the model: a mesh-based tissue (box or volume mesh) or a meshless tissue (closed
 // surface). Throws SceneError (all problems at once) for unsupported features (shells, rigid
-// bodies, couplings, several tissues, surface forces on meshless tissue: "not supported yet"),
+// bodies, couplings, several tissues: "not supported yet"),
 // unreadable meshes (ExitCode::missing_input / bad_data), empty region selections, frame ids out
 // of range, and a static solve without fixed frames.
 BuiltScene build_scene(const SceneSpec& scene);

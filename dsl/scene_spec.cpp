@@ -308,6 +308,7 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   s.rayleigh_mass = solver.num("rayleigh_mass");
   s.rayleigh_stiffness = solver.num("rayleigh_stiffness");
   s.load_steps = static_cast<int>(solver.integer_at("load_steps"));
+  s.max_load_halvings = static_cast<int>(solver.integer_at("max_load_halvings"));
   s.threads = static_cast<int>(solver.integer_at("threads"));
   const Value& newton = solver.at("newton");
   s.newton_tolerance = newton.num("tolerance");

@@ -109,7 +109,7 @@ struct SolverSpec {
   Located<std::string> integrator;  // "static" | "backward_euler"
   Located<double> dt;               // s
   double rayleigh_mass = 0, rayleigh_stiffness = 0;
-  int load_steps = 1, threads = 0;
+  int load_steps = 1, max_load_halvings = 10, threads = 0;
   double newton_tolerance = 1e-6;
   int newton_max_iterations = 50, newton_max_backtracks = 30, newton_fixed_iterations = 0;
   Located<std::string> linear_method;

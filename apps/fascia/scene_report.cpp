@@ -50,6 +50,7 @@ std::string stats_text(const dsl::DiscretisationStats& s, const LoadedScene& sce
      << "  mass: " << s.mass << " kg\n"
      << "  steps: " << scene.built.steps << "\n"
      << "  point forces: " << scene.built.loads.point_forces.size() << " frames\n"
+     << "  material-point forces: " << scene.built.loads.material_point_forces.size() << "\n"
      << "  prescribed motions: " << scene.built.motions.size() << "\n";
   return os.str();
 }

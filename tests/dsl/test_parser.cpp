@@ -159,3 +159,28 @@ TEST_CASE("did-you-mean suggests close names only", "[dsl]") {
   CHECK(closest_match("materails", {"materials", "objects"}) == "materials");
   CHECK(closest_match("zzzz", {"young", "poisson"}).empty());
 }
+
+TEST_CASE("a surface force on a meshless tissue becomes material-point forces of the same total", "[dsl]") {
+  const std::string surface = std::string(FASCIA_SOURCE_DIR) + "/scenes/meshes/slab_mm.obj";
+  const std::string text = "materials: {soft: {young: 3 kPa}}\n"
+                           "objects:\n  slab: {material: soft, surface: " + surface +
+                           ", transform: {scale: 1e-3},\n"
+                           "         discretisation: {meshless: {frame_spacing: 5 mm, sample_spacing: 2.5 mm}}}\n"
+                           "constraints: [{fix: slab, region: {half_space: {point: [4 mm, 0, 0], normal: [1, 0, 0]}}}]\n"
+                           "loads:\n  - surface_force: {object: slab, region: {box: [[59 mm, -1, -1], [61 mm, 1, 1]]},"
+                           " traction: [0, 0, -10 Pa]}\n"
+                           "solver: {integrator: static}\n";
+  const BuiltScene b = build_scene(parse_scene_text(text, "meshless.yaml"));
+  REQUIRE(b.objects.size() == 1);
+  CHECK(b.objects[0].skinned);
+  CHECK(b.objects[0].surface.faces.size() == 36u);  // 12 triangles
+  REQUIRE(b.loads.material_point_forces.size() == 2);  // the two triangles of the end face x = 60 mm
+  double fz = 0, wsum = 0;
+  for (const auto& f : b.loads.material_point_forces) {
+    fz += f.force.z;
+    for (double w : f.weights) wsum += w;
+  }
+  CHECK(fz == Approx(-10.0 * 0.02 * 0.01));  // traction x end-face area
+  CHECK(wsum == Approx(2.0));                 // partition of unity at each point
+  CHECK(b.stats.fixed_frames > 0);
+}
