@@ -543,8 +543,12 @@ class System final : public DeviceElasticity::Impl {
     FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_pcg_persistent<R>, options.block_samples,
                                                               m_shared_bytes));
     if (per_sm < 1) return 0;
+    // Only where every sample block and frame block fits in one resident wave: measured on an
+    // H200, a grid-stride loop over more blocks than are resident is slower than launches per
+    // phase (docs/benchmarks.md), while one wave saves 20-25% per CG iteration.
     const int wanted = std::max(m_blocks, grid_for(m_n, options.block_samples));
-    return std::max(1, std::min(per_sm * sms, wanted));
+    if (wanted > per_sm * sms) return 0;
+    return std::max(1, wanted);
   }
 
   void enqueue_step_end() {

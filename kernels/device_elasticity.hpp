@@ -105,8 +105,8 @@ struct StepOptions {
   int check_every = 10;                 // CG iterations between host reads of the convergence flag
   bool use_graphs = true;               // replay the launches of a step as CUDA graphs
   // Fused design: the whole PCG loop in one cooperative kernel with grid barriers (no launch per
-  // phase; tolerance checked every iteration on the device). Falls back to launches per phase where
-  // the device cannot run it.
+  // phase; tolerance checked every iteration on the device), used where the model's sample blocks
+  // fit in one resident wave of the device; launches per phase otherwise.
   bool persistent = true;
   bool preconditioner = true;           // block-Jacobi PCG (as LinearMethod::pcg); false: plain CG
   double rayleigh_mass = 0;             // alpha, 1/s

@@ -187,9 +187,15 @@ TEST_CASE("device step equals the CPU engine's one-iteration Newton step", "[gpu
   std::printf("[gpu] engine step %s %s alpha=%g: cg %d (cpu %d) positions %.2e orientations %.2e velocities %.2e\n",
               to_string(design), to_string(method), alpha, report.cg_iterations, r.cg_iterations, e_pos, e_rot, e_vel);
   CHECK(report.cg_iterations == r.cg_iterations);
-  CHECK(e_pos < 1e-12);
-  CHECK(e_rot < 1e-12);
-  CHECK(e_vel < 1e-12);
+  // PCG: the same operator, right-hand side and preconditioner give the same step to round-off.
+  // Plain CG: 60 iterations far from convergence on H, whose translational (m/h^2) and rotational
+  // (I/h^2) scales differ by orders of magnitude, amplify the round-off of different summation
+  // orders (measured on an H200: 1e-6 to 2.5e-4 relative, for both designs); the PCG cases above
+  // check the definition, this bound checks that CG solves the same system.
+  const double tol = method == LinearMethod::pcg ? 1e-12 : 1e-3;
+  CHECK(e_pos < tol);
+  CHECK(e_rot < tol);
+  CHECK(e_vel < tol);
 }
 
 TEST_CASE("device PCG with a tolerance stops early and checks without per-iteration round trips", "[gpu]") {
