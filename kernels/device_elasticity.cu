@@ -543,11 +543,12 @@ class System final : public DeviceElasticity::Impl {
     FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_pcg_persistent<R>, options.block_samples,
                                                               m_shared_bytes));
     if (per_sm < 1) return 0;
-    // Only where every sample block and frame block fits in one resident wave: measured on an
-    // H200, a grid-stride loop over more blocks than are resident is slower than launches per
-    // phase (docs/benchmarks.md), while one wave saves 20-25% per CG iteration.
+    // Only for small grids: measured on an H200 (docs/benchmarks.md), the persistent loop saves
+    // 8-25% per CG iteration up to 211 blocks (27,000 samples) but loses 7% at 272 blocks and
+    // 15-30% from 1,024 blocks on (grid barriers and per-block sums of all partials grow with
+    // the grid), so it is used up to two blocks per multiprocessor.
     const int wanted = std::max(m_blocks, grid_for(m_n, options.block_samples));
-    if (wanted > per_sm * sms) return 0;
+    if (wanted > std::min(per_sm, 2) * sms) return 0;
     return std::max(1, wanted);
   }
 
