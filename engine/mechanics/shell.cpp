@@ -62,10 +62,16 @@ template <class T>
 T element_energy(const ShellElementRest& e, const Moduli& m, const V<T> x[3], const V<T> d[3][3]) {
   using std::sqrt;
   const V<T> a = vsub(x[1], x[0]), b = vsub(x[2], x[0]);
-  // Membrane: F = [a b] Dm^{-1} (3x2), E = (F^T F - I) / 2.
-  const V<T> f0 = vadd(vscale(e.dm_inverse[0][0], a), vscale(e.dm_inverse[1][0], b));
-  const V<T> f1 = vadd(vscale(e.dm_inverse[0][1], a), vscale(e.dm_inverse[1][1], b));
-  const T e00 = 0.5 * (vdot(f0, f0) - 1.0), e11 = 0.5 * (vdot(f1, f1) - 1.0), e01 = 0.5 * vdot(f0, f1);
+  // Membrane in displacement form: U = [u1-u0, u2-u0] Dm^{-1}, E = sym(F0^T U) + U^T U / 2.
+  V<T> u[3];
+  for (int i = 0; i < 3; ++i) u[i] = {x[i].x - e.rest[i].x, x[i].y - e.rest[i].y, x[i].z - e.rest[i].z};
+  const V<T> du1 = vsub(u[1], u[0]), du2 = vsub(u[2], u[0]);
+  const V<T> U0 = vadd(vscale(e.dm_inverse[0][0], du1), vscale(e.dm_inverse[1][0], du2));
+  const V<T> U1 = vadd(vscale(e.dm_inverse[0][1], du1), vscale(e.dm_inverse[1][1], du2));
+  auto along = [](const Vec3& c, const V<T>& v) { return c.x * v.x + c.y * v.y + c.z * v.z; };
+  const T e00 = along(e.axes[0], U0) + 0.5 * vdot(U0, U0);
+  const T e11 = along(e.axes[1], U1) + 0.5 * vdot(U1, U1);
+  const T e01 = 0.5 * (along(e.axes[0], U1) + along(e.axes[1], U0) + vdot(U0, U1));
   const T tr = e00 + e11;
   T w = (e.area * m.thickness) * (m.mu * (e00 * e00 + 2.0 * (e01 * e01) + e11 * e11) + (0.5 * m.lambda) * (tr * tr));
   // Corotational frame: e1 along x1 - x0, e3 normal.
@@ -140,6 +146,7 @@ ShellElementRest make_shell_element(const double* rest_positions, int n0, int n1
              p2 = load3(rest_positions + 3 * n2);
   const Vec3 a = p1 - p0, b = p2 - p0, n = cross(a, b);
   e.area = 0.5 * norm(n);
+  e.rest[0] = p0, e.rest[1] = p1, e.rest[2] = p2;
   if (!(e.area > 1e-12 * dot(a, a) + 1e-300) || !(norm(b) > 0))
     throw std::invalid_argument("shell: degenerate triangle at frames " + std::to_string(n0) + ", " +
                                 std::to_string(n1) + ", " + std::to_string(n2));

@@ -4,7 +4,10 @@
 // Each triangle's energy W_e = W_membrane + W_bending + W_drilling is written once as a function
 // of its three frames (x_i, R_i):
 //  * membrane: constant-strain triangle with the Green-Lagrange strain of the mid-surface,
-//    E = (F^T F - I)/2, F = [x1-x0, x2-x0] Dm^{-1} (3x2); plane-stress StVK
+//    E = (F^T F - I)/2, F = [x1-x0, x2-x0] Dm^{-1} (3x2), evaluated in displacement form
+//    E = sym(F0^T U) + U^T U / 2, F0 = [e1 e2] (rest), U = [u1-u0, u2-u0] Dm^{-1}, u = x - X:
+//    forming F^T F - I directly loses all digits of strains below 1e-16 and leaves a force noise
+//    that the stiff membrane (Y t) amplifies well above a small bending load; plane-stress StVK
 //    W_m = A t (mu tr(E^2) + lambda*/2 tr(E)^2), mu = Y/(2(1+nu)), lambda* = Y nu/(1-nu^2).
 //    Independent of any frame, so exactly invariant under rigid motions.
 //  * bending: the Discrete Kirchhoff Triangle (Batoz, Bathe & Ho 1980) in the corotational frame
@@ -36,6 +39,7 @@ struct ShellElementRest {
   double dm_inverse[2][2];  // Dm^{-1}, Dm = [P1 - P0, P2 - P0] in rest in-plane coordinates, 1/m
   double area;              // m^2
   Vec3 axes[3];             // rest corotational frame e1, e2, e3 (world)
+  Vec3 rest[3];             // rest node positions, m
   double bending[6][6];     // DKT K_b on (beta_0x, beta_0y, beta_1x, ...), J
 };
 
