@@ -33,6 +33,7 @@ struct BeamResult {
   Vec3 tip_displacement{0, 0, 0};  // of the free end's centre (16, 0.5, 0.5), m
   double seconds = 0;
   int newton_iterations = 0;
+  double residual = 0;  // relative to the weight, when converged
   bool converged = false;
   std::string message;
 };
@@ -43,6 +44,12 @@ BeamResult run_beam_case(const BeamCase& beam, const BeamSettings& settings);
 
 // Resolutions up to 64 x 4 x 4 hexahedra, including the paper's 20 x 9 frames (19 x 2 x 2).
 std::vector<BeamCase> default_beam_cases();
+
+// Inextensible elastica reference for the same load (Euler-Bernoulli, large rotations, dead
+// load): EI theta'' = -q (L - s) cos theta, theta(0) = 0, theta'(L) = 0, solved by shooting on
+// theta'(0) with RK4 (4000 steps, bisection to round-off). Returns the tip displacement
+// (dx, 0, dz) of the beam axis; the 3D model adds shear and Poisson effects of order (h/L)^2.
+Vec3 beam_elastica_deflection(const BeamSettings& settings);
 
 // Euler-Bernoulli small-deflection estimate q L^4 / (8 E I) (m): a sanity scale, not the answer
 // for this strongly nonlinear case.
