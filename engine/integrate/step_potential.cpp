@@ -130,13 +130,13 @@ double StepPotential::gradient(const State& state, std::vector<double>& g) {
 }
 
 void StepPotential::prepare_hessian(const State& state) {
-  m_elasticity.prepare(state);
-  for (auto& field : m_fields) field->prepare(state);
-  if (!m_mapping.empty()) {
+  if (!m_mapping.empty()) {  // first: the gradient pass reuses the elasticity's buffers
     full_gradient(state, m_scratch);
     m_mapping.set_state(state);
     m_mapping.set_geometric(m_scratch.data());
   }
+  m_elasticity.prepare(state);
+  for (auto& field : m_fields) field->prepare(state);
   std::fill(m_load_blocks.begin(), m_load_blocks.end(), 0.0);
   add_load_rotational_blocks(m_model, m_loads, state, m_load_blocks.data());
 }
