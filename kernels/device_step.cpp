@@ -25,8 +25,24 @@ StepOptions make_step_options(const Model& model, const ExternalLoads& loads, co
   return o;
 }
 
+namespace {
+
+// The device step covers volumetric frame models only; refuse what it would get wrong.
+const Model& supported(const Model& model) {
+  bool rigid = false;
+  for (int p : model.rigid_parents) rigid = rigid || p >= 0;
+  bool point_masses = false;
+  for (double m : model.frame_point_masses) point_masses = point_masses || m != 0;
+  if (!model.shells.empty() || rigid || point_masses)
+    throw std::invalid_argument(
+        "the CUDA backend does not support shells, rigid bodies or frame point masses yet; use --backend cpu");
+  return model;
+}
+
+}  // namespace
+
 DeviceImplicitStep::DeviceImplicitStep(const Model& model, const DeviceOptions& options)
-    : m_model(model), m_elasticity(model, options) {}
+    : m_model(supported(model)), m_elasticity(model, options) {}
 
 StepReport DeviceImplicitStep::step(State& state, const ExternalLoads& loads, double dt, double rayleigh_mass,
                                     double rayleigh_stiffness, const LinearSettings& linear) {
