@@ -86,6 +86,7 @@ StepReport Simulation::step() {
     potential.set_dynamic(start, m_settings.dt, m_settings.rayleigh_mass, m_settings.rayleigh_stiffness);
     State trial = start;
     apply_motions(m_model, m_motions, t_next, trial);
+    potential.rigid_mapping().sync(trial);
     const NewtonResult r = minimise(potential, trial, m_settings.newton, reference);
     report.newton_iterations = r.iterations;
     report.cg_iterations = r.cg_iterations;
@@ -106,6 +107,7 @@ StepReport Simulation::step() {
     potential.set_static();
     State trial = start;
     apply_motions(m_model, m_motions, t_next, trial);
+    potential.rigid_mapping().sync(trial);
     ExternalLoads& loads = m_loads;
     double done = 0, increment = 1.0 / std::max(1, m_settings.load_steps);
     NewtonResult last;
