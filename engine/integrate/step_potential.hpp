@@ -57,6 +57,7 @@ class StepPotential : public Potential {
   double m_dt = 0, m_alpha = 0, m_beta = 0;
   std::vector<double> m_world_inertia;  // [N][9] R_n I_0 R_n^T
   std::vector<double> m_scratch;
+  std::vector<double> m_frame_diagonal;  // [N][10] translational t_i and rotational Q_i of the system
 };
 
 // J_l^{-1}(phi), the inverse left Jacobian of SO(3) (Barfoot, State Estimation, eq. 7.77a).

@@ -17,7 +17,7 @@ constexpr int kParallelMin = 1024;
 }  // namespace
 
 Elasticity::Elasticity(const Model& model, int threads)
-    : m_model(model), m_threads(threads > 0 ? threads : omp_get_max_threads()) {
+    : m_model(model), m_threads(threads > 0 ? threads : omp_get_max_threads()), m_lanes(model) {
   const NeighbourTable& nb = model.neighbours;
   m_table = PairTableView{nb.offsets.data(), nb.frames.data(), nb.weights.data(), nb.weight_gradients.data(),
                           nb.rest_offsets.data()};
@@ -74,12 +74,14 @@ double Elasticity::prepare(const State& state) {
       const Mat3 P = first_piola(mat, F, m_cache[s]);
       store_mat3(&m_F[9 * s], F);
       store_mat3(&m_P[9 * s], P);
+      m_lanes.set_sample(s, mat, v, F, m_cache[s]);
       for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
         const int i = nb.frames[p];
         const Mat3 Ri = load_mat3(R + 9 * i);
         const Vec3 a = Ri * load3(&nb.rest_offsets[3 * p]);
         const Vec3 g = load3(&nb.weight_gradients[3 * p]);
         store3(&m_offsets[3 * p], a);
+        m_lanes.set_lever(s, p - nb.offsets[s], pair_lever(a, g, nb.weights[p], Ri));
         // Pair buffer: energy gradient share (columns 0-5) ...
         pair_virtual_work(P, a, g, nb.weights[p], Ri, v, &m_pair[6 * p]);
       }
@@ -153,38 +155,22 @@ void Elasticity::gather(double* out) const {
   }
 }
 
-void Elasticity::apply_tangent(const double* d, double* out) {
-  const int s_count = m_model.sample_count();
-  const NeighbourTable& nb = m_model.neighbours;
-  const double* R = m_rotations.data();
-  // Pass 1 (samples): dF = sum_p B_p d_i (eq. 11), dP = C[dF] (eq. 22-24 in the P form), then
-  // each pair's share B_p^T dP v (eq. 21, 23) and the stress part dF S (eq. 25-26).
-#pragma omp parallel for schedule(static) num_threads(m_threads) if (s_count > kParallelMin)
-  for (int s = 0; s < s_count; ++s) {
-    Mat3 dF = zero3();
-    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-      const int i = nb.frames[p];
-      dF += pair_deformation_differential(load3(d + 6 * i), load3(d + 6 * i + 3), load3(&m_offsets[3 * p]),
-                                          load3(&nb.weight_gradients[3 * p]), nb.weights[p], load_mat3(R + 9 * i));
-    }
-    const Material& mat = m_model.materials[m_model.samples.materials[s]];
-    const Mat3 dP = pk1_differential(mat, load_mat3(&m_F[9 * s]), m_cache[s], dF);
-    const double v = m_model.samples.volumes[s];
-    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-      const int i = nb.frames[p];
-      pair_virtual_work(dP, load3(&m_offsets[3 * p]), load3(&nb.weight_gradients[3 * p]), nb.weights[p],
-                        load_mat3(R + 9 * i), v, &m_pair[6 * p]);
-    }
-  }
-  // Pass 2 (frames): sum the pairs, add the rotational geometric block.
-  gather(out);
+void Elasticity::apply_tangent(const double* d, double* out, const double* frame_diagonal) {
+  // Pass 1 (blocks of samples, sample_lanes.hpp): dF = sum_p B_p d_i (eq. 11), v dP (eq. 22-24
+  // in the P form, with the stress part dF S of eq. 25-26), each pair's share B_p^T v dP (eq. 21,
+  // 23). Pass 2 (frames): sum the pairs, add the rotational geometric block and frame_diagonal.
+  const int blocks = m_lanes.block_count();
   const int n = m_model.frame_count();
-#pragma omp parallel for schedule(static) num_threads(m_threads) if (n > kParallelMin)
-  for (int i = 0; i < n; ++i) {
-    const Vec3 r = load_mat3(&m_frame_blocks[9 * i]) * load3(d + 6 * i + 3);
-    out[6 * i + 3] += r.x;
-    out[6 * i + 4] += r.y;
-    out[6 * i + 5] += r.z;
+  const double* F = m_F.data();
+  const MaterialCache* cache = m_cache.data();
+  const double* G = m_frame_blocks.data();
+#pragma omp parallel num_threads(m_threads) if (m_model.sample_count() > kParallelMin)
+  {
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    m_lanes.pair_products(d, m_model, F, cache, blocks * t / nt, blocks * (t + 1) / nt);
+#pragma omp barrier
+    m_lanes.gather(d, G, frame_diagonal, out, static_cast<int>(static_cast<long>(n) * t / nt),
+                   static_cast<int>(static_cast<long>(n) * (t + 1) / nt));
   }
 }
 
