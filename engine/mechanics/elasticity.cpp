@@ -75,15 +75,17 @@ double Elasticity::prepare(const State& state) {
       store_mat3(&m_F[9 * s], F);
       store_mat3(&m_P[9 * s], P);
       m_lanes.set_sample(s, mat, v, F, m_cache[s]);
+      const Mat3 vP = v * P;
       for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
         const int i = nb.frames[p];
         const Mat3 Ri = load_mat3(R + 9 * i);
         const Vec3 a = Ri * load3(&nb.rest_offsets[3 * p]);
         const Vec3 g = load3(&nb.weight_gradients[3 * p]);
         store3(&m_offsets[3 * p], a);
-        m_lanes.set_lever(s, p - nb.offsets[s], pair_lever(a, g, nb.weights[p], Ri));
+        const Mat3 M = pair_lever(a, g, nb.weights[p], Ri);
+        m_lanes.set_lever(s, p - nb.offsets[s], M);
         // Pair buffer: energy gradient share (columns 0-5) ...
-        pair_virtual_work(P, a, g, nb.weights[p], Ri, v, &m_pair[6 * p]);
+        pair_lever_virtual_work(vP, g, M, &m_pair[6 * p]);
       }
     }
     m_chunk[c] = sum;
@@ -125,12 +127,13 @@ double Elasticity::gradient(const State& state, double* gradient) {
       const double v = m_model.samples.volumes[s];
       sum += v * energy_density(mat, F);
       MaterialCache cache;
-      const Mat3 P = first_piola(mat, F, cache);
+      const Mat3 vP = v * first_piola(mat, F, cache);
       for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
         const int i = nb.frames[p];
         const Mat3 Ri = load_mat3(R + 9 * i);
         const Vec3 a = Ri * load3(&nb.rest_offsets[3 * p]);
-        pair_virtual_work(P, a, load3(&nb.weight_gradients[3 * p]), nb.weights[p], Ri, v, &m_pair[6 * p]);
+        const Vec3 g = load3(&nb.weight_gradients[3 * p]);
+        pair_lever_virtual_work(vP, g, pair_lever(a, g, nb.weights[p], Ri), &m_pair[6 * p]);
       }
     }
     m_chunk[c] = sum;

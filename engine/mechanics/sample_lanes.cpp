@@ -66,7 +66,7 @@ void pair_products_kernel(const int* __restrict block_slots, const std::uint8_t*
       const double* slot = slot_data + kSlotValues * L * q;
       alignas(64) double dd[6 * L];
       for (int l = 0; l < L; ++l)
-        for (int j = 0; j < 6; ++j) dd[j * L + l] = d[6 * frames[l] + j];
+        for (int j = 0; j < 6; ++j) dd[j * L + l] = d[frames[l] + j];
 #pragma omp simd
       for (int l = 0; l < L; ++l) {
         const Mat3 t = pair_lever_differential(lane_vec3(dd, l), lane_vec3(dd + 3 * L, l), lane_vec3(slot + 9 * L, l),
@@ -145,8 +145,8 @@ SampleLanes::SampleLanes(const Model& model) {
   m_slot_data.assign(static_cast<size_t>(kSlotValues) * L * slot_count, 0.0);
   m_block_data.assign(static_cast<size_t>(kBlockValues) * L * blocks, 0.0);
   m_slot_out.assign(static_cast<size_t>(6) * L * slot_count, 0.0);
-  // Slot lanes: frame and g of the pair; empty slot lanes read the sample's first frame (any
-  // valid frame; their lever and gradient are zero) and are never gathered.
+  // Slot lanes: first DOF (6 i) of the pair's frame i, and g; empty slot lanes read the sample's
+  // first frame (any valid frame: their lever and gradient are zero) and are never gathered.
   std::vector<int> entry_of_pair(model.pair_count());
   for (int s = 0; s < s_count; ++s) {
     const int b = s / L, l = s % L;
@@ -154,10 +154,10 @@ SampleLanes::SampleLanes(const Model& model) {
       const int k = q - m_block_slots[b];
       const int p = nb.offsets[s] + k;
       if (p >= nb.offsets[s + 1]) {
-        m_slot_frames[L * q + l] = nb.offsets[s] < nb.offsets[s + 1] ? nb.frames[nb.offsets[s]] : 0;
+        m_slot_frames[L * q + l] = nb.offsets[s] < nb.offsets[s + 1] ? 6 * nb.frames[nb.offsets[s]] : 0;
         continue;
       }
-      m_slot_frames[L * q + l] = nb.frames[p];
+      m_slot_frames[L * q + l] = 6 * nb.frames[p];
       for (int j = 0; j < 3; ++j) m_slot_data[(kSlotValues * q + 9 + j) * L + l] = nb.weight_gradients[3 * p + j];
       entry_of_pair[p] = 6 * L * q + l;
     }

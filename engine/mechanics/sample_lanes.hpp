@@ -54,7 +54,7 @@ class SampleLanes {
   std::vector<int> m_block_slots;       // [B+1] slot range of each block
   std::vector<int> m_sample_slot;       // [S] first slot of sample s (in its block)
   std::vector<std::uint8_t> m_generic;  // [B] 1 where a lane holds a law other than StVK
-  std::vector<int> m_slot_frames;       // [slots][kLanes] frame of each slot lane
+  std::vector<int> m_slot_frames;       // [slots][kLanes] 6 i, i the frame of each slot lane
   std::vector<double> m_slot_data;      // [slots][12][kLanes] lever M (row-major) then g
   std::vector<double> m_block_data;     // [B][17][kLanes] F, v S (xx yy zz yz xz xy), v lambda, v mu
   std::vector<double> m_slot_out;       // [slots][6][kLanes] per-pair shares of K d

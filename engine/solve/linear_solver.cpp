@@ -86,8 +86,11 @@ LinearResult conjugate_gradient(const LinearSystem& system, const LinearSettings
   double rz = dot(r, zr);
   for (int k = 0; k < settings.max_iterations; ++k) {
     system.apply(p.data(), hp.data());
-    project(system.fixed, hp);
-    const double curvature = dot(p, hp);
+    double curvature = 0;  // p^T H p, with H d projected onto the free DOFs
+    for (int j = 0; j < n; ++j) {
+      if (system.fixed && system.fixed[j]) hp[j] = 0;
+      curvature += p[j] * hp[j];
+    }
     if (!(curvature > 0)) {
       result.negative_curvature = true;
       if (k == 0) x = zr;  // preconditioned steepest descent
