@@ -3,7 +3,6 @@
 #include "mechanics/frame_sample.hpp"
 
 #include <algorithm>
-#include <cstring>
 
 // The lane loops below are written for the compiler's vectoriser (#pragma omp simd over kLanes
 // contiguous doubles). The default x86-64 target has only SSE2 (2 doubles per instruction); on
@@ -23,6 +22,9 @@ namespace {
 constexpr int L = kLanes;
 constexpr int kSlotValues = 12;   // lever M (9) then g (3)
 constexpr int kBlockValues = 17;  // F (9), v S (6), v lambda, v mu
+// A pair's share of K d is stored as one 64-byte record (6 values, 2 zeros): the frame pass reads
+// it with two vector loads from one cache line.
+constexpr int kShareValues = 8;
 
 // Lane l of a [k][L] matrix / vector stored from p.
 inline Mat3 lane_mat3(const double* p, int l) {
@@ -117,7 +119,9 @@ void pair_products_kernel(const int* __restrict block_slots, const std::uint8_t*
         out[4 * L + l] = t.y;
         out[5 * L + l] = t.z;
       }
-      std::memcpy(slot_out + 6 * L * q, out, sizeof out);
+      double* share = slot_out + kShareValues * L * q;  // [kLanes][kShareValues], lanes transposed
+      for (int l = 0; l < L; ++l)
+        for (int j = 0; j < 6; ++j) share[kShareValues * l + j] = out[j * L + l];
     }
   }
 }
@@ -144,7 +148,7 @@ SampleLanes::SampleLanes(const Model& model) {
   m_slot_frames.assign(static_cast<size_t>(L) * slot_count, 0);
   m_slot_data.assign(static_cast<size_t>(kSlotValues) * L * slot_count, 0.0);
   m_block_data.assign(static_cast<size_t>(kBlockValues) * L * blocks, 0.0);
-  m_slot_out.assign(static_cast<size_t>(6) * L * slot_count, 0.0);
+  m_slot_out.assign(static_cast<size_t>(kShareValues) * L * slot_count, 0.0);  // padding stays 0
   // Slot lanes: first DOF (6 i) of the pair's frame i, and g; empty slot lanes read the sample's
   // first frame (any valid frame: their lever and gradient are zero) and are never gathered.
   std::vector<int> entry_of_pair(model.pair_count());
@@ -159,7 +163,7 @@ SampleLanes::SampleLanes(const Model& model) {
       }
       m_slot_frames[L * q + l] = 6 * nb.frames[p];
       for (int j = 0; j < 3; ++j) m_slot_data[(kSlotValues * q + 9 + j) * L + l] = nb.weight_gradients[3 * p + j];
-      entry_of_pair[p] = 6 * L * q + l;
+      entry_of_pair[p] = kShareValues * (L * q + l);
     }
   }
   // Reverse positions: frame i's pairs in the reverse table's (increasing pair) order.
@@ -197,10 +201,10 @@ void SampleLanes::gather(const double* d, const double* G, const double* extra, 
                          int last) const {
   const double* shares = m_slot_out.data();
   for (int i = first; i < last; ++i) {
-    double acc[6] = {0, 0, 0, 0, 0, 0};
+    double acc[kShareValues] = {0, 0, 0, 0, 0, 0, 0, 0};
     for (int k = m_frame_offsets[i]; k < m_frame_offsets[i + 1]; ++k) {
       const double* q = shares + m_frame_entries[k];
-      for (int j = 0; j < 6; ++j) acc[j] += q[j * L];
+      for (int j = 0; j < kShareValues; ++j) acc[j] += q[j];
     }
     const double* di = d + 6 * i;
     const double* Gi = G + 9 * i;

@@ -13,7 +13,7 @@
 //   dF_s = sum_p dx_i g_p^T + [dr_i]x M_p               (eq. 11)
 //   v dP = dF (v S) + F (v lambda tr(dE) I + 2 v mu dE),  dE = sym(F^T dF)   (eq. 22-26, StVK)
 //   out_p = [v dP g_p, axial(M_p (v dP)^T)]           (eq. 21, 23, 25-26)
-// written to a slot buffer, then summed per frame in a fixed order (no atomics, the result does not
+// written to a share buffer (one cache line per pair), then summed per frame in a fixed order (no atomics, the result does not
 // depend on the number of threads). Blocks holding a law other than StVK take v dP from the
 // generic pk1_differential, lane by lane.
 #pragma once
@@ -39,7 +39,7 @@ class SampleLanes {
   // Per-state lever of the k-th neighbour pair of sample s.
   void set_lever(int s, int k, const Mat3& lever);
 
-  // The per-pair shares of K d ([slots][6][kLanes]) for blocks [first, last).
+  // The per-pair shares of K d for blocks [first, last).
   // d: [N][6]. F, cache: Elasticity's per-sample arrays, read only for non-StVK blocks.
   void pair_products(const double* d, const Model& model, const double* F, const MaterialCache* cache, int first,
                      int last);
@@ -57,7 +57,7 @@ class SampleLanes {
   std::vector<int> m_slot_frames;       // [slots][kLanes] 6 i, i the frame of each slot lane
   std::vector<double> m_slot_data;      // [slots][12][kLanes] lever M (row-major) then g
   std::vector<double> m_block_data;     // [B][17][kLanes] F, v S (xx yy zz yz xz xy), v lambda, v mu
-  std::vector<double> m_slot_out;       // [slots][6][kLanes] per-pair shares of K d
+  std::vector<double> m_slot_out;       // [slots][kLanes][8] per-pair shares of K d (6 values, 2 zeros)
   std::vector<int> m_frame_offsets;     // [N+1]
   std::vector<int> m_frame_entries;     // [P] index of the share's first value in m_slot_out
 };
