@@ -86,10 +86,21 @@ LinearResult conjugate_gradient(const LinearSystem& system, const LinearSettings
   double rz = dot(r, zr);
   for (int k = 0; k < settings.max_iterations; ++k) {
     system.apply(p.data(), hp.data());
-    double curvature = 0;  // p^T H p, with H d projected onto the free DOFs
-    for (int j = 0; j < n; ++j) {
-      if (system.fixed && system.fixed[j]) hp[j] = 0;
-      curvature += p[j] * hp[j];
+    // p^T H p, with H p projected onto the free DOFs. The loops below are SIMD reductions: a
+    // fixed summation order for a given build, independent of the thread count.
+    double curvature = 0;
+    double* __restrict hpd = hp.data();
+    const double* __restrict pd = p.data();
+    if (system.fixed) {
+      const std::uint8_t* __restrict fixed = system.fixed;
+#pragma omp simd reduction(+ : curvature)
+      for (int j = 0; j < n; ++j) {
+        hpd[j] = fixed[j] ? 0.0 : hpd[j];
+        curvature += pd[j] * hpd[j];
+      }
+    } else {
+#pragma omp simd reduction(+ : curvature)
+      for (int j = 0; j < n; ++j) curvature += pd[j] * hpd[j];
     }
     if (!(curvature > 0)) {
       result.negative_curvature = true;
@@ -101,10 +112,13 @@ LinearResult conjugate_gradient(const LinearSystem& system, const LinearSettings
     }
     const double alpha = rz / curvature;
     double rr = 0;
+    double* __restrict xd = x.data();
+    double* __restrict rd = r.data();
+#pragma omp simd reduction(+ : rr)
     for (int j = 0; j < n; ++j) {
-      x[j] += alpha * p[j];
-      r[j] -= alpha * hp[j];
-      rr += r[j] * r[j];
+      xd[j] += alpha * pd[j];
+      rd[j] -= alpha * hpd[j];
+      rr += rd[j] * rd[j];
     }
     result.iterations = k + 1;
     result.relative_residual = std::sqrt(rr) / b_norm;
@@ -116,7 +130,10 @@ LinearResult conjugate_gradient(const LinearSystem& system, const LinearSettings
     const double rz_new = preconditioner ? dot(r, z) : rr;
     const double beta = rz_new / rz;
     rz = rz_new;
-    for (int j = 0; j < n; ++j) p[j] = zr[j] + beta * p[j];
+    const double* __restrict zd = zr.data();
+    double* __restrict pw = p.data();
+#pragma omp simd
+    for (int j = 0; j < n; ++j) pw[j] = zd[j] + beta * pw[j];
   }
   result.converged = result.relative_residual <= settings.tolerance || settings.fixed_iterations;
   if (!result.converged) result.message = "CG reached its iteration cap";
