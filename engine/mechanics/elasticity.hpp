@@ -61,6 +61,7 @@ class Elasticity {
 
   const Model& m_model;
   int m_threads;
+  int m_max_pairs = 0;  // largest neighbour count of a sample
   PairTableView m_table;
   std::vector<double> m_rotations;     // [N][9]
   std::vector<double> m_offsets;       // [P][3] a_p = R_i l_p
@@ -69,6 +70,7 @@ class Elasticity {
   std::vector<MaterialCache> m_cache;  // [S]
   std::vector<double> m_frame_blocks;  // [N][9]
   std::vector<double> m_pair;          // [P][6] partial contributions
+  std::vector<double> m_pair_blocks;   // [P][6] pair rotational geometric blocks (xx yy zz yz xz xy)
   std::vector<double> m_chunk;         // fixed-size chunk sums (deterministic reductions)
   SampleLanes m_lanes;                 // SIMD layout of the tangent product
 };
