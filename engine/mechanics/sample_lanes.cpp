@@ -126,6 +126,34 @@ void pair_products_kernel(const int* __restrict block_slots, const std::uint8_t*
   }
 }
 
+// out_i = sum of frame i's share records + [t_i dx_i, (G_i + Q_i) dr_i] (SampleLanes::gather).
+FASCIA_LANE_CLONES
+void frame_sums_kernel(const int* __restrict frame_offsets, const int* __restrict frame_entries,
+                       const double* __restrict shares, const double* __restrict d, const double* __restrict G,
+                       const double* __restrict extra, double* __restrict out, int first, int last) {
+  for (int i = first; i < last; ++i) {
+    double acc[kShareValues] = {0, 0, 0, 0, 0, 0, 0, 0};
+    for (int k = frame_offsets[i]; k < frame_offsets[i + 1]; ++k) {
+      const double* q = shares + frame_entries[k];
+#pragma omp simd
+      for (int j = 0; j < kShareValues; ++j) acc[j] += q[j];
+    }
+    const double* di = d + 6 * i;
+    const double* Gi = G + 9 * i;
+    double* o = out + 6 * i;
+    if (extra) {
+      const double* e = extra + 10 * i;
+      for (int j = 0; j < 3; ++j) o[j] = acc[j] + e[0] * di[j];
+      for (int r = 0; r < 3; ++r)
+        o[3 + r] = acc[3 + r] + (Gi[3 * r] + e[1 + 3 * r]) * di[3] + (Gi[3 * r + 1] + e[2 + 3 * r]) * di[4] +
+                   (Gi[3 * r + 2] + e[3 + 3 * r]) * di[5];
+    } else {
+      for (int j = 0; j < 3; ++j) o[j] = acc[j];
+      for (int r = 0; r < 3; ++r) o[3 + r] = acc[3 + r] + Gi[3 * r] * di[3] + Gi[3 * r + 1] * di[4] + Gi[3 * r + 2] * di[5];
+    }
+  }
+}
+
 }  // namespace
 
 SampleLanes::SampleLanes(const Model& model) {
@@ -199,27 +227,7 @@ void SampleLanes::pair_products(const double* d, const Model& model, const doubl
 
 void SampleLanes::gather(const double* d, const double* G, const double* extra, double* out, int first,
                          int last) const {
-  const double* shares = m_slot_out.data();
-  for (int i = first; i < last; ++i) {
-    double acc[kShareValues] = {0, 0, 0, 0, 0, 0, 0, 0};
-    for (int k = m_frame_offsets[i]; k < m_frame_offsets[i + 1]; ++k) {
-      const double* q = shares + m_frame_entries[k];
-      for (int j = 0; j < kShareValues; ++j) acc[j] += q[j];
-    }
-    const double* di = d + 6 * i;
-    const double* Gi = G + 9 * i;
-    double* o = out + 6 * i;
-    if (extra) {
-      const double* e = extra + 10 * i;
-      for (int j = 0; j < 3; ++j) o[j] = acc[j] + e[0] * di[j];
-      for (int r = 0; r < 3; ++r)
-        o[3 + r] = acc[3 + r] + (Gi[3 * r] + e[1 + 3 * r]) * di[3] + (Gi[3 * r + 1] + e[2 + 3 * r]) * di[4] +
-                   (Gi[3 * r + 2] + e[3 + 3 * r]) * di[5];
-    } else {
-      for (int j = 0; j < 3; ++j) o[j] = acc[j];
-      for (int r = 0; r < 3; ++r) o[3 + r] = acc[3 + r] + Gi[3 * r] * di[3] + Gi[3 * r + 1] * di[4] + Gi[3 * r + 2] * di[5];
-    }
-  }
+  frame_sums_kernel(m_frame_offsets.data(), m_frame_entries.data(), m_slot_out.data(), d, G, extra, out, first, last);
 }
 
 }  // namespace fascia
