@@ -29,6 +29,12 @@ double load_potential(const Model& model, const ExternalLoads& loads, const Stat
     v -= dot(sample_weight(model, loads, s), sample_position(t, s, state.positions.data(), R.data()));
   for (const PointForce& f : loads.point_forces)
     v -= loads.scale * dot(f.force, load3(&state.positions[3 * f.frame]));
+  for (const MaterialPointForce& m : loads.material_point_forces)
+    for (size_t k = 0; k < m.frames.size(); ++k) {
+      const int i = m.frames[k];
+      const Vec3 y = load3(&state.positions[3 * i]) + load_mat3(&R[9 * i]) * load3(&m.rest_offsets[3 * k]);
+      v -= loads.scale * m.weights[k] * dot(m.force, y);
+    }
   return v;
 }
 
@@ -52,6 +58,15 @@ void add_load_gradient(const Model& model, const ExternalLoads& loads, const Sta
     double* g = gradient + 6 * f.frame;
     g[0] -= loads.scale * f.force.x, g[1] -= loads.scale * f.force.y, g[2] -= loads.scale * f.force.z;
   }
+  for (const MaterialPointForce& m : loads.material_point_forces)
+    for (size_t k = 0; k < m.frames.size(); ++k) {
+      const int i = m.frames[k];
+      const Vec3 b = (loads.scale * m.weights[k]) * m.force;
+      const Vec3 t = cross(load_mat3(&R[9 * i]) * load3(&m.rest_offsets[3 * k]), b);
+      double* g = gradient + 6 * i;
+      g[0] -= b.x, g[1] -= b.y, g[2] -= b.z;
+      g[3] -= t.x, g[4] -= t.y, g[5] -= t.z;
+    }
 }
 
 void add_load_rotational_blocks(const Model& model, const ExternalLoads& loads, const State& state, double* blocks) {
@@ -68,6 +83,14 @@ void add_load_rotational_blocks(const Model& model, const ExternalLoads& loads, 
         for (int c = 0; c < 3; ++c) blocks[9 * i + 3 * r + c] += K.m[r][c];
     }
   }
+  for (const MaterialPointForce& m : loads.material_point_forces)
+    for (size_t k = 0; k < m.frames.size(); ++k) {
+      const int i = m.frames[k];
+      const Vec3 a = load_mat3(&R[9 * i]) * load3(&m.rest_offsets[3 * k]);
+      const Mat3 K = pair_body_force_block(loads.scale * m.force, a, m.weights[k]);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) blocks[9 * i + 3 * r + c] += K.m[r][c];
+    }
 }
 
 double load_force_norm(const Model& model, const ExternalLoads& loads) {
@@ -80,6 +103,12 @@ double load_force_norm(const Model& model, const ExternalLoads& loads) {
       fi[0] += nb.weights[p] * b.x, fi[1] += nb.weights[p] * b.y, fi[2] += nb.weights[p] * b.z;
     }
   }
+  for (const MaterialPointForce& m : loads.material_point_forces)
+    for (size_t k = 0; k < m.frames.size(); ++k) {
+      double* fi = &f[3 * m.frames[k]];
+      fi[0] += loads.scale * m.weights[k] * m.force.x, fi[1] += loads.scale * m.weights[k] * m.force.y;
+      fi[2] += loads.scale * m.weights[k] * m.force.z;
+    }
   for (const PointForce& pf : loads.point_forces) {
     double* fi = &f[3 * pf.frame];
     fi[0] += loads.scale * pf.force.x, fi[1] += loads.scale * pf.force.y, fi[2] += loads.scale * pf.force.z;

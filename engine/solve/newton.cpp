@@ -1,8 +1,6 @@
 #include "solve/newton.hpp"
 
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <sstream>
 
 namespace fascia {
@@ -44,9 +42,6 @@ NewtonResult minimise(Potential& potential, State& state, const NewtonSettings& 
       slope = -free_norm(model, g) * free_norm(model, g);
     }
     ++result.iterations;
-    if (std::getenv("FASCIA_NEWTON_LOG"))
-      std::fprintf(stderr, "newton %d residual %.3e phi %.12e cg %d %s\n", it, result.residual, phi, lin.iterations,
-                   lin.message.c_str());
     if (settings.fixed_iterations > 0) {  // one linearised step per iteration, no line search
       retract(model, state, d.data());
       phi = potential.gradient(state, g);

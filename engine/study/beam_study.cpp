@@ -6,6 +6,7 @@
 #include "study/meshless_beam.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 
 namespace fascia {
@@ -104,6 +105,52 @@ double beam_linear_deflection(const BeamSettings& s) {
   const double q = s.mass * s.gravity / s.length;               // N/m
   const double I = s.width * s.height * s.height * s.height / 12;  // m^4
   return q * s.length * s.length * s.length * s.length / (8 * s.young * I);
+}
+
+}  // namespace fascia
+
+namespace fascia {
+namespace {
+
+// Integrates theta'' = -c (L - s) cos theta from s = 0 with theta = 0, theta' = k0; returns
+// theta'(L) and the tip position (x, z) of the axis.
+struct Shot {
+  double end_curvature, x, z;
+};
+
+Shot shoot(double k0, double c, double L, int steps) {
+  const double h = L / steps;
+  double theta = 0, k = k0, s = 0, x = 0, z = 0;
+  auto rhs = [c, L](double at, double th) { return -c * (L - at) * std::cos(th); };
+  for (int n = 0; n < steps; ++n) {
+    const double t1 = k, k1 = rhs(s, theta);
+    const double t2 = k + 0.5 * h * k1, k2 = rhs(s + 0.5 * h, theta + 0.5 * h * t1);
+    const double t3 = k + 0.5 * h * k2, k3 = rhs(s + 0.5 * h, theta + 0.5 * h * t2);
+    const double t4 = k + h * k3, k4 = rhs(s + h, theta + h * t3);
+    // Position by Simpson's rule over the step with the RK stage angles.
+    const double mid = theta + 0.25 * h * (t1 + t2), end = theta + h / 6 * (t1 + 2 * t2 + 2 * t3 + t4);
+    x += h / 6 * (std::cos(theta) + 4 * std::cos(mid) + std::cos(end));
+    z += h / 6 * (std::sin(theta) + 4 * std::sin(mid) + std::sin(end));
+    theta = end;
+    k += h / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
+    s += h;
+  }
+  return {k, x, z};
+}
+
+}  // namespace
+
+Vec3 beam_elastica_deflection(const BeamSettings& s) {
+  const double I = s.width * s.height * s.height * s.height / 12;
+  const double c = s.mass * s.gravity / s.length / (s.young * I);  // q / (E I), 1/m^3
+  // theta'(L) increases with theta'(0): bisection between 0 and the linear root curvature x 2.
+  double lo = 0, hi = 2 * c * s.length * s.length / 2;
+  for (int it = 0; it < 200 && hi - lo > 1e-15 * hi; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (shoot(mid, c, s.length, 4000).end_curvature > 0 ? hi : lo) = mid;
+  }
+  const Shot tip = shoot(lo, c, s.length, 4000);
+  return Vec3{tip.x - s.length, 0, -tip.z};
 }
 
 }  // namespace fascia

@@ -62,6 +62,12 @@ BeamResult run_beam_case(const BeamCase& beam, const BeamSettings& settings);
 std::vector<BeamCase> default_beam_cases();
 std::vector<double> default_meshless_frame_spacings();
 
+// Inextensible elastica reference for the same load (Euler-Bernoulli, large rotations, dead
+// load): EI theta'' = -q (L - s) cos theta, theta(0) = 0, theta'(L) = 0, solved by shooting on
+// theta'(0) with RK4 (4000 steps, bisection to round-off). Returns the tip displacement
+// (dx, 0, dz) of the beam axis; the 3D model adds shear and Poisson effects of order (h/L)^2.
+Vec3 beam_elastica_deflection(const BeamSettings& settings);
+
 // Euler-Bernoulli small-deflection estimate q L^4 / (8 E I) (m): a sanity scale, not the answer
 // for this strongly nonlinear case.
 double beam_linear_deflection(const BeamSettings& settings);
