@@ -92,16 +92,31 @@ class DeviceElasticity {
   std::unique_ptr<Impl> m_impl;
 };
 
+// The step solves H delta = -g with (engine/integrate/step_potential.hpp at the step start)
+//   H = (1 + beta/h) K + (1 + alpha h)/h^2 diag(m_i I, R_i I_0 R_i^T) + diag(0, L_i)
+//   g = dW - f_ext - M v / h
+// K the elastic tangent (material + geometric), I_0 = Model::frame_inertias, L_i the load
+// potential's rotational blocks, fixed DOFs projected out. make_step_options (device_step.hpp)
+// fills f_ext and L from fascia::ExternalLoads so that the step equals the CPU engine's.
 struct StepOptions {
   double dt = 0.01;                     // s
   int max_cg_iterations = 60;
   double cg_tolerance = 0;              // relative, on sqrt(r.z / r0.z0); 0 = run max_cg_iterations
   int check_every = 10;                 // CG iterations between host reads of the convergence flag
-  bool use_graphs = true;               // replay the CG iterations as one CUDA graph
+  bool use_graphs = true;               // replay the launches of a step as CUDA graphs
+  // Fused design: the whole PCG loop in one cooperative kernel with grid barriers (no launch per
+  // phase; tolerance checked every iteration on the device), used where the model's sample blocks
+  // fit in one resident wave of the device; launches per phase otherwise.
+  bool persistent = true;
+  bool preconditioner = true;           // block-Jacobi PCG (as LinearMethod::pcg); false: plain CG
+  double rayleigh_mass = 0;             // alpha, 1/s
+  double rayleigh_stiffness = 0;        // beta, s
   std::vector<double> external_forces;  // [N][6] constant generalised forces (N, N m) or empty
+  std::vector<double> load_rotational_blocks;  // [N][9] L_i (N m), row-major, or empty
 };
 
 struct StepReport {
+  bool persistent = false;          // the PCG ran as one cooperative kernel
   int cg_iterations = 0;
   double cg_relative_residual = 0;  // sqrt(r.z / r0.z0) at the end
   double energy = 0;                // elastic energy at the start of the step, J

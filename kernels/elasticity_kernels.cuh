@@ -8,6 +8,7 @@
 
 #include "elasticity_phases.hpp"
 
+#include <cooperative_groups.h>
 #include <cuda_runtime.h>
 
 namespace fascia::gpu {
@@ -126,8 +127,9 @@ __global__ void k_paper_tangent(ModelView<R> m, FrameView<R> f, const R* F, cons
 }
 
 struct FrameTermsFlags {
-  double inv_h2;
-  bool project;
+  double inv_h2;          // (1 + alpha h)/h^2, 0 for K alone
+  bool project;           // zero the rows of fixed DOFs
+  double k_scale = 1.0;   // 1 + beta/h
 };
 
 // Kernel 2 of the paper: 6 threads per frame (one per component), 96 threads per block. With
@@ -140,7 +142,8 @@ __global__ void k_paper_gather(ModelView<R> m, const R* partials, const R* geo, 
   const int i = t / 6, k = t % 6;
   double dot = 0;
   if (i < m.frames) {
-    const double acc = frame_row(m, geo, inertia_world, flags.inv_h2, flags.project, d, i, k, paper_gather(m, partials, i, k));
+    const double acc = frame_row(m, geo, inertia_world, flags.inv_h2, flags.project, d, i, k,
+                                 paper_gather(m, partials, i, k), flags.k_scale);
     out[6 * i + k] = static_cast<R>(acc);
     if (pcg) dot = static_cast<double>(d[6 * i + k]) * static_cast<double>(static_cast<R>(acc));
   }
@@ -180,7 +183,7 @@ __global__ void k_fused_gather(ModelView<R> m, const R* slot_partials, const R* 
     double acc[6];
     fused_gather(m, slot_partials, i, acc);
     for (int k = 0; k < 6; ++k) {
-      const double v = frame_row(m, geo, inertia_world, flags.inv_h2, flags.project, d, i, k, acc[k]);
+      const double v = frame_row(m, geo, inertia_world, flags.inv_h2, flags.project, d, i, k, acc[k], flags.k_scale);
       out[6 * i + k] = static_cast<R>(v);
       if (pcg) dot += static_cast<double>(d[6 * i + k]) * static_cast<double>(static_cast<R>(v));
     }
@@ -192,9 +195,11 @@ __global__ void k_fused_gather(ModelView<R> m, const R* slot_partials, const R* 
 
 template <class R>
 __global__ void k_frame_prepare(ModelView<R> m, FrameView<R> f, const R* F, bool fused, double inv_h2, R* geo,
-                                R* inertia_world, R* minv, double* diag) {
+                                R* inertia_world, R* minv, double* diag, double k_scale, const double* load_rot,
+                                bool precondition) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < m.frames) frame_prepare(m, f, F, fused, inv_h2, i, geo, inertia_world, minv, diag);
+  if (i < m.frames)
+    frame_prepare(m, f, F, fused, inv_h2, i, geo, inertia_world, minv, diag, k_scale, load_rot, precondition);
 }
 
 template <class R>
@@ -266,7 +271,106 @@ __global__ void k_pcg_direction(int count, const R* z, R* p, const Scalars* sc) 
   if (finished(sc)) return;
   const double beta = sc->beta;
   const int j = blockIdx.x * blockDim.x + threadIdx.x;
-  if (j < count) p[j] = static_cast<R>(static_cast<double>(z[j]) + beta * static_cast<double>(p[j]));
+  if (j < count) p[j] = next_direction(z, p, beta, j);
+}
+
+// ---- persistent PCG (fused design) ----
+
+// Sum over the whole grid of every thread's v, returned to every thread of every block. Each
+// block writes its shuffle-tree sum to partials[blockIdx.x]; after the grid barrier every block
+// sums all partials in block order with the same tree, so all blocks hold the same bits and the
+// result does not depend on scheduling.
+__device__ inline double grid_sum(double v, double* partials, cooperative_groups::grid_group& grid) {
+  __shared__ double total;
+  const double block = block_sum(v);
+  if (threadIdx.x == 0) partials[blockIdx.x] = block;
+  grid.sync();
+  double s = 0;
+  for (unsigned b = threadIdx.x; b < gridDim.x; b += blockDim.x) s += __ldcg(partials + b);
+  const double t = block_sum(s);
+  if (threadIdx.x == 0) total = t;
+  __syncthreads();
+  return total;
+}
+
+// The whole PCG loop of a step in one cooperative launch: per iteration three phases separated by
+// grid barriers, no launches and no host round trips. (1) sample pass of the tangent product on
+// p = z + beta p_old formed on the fly; (2) frame pass: writes p, Ap = H p and reduces p.Ap -> alpha;
+// (3) x += alpha p, r -= alpha Ap, z = M^-1 r, reduces r.z -> beta and the stopping test. Every
+// block computes the scalars from the same partials, so all take the same branches. Same
+// arithmetic as the launch-per-phase PCG (k_fused_samples, k_fused_gather, k_pcg_update,
+// k_pcg_direction). `partials` holds 2 gridDim.x doubles. Starts from k_pcg_init's scalars.
+template <class R>
+__global__ void k_pcg_persistent(ModelView<R> m, FrameView<R> f, const R* geo, const R* inertia_world,
+                                 FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, R* Ap,
+                                 R* slot_partials, double* partials, Scalars* scalars, int max_iterations,
+                                 double tolerance) {
+  cooperative_groups::grid_group grid = cooperative_groups::this_grid();
+  extern __shared__ unsigned char shared_raw[];
+  R* local = reinterpret_cast<R*>(shared_raw);
+  const double rz0 = scalars->rz0;
+  double rz = scalars->rz, beta = 0;
+  int done = scalars->done, it = 0;
+  const int threads = static_cast<int>(gridDim.x * blockDim.x);
+  const int tid = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x);
+  while (done == 0 && it < max_iterations) {
+    // (1) samples.
+    for (int b = blockIdx.x; b < m.blocks; b += gridDim.x) {
+      const int s0 = m.block_samples[b], s1 = m.block_samples[b + 1];
+      const int s = s0 + static_cast<int>(threadIdx.x);
+      if (s < s1) fused_sample<Pass::tangent>(m, f, z, s, m.offsets[s0], local, static_cast<R*>(nullptr), p, beta);
+      __syncthreads();
+      for (int q = m.block_slots[b] + threadIdx.x; q < m.block_slots[b + 1]; q += blockDim.x)
+        fused_slot_sum(m, local, q, slot_partials);
+      __syncthreads();
+    }
+    grid.sync();
+    // (2) frames: p, Ap, p.Ap.
+    double dot = 0;
+    for (int i = tid; i < m.frames; i += threads) {
+      for (int k = 0; k < 6; ++k) p[6 * i + k] = next_direction(z, p, beta, 6 * i + k);
+      double acc[6];
+      fused_gather(m, slot_partials, i, acc);
+      for (int k = 0; k < 6; ++k) {
+        const double v = frame_row(m, geo, inertia_world, flags.inv_h2, flags.project, p, i, k, acc[k], flags.k_scale);
+        Ap[6 * i + k] = static_cast<R>(v);
+        dot += static_cast<double>(p[6 * i + k]) * static_cast<double>(static_cast<R>(v));
+      }
+    }
+    const double pAp = grid_sum(dot, partials, grid);
+    if (!(pAp > 0 && pAp < HUGE_VAL)) {
+      done = 2;
+      break;
+    }
+    const double alpha = rz / pAp;
+    // (3) update and preconditioner.
+    dot = 0;
+    for (int i = tid; i < m.frames; i += threads) {
+      for (int k = 0; k < 6; ++k) {
+        const int j = 6 * i + k;
+        x[j] = static_cast<R>(static_cast<double>(x[j]) + alpha * static_cast<double>(p[j]));
+        r[j] = static_cast<R>(static_cast<double>(r[j]) - alpha * static_cast<double>(Ap[j]));
+      }
+      double zz[6];
+      block_jacobi(minv, r, i, zz);
+      for (int k = 0; k < 6; ++k) {
+        z[6 * i + k] = static_cast<R>(zz[k]);
+        dot += static_cast<double>(r[6 * i + k]) * static_cast<double>(static_cast<R>(zz[k]));
+      }
+    }
+    const double rz_new = grid_sum(dot, partials + gridDim.x, grid);
+    beta = rz > 0 ? rz_new / rz : 0;
+    rz = rz_new;
+    ++it;
+    if (tolerance > 0 && rz_new <= tolerance * tolerance * rz0) done = 1;
+    if (!(rz_new > 0)) done = 1;
+  }
+  if (tid == 0) {
+    scalars->rz = rz;
+    scalars->beta = beta;
+    scalars->iterations = it;
+    scalars->done = done;
+  }
 }
 
 // x <- x (+) delta, v <- delta / h (DESIGN.md: retract with world-axis rotation increments).

@@ -91,6 +91,13 @@ struct FrameView {
   const R* positions = nullptr;  // [N][3]
 };
 
+// Component j of the CG direction p_new = z + beta p_old, rounded to the storage precision. One
+// function (explicit fma) so that every kernel that forms it gets the same bits.
+template <class R>
+FASCIA_HD R next_direction(const R* z, const R* p_old, double beta, int j) {
+  return static_cast<R>(fma(beta, static_cast<double>(p_old[j]), static_cast<double>(z[j])));
+}
+
 // ---- frames: kinematics ------------------------------------------------------------------------
 
 FASCIA_HD void frame_kinematics(int i, const double* positions, const double* orientations, const double* origin,
@@ -177,9 +184,11 @@ enum class Pass { gradient = 0, tangent = 1 };
 // rest orientation I); in the gradient pass T = P (and F is stored for the frame preparation), in
 // the tangent pass T = dP[dF]. Each pair's v B_p^T T goes to local[6 (p - pair_base) + k]
 // (shared memory on the device). Returns v psi(F) in the gradient pass, 0 otherwise.
+// With `p_old` set (persistent PCG), the direction is formed on the fly: d_i = z_i + beta p_old_i
+// with d = z (next_direction), so the direction update needs no pass of its own.
 template <Pass pass, class R>
 FASCIA_HD double fused_sample(const ModelView<R>& m, const FrameView<R>& f, const R* d, int s, int pair_base,
-                              R* local, R* F_out) {
+                              R* local, R* F_out, const R* p_old = nullptr, double beta = 0) {
   const Vec3 ps = ld3(m.sample_rest + 3 * s);
   const int begin = m.offsets[s], end = m.offsets[s + 1];
   Mat3 F = zero3();
@@ -191,7 +200,15 @@ FASCIA_HD double fused_sample(const ModelView<R>& m, const FrameView<R>& f, cons
     const Vec3 g = ld3(m.gradients + 3 * p);
     const double w = static_cast<double>(m.weights[p]);
     F += outer(ld3(f.positions + 3 * i) + a, g) + w * Ri;
-    if (pass == Pass::tangent) dF += pair_deformation_differential(ld3(d + 6 * i), ld3(d + 6 * i + 3), a, g, w, Ri);
+    if (pass == Pass::tangent) {
+      if (p_old) {
+        R di[6];
+        for (int k = 0; k < 6; ++k) di[k] = next_direction(d, p_old, beta, 6 * i + k);
+        dF += pair_deformation_differential(ld3(di), ld3(di + 3), a, g, w, Ri);
+      } else {
+        dF += pair_deformation_differential(ld3(d + 6 * i), ld3(d + 6 * i + 3), a, g, w, Ri);
+      }
+    }
   }
   const Material mat = m.materials[m.sample_materials[s]];
   const double v = static_cast<double>(m.volumes[s]);
@@ -239,14 +256,18 @@ FASCIA_HD void fused_gather(const ModelView<R>& m, const R* partials, int i, dou
 
 // ---- frames: the rest of the operator ------------------------------------------------------------
 
-// Row k of the frame terms added after the gather: the rotational geometric block (`geo` [N][9],
-// tangent products only, null otherwise) times d_r, the inertia M_i / h^2 times d (translations
-// m_i, rotations R_i J_i R_i^T in `inertia_world` [N][9]; gyroscopic terms are neglected), and, when
-// `project` is set, the projection of fixed DOFs (they leave the unknowns: row set to 0).
+// Row k of the frame terms added after the gather of the sample terms `acc`: k_scale acc (the
+// elastic tangent; k_scale = 1 + beta/h with stiffness-proportional damping), plus the frame
+// block `geo` [N][9] (rotational geometric block, already times k_scale, plus the load potential's
+// rotational block; tangent products only, null otherwise) times d_r, plus the inertia
+// inv_h2 M_i d (inv_h2 = (1 + alpha h)/h^2; translations m_i, rotations R_i I_0 R_i^T in
+// `inertia_world` [N][9]; gyroscopic terms neglected, as engine/integrate/step_potential.hpp), and,
+// when `project` is set, the projection of fixed DOFs (they leave the unknowns: row set to 0).
 template <class R>
 FASCIA_HD double frame_row(const ModelView<R>& m, const R* geo, const R* inertia_world, double inv_h2, bool project,
-                           const R* d, int i, int k, double acc) {
+                           const R* d, int i, int k, double acc, double k_scale = 1.0) {
   if (project && m.fixed[6 * i + k]) return 0.0;
+  acc *= k_scale;
   if (k >= 3) {
     const R* dr = d + 6 * i + 3;
     if (geo) {
@@ -267,51 +288,71 @@ FASCIA_HD double frame_row(const ModelView<R>& m, const R* geo, const R* inertia
   return acc;
 }
 
-// In-place inverse of a 6x6 matrix by Gauss-Jordan elimination with partial pivoting. Returns
-// false if singular.
-FASCIA_HD bool invert6(double* a, double* inv) {
-  for (int r = 0; r < 6; ++r)
-    for (int c = 0; c < 6; ++c) inv[6 * r + c] = r == c ? 1.0 : 0.0;
-  for (int c = 0; c < 6; ++c) {
-    int piv = c;
-    for (int r = c + 1; r < 6; ++r)
-      if (std::fabs(a[6 * r + c]) > std::fabs(a[6 * piv + c])) piv = r;
-    if (a[6 * piv + c] == 0.0) return false;
-    if (piv != c)
-      for (int k = 0; k < 6; ++k) {
-        double t = a[6 * c + k];
-        a[6 * c + k] = a[6 * piv + k];
-        a[6 * piv + k] = t;
-        t = inv[6 * c + k];
-        inv[6 * c + k] = inv[6 * piv + k];
-        inv[6 * piv + k] = t;
-      }
-    const double s = 1.0 / a[6 * c + c];
-    for (int k = 0; k < 6; ++k) {
-      a[6 * c + k] *= s;
-      inv[6 * c + k] *= s;
+// In-place inverse of a symmetric 6x6 matrix by Cholesky factorisation; false if it is not
+// positive definite (a non-positive pivot).
+FASCIA_HD bool cholesky_inverse6(const double* a, double* inv) {
+  double L[36];
+  for (int k = 0; k < 36; ++k) L[k] = 0;
+  for (int j = 0; j < 6; ++j) {
+    double d = a[6 * j + j];
+    for (int k = 0; k < j; ++k) d -= L[6 * j + k] * L[6 * j + k];
+    if (!(d > 0)) return false;
+    L[6 * j + j] = std::sqrt(d);
+    for (int r = j + 1; r < 6; ++r) {
+      double v = a[6 * r + j];
+      for (int k = 0; k < j; ++k) v -= L[6 * r + k] * L[6 * j + k];
+      L[6 * r + j] = v / L[6 * j + j];
     }
+  }
+  // inv = L^-T L^-1, column by column.
+  for (int c = 0; c < 6; ++c) {
+    double y[6];
     for (int r = 0; r < 6; ++r) {
-      if (r == c) continue;
-      const double t = a[6 * r + c];
-      if (t == 0.0) continue;
-      for (int k = 0; k < 6; ++k) {
-        a[6 * r + k] -= t * a[6 * c + k];
-        inv[6 * r + k] -= t * inv[6 * c + k];
-      }
+      double v = r == c ? 1.0 : 0.0;
+      for (int k = 0; k < r; ++k) v -= L[6 * r + k] * y[k];
+      y[r] = v / L[6 * r + r];
+    }
+    for (int r = 5; r >= 0; --r) {
+      double v = y[r];
+      for (int k = r + 1; k < 6; ++k) v -= L[6 * k + r] * inv[6 * k + c];
+      inv[6 * r + c] = v / L[6 * r + r];
     }
   }
   return true;
 }
 
+// The block-Jacobi inverse of one frame's 6x6 block H_ii, as the CPU PCG builds it
+// (engine/solve/linear_solver.cpp): fixed DOFs get their row and column zeroed and the largest
+// absolute diagonal entry on the diagonal; the inverse by Cholesky, or, where the block is not
+// positive definite, the inverse of its absolute diagonal (floored at 1e-12 of the largest).
+// Fixed rows of the inverse are set to 0 (the CPU projects z there). In place: `K` is modified.
+FASCIA_HD void block_jacobi_inverse(const unsigned char* fixed, double* K, double* inv) {
+  double largest = 0;
+  for (int k = 0; k < 6; ++k) largest = std::fmax(largest, std::fabs(K[6 * k + k]));
+  if (largest == 0) largest = 1;
+  for (int k = 0; k < 6; ++k)
+    if (fixed[k])
+      for (int j = 0; j < 6; ++j) K[6 * k + j] = K[6 * j + k] = (j == k ? largest : 0.0);
+  if (!cholesky_inverse6(K, inv)) {
+    for (int k = 0; k < 36; ++k) inv[k] = 0;
+    for (int k = 0; k < 6; ++k) inv[7 * k] = 1.0 / std::fmax(std::fabs(K[7 * k]), 1e-12 * largest);
+  }
+  for (int k = 0; k < 6; ++k)
+    if (fixed[k])
+      for (int j = 0; j < 6; ++j) inv[6 * k + j] = inv[6 * j + k] = 0.0;
+}
+
 // Per-frame preparation of a Newton iteration, from F [S][9] of the gradient pass: the
-// rotational geometric block (frame_sample.hpp), the rotated inertia R J R^T, the 6x6 diagonal
+// rotational geometric block (frame_sample.hpp), the rotated inertia R I_0 R^T, the 6x6 diagonal
 // block K_ii (material + geometric, = Elasticity::tangent_diagonal_blocks) and the block-Jacobi
-// preconditioner inv(K_ii + M_i / h^2) with fixed DOFs replaced by identity rows and columns.
+// preconditioner of H_ii = k_scale K_ii + inv_h2 M_i + [0 0; 0 load_i] (block_jacobi_inverse;
+// with `precondition` false: the identity on free DOFs, plain CG). `load_rot` [N][9] (nullable)
+// is the load potential's rotational block; geo_out receives k_scale Kr + load_i.
 // `fused` selects a = R (p_s - x_i) (fused design) or a = R l from the table (paper design).
 template <class R>
 FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, double inv_h2, int i,
-                             R* geo_out, R* inertia_out, R* minv_out, double* diag_out) {
+                             R* geo_out, R* inertia_out, R* minv_out, double* diag_out, double k_scale = 1.0,
+                             const double* load_rot = nullptr, bool precondition = true) {
   const Mat3 Ri = ldm(f.rotations + 9 * i);
   Mat3 Kr = zero3();
   double K[36];
@@ -342,21 +383,28 @@ FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) K[6 * (3 + r) + 3 + c] += Kr.m[r][c];
   const Mat3 J = Ri * ldm(m.inertias + 9 * i) * transpose(Ri);
-  stm(geo_out + 9 * i, Kr);
+  Mat3 frame_block = k_scale * Kr;
+  if (load_rot) frame_block += load_mat3(load_rot + 9 * i);
+  stm(geo_out + 9 * i, frame_block);
   stm(inertia_out + 9 * i, J);
   if (diag_out)
     for (int k = 0; k < 36; ++k) diag_out[36 * i + k] = K[k];
-  const double mass = static_cast<double>(m.masses[i]);
-  for (int r = 0; r < 3; ++r) {
-    K[6 * r + r] += inv_h2 * mass;
-    for (int c = 0; c < 3; ++c) K[6 * (3 + r) + 3 + c] += inv_h2 * J.m[r][c];
-  }
-  for (int k = 0; k < 6; ++k)
-    if (m.fixed[6 * i + k])
-      for (int j = 0; j < 6; ++j) K[6 * k + j] = K[6 * j + k] = (j == k ? 1.0 : 0.0);
   double inv[36];
-  if (!invert6(K, inv))
-    for (int k = 0; k < 36; ++k) inv[k] = (k % 7 == 0) ? 1.0 : 0.0;  // identity: plain CG on this frame
+  if (precondition) {
+    for (int k = 0; k < 36; ++k) K[k] *= k_scale;
+    const double mass = static_cast<double>(m.masses[i]);
+    for (int r = 0; r < 3; ++r) {
+      K[6 * r + r] += inv_h2 * mass;
+      for (int c = 0; c < 3; ++c) {
+        K[6 * (3 + r) + 3 + c] += inv_h2 * J.m[r][c];
+        if (load_rot) K[6 * (3 + r) + 3 + c] += load_rot[9 * i + 3 * r + c];
+      }
+    }
+    block_jacobi_inverse(m.fixed + 6 * i, K, inv);
+  } else {
+    for (int k = 0; k < 36; ++k) inv[k] = 0;
+    for (int k = 0; k < 6; ++k) inv[7 * k] = m.fixed[6 * i + k] ? 0.0 : 1.0;
+  }
   for (int k = 0; k < 36; ++k) minv_out[36 * i + k] = static_cast<R>(inv[k]);
 }
 

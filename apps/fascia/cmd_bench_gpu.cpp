@@ -1,6 +1,8 @@
 #include "cmd_bench_gpu.hpp"
 
+#include "bench/step_bench.hpp"
 #include "device_elasticity.hpp"
+#include "device_step.hpp"
 #include "discretise/mesh_based.hpp"
 
 #include <CLI/CLI.hpp>
@@ -8,42 +10,13 @@
 
 #include <chrono>
 #include <cmath>
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <vector>
 
 namespace fascia::app {
 namespace {
-
-// The paper's Table 3: samples, CPU ms, GTX 570 ms per step (60 CG iterations, 4 neighbours).
-struct PaperRow {
-  int samples;
-  double cpu_ms, gpu_ms;
-};
-constexpr PaperRow kTable3[] = {{800, 78.42, 15.25},     {2600, 251.77, 17.11},   {6070, 595.77, 23.39},
-                                {12700, 1228.8, 32.29},  {16210, 1561.8, 39.29},  {19990, 1990.06, 43.12},
-                                {26750, 2675.47, 53.09}, {34610, 3468.54, 66.1}};
-
-// A beam of tetrahedra with one sample each (4 neighbours) and about `target` samples:
-// 6 nx ny ny tetrahedra, nx >= ny, closest count.
-Model tet_beam(int target) {
-  int best_nx = 1, best_ny = 1;
-  long long best = -1;
-  for (int ny = 1; ny <= 64; ++ny) {
-    const int nx = std::max(ny, static_cast<int>(std::lround(target / (6.0 * ny * ny))));
-    const long long count = 6LL * nx * ny * ny;
-    if (best < 0 || std::llabs(count - target) < std::llabs(best - target)) {
-      best = count;
-      best_nx = nx;
-      best_ny = ny;
-    }
-  }
-  const double h = 0.01;
-  const VolumeMesh mesh = box_tet_mesh({0, 0, 0}, {h * best_nx, h * best_ny, h * best_ny}, best_nx, best_ny, best_ny);
-  MeshDiscretisation disc;
-  disc.quadrature = 1;
-  return build_mesh_model(mesh, make_material(MaterialLaw::stvk, 1e5, 0.3, 1000), disc);
-}
 
 // A block of hexahedra with 2x2x2 samples each (8 neighbours), about `target` samples.
 Model hex_block(long long target) {
@@ -53,43 +26,55 @@ Model hex_block(long long target) {
   const int ny = nz, nx = static_cast<int>(std::max(1LL, cells / (static_cast<long long>(ny) * nz)));
   const double h = 0.01;
   const VolumeMesh mesh = box_hex_mesh({0, 0, 0}, {h * nx, h * ny, h * nz}, nx, ny, nz);
-  return build_mesh_model(mesh, make_material(MaterialLaw::stvk, 1e5, 0.3, 1000), {});
+  Model model = build_mesh_model(mesh, make_material(MaterialLaw::stvk, 1e5, 0.3, 1000), {});
+  fix_frames(model, [](double x, double, double) { return x < 1e-9; });
+  return model;
 }
 
 struct Row {
   std::string gpu;
   int samples = 0, frames = 0, neighbours = 0;
-  std::string precision, design;
+  std::string precision, design, linear, cg_kernel;
   double ms_per_step = 0, ms_per_cg_iteration = 0, tangent_ms = 0, tangent_gbs = 0, peak_gbs = 0;
   double paper_ms = NAN, paper_cpu_ms = NAN;
 };
 
-Row measure(const Model& input, gpu::Precision precision, gpu::Design design, int repeats, const gpu::DeviceInfo& info) {
-  Model model = input;
-  fix_frames(model, [](double x, double, double) { return x < 1e-9; });
+struct Case {
+  gpu::Precision precision;
+  gpu::Design design;
+  LinearMethod linear;
+  bool persistent;
+};
+
+// The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) on the device.
+Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInfo& info, bool tangent) {
   gpu::DeviceOptions options;
-  options.precision = precision;
-  options.design = design;
+  options.precision = c.precision;
+  options.design = c.design;
   gpu::DeviceElasticity dev(model, options);
-  dev.set_state(rest_state(model));
-  gpu::StepOptions so;
-  so.dt = 0.01;
-  so.max_cg_iterations = 60;
-  so.external_forces.assign(model.dof_count(), 0.0);
-  for (int i = 0; i < model.frame_count(); ++i) so.external_forces[6 * i + 1] = -9.81 * model.frame_masses[i];
+  const State start = rest_state(model);
+  dev.set_state(start);
+  gpu::StepOptions so = gpu::make_step_options(model, bench_step_loads(), start, kBenchStepDt, 0, 0,
+                                               bench_linear_settings(c.linear, 60));
+  so.persistent = c.persistent;
   gpu::DeviceBackwardEuler stepper(dev, so);
+  const gpu::StepReport report = stepper.step();
   Row row;
   row.gpu = info.name;
   row.samples = model.sample_count();
   row.frames = model.frame_count();
   row.neighbours = model.max_neighbours();
-  row.precision = gpu::to_string(precision);
+  row.precision = gpu::to_string(c.precision);
   row.design = gpu::to_string(dev.design());
+  row.linear = to_string(c.linear);
+  row.cg_kernel = report.persistent ? "persistent" : "launches";
   row.ms_per_step = stepper.time_step_ms(repeats);
   row.ms_per_cg_iteration = stepper.time_cg_iteration_ms(std::max(1, repeats / 2));
-  dev.prepare();
-  row.tangent_ms = dev.time_tangent_ms(std::max(10, 5 * repeats));
-  row.tangent_gbs = dev.tangent_bytes() / (row.tangent_ms * 1e-3) / 1e9;
+  if (tangent) {
+    dev.prepare();
+    row.tangent_ms = dev.time_tangent_ms(std::max(10, 5 * repeats));
+    row.tangent_gbs = dev.tangent_bytes() / (row.tangent_ms * 1e-3) / 1e9;
+  }
   row.peak_gbs = info.peak_bandwidth_gbs;
   return row;
 }
@@ -102,6 +87,8 @@ void print(const Row& r, bool json) {
                         {"neighbours", r.neighbours},
                         {"precision", r.precision},
                         {"design", r.design},
+                        {"linear", r.linear},
+                        {"cg_kernel", r.cg_kernel},
                         {"ms_per_step", r.ms_per_step},
                         {"ms_per_cg_iteration", r.ms_per_cg_iteration},
                         {"tangent_ms", r.tangent_ms},
@@ -114,13 +101,52 @@ void print(const Row& r, bool json) {
   }
   char paper[64] = "      -        -";
   if (!std::isnan(r.paper_ms)) std::snprintf(paper, sizeof paper, "%8.2f %8.2f", r.paper_cpu_ms, r.paper_ms);
-  std::printf("%9d %8d %3d %-6s %-5s %10.3f %10.4f %17s %9.4f %7.0f (%3.0f%%)\n", r.samples, r.frames, r.neighbours,
-              r.precision.c_str(), r.design.c_str(), r.ms_per_step, r.ms_per_cg_iteration, paper, r.tangent_ms,
-              r.tangent_gbs, r.peak_gbs > 0 ? 100 * r.tangent_gbs / r.peak_gbs : 0.0);
+  std::printf("%9d %8d %3d %-6s %-5s %-3s %-10s %10.3f %10.4f %17s %9.4f %7.0f (%3.0f%%)\n", r.samples, r.frames,
+              r.neighbours, r.precision.c_str(), r.design.c_str(), r.linear.c_str(), r.cg_kernel.c_str(),
+              r.ms_per_step, r.ms_per_cg_iteration, paper, r.tangent_ms, r.tangent_gbs,
+              r.peak_gbs > 0 ? 100 * r.tangent_gbs / r.peak_gbs : 0.0);
   std::fflush(stdout);
 }
 
+std::vector<Case> cases(const BenchGpuOptions& o) {
+  std::vector<Case> out;
+  for (gpu::Precision pr : {gpu::Precision::double_precision, gpu::Precision::single_precision}) {
+    if (o.precision != "both" && o.precision != gpu::to_string(pr)) continue;
+    for (gpu::Design de : {gpu::Design::fused, gpu::Design::paper}) {
+      if (o.design != "both" && o.design != gpu::to_string(de)) continue;
+      for (LinearMethod lm : {LinearMethod::cg, LinearMethod::pcg}) {
+        if (o.linear != "both" && o.linear != to_string(lm)) continue;
+        for (bool persistent : {true, false}) {
+          if (de == gpu::Design::paper && persistent) continue;  // launches per phase only
+          if (o.cg_kernel != "both" && (o.cg_kernel == "persistent") != persistent) continue;
+          out.push_back(Case{pr, de, lm, persistent});
+        }
+      }
+    }
+  }
+  return out;
+}
+
 }  // namespace
+
+double time_cuda_step(const Model& model, LinearMethod linear, int cg_iterations, const std::string& precision,
+                      const std::string& design, int repeats) {
+  gpu::DeviceOptions options;
+  options.precision = precision == "single" ? gpu::Precision::single_precision : gpu::Precision::double_precision;
+  options.design = design == "paper" ? gpu::Design::paper : gpu::Design::fused;
+  gpu::DeviceElasticity dev(model, options);
+  const State start = rest_state(model);
+  dev.set_state(start);
+  gpu::DeviceBackwardEuler stepper(dev, gpu::make_step_options(model, bench_step_loads(), start, kBenchStepDt, 0, 0,
+                                                               bench_linear_settings(linear, cg_iterations)));
+  return stepper.time_step_ms(repeats);
+}
+
+bool cuda_device_available(std::string* name) {
+  const gpu::DeviceInfo info = gpu::device_info();
+  if (name) *name = info.name;
+  return info.device_count > 0;
+}
 
 int run_bench_gpu(const BenchGpuOptions& o) {
   const gpu::DeviceInfo info = gpu::device_info();
@@ -128,40 +154,36 @@ int run_bench_gpu(const BenchGpuOptions& o) {
     std::cerr << "fascia bench gpu: no CUDA device\n";
     return 69;
   }
-  std::vector<gpu::Precision> precisions;
-  if (o.precision != "single") precisions.push_back(gpu::Precision::double_precision);
-  if (o.precision != "double") precisions.push_back(gpu::Precision::single_precision);
-  std::vector<gpu::Design> designs;
-  if (o.design != "paper") designs.push_back(gpu::Design::fused);
-  if (o.design != "fused") designs.push_back(gpu::Design::paper);
+  const std::vector<Case> all = cases(o);
   const int repeats = o.quick ? 3 : o.repeats;
   if (!o.json) {
     std::printf("fascia bench gpu on %s (%d SMs, %.0f GiB, peak DRAM %.0f GB/s from clock x bus width)\n",
                 info.name.c_str(), info.multiprocessors, info.memory_gib, info.peak_bandwidth_gbs);
-    std::printf("ms per full implicit step: forces + preparation + PCG with 60 iterations + update, CUDA events\n");
-    std::printf("%9s %8s %3s %-6s %-5s %10s %10s %8s %8s %9s %15s\n", "samples", "frames", "nb", "prec", "design",
-                "ms/step", "ms/CG it", "CPU'13", "GTX570", "Kd ms", "Kd GB/s (peak)");
+    std::printf("ms per full implicit step (the step of `fascia bench cpu`): forces + preparation + 60 CG\n"
+                "iterations + update, CUDA events\n");
+    std::printf("%9s %8s %3s %-6s %-5s %-3s %-10s %10s %10s %8s %8s %9s %15s\n", "samples", "frames", "nb", "prec",
+                "design", "lin", "cg kernel", "ms/step", "ms/CG it", "CPU'13", "GTX570", "Kd ms", "Kd GB/s (peak)");
   }
-  for (const PaperRow& p : kTable3) {
-    const Model model = tet_beam(p.samples);
-    for (gpu::Precision pr : precisions)
-      for (gpu::Design de : designs) {
-        Row r = measure(model, pr, de, repeats, info);
-        r.paper_ms = p.gpu_ms;
-        r.paper_cpu_ms = p.cpu_ms;
-        print(r, o.json);
-      }
+  for (const PaperTiming& p : paper_table3()) {
+    if (!o.sizes.empty() && std::find(o.sizes.begin(), o.sizes.end(), p.samples) == o.sizes.end()) continue;
+    const Model model = bench_beam_model(p.samples, 4);
+    for (const Case& c : all) {
+      Row r = measure(model, c, repeats, info, o.tangent);
+      r.paper_ms = p.gpu_ms;
+      r.paper_cpu_ms = p.cpu_ms;
+      print(r, o.json);
+    }
   }
   std::vector<long long> scaling = {131072, 524288, 1048576, 2097152, o.max_samples};
   if (o.quick) scaling = {o.max_samples};
+  if (o.max_samples <= 0) scaling.clear();
   for (long long target : scaling) {
     if (target > o.max_samples) continue;
     const auto t0 = std::chrono::steady_clock::now();
     const Model model = hex_block(target);
     const double build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (!o.json) std::fprintf(stderr, "built %d samples in %.1f s\n", model.sample_count(), build_s);
-    for (gpu::Precision pr : precisions)
-      for (gpu::Design de : designs) print(measure(model, pr, de, repeats, info), o.json);
+    std::fprintf(stderr, "built %d samples in %.1f s\n", model.sample_count(), build_s);
+    for (const Case& c : all) print(measure(model, c, repeats, info, true), o.json);
   }
   return 0;
 }
@@ -174,7 +196,14 @@ void add_bench_gpu_command(CLI::App& bench, Action& action) {
   cmd->add_option("--precision", options->precision, "double | single | both")
       ->check(CLI::IsMember({"double", "single", "both"}));
   cmd->add_option("--design", options->design, "fused | paper | both")->check(CLI::IsMember({"fused", "paper", "both"}));
-  cmd->add_option("--max-samples", options->max_samples, "largest scaling case (8 neighbours)");
+  cmd->add_option("--linear", options->linear, "cg | pcg | both (the linear solve of the step)")
+      ->check(CLI::IsMember({"cg", "pcg", "both"}));
+  cmd->add_option("--cg-kernel", options->cg_kernel,
+                  "persistent (one cooperative kernel per PCG) | launches (kernels per phase) | both")
+      ->check(CLI::IsMember({"persistent", "launches", "both"}));
+  cmd->add_option("--samples", options->sizes, "only these Table 3 sizes");
+  cmd->add_flag("--tangent", options->tangent, "also time the tangent product alone at Table 3 sizes");
+  cmd->add_option("--max-samples", options->max_samples, "largest scaling case (8 neighbours), 0: none");
   cmd->add_option("--repeats", options->repeats, "timed repeats per case");
   cmd->callback([options, &action] { action = [options] { return run_bench_gpu(*options); }; });
 }

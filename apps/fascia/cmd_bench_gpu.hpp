@@ -3,8 +3,11 @@
 #pragma once
 
 #include "commands.hpp"
+#include "model/model.hpp"
+#include "solve/linear_solver.hpp"
 
 #include <string>
+#include <vector>
 
 namespace fascia::app {
 
@@ -13,9 +16,20 @@ struct BenchGpuOptions {
   bool quick = false;                // Table 3 sizes and the largest scaling case only, fewer repeats
   std::string precision = "both";    // double | single | both
   std::string design = "both";       // fused | paper | both
-  long long max_samples = 4200000;   // largest scaling case (8 neighbours)
+  std::string linear = "cg";         // cg | pcg | both: the step's linear solve (bench cpu: cg)
+  std::string cg_kernel = "persistent";  // persistent | launches | both (fused design)
+  std::vector<int> sizes;            // Table 3 sizes to run, empty: all
+  bool tangent = false;              // time the tangent product alone at Table 3 sizes too
+  long long max_samples = 4200000;   // largest scaling case (8 neighbours), 0: none
   int repeats = 10;
 };
+
+// ms per benchmark step (engine/bench/step_bench.hpp) on the device, for `fascia bench step
+// --backend cuda`: precision "double" | "single", design "fused" | "paper".
+double time_cuda_step(const Model& model, LinearMethod linear, int cg_iterations, const std::string& precision,
+                      const std::string& design, int repeats);
+// Whether a CUDA device is usable; its name.
+bool cuda_device_available(std::string* name);
 
 // Runs the benchmark; returns a sysexits code (0 ok, 69 no device).
 int run_bench_gpu(const BenchGpuOptions& options);

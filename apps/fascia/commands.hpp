@@ -23,6 +23,10 @@ enum ExitCode : int {
 // The command that ran sets this; main() returns it.
 using Action = std::function<int()>;
 
+void register_run(CLI::App& app, Action& action);
+void register_check(CLI::App& app, Action& action);
+void register_info(CLI::App& app, Action& action);
+void register_schema(CLI::App& app, Action& action);
 void register_study(CLI::App& app, Action& action);
 void register_bench(CLI::App& app, Action& action);
 

@@ -8,6 +8,10 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "fascia " FASCIA_VERSION);
   app.require_subcommand(1);
   fascia::app::Action action;
+  fascia::app::register_run(app, action);
+  fascia::app::register_check(app, action);
+  fascia::app::register_info(app, action);
+  fascia::app::register_schema(app, action);
   fascia::app::register_study(app, action);
   fascia::app::register_bench(app, action);
   try {

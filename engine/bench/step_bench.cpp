@@ -30,22 +30,33 @@ Model bench_beam_model(int samples, int neighbours_per_sample) {
   return model;
 }
 
-StepTiming time_cpu_step(const Model& model, int threads, int cg_iterations, double min_seconds) {
+ExternalLoads bench_step_loads() {
   ExternalLoads loads;
   loads.gravity = Vec3{0, 0, -9.81};
+  return loads;
+}
+
+LinearSettings bench_linear_settings(LinearMethod method, int cg_iterations) {
+  LinearSettings linear;
+  linear.method = method;
+  linear.fixed_iterations = true;
+  linear.max_iterations = cg_iterations;
+  return linear;
+}
+
+StepTiming time_cpu_step(const Model& model, int threads, int cg_iterations, double min_seconds, LinearMethod method) {
+  const ExternalLoads loads = bench_step_loads();
   StepPotential potential(model, loads, threads);
   NewtonSettings newton;
   newton.fixed_iterations = 1;
-  newton.linear.method = LinearMethod::cg;
-  newton.linear.fixed_iterations = true;
-  newton.linear.max_iterations = cg_iterations;
+  newton.linear = bench_linear_settings(method, cg_iterations);
   State state = rest_state(model);
   std::vector<double> ms;
   double total = 0;
   int cg = 0;
   for (int rep = 0; rep < 1000; ++rep) {
     const auto t0 = std::chrono::steady_clock::now();
-    potential.set_dynamic(state, 0.01, 0, 0);
+    potential.set_dynamic(state, kBenchStepDt, 0, 0);
     const NewtonResult r = minimise(potential, state, newton, 0.0);
     const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     cg = r.cg_iterations;

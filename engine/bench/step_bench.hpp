@@ -3,7 +3,9 @@
 // one sample per tetrahedron (4 neighbours per sample). Timings are for benchmarks only.
 #pragma once
 
+#include "mechanics/external_loads.hpp"
 #include "model/model.hpp"
+#include "solve/linear_solver.hpp"
 
 #include <vector>
 
@@ -27,8 +29,17 @@ struct StepTiming {
   int repetitions = 0;
 };
 
+// The benchmark step (the same on every backend): backward Euler, h = 10 ms, no damping, gravity
+// (0, 0, -9.81) m/s^2 on the samples, from the rest state; one Newton iteration
+// (NewtonSettings::fixed_iterations = 1) whose linear solve runs exactly cg_iterations iterations
+// of `method` (cg: the paper's CG; pcg: block-Jacobi PCG).
+constexpr double kBenchStepDt = 0.01;
+ExternalLoads bench_step_loads();
+LinearSettings bench_linear_settings(LinearMethod method, int cg_iterations);
+
 // Times full implicit steps (forces, tangent preparation, fixed-count CG, update) with the CPU
 // engine. Repeats until min_seconds have passed (at least 3 steps) after one warm-up step.
-StepTiming time_cpu_step(const Model& model, int threads, int cg_iterations = 60, double min_seconds = 0.5);
+StepTiming time_cpu_step(const Model& model, int threads, int cg_iterations = 60, double min_seconds = 0.5,
+                         LinearMethod method = LinearMethod::cg);
 
 }  // namespace fascia

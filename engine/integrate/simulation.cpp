@@ -86,6 +86,7 @@ StepReport Simulation::step() {
     potential.set_dynamic(start, m_settings.dt, m_settings.rayleigh_mass, m_settings.rayleigh_stiffness);
     State trial = start;
     apply_motions(m_model, m_motions, t_next, trial);
+    potential.rigid_mapping().sync(trial);
     const NewtonResult r = minimise(potential, trial, m_settings.newton, reference);
     report.newton_iterations = r.iterations;
     report.cg_iterations = r.cg_iterations;
@@ -102,13 +103,15 @@ StepReport Simulation::step() {
     m_state = std::move(trial);
   } else {
     // Static equilibrium with load stepping: the load factor goes to 1 in increments, halved on
-    // failure (down to 1/1024 of the load).
+    // failure (at most max_load_halvings times in a row) and doubled again after a success.
     potential.set_static();
     State trial = start;
     apply_motions(m_model, m_motions, t_next, trial);
+    potential.rigid_mapping().sync(trial);
     ExternalLoads& loads = m_loads;
     double done = 0, increment = 1.0 / std::max(1, m_settings.load_steps);
     NewtonResult last;
+    int halvings = 0;
     while (done < 1.0) {
       const double target = std::min(1.0, done + increment);
       loads.scale = target;
@@ -121,10 +124,11 @@ StepReport Simulation::step() {
         done = target;
         last = r;
         increment = std::min(1.0 - done, 2 * increment);
+        halvings = 0;
         continue;
       }
       increment *= 0.5;
-      if (increment < 1.0 / 1024) {
+      if (++halvings > m_settings.max_load_halvings) {
         loads.scale = 1.0;
         std::ostringstream msg;
         msg << "static solve failed at load factor " << target << ": " << r.message;

@@ -33,7 +33,8 @@ struct SimulationSettings {
   double dt = 0.01;                 // s (backward Euler); static: pseudo-time per load step
   double rayleigh_mass = 0;         // alpha, 1/s:   damping D = alpha M + beta K
   double rayleigh_stiffness = 0;    // beta,  s
-  int load_steps = 1;               // static: initial number of load increments (halved on failure)
+  int load_steps = 1;               // static: initial number of load increments
+  int max_load_halvings = 10;       // static: halvings of a failed increment before giving up
   int threads = 0;                  // 0 = all
   NewtonSettings newton;
 };

@@ -2,6 +2,7 @@
 
 #include "core/rotation.hpp"
 #include "mechanics/assembled_tangent.hpp"
+#include "mechanics/shell.hpp"
 
 #include <cmath>
 
@@ -17,8 +18,21 @@ Mat3 inverse_left_jacobian(const Vec3& phi) {
 }
 
 StepPotential::StepPotential(const Model& model, const ExternalLoads& loads, int threads)
-    : m_model(model), m_loads(loads), m_elasticity(model, threads) {
+    : m_model(model), m_loads(loads), m_elasticity(model, threads), m_mapping(model) {
   m_load_blocks.assign(9 * model.frame_count(), 0.0);
+  for (const Shell& shell : model.shells) m_fields.push_back(std::make_unique<ShellForceField>(model, shell, threads));
+  m_fixed = m_mapping.reduced_fixed(model);
+}
+
+double StepPotential::elastic_energy(const State& state) {
+  double w = m_elasticity.energy(state);
+  for (auto& field : m_fields) w += field->energy(state);
+  return w;
+}
+
+void StepPotential::retract(State& state, const double* d, double scale) const {
+  ::fascia::retract(m_model, state, d, scale);
+  m_mapping.sync(state);
 }
 
 void StepPotential::set_static() { m_dynamic = false; }
@@ -91,22 +105,38 @@ double StepPotential::inertia_value(const State& state, std::vector<double>* gra
 }
 
 double StepPotential::value(const State& state) {
-  double phi = m_elasticity.energy(state) + load_potential(m_model, m_loads, state);
+  double phi = elastic_energy(state) + load_potential(m_model, m_loads, state);
   if (m_dynamic) phi += inertia_value(state, nullptr);
   return phi;
 }
 
-double StepPotential::gradient(const State& state, std::vector<double>& g) {
+double StepPotential::full_gradient(const State& state, std::vector<double>& g) {
   g.assign(m_model.dof_count(), 0.0);
   double phi = m_elasticity.gradient(state, g.data());
+  for (auto& field : m_fields) phi += field->add_gradient(state, g.data());
   add_load_gradient(m_model, m_loads, state, g.data());
   phi += load_potential(m_model, m_loads, state);
   if (m_dynamic) phi += inertia_value(state, &g);
   return phi;
 }
 
+double StepPotential::gradient(const State& state, std::vector<double>& g) {
+  const double phi = full_gradient(state, g);
+  if (!m_mapping.empty()) {
+    m_mapping.set_state(state);
+    m_mapping.reduce(g.data());
+  }
+  return phi;
+}
+
 void StepPotential::prepare_hessian(const State& state) {
+  if (!m_mapping.empty()) {  // first: the gradient pass reuses the elasticity's buffers
+    full_gradient(state, m_scratch);
+    m_mapping.set_state(state);
+    m_mapping.set_geometric(m_scratch.data());
+  }
   m_elasticity.prepare(state);
+  for (auto& field : m_fields) field->prepare(state);
   std::fill(m_load_blocks.begin(), m_load_blocks.end(), 0.0);
   add_load_rotational_blocks(m_model, m_loads, state, m_load_blocks.data());
 }
@@ -114,7 +144,7 @@ void StepPotential::prepare_hessian(const State& state) {
 LinearSystem StepPotential::system() {
   LinearSystem sys;
   sys.size = m_model.dof_count();
-  sys.fixed = m_model.fixed_dofs.data();
+  sys.fixed = m_fixed.data();
   const int n = m_model.frame_count();
   // Diagonal mass-like term per frame: (1 + alpha h)/h^2 [m I3, I_n] (dynamic only).
   auto inertia_block = [this](int i, double* block6x6) {
@@ -123,8 +153,15 @@ LinearSystem StepPotential::system() {
     for (int r = 0; r < 3; ++r)
       for (int col = 0; col < 3; ++col) block6x6[6 * (3 + r) + 3 + col] += c * m_world_inertia[9 * i + 3 * r + col];
   };
-  sys.apply = [this, n, inertia_block](const double* d, double* out) {
+  sys.apply = [this, n, inertia_block](const double* d_reduced, double* out) {
+    const double* d = d_reduced;
+    if (!m_mapping.empty()) {
+      m_expanded.assign(d_reduced, d_reduced + 6 * n);
+      m_mapping.expand(m_expanded.data());
+      d = m_expanded.data();
+    }
     m_elasticity.apply_tangent(d, out);
+    for (const auto& field : m_fields) field->add_tangent(d, out);
     if (m_dynamic && m_beta > 0) {
       m_scratch.resize(6 * n);
       m_start_elasticity->apply_tangent(d, m_scratch.data());
@@ -139,6 +176,10 @@ LinearSystem StepPotential::system() {
         for (int a = 0; a < 6; ++a)
           for (int b = 0; b < 6; ++b) out[6 * i + a] += block[6 * a + b] * d[6 * i + b];
       }
+    }
+    if (!m_mapping.empty()) {
+      m_mapping.reduce(out);
+      m_mapping.add_geometric(d_reduced, out);
     }
   };
   sys.diagonal_blocks = [this, n, inertia_block](double* blocks) {
@@ -158,6 +199,8 @@ LinearSystem StepPotential::system() {
           for (int k = 0; k < 36; ++k) b[k] += m_beta / m_dt * start_blocks[36 * i + k];
       }
     }
+    for (const auto& field : m_fields) field->add_diagonal_blocks(blocks);
+    if (!m_mapping.empty()) m_mapping.reduce_diagonal_blocks(blocks);
   };
   sys.assemble = [this, n, inertia_block]() {
     if (!m_assembler) m_assembler = std::make_unique<TangentAssembler>(m_model);
@@ -172,10 +215,18 @@ LinearSystem StepPotential::system() {
         for (int b = 0; b < 6; ++b)
           if (block[6 * a + b] != 0) t.emplace_back(6 * i + a, 6 * i + b, block[6 * a + b]);
     }
+    for (const auto& field : m_fields) field->add_triplets(t);
     Eigen::SparseMatrix<double> extra(H.rows(), H.cols());
     extra.setFromTriplets(t.begin(), t.end());
     H += extra;
     if (m_dynamic && m_beta > 0) H += (m_beta / m_dt) * assemble_tangent(*m_start_elasticity);
+    if (!m_mapping.empty()) {
+      const Eigen::SparseMatrix<double> P = m_mapping.projection(6 * n);
+      const Eigen::SparseMatrix<double> Pt = P.transpose();
+      Eigen::SparseMatrix<double> reduced = Pt * H * P;
+      reduced += m_mapping.geometric_matrix(6 * n);
+      return reduced;
+    }
     return H;
   };
   return sys;

@@ -6,6 +6,12 @@
 // M the lumped frame masses and inertias at the step start (I_n = R_n I_0 R_n^T; gyroscopic
 // terms neglected), K_n the elastic tangent at the step start (Rayleigh damping).
 //
+// W sums the volumetric elasticity and every other force field of the model (shells; paper
+// §4.2): frames shared between objects receive all their contributions. Frames attached to rigid
+// bodies are eliminated by the rigid mapping (mechanics/rigid_mapping.hpp): gradient, operator,
+// blocks and assembled matrix are those of the reduced potential, and retract() keeps attached
+// frames on their bodies. Stiffness-proportional damping uses the volumetric tangent only.
+//
 // The value and gradient are exact (the rotational gradient carries the inverse left Jacobian of
 // SO(3), J_l^{-T}(phi), since d log(exp(theta) exp(phi)) / d theta = J_l^{-1}(phi)); the Hessian
 // uses J_l ~ I for the inertia and damping terms (exact for translations and at phi = 0), which
@@ -15,6 +21,8 @@
 #include "mechanics/assembled_tangent.hpp"
 #include "mechanics/elasticity.hpp"
 #include "mechanics/external_loads.hpp"
+#include "mechanics/force_field.hpp"
+#include "mechanics/rigid_mapping.hpp"
 #include "solve/newton.hpp"
 
 #include <memory>
@@ -35,16 +43,25 @@ class StepPotential : public Potential {
   double gradient(const State& state, std::vector<double>& g) override;
   void prepare_hessian(const State& state) override;
   LinearSystem system() override;
+  void retract(State& state, const double* d, double scale) const override;
+
+  // Adds a force field (the model's shells are added by the constructor).
+  void add_force_field(std::unique_ptr<ForceField> field) { m_fields.push_back(std::move(field)); }
+  const std::vector<std::unique_ptr<ForceField>>& force_fields() const { return m_fields; }
+  const RigidMapping& rigid_mapping() const { return m_mapping; }
 
   Elasticity& elasticity() { return m_elasticity; }
   const ExternalLoads& loads() const { return m_loads; }
-  double elastic_energy(const State& state) { return m_elasticity.energy(state); }
+  // Volumetric elastic energy plus every force field's energy (J).
+  double elastic_energy(const State& state);
 
   // Delta = [x - x_n, log(R R_n^T)] of every frame w.r.t. the step start, [N][6].
   void increments(const State& state, std::vector<double>& delta) const;
 
  private:
   double inertia_value(const State& state, std::vector<double>* gradient) const;
+  // Phi and its gradient before the rigid mapping's reduction.
+  double full_gradient(const State& state, std::vector<double>& g);
 
   const Model& m_model;
   const ExternalLoads& m_loads;
@@ -57,6 +74,10 @@ class StepPotential : public Potential {
   double m_dt = 0, m_alpha = 0, m_beta = 0;
   std::vector<double> m_world_inertia;  // [N][9] R_n I_0 R_n^T
   std::vector<double> m_scratch;
+  std::vector<std::unique_ptr<ForceField>> m_fields;
+  RigidMapping m_mapping;
+  std::vector<std::uint8_t> m_fixed;  // model.fixed_dofs plus the rigidly mapped frames
+  std::vector<double> m_expanded;     // d with mapped frames filled in
 };
 
 // J_l^{-1}(phi), the inverse left Jacobian of SO(3) (Barfoot, State Estimation, eq. 7.77a).

@@ -29,6 +29,8 @@ double load_potential(const Model& model, const ExternalLoads& loads, const Stat
     v -= dot(sample_weight(model, loads, s), sample_position(t, s, state.positions.data(), R.data()));
   for (const PointForce& f : loads.point_forces)
     v -= loads.scale * dot(f.force, load3(&state.positions[3 * f.frame]));
+  for (size_t i = 0; i < model.frame_point_masses.size(); ++i)
+    v -= loads.scale * model.frame_point_masses[i] * dot(loads.gravity, load3(&state.positions[3 * i]));
   for (const MaterialPointForce& m : loads.material_point_forces)
     for (size_t k = 0; k < m.frames.size(); ++k) {
       const int i = m.frames[k];
@@ -57,6 +59,11 @@ void add_load_gradient(const Model& model, const ExternalLoads& loads, const Sta
   for (const PointForce& f : loads.point_forces) {
     double* g = gradient + 6 * f.frame;
     g[0] -= loads.scale * f.force.x, g[1] -= loads.scale * f.force.y, g[2] -= loads.scale * f.force.z;
+  }
+  for (size_t i = 0; i < model.frame_point_masses.size(); ++i) {
+    const Vec3 w = (loads.scale * model.frame_point_masses[i]) * loads.gravity;
+    double* g = gradient + 6 * i;
+    g[0] -= w.x, g[1] -= w.y, g[2] -= w.z;
   }
   for (const MaterialPointForce& m : loads.material_point_forces)
     for (size_t k = 0; k < m.frames.size(); ++k) {
@@ -112,6 +119,10 @@ double load_force_norm(const Model& model, const ExternalLoads& loads) {
   for (const PointForce& pf : loads.point_forces) {
     double* fi = &f[3 * pf.frame];
     fi[0] += loads.scale * pf.force.x, fi[1] += loads.scale * pf.force.y, fi[2] += loads.scale * pf.force.z;
+  }
+  for (size_t i = 0; i < model.frame_point_masses.size(); ++i) {
+    const Vec3 w = (loads.scale * model.frame_point_masses[i]) * loads.gravity;
+    f[3 * i] += w.x, f[3 * i + 1] += w.y, f[3 * i + 2] += w.z;
   }
   double n = 0;
   for (double x : f) n += x * x;

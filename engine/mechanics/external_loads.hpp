@@ -33,7 +33,8 @@ struct ExternalLoads {
   double scale = 1.0;  // load factor (load stepping)
 };
 
-// V = -scale (sum_s rho_s v_s g . p_s + sum_k f_k . x_k + sum_m f_m . p_m), J.
+// V = -scale (sum_s rho_s v_s g . p_s + sum_i m_i g . x_i + sum_k f_k . x_k + sum_m f_m . p_m), J,
+// with m_i the frames' point masses (Model::frame_point_masses: shell nodes, rigid bodies).
 double load_potential(const Model& model, const ExternalLoads& loads, const State& state);
 
 // Adds dV/d(theta) at theta = 0 to gradient [N][6].

@@ -62,6 +62,15 @@ void compute_frame_inertia(Model& model) {
   }
 }
 
+const char* to_string(ObjectKind kind) {
+  switch (kind) {
+    case ObjectKind::tissue: return "tissue";
+    case ObjectKind::shell: return "shell";
+    case ObjectKind::rigid: return "rigid";
+  }
+  return "?";
+}
+
 void lock_rotations(Model& model) {
   model.rotations_locked = true;
   model.fixed_dofs.resize(model.dof_count(), 0);
@@ -95,6 +104,22 @@ void validate(const Model& model) {
       model.reverse.pairs.size() != static_cast<size_t>(p_count))
     fail("reverse table not built");
   if (model.fixed_dofs.size() != static_cast<size_t>(model.dof_count())) fail("fixed_dofs size");
+  if (!model.frame_point_masses.empty() && model.frame_point_masses.size() != static_cast<size_t>(n))
+    fail("frame_point_masses size");
+  if (!model.rigid_parents.empty()) {
+    if (model.rigid_parents.size() != static_cast<size_t>(n)) fail("rigid_parents size");
+    for (int i = 0; i < n; ++i) {
+      const int b = model.rigid_parents[i];
+      if (b < -1 || b >= n || b == i) fail("rigid parent of frame " + std::to_string(i) + " out of range");
+      if (b >= 0 && model.rigid_parents[b] >= 0) fail("rigid parent of frame " + std::to_string(i) + " is itself mapped");
+    }
+  }
+  for (const Shell& shell : model.shells) {
+    if (!(shell.thickness > 0) || !(shell.young > 0) || !(shell.poisson > -1 && shell.poisson < 0.5))
+      fail("shell thickness, Young's modulus or Poisson's ratio out of range");
+    for (int v : shell.triangles)
+      if (v < 0 || v >= n) fail("shell vertex frame index out of range");
+  }
 }
 
 }  // namespace fascia

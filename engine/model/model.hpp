@@ -37,6 +37,28 @@ struct Samples {
   std::vector<int> materials;          // [S]    index into Model::materials
 };
 
+// A shell (paper §4.2, after Comas, Duriez & Cotin 2010): a triangle surface whose vertices are
+// frames used as 6-DOF shell nodes. The element is in mechanics/shell.hpp.
+struct Shell {
+  std::vector<int> triangles;  // [T][3] frame indices
+  double thickness = 0;        // m
+  double young = 0;            // Pa, > 0
+  double poisson = 0;          // -1 < nu < 0.5
+  double density = 0;          // kg/m^3
+};
+
+// What a model was assembled from (model/assembly.hpp), kept for output and selections.
+enum class ObjectKind { tissue, shell, rigid };
+const char* to_string(ObjectKind kind);
+
+struct ObjectInfo {
+  std::string name;
+  ObjectKind kind = ObjectKind::tissue;
+  std::vector<int> frames;        // the object's frames (global indices; shared frames appear in both)
+  std::vector<double> surface_vertices;  // [V][3] m, rest surface
+  std::vector<int> surface_triangles;    // [T][3]
+};
+
 // Degrees of freedom of frame i: 0..2 translation (world axes), 3..5 rotation increment (world).
 constexpr int kFrameDofs = 6;
 
@@ -51,6 +73,20 @@ struct Model {
   // inertia about the frame origin, rest configuration, world axes.
   std::vector<double> frame_masses;    // [N]       kg
   std::vector<double> frame_inertias;  // [N][3][3] kg m^2
+
+  // Mass carried at the frame origins themselves besides the samples' (shell nodes, rigid bodies'
+  // centres of mass): gravity acts on it at x_i. Already included in frame_masses. Empty = none.
+  std::vector<double> frame_point_masses;  // [N] kg
+
+  // Shell force fields on frames (paper §4.2).
+  std::vector<Shell> shells;
+
+  // Rigid mapping (paper §4.2): frame i follows frame rigid_parents[i] (a rigid body's frame at
+  // its centre of mass) rigidly when >= 0: x_i = x_b + R_b (x_i0 - x_b0), R_i = R_b. Such frames
+  // are not unknowns. Empty = none.
+  std::vector<int> rigid_parents;  // [N]
+
+  std::vector<ObjectInfo> objects;
 
   // 1 where the degree of freedom is fixed (removed from the unknowns).
   std::vector<std::uint8_t> fixed_dofs;  // [N][6]

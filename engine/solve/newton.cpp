@@ -43,7 +43,7 @@ NewtonResult minimise(Potential& potential, State& state, const NewtonSettings& 
     }
     ++result.iterations;
     if (settings.fixed_iterations > 0) {  // one linearised step per iteration, no line search
-      retract(model, state, d.data());
+      potential.retract(state, d.data(), 1.0);
       phi = potential.gradient(state, g);
       continue;
     }
@@ -52,7 +52,7 @@ NewtonResult minimise(Potential& potential, State& state, const NewtonSettings& 
     bool accepted = false;
     for (int b = 0; b <= settings.max_backtracks; ++b, alpha *= 0.5) {
       State trial = state;
-      retract(model, trial, d.data(), alpha);
+      potential.retract(trial, d.data(), alpha);
       const double phi_trial = potential.value(trial);
       if (!std::isfinite(phi_trial)) continue;
       if (phi_trial <= phi + settings.armijo * alpha * slope) {

@@ -21,6 +21,11 @@ class Potential {
   // Prepares the Hessian at state for the system() operator.
   virtual void prepare_hessian(const State& state) = 0;
   virtual LinearSystem system() = 0;
+  // q <- q (+) scale d. Potentials whose configuration space is constrained (rigidly mapped
+  // frames) restore their constraints here.
+  virtual void retract(State& state, const double* d, double scale) const {
+    ::fascia::retract(model(), state, d, scale);
+  }
 };
 
 struct NewtonSettings {

@@ -42,6 +42,7 @@ struct BeamResult {
   int clamped_frames = 0;
   double seconds = 0;
   int newton_iterations = 0;
+  double residual = 0;  // relative to the weight, when converged
   bool converged = false;
   std::string message;
 };

@@ -88,10 +88,7 @@ inline ReferenceStep reference_step(const Model& model, const State& state, doub
       K[6 * r + r] += inv_h2 * model.frame_masses[i];
       for (int c = 0; c < 3; ++c) K[6 * (3 + r) + 3 + c] += inv_h2 * J[9 * i + 3 * r + c];
     }
-    for (int k = 0; k < 6; ++k)
-      if (fixed(6 * i + k))
-        for (int j = 0; j < 6; ++j) K[6 * k + j] = K[6 * j + k] = (j == k ? 1.0 : 0.0);
-    gpu::invert6(K, &minv[36 * i]);
+    gpu::block_jacobi_inverse(&model.fixed_dofs[6 * i], K, &minv[36 * i]);
   }
   auto precondition = [&](const std::vector<double>& r, std::vector<double>& z) {
     for (int i = 0; i < n; ++i)

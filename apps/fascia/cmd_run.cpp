@@ -1,0 +1,384 @@
+// fascia run SCENE: simulate a scene and write its trajectory (HDF5, H5MD layout) and XDMF sidecar.
+//
+// Robustness contract (DESIGN.md): every written step is flushed, so a run killed at any moment
+// leaves a readable file; SIGINT/SIGTERM finish the current step, write it, close the file and
+// exit 75; a solver failure keeps the completed steps and exits 1; non-finite states are never
+// written.
+#include "commands.hpp"
+#include "progress.hpp"
+#include "scene_report.hpp"
+
+#include "io/trajectory.hpp"
+#include "io/xdmf.hpp"
+#include "mechanics/external_loads.hpp"
+#include "mechanics/frame_sample.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdlib>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <iostream>
+#include <memory>
+
+namespace fascia::app {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunOptions {
+  std::string scene;
+  std::string output;
+  std::vector<std::string> overrides;
+  std::string backend = "cpu";
+  int threads = -1;
+  bool quiet = false;
+  bool json = false;
+  double status_interval = 10.0;
+};
+
+volatile std::sig_atomic_t g_stop_signal = 0;
+
+void on_stop_signal(int signal) { g_stop_signal = signal; }
+
+void install_signal_handlers() {
+  struct sigaction action {};
+  action.sa_handler = on_stop_signal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = 0;  // no SA_RESTART: let blocking calls return
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
+
+std::string shell_quote(const std::string& s) {
+  if (!s.empty() && s.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-./=:,+@") ==
+                        std::string::npos)
+    return s;
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+// The command line as typed (Linux: /proc/self/cmdline), shell-quoted, for /parameters.
+std::string command_line() {
+  std::ifstream in("/proc/self/cmdline", std::ios::binary);
+  std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string out, word;
+  for (char c : all) {
+    if (c == '\0') {
+      out += (out.empty() ? "" : " ") + shell_quote(word);
+      word.clear();
+    } else {
+      word += c;
+    }
+  }
+  return out;
+}
+
+std::string env(const char* name) {
+  const char* v = std::getenv(name);
+  return v ? v : "";
+}
+
+std::string environment_json(int threads) {
+  nlohmann::json e;
+  char host[256] = {0};
+  gethostname(host, sizeof host - 1);
+  e["host"] = host;
+  e["user"] = env("USER");
+  std::error_code ec;
+  e["cwd"] = fs::current_path(ec).string();
+  const std::time_t now = std::time(nullptr);
+  char stamp[64];
+  std::strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  e["started"] = stamp;
+  e["threads"] = threads;
+  for (const char* key : {"SLURM_JOB_ID", "SLURM_ARRAY_JOB_ID", "SLURM_ARRAY_TASK_ID", "SLURM_JOB_NAME",
+                          "SLURM_CLUSTER_NAME", "PBS_JOBID", "LSB_JOBID", "OMP_NUM_THREADS"})
+    if (!env(key).empty()) e[key] = env(key);
+  return e.dump();
+}
+
+const std::vector<std::pair<std::string, bool>>& observable_layout() {
+  static const std::vector<std::pair<std::string, bool>> layout = {
+      {"elastic_energy", false},    {"kinetic_energy", false}, {"external_potential", false},
+      {"total_energy", false},      {"newton_iterations", true}, {"cg_iterations", true},
+      {"residual", false},          {"converged", true},         {"wall_time", false},
+  };
+  return layout;
+}
+
+// Everything one output step needs, computed from the simulation state.
+class StepRecorder {
+ public:
+  StepRecorder(const dsl::BuiltScene& built, bool samples) : m_built(built), m_samples(samples) {}
+
+  TrajectoryLayout layout() const {
+    TrajectoryLayout layout;
+    layout.frames = m_built.model.frame_count();
+    layout.samples = m_samples ? m_built.model.sample_count() : 0;
+    for (const dsl::BuiltObject& o : m_built.objects) layout.surfaces.push_back(o.surface);
+    layout.observables = observable_layout();
+    return layout;
+  }
+
+  TrajectoryStep record(const State& state, const StepReport& report) {
+    const Model& model = m_built.model;
+    TrajectoryStep step;
+    step.step = report.step;
+    step.time = report.time;
+    step.frame_positions = state.positions.data();
+    step.frame_orientations = state.orientations.data();
+    if (m_samples) {
+      rotation_matrices(state, m_rotations);
+      const PairTableView view{model.neighbours.offsets.data(), model.neighbours.frames.data(),
+                               model.neighbours.weights.data(), model.neighbours.weight_gradients.data(),
+                               model.neighbours.rest_offsets.data()};
+      m_sample_positions.resize(3 * static_cast<std::size_t>(model.sample_count()));
+      for (int s = 0; s < model.sample_count(); ++s) {
+        const Vec3 p = sample_position(view, s, state.positions.data(), m_rotations.data());
+        m_sample_positions[3 * static_cast<std::size_t>(s)] = p.x;
+        m_sample_positions[3 * static_cast<std::size_t>(s) + 1] = p.y;
+        m_sample_positions[3 * static_cast<std::size_t>(s) + 2] = p.z;
+      }
+      step.sample_positions = m_sample_positions.data();
+    }
+    // Mesh-based objects: surface vertices are frames. Meshless objects: surface vertices are
+    // carried by the frames like samples, eq. (3), with their own weights.
+    m_surfaces.resize(m_built.objects.size());
+    for (std::size_t o = 0; o < m_built.objects.size(); ++o) {
+      const dsl::BuiltObject& object = m_built.objects[o];
+      const std::vector<int>& frames = object.surface.vertex_frames;
+      std::vector<double>& out = m_surfaces[o];
+      out.resize(3 * frames.size());
+      if (object.skinned) {
+        if (!m_samples) rotation_matrices(state, m_rotations);
+        const NeighbourTable& t = object.skin;
+        const PairTableView view{t.offsets.data(), t.frames.data(), t.weights.data(), t.weight_gradients.data(),
+                                 t.rest_offsets.data()};
+        for (std::size_t v = 0; v < frames.size(); ++v) {
+          const Vec3 p = sample_position(view, static_cast<int>(v), state.positions.data(), m_rotations.data());
+          out[3 * v] = p.x;
+          out[3 * v + 1] = p.y;
+          out[3 * v + 2] = p.z;
+        }
+      } else {
+        for (std::size_t v = 0; v < frames.size(); ++v)
+          for (std::size_t k = 0; k < 3; ++k)
+            out[3 * v + k] = state.positions[3 * static_cast<std::size_t>(frames[v]) + k];
+      }
+      step.surface_positions.push_back(out.data());
+    }
+    step.observables = {report.elastic_energy,
+                        report.kinetic_energy,
+                        report.external_potential,
+                        report.elastic_energy + report.kinetic_energy + report.external_potential,
+                        static_cast<double>(report.newton_iterations),
+                        static_cast<double>(report.cg_iterations),
+                        report.residual,
+                        report.converged ? 1.0 : 0.0,
+                        report.wall_seconds};
+    return step;
+  }
+
+ private:
+  const dsl::BuiltScene& m_built;
+  bool m_samples;
+  std::vector<double> m_rotations, m_sample_positions;
+  std::vector<std::vector<double>> m_surfaces;
+};
+
+bool finite_state(const State& state) {
+  for (double v : state.positions)
+    if (!std::isfinite(v)) return false;
+  for (double v : state.orientations)
+    if (!std::isfinite(v)) return false;
+  for (double v : state.velocities)
+    if (!std::isfinite(v)) return false;
+  return true;
+}
+
+int run(const RunOptions& options) {
+  int code = 0;
+  std::unique_ptr<LoadedScene> scene = load_scene(options.scene, options.overrides, code);
+  if (!scene) return code;
+  dsl::BuiltScene& built = scene->built;
+
+  if (options.backend != "cpu") {
+#if FASCIA_WITH_CUDA
+    std::cerr << "fascia: error: --backend " << options.backend << " is not wired into 'run' yet; use --backend cpu\n";
+#else
+    std::cerr << "fascia: error: this fascia was built without CUDA (FASCIA_WITH_CUDA=OFF); use --backend cpu\n";
+#endif
+    return kUsage;
+  }
+  if (options.threads >= 0) built.settings.threads = options.threads;
+
+  const std::string output = options.output.empty() ? scene->spec.output.file : options.output;
+  const dsl::OutputSpec& out_spec = scene->spec.output;
+  Progress progress(Progress::mode_for(options.quiet), options.status_interval);
+  const bool log = !options.quiet;
+  if (log) {
+    const dsl::DiscretisationStats& s = built.stats;
+    std::cerr << "fascia: " << options.scene << ": " << s.frames << " frames, " << s.samples << " samples, " << s.dofs
+              << " dofs, " << built.steps << " steps of " << built.settings.dt << " s (" << to_string(built.settings.integrator)
+              << ") -> " << output << "\n";
+  }
+
+  install_signal_handlers();
+  const auto wall_start = std::chrono::steady_clock::now();
+  Simulation simulation(built.model, built.loads, built.settings, built.motions);
+  StepRecorder recorder(built, out_spec.samples);
+  TrajectoryLayout layout = recorder.layout();
+  // Rows to preallocate: the initial state, every output step, and one written on a signal. All
+  // of them up front: growing datasets later is the one write a kill could corrupt.
+  layout.capacity = 2 + (built.steps + out_spec.every - 1) / out_spec.every;
+
+  std::unique_ptr<TrajectoryWriter> writer;
+  const std::string xmf = xdmf_path_for(output);
+  const std::string h5_name = fs::path(output).filename().string();
+  std::vector<double> written_times;
+  auto last_xdmf = std::chrono::steady_clock::now();
+  // The sidecar is rewritten after each flushed step while the run is short, then at most once a
+  // second and at the end: it always describes complete steps only.
+  auto update_xdmf = [&](bool force) {
+    if (!out_spec.xdmf) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (!force && written_times.size() > 100 && std::chrono::duration<double>(now - last_xdmf).count() < 1.0) return;
+    write_xdmf(xmf, h5_name, layout, written_times,
+               writer ? static_cast<std::size_t>(writer->rows_allocated()) : written_times.size());
+    last_xdmf = now;
+  };
+
+  StepReport last;
+  last.time = simulation.time();
+  long total_newton = 0, total_cg = 0;
+  ProgressFigures figures;
+  figures.total = built.steps;
+  std::string status = "completed";
+  int exit_code = kOk;
+  std::string failure;
+
+  try {
+    TrajectoryHeader header;
+    header.creator_version = FASCIA_VERSION;
+    header.author = env("USER");
+    header.scene = scene->spec.resolved_yaml;
+    header.scene_file = options.scene;
+    header.command_line = command_line();
+    header.environment = environment_json(built.settings.threads);
+    writer = std::make_unique<TrajectoryWriter>(output, header, layout);
+
+    // Step 0: the initial configuration.
+    StepReport initial;
+    initial.step = 0;
+    initial.time = simulation.time();
+    initial.converged = true;
+    initial.kinetic_energy = kinetic_energy(simulation.model(), simulation.state());
+    initial.external_potential = load_potential(simulation.model(), simulation.loads(), simulation.state());
+    writer->append(recorder.record(simulation.state(), initial));
+    written_times.push_back(initial.time);
+    update_xdmf(true);
+
+    for (int k = 1; k <= built.steps; ++k) {
+      try {
+        last = simulation.step();
+      } catch (const SolverError& e) {
+        failure = e.what();
+        status = "solver failed";
+        exit_code = kSolverFailed;
+        break;
+      }
+      if (!finite_state(simulation.state())) {
+        failure = "non-finite state after step " + std::to_string(k) + " (diverged); it was not written";
+        status = "solver failed";
+        exit_code = kSolverFailed;
+        break;
+      }
+      total_newton += last.newton_iterations;
+      total_cg += last.cg_iterations;
+      const bool stop = g_stop_signal != 0;
+      if (k % out_spec.every == 0 || k == built.steps || stop) {
+        writer->append(recorder.record(simulation.state(), last));
+        written_times.push_back(last.time);
+        update_xdmf(k == built.steps || stop);
+      }
+      figures.step = k;
+      figures.time = last.time;
+      figures.newton = last.newton_iterations;
+      figures.cg = last.cg_iterations;
+      figures.residual = last.residual;
+      progress.update(figures);
+      if (stop) {
+        status = std::string("stopped by ") + (g_stop_signal == SIGINT ? "SIGINT" : "SIGTERM") + " after step " +
+                 std::to_string(k) + " (written)";
+        exit_code = kStoppedOnSignal;
+        break;
+      }
+    }
+    writer->close();  // shrinks the datasets to the written steps
+    update_xdmf(true);
+  } catch (const TrajectoryError& e) {
+    std::cerr << "fascia: error: " << e.what() << "\n";
+    return kIoError;
+  }
+
+  progress.finish(figures, status);
+  // Logs of batch jobs must say why a run stopped, even with --quiet.
+  if (options.quiet && exit_code == kStoppedOnSignal) std::cerr << "fascia: " << status << "\n";
+  if (!failure.empty()) std::cerr << "fascia: error: " << failure << "\n";
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  if (options.json) {
+    nlohmann::json summary = {
+        {"scene", options.scene},
+        {"output", output},
+        {"status", exit_code == kOk ? "ok" : exit_code == kStoppedOnSignal ? "stopped" : "solver_failed"},
+        {"exit_code", exit_code},
+        {"steps", figures.step},
+        {"steps_planned", built.steps},
+        {"steps_written", writer ? writer->steps_written() : 0},
+        {"time", figures.time},
+        {"newton_iterations", total_newton},
+        {"cg_iterations", total_cg},
+        {"wall_seconds", wall},
+        {"discretisation", stats_json(built.stats)},
+        {"final",
+         {{"elastic_energy", last.elastic_energy},
+          {"kinetic_energy", last.kinetic_energy},
+          {"external_potential", last.external_potential},
+          {"residual", last.residual}}}};
+    if (!failure.empty()) summary["message"] = failure;
+    std::cout << summary.dump() << "\n";
+  }
+  return exit_code;
+}
+
+}  // namespace
+
+void register_run(CLI::App& app, Action& action) {
+  auto options = std::make_shared<RunOptions>();
+  CLI::App* cmd = app.add_subcommand("run", "Simulate a scene and write its HDF5 trajectory (+ XDMF sidecar)");
+  cmd->add_option("scene", options->scene, "Scene file (YAML)")->required();
+  cmd->add_option("-o,--output", options->output, "Output file (default: the scene's output.file)");
+  cmd->add_option("--set", options->overrides, "Override a scene value: path=value (e.g. materials.fascia.young=50kPa)")
+      ->take_all()
+      ->allow_extra_args(false);
+  cmd->add_option("--backend", options->backend, "Force and tangent backend")->check(CLI::IsMember({"cpu", "cuda"}));
+  cmd->add_option("--threads", options->threads, "CPU threads (0 = all; default: the scene's solver.threads)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("-q,--quiet", options->quiet, "No progress output");
+  cmd->add_flag("--json", options->json, "Print a JSON summary on stdout at the end");
+  cmd->add_option("--status-interval", options->status_interval,
+                  "Seconds between status lines when stderr is not a terminal")
+      ->check(CLI::PositiveNumber);
+  cmd->callback([&action, options] { action = [options] { return run(*options); }; });
+}
+
+}  // namespace fascia::app

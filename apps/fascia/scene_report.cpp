@@ -1,0 +1,58 @@
+#include "scene_report.hpp"
+
+#include <iostream>
+#include <sstream>
+
+namespace fascia::app {
+
+std::unique_ptr<LoadedScene> load_scene(const std::string& path, const std::vector<std::string>& overrides,
+                                        int& exit_code) {
+  auto scene = std::make_unique<LoadedScene>();
+  try {
+    scene->spec = dsl::parse_scene(path, overrides);
+    scene->built = dsl::build_scene(scene->spec);
+  } catch (const dsl::SceneError& e) {
+    const auto items = e.diagnostics().sorted();
+    for (const dsl::Diagnostic& d : items) std::cerr << d.str() << "\n";
+    std::cerr << "fascia: " << items.size() << (items.size() == 1 ? " problem" : " problems") << " in " << path << "\n";
+    exit_code = static_cast<int>(e.exit_code());
+    return nullptr;
+  }
+  exit_code = 0;
+  return scene;
+}
+
+nlohmann::json stats_json(const dsl::DiscretisationStats& s) {
+  return {{"frames", s.frames},
+          {"samples", s.samples},
+          {"dofs", s.dofs},
+          {"fixed_frames", s.fixed_frames},
+          {"neighbours_per_sample", {{"min", s.neighbours_min}, {"mean", s.neighbours_mean}, {"max", s.neighbours_max}}},
+          {"volume_m3", s.volume},
+          {"mass_kg", s.mass}};
+}
+
+std::string stats_text(const dsl::DiscretisationStats& s, const LoadedScene& scene) {
+  std::ostringstream os;
+  os.precision(6);
+  os << "discretisation:\n";
+  for (const dsl::BuiltObject& o : scene.built.objects)
+    os << "  object " << o.name << ": " << o.discretisation << "; boundary " << o.surface.faces.size() / static_cast<std::size_t>(o.surface.nodes_per_face)
+       << (o.surface.nodes_per_face == 3 ? " triangles, " : " quadrilaterals, ") << o.surface.vertex_frames.size()
+       << " vertices\n";
+  os << "  frames: " << s.frames << "\n"
+     << "  samples: " << s.samples << "\n"
+     << "  neighbours per sample: {min: " << s.neighbours_min << ", mean: " << s.neighbours_mean
+     << ", max: " << s.neighbours_max << "}\n"
+     << "  dofs: " << s.dofs << "\n"
+     << "  fixed frames: " << s.fixed_frames << "\n"
+     << "  volume: " << s.volume << " m^3\n"
+     << "  mass: " << s.mass << " kg\n"
+     << "  steps: " << scene.built.steps << "\n"
+     << "  point forces: " << scene.built.loads.point_forces.size() << " frames\n"
+     << "  material-point forces: " << scene.built.loads.material_point_forces.size() << "\n"
+     << "  prescribed motions: " << scene.built.motions.size() << "\n";
+  return os.str();
+}
+
+}  // namespace fascia::app

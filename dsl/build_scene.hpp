@@ -1,0 +1,52 @@
+// SceneSpec -> engine objects: geometry, discretisation, constraints, loads, solver settings.
+#pragma once
+
+#include "dsl/scene_spec.hpp"
+#include "integrate/simulation.hpp"
+#include "io/trajectory.hpp"
+
+#include <string>
+#include <vector>
+
+namespace fascia::dsl {
+
+// Discretisation figures printed by `fascia check` and `fascia run`.
+struct DiscretisationStats {
+  int frames = 0, samples = 0, dofs = 0, fixed_frames = 0;
+  int neighbours_min = 0, neighbours_max = 0;
+  double neighbours_mean = 0;
+  double volume = 0;  // m^3
+  double mass = 0;    // kg
+};
+
+struct BuiltObject {
+  std::string name;
+  // Boundary surface. Mesh-based objects: its vertices are frames (vertex_frames). Meshless
+  // objects: the input surface, its vertices placed through the frames like samples (eq. 3) with
+  // the weights in `skin` (vertex_frames are -1).
+  SurfaceLayout surface;
+  bool skinned = false;
+  NeighbourTable skin;  // [V] rows: surface vertex -> frames, weights, rest offsets
+  std::string discretisation;  // one-line description for `fascia check`
+};
+
+struct BuiltScene {
+  Model model;
+  ExternalLoads loads;
+  SimulationSettings settings;
+  std::vector<PrescribedMotion> motions;
+  std::vector<BuiltObject> objects;
+  int steps = 1;
+  DiscretisationStats stats;
+};
+
+// Builds the model: a mesh-based tissue (box or volume mesh) or a meshless tissue (closed
+// surface). Throws SceneError (all problems at once) for unsupported features (shells, rigid
+// bodies, couplings, several tissues: "not supported yet"),
+// unreadable meshes (ExitCode::missing_input / bad_data), empty region selections, frame ids out
+// of range, and a static solve without fixed frames.
+BuiltScene build_scene(const SceneSpec& scene);
+
+DiscretisationStats discretisation_stats(const Model& model);
+
+}  // namespace fascia::dsl

@@ -1,0 +1,332 @@
+#include "dsl/registry.hpp"
+
+#include <sstream>
+
+namespace fascia::dsl {
+
+const ParamSpec* ParamSpec::child(const std::string& key) const {
+  for (const ParamSpec& c : children)
+    if (c.name == key) return &c;
+  return nullptr;
+}
+
+std::vector<std::string> ParamSpec::child_names() const {
+  std::vector<std::string> names;
+  for (const ParamSpec& c : children) names.push_back(c.name);
+  return names;
+}
+
+namespace {
+
+std::string number_text(double v) {
+  std::ostringstream os;
+  os.precision(12);
+  os << v;
+  return os.str();
+}
+
+std::string join(const std::vector<std::string>& items, const std::string& sep) {
+  std::string s;
+  for (std::size_t i = 0; i < items.size(); ++i) s += (i ? sep : "") + items[i];
+  return s;
+}
+
+}  // namespace
+
+std::string ParamSpec::range_text() const {
+  const std::string u = si_unit(unit).empty() ? "" : " " + si_unit(unit);
+  if (min && max)
+    return std::string("in ") + (min_exclusive ? "(" : "[") + number_text(*min) + ", " + number_text(*max) +
+           (max_exclusive ? ")" : "]") + u;
+  if (min) return std::string(min_exclusive ? "> " : ">= ") + number_text(*min) + u;
+  if (max) return std::string(max_exclusive ? "< " : "<= ") + number_text(*max) + u;
+  return "";
+}
+
+std::string ParamSpec::expected() const {
+  const std::string u = si_unit(unit);
+  const std::string q = unit == dim::none ? "number" : dimension_name(unit) + " (e.g. '1 " + u + "')";
+  switch (type) {
+    case ParamType::object: return "a map with keys " + join(child_names(), ", ");
+    case ParamType::named_map: return "a map of named entries";
+    case ParamType::list: return "a list";
+    case ParamType::one_of: return "a map with exactly one of " + join(child_names(), ", ");
+    case ParamType::number: return "a " + q;
+    case ParamType::integer: return "an integer";
+    case ParamType::boolean: return "true or false";
+    case ParamType::string: return "a name";
+    case ParamType::enumeration: return "one of " + join(choices, ", ");
+    case ParamType::vector3: return "three values [x, y, z] of " + (unit == dim::none ? std::string("numbers") : q);
+    case ParamType::vector3_pair: return "two corners [[x, y, z], [x, y, z]] of " + q;
+    case ParamType::integer_list:
+      return length ? "a list of " + std::to_string(length) + " integers" : "a list of integers";
+    case ParamType::string_list: return length ? "a list of " + std::to_string(length) + " names" : "a list of names";
+    case ParamType::path: return "a file path";
+  }
+  return "?";
+}
+
+namespace {
+
+// Small builders so that the registry below reads like a table.
+ParamSpec object(std::string name, std::string doc, std::vector<ParamSpec> fields) {
+  ParamSpec p;
+  p.name = std::move(name);
+  p.type = ParamType::object;
+  p.doc = std::move(doc);
+  p.children = std::move(fields);
+  return p;
+}
+
+ParamSpec one_of(std::string name, std::string doc, std::vector<ParamSpec> fields) {
+  ParamSpec p = object(std::move(name), std::move(doc), std::move(fields));
+  p.type = ParamType::one_of;
+  return p;
+}
+
+ParamSpec named_map(std::string name, std::string doc, ParamSpec item) {
+  ParamSpec p;
+  p.name = std::move(name);
+  p.type = ParamType::named_map;
+  p.doc = std::move(doc);
+  p.children = {std::move(item)};
+  return p;
+}
+
+ParamSpec list(std::string name, std::string doc, ParamSpec item) {
+  ParamSpec p = named_map(std::move(name), std::move(doc), std::move(item));
+  p.type = ParamType::list;
+  return p;
+}
+
+ParamSpec leaf(std::string name, ParamType type, std::string doc) {
+  ParamSpec p;
+  p.name = std::move(name);
+  p.type = type;
+  p.doc = std::move(doc);
+  return p;
+}
+
+ParamSpec quantity(std::string name, Dimension unit, std::string doc) {
+  ParamSpec p = leaf(std::move(name), ParamType::number, std::move(doc));
+  p.unit = unit;
+  return p;
+}
+
+ParamSpec vec3(std::string name, Dimension unit, std::string doc) {
+  ParamSpec p = leaf(std::move(name), ParamType::vector3, std::move(doc));
+  p.unit = unit;
+  return p;
+}
+
+ParamSpec enumeration(std::string name, std::vector<std::string> choices, std::string doc) {
+  ParamSpec p = leaf(std::move(name), ParamType::enumeration, std::move(doc));
+  p.choices = std::move(choices);
+  return p;
+}
+
+ParamSpec with_default(ParamSpec p, std::string value) {
+  p.default_value = std::move(value);
+  return p;
+}
+
+ParamSpec required(ParamSpec p) {
+  p.required = true;
+  return p;
+}
+
+ParamSpec above(ParamSpec p, double min, bool exclusive = true) {
+  p.min = min;
+  p.min_exclusive = exclusive;
+  return p;
+}
+
+ParamSpec below(ParamSpec p, double max, bool exclusive = true) {
+  p.max = max;
+  p.max_exclusive = exclusive;
+  return p;
+}
+
+ParamSpec region(std::string name, std::string doc) {
+  ParamSpec box = leaf("box", ParamType::vector3_pair, "axis-aligned box [[xmin, ymin, zmin], [xmax, ymax, zmax]]");
+  box.unit = dim::length;
+  ParamSpec ids = above(leaf("ids", ParamType::integer_list, "explicit frame indices (0-based)"), 0, false);
+  return one_of(std::move(name), std::move(doc),
+                {
+                    leaf("all", ParamType::boolean, "every frame of the object (write 'all: true')"),
+                    box,
+                    object("sphere", "ball around a centre",
+                           {required(vec3("center", dim::length, "centre of the ball")),
+                            required(above(quantity("radius", dim::length, "radius of the ball"), 0))}),
+                    object("half_space", "points p with (p - point) . normal <= 0 (normal points out of it)",
+                           {required(vec3("point", dim::length, "a point on the bounding plane")),
+                            required(vec3("normal", dim::none, "outward normal of the half-space"))}),
+                    ids,
+                });
+}
+
+ParamSpec build_registry() {
+  ParamSpec material = object(
+      "material", "a hyperelastic material",
+      {
+          with_default(enumeration("law", {"stvk", "neo_hookean"},
+                                   "constitutive law: Saint Venant-Kirchhoff (paper eq. 19) or compressible neo-Hookean"),
+                       "stvk"),
+          required(above(quantity("young", dim::pressure, "Young's modulus E"), 0)),
+          with_default(below(above(quantity("poisson", dim::none, "Poisson ratio nu"), -1), 0.5), "0.3"),
+          with_default(above(quantity("density", dim::density, "mass density rho"), 0), "1000 kg/m^3"),
+      });
+
+  ParamSpec cells = above(leaf("cells", ParamType::integer_list, "number of cells along x, y, z"), 1, false);
+  cells.length = 3;
+  cells.default_value = "[1, 1, 1]";
+  ParamSpec obj = object(
+      "object", "a simulated object",
+      {
+          with_default(enumeration("kind", {"tissue", "shell", "rigid"},
+                                   "tissue: volumetric frame-based body; shell: thin wall; rigid: bone or tool"),
+                       "tissue"),
+          leaf("material", ParamType::string, "name of an entry of materials"),
+          leaf("mesh", ParamType::path,
+               "volume mesh, mesh-based tissue: legacy VTK (.vtk, tetra/hexa) or Gmsh 2.2 ASCII (.msh)"),
+          object("box", "a generated box meshed with a regular grid (mesh-based tissue)",
+                 {required(vec3("min", dim::length, "lower corner")), required(vec3("max", dim::length, "upper corner")),
+                  cells,
+                  with_default(enumeration("elements", {"hex", "tet"}, "hexahedra, or each split in 6 tetrahedra"),
+                               "hex")}),
+          leaf("surface", ParamType::path, "closed surface mesh: meshless tissue, shell or rigid body"),
+          object("discretisation", "how the object is turned into frames and samples",
+                 {with_default(below(above(leaf("quadrature", ParamType::integer,
+                                                "samples per element: tet 1 or 4, hex 1, 8 or 27 (0 = tet 4, hex 8)"),
+                                           0, false),
+                                     27, false),
+                               "0"),
+                  object("meshless", "meshless discretisation of a closed surface",
+                         {required(above(quantity("frame_spacing", dim::length, "Poisson-disk radius of frames"), 0)),
+                          required(above(quantity("sample_spacing", dim::length, "Poisson-disk radius of samples"), 0)),
+                          with_default(enumeration("shape", {"mls", "rbf"}, "meshless shape functions: moving least squares or Shepard-normalised Wendland kernel"), "mls")})}),
+          object("transform", "applied to the geometry before discretisation: scale, then rotate, then translate",
+                 {with_default(above(quantity("scale", dim::none, "uniform scale factor"), 0), "1"),
+                  with_default(vec3("rotate", dim::none, "rotations about x, then y, then z (radians; '90 deg' works)"),
+                               "[0, 0, 0]"),
+                  with_default(vec3("translate", dim::length, "translation"), "[0, 0, 0]")}),
+          with_default(leaf("lock_rotations", ParamType::boolean,
+                            "frames as 3-DOF nodes (R = I): classic FEM, the paper's Figure 3 baseline"),
+                       "false"),
+          above(quantity("thickness", dim::length, "shell thickness"), 0),
+          above(quantity("density", dim::density, "rigid body density"), 0),
+          leaf("fixed", ParamType::boolean, "rigid body held in place"),
+      });
+
+  ParamSpec constraint =
+      object("constraint", "frames held at their rest position",
+             {required(leaf("fix", ParamType::string, "object whose frames are fixed")),
+              required(region("region", "which frames (rest positions, world axes)")),
+              with_default(leaf("translations_only", ParamType::boolean, "fix translations only, rotations stay free"),
+                           "false")});
+
+  auto selection = [](std::vector<ParamSpec> extra) {
+    std::vector<ParamSpec> fields = {required(leaf("object", ParamType::string, "object the load acts on")),
+                                     required(region("region", "which frames or boundary faces (rest positions)"))};
+    for (ParamSpec& e : extra) fields.push_back(std::move(e));
+    return fields;
+  };
+  ParamSpec load = one_of(
+      "load", "an external load",
+      {
+          vec3("gravity", dim::acceleration, "gravitational acceleration"),
+          object("point_force", "a constant force shared equally by the frames of a region",
+                 selection({required(vec3("force", dim::force, "total force"))})),
+          object("surface_force", "a constant traction on the boundary faces whose centre lies in a region",
+                 selection({required(vec3("traction", dim::pressure, "force per unit rest area"))})),
+          object("motion", "frames moved at constant velocity between start and end, then held (a tool pulling)",
+                 selection({required(vec3("velocity", dim::velocity, "velocity of the frames")),
+                            with_default(above(quantity("start", dim::time, "start time"), 0, false), "0 s"),
+                            above(quantity("end", dim::time, "end time (default: never)"), 0)})),
+      });
+
+  ParamSpec share = leaf("share", ParamType::string_list, "two objects that share frames where they overlap");
+  share.length = 2;
+  ParamSpec coupling = object("coupling", "a mechanical coupling between objects",
+                              {share, leaf("attach", ParamType::string, "object attached to another"),
+                               leaf("to", ParamType::string, "the object it is attached to"),
+                               above(quantity("within", dim::length, "coupling distance"), 0)});
+
+  ParamSpec solver = object(
+      "solver", "time integration and nonlinear solver",
+      {
+          with_default(enumeration("integrator", {"static", "backward_euler"},
+                                   "static equilibrium (Newton on W - f.x) or backward Euler"),
+                       "backward_euler"),
+          with_default(above(quantity("dt", dim::time, "time step (static: pseudo-time per step)"), 0), "10 ms"),
+          with_default(above(quantity("rayleigh_mass", dim::frequency, "Rayleigh damping alpha (D = alpha M + beta K)"),
+                             0, false),
+                       "0"),
+          with_default(above(quantity("rayleigh_stiffness", dim::time, "Rayleigh damping beta"), 0, false), "0"),
+          with_default(above(leaf("load_steps", ParamType::integer, "static: initial number of load increments"), 1,
+                             false),
+                       "1"),
+          with_default(above(leaf("max_load_halvings", ParamType::integer,
+                                  "static: halvings of a failed load increment before giving up"),
+                             0, false),
+                       "10"),
+          with_default(above(leaf("threads", ParamType::integer, "CPU threads (0 = all)"), 0, false), "0"),
+          object("newton", "Newton with backtracking line search",
+                 {with_default(above(quantity("tolerance", dim::none, "relative residual force to stop at"), 0),
+                               "1e-6"),
+                  with_default(above(leaf("max_iterations", ParamType::integer, "Newton iterations per step"), 1,
+                                     false),
+                               "50"),
+                  with_default(above(leaf("max_backtracks", ParamType::integer, "step halvings in the line search"),
+                                     0, false),
+                               "30"),
+                  with_default(above(leaf("fixed_iterations", ParamType::integer,
+                                          "exactly this many iterations, no line search (0 = off; benchmarks)"),
+                                     0, false),
+                               "0")}),
+          object("linear", "linear solver of each Newton step",
+                 {with_default(enumeration("method", {"cg", "pcg", "cholmod"},
+                                           "conjugate gradients, block-Jacobi PCG, or CHOLMOD direct"),
+                               "pcg"),
+                  with_default(above(quantity("tolerance", dim::none, "CG relative residual"), 0), "1e-8"),
+                  with_default(above(leaf("max_iterations", ParamType::integer, "CG iteration cap"), 1, false),
+                               "2000"),
+                  with_default(leaf("fixed_iterations", ParamType::boolean,
+                                    "run exactly max_iterations CG iterations (the paper's 60)"),
+                               "false")}),
+      });
+
+  ParamSpec run = object("run", "how long to simulate",
+                         {above(quantity("duration", dim::time, "simulated time (steps = duration / dt)"), 0),
+                          above(leaf("steps", ParamType::integer, "number of steps (default: 1 for static)"), 1, false)});
+
+  ParamSpec output = object(
+      "output", "the HDF5 trajectory",
+      {leaf("file", ParamType::string, "output file (default: the scene's name with .h5, in the working directory)"),
+       with_default(above(leaf("every", ParamType::integer, "write every n-th step"), 1, false), "1"),
+       with_default(leaf("samples", ParamType::boolean, "write sample positions"), "true"),
+       with_default(leaf("xdmf", ParamType::boolean, "write the XDMF sidecar for ParaView"), "true")});
+
+  ParamSpec include = leaf("include", ParamType::string_list,
+                           "scenes merged under this one (paths relative to this file; this file wins)");
+  ParamSpec extends = include;
+  extends.name = "extends";
+
+  return object("scene", "a fascia scene",
+                {with_default(below(above(leaf("fascia", ParamType::integer, "scene language version"), 1, false),
+                                    kSceneLanguageVersion, false),
+                              std::to_string(kSceneLanguageVersion)),
+                 include, extends, named_map("materials", "materials by name", material),
+                 named_map("objects", "objects by name", obj), list("constraints", "fixed frames", constraint),
+                 list("loads", "external loads and prescribed motions", load),
+                 list("couplings", "couplings between objects", coupling), solver, run, output});
+}
+
+}  // namespace
+
+const ParamSpec& scene_registry() {
+  static const ParamSpec root = build_registry();
+  return root;
+}
+
+}  // namespace fascia::dsl

@@ -1,0 +1,625 @@
+#include "io/trajectory.hpp"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+namespace fascia {
+
+namespace {
+
+// Owns an HDF5 identifier and closes it with the matching H5?close.
+class Handle {
+ public:
+  Handle() = default;
+  Handle(hid_t id, herr_t (*close)(hid_t)) : m_id(id), m_close(close) {}
+  Handle(Handle&& o) noexcept : m_id(o.m_id), m_close(o.m_close) { o.m_id = H5I_INVALID_HID; }
+  Handle& operator=(Handle&& o) noexcept {
+    if (this != &o) {
+      reset();
+      m_id = o.m_id;
+      m_close = o.m_close;
+      o.m_id = H5I_INVALID_HID;
+    }
+    return *this;
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  ~Handle() { reset(); }
+  void reset() {
+    if (m_id >= 0 && m_close) m_close(m_id);
+    m_id = H5I_INVALID_HID;
+  }
+  hid_t get() const { return m_id; }
+  bool valid() const { return m_id >= 0; }
+
+ private:
+  hid_t m_id = H5I_INVALID_HID;
+  herr_t (*m_close)(hid_t) = nullptr;
+};
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  throw TrajectoryError(path + ": HDF5 error: " + what);
+}
+
+hid_t checked(hid_t id, const std::string& path, const std::string& what) {
+  if (id < 0) fail(path, what);
+  return id;
+}
+
+void checked(herr_t status, const std::string& path, const std::string& what, int) {
+  if (status < 0) fail(path, what);
+}
+
+Handle group(hid_t parent, const std::string& name, const std::string& path) {
+  return Handle(checked(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path,
+                        "create group " + name),
+                H5Gclose);
+}
+
+Handle string_type(std::size_t size) {
+  Handle t(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(t.get(), size == 0 ? H5T_VARIABLE : size);
+  H5Tset_strpad(t.get(), H5T_STR_NULLTERM);
+  H5Tset_cset(t.get(), H5T_CSET_UTF8);
+  return t;
+}
+
+void string_attribute(hid_t object, const std::string& name, const std::string& value, const std::string& path) {
+  Handle type = string_type(value.size() + 1);
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle attr(checked(H5Acreate2(object, name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), path,
+                      "create attribute " + name),
+              H5Aclose);
+  checked(H5Awrite(attr.get(), type.get(), value.c_str()), path, "write attribute " + name, 0);
+}
+
+void int_attribute(hid_t object, const std::string& name, const std::vector<int>& values, const std::string& path) {
+  const hsize_t n = values.size();
+  Handle space(values.size() == 1 ? H5Screate(H5S_SCALAR) : H5Screate_simple(1, &n, nullptr), H5Sclose);
+  Handle attr(checked(H5Acreate2(object, name.c_str(), H5T_STD_I32LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), path,
+                      "create attribute " + name),
+              H5Aclose);
+  checked(H5Awrite(attr.get(), H5T_NATIVE_INT, values.data()), path, "write attribute " + name, 0);
+}
+
+void string_dataset(hid_t parent, const std::string& name, const std::string& value, const std::string& path) {
+  Handle type = string_type(0);
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle ds(checked(H5Dcreate2(parent, name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                    path, "create dataset " + name),
+            H5Dclose);
+  const char* data = value.c_str();
+  checked(H5Dwrite(ds.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &data), path, "write " + name, 0);
+}
+
+// H5MD requires a box in each particles group; ours is open (no periodic boundaries).
+void write_box(hid_t particles_group, const std::string& path) {
+  Handle box = group(particles_group, "box", path);
+  int_attribute(box.get(), "dimension", {3}, path);
+  Handle type = string_type(5);
+  const hsize_t n = 3;
+  Handle space(H5Screate_simple(1, &n, nullptr), H5Sclose);
+  Handle attr(checked(H5Acreate2(box.get(), "boundary", type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), path,
+                      "create attribute boundary"),
+              H5Aclose);
+  const char data[3][5] = {"none", "none", "none"};
+  checked(H5Awrite(attr.get(), type.get(), data), path, "write attribute boundary", 0);
+}
+
+// How a killed run stays readable. Any change of HDF5 metadata (dataset extents, chunk index
+// nodes, the end-of-allocation in the superblock) written only in part leaves a file in which even
+// earlier steps fail to read ("addr overflow"), and H5Fflush itself is not atomic. So the file's
+// structure is fixed before the first step: every dataset is created with room for `capacity`
+// rows and all its chunks allocated (H5D_ALLOC_TIME_EARLY), and a step writes raw data only, with
+// no chunk cache, so the writes reach the operating system in program order: value, time, then
+// step. `step` rows are -1 (and `time` rows NaN) until written; a killed run leaves those
+// never-completed rows at the end, and readers count the leading rows with step >= 0. A run that
+// ends normally, on a signal or on a solver failure shrinks every dataset to the written rows.
+// Exceeding the capacity doubles it (metadata changes, flushed at once).
+Handle series_dataset(hid_t parent, const std::string& name, hid_t file_type, const std::vector<hsize_t>& shape,
+                      hsize_t capacity, const std::string& path) {
+  // Chunks of about 64 KiB or one row, whichever is larger (fewer chunks to preallocate).
+  hsize_t row_bytes = 8;
+  for (hsize_t s : shape) row_bytes *= std::max<hsize_t>(s, 1);
+  const hsize_t rows_per_chunk = std::max<hsize_t>(1, std::min<hsize_t>(1024, (hsize_t(64) << 10) / row_bytes));
+  std::vector<hsize_t> dims{capacity}, maxdims{H5S_UNLIMITED}, chunk{rows_per_chunk};
+  for (hsize_t s : shape) {
+    dims.push_back(s);
+    maxdims.push_back(s);
+    chunk.push_back(std::max<hsize_t>(s, 1));
+  }
+  Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), maxdims.data()), H5Sclose);
+  Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data());
+  H5Pset_alloc_time(dcpl.get(), H5D_ALLOC_TIME_EARLY);
+  H5Pset_obj_track_times(dcpl.get(), 0);
+  if (name == "step") {
+    const int fill = -1;
+    H5Pset_fill_value(dcpl.get(), H5T_NATIVE_INT, &fill);
+    H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_ALLOC);
+  } else if (name == "time") {
+    const double fill = std::numeric_limits<double>::quiet_NaN();
+    H5Pset_fill_value(dcpl.get(), H5T_NATIVE_DOUBLE, &fill);
+    H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_ALLOC);
+  } else {
+    H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_NEVER);  // rows are meaningful once their step is written
+  }
+  Handle dapl(H5Pcreate(H5P_DATASET_ACCESS), H5Pclose);
+  H5Pset_chunk_cache(dapl.get(), 0, 0, 1.0);  // write through, in program order
+  return Handle(checked(H5Dcreate2(parent, name.c_str(), file_type, space.get(), H5P_DEFAULT, dcpl.get(), dapl.get()),
+                        path, "create dataset " + name),
+                H5Dclose);
+}
+
+std::vector<hsize_t> dataset_dims(hid_t ds) {
+  Handle fspace(H5Dget_space(ds), H5Sclose);
+  const int rank = H5Sget_simple_extent_ndims(fspace.get());
+  std::vector<hsize_t> dims(static_cast<std::size_t>(std::max(rank, 0)));
+  if (rank > 0) H5Sget_simple_extent_dims(fspace.get(), dims.data(), nullptr);
+  return dims;
+}
+
+void set_rows(hid_t ds, hsize_t rows, const std::string& path, const std::string& what) {
+  std::vector<hsize_t> dims = dataset_dims(ds);
+  dims[0] = rows;
+  checked(H5Dset_extent(ds, dims.data()), path, "resize " + what, 0);
+}
+
+void write_row(hid_t ds, hid_t mem_type, const void* data, hsize_t row, const std::string& path, const std::string& what) {
+  std::vector<hsize_t> dims = dataset_dims(ds);
+  Handle fspace(H5Dget_space(ds), H5Sclose);
+  std::vector<hsize_t> start(dims.size(), 0), count = dims;
+  start[0] = row;
+  count[0] = 1;
+  checked(H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr), path,
+          "select " + what, 0);
+  Handle mspace(H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr), H5Sclose);
+  checked(H5Dwrite(ds, mem_type, mspace.get(), fspace.get(), H5P_DEFAULT, data), path, "write " + what, 0);
+}
+
+struct Series {
+  std::string name;
+  Handle group, step, time, value;
+  hid_t mem_type = H5T_NATIVE_DOUBLE;
+  std::size_t count = 1;  // values per step
+};
+
+Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& shape, bool integer,
+                   const std::string& unit, hsize_t capacity, const std::string& path) {
+  Series s;
+  s.name = name;
+  s.group = group(parent, name, path);
+  s.step = series_dataset(s.group.get(), "step", H5T_STD_I32LE, {}, capacity, path);
+  s.time = series_dataset(s.group.get(), "time", H5T_IEEE_F64LE, {}, capacity, path);
+  string_attribute(s.time.get(), "unit", "s", path);
+  s.value = series_dataset(s.group.get(), "value", integer ? H5T_STD_I32LE : H5T_IEEE_F64LE, shape, capacity, path);
+  if (!unit.empty()) string_attribute(s.value.get(), "unit", unit, path);
+  s.mem_type = integer ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE;
+  for (hsize_t d : shape) s.count *= d;
+  return s;
+}
+
+}  // namespace
+
+struct TrajectoryWriter::Impl {
+  Handle file;
+  std::vector<Series> particles;   // frames position, orientation, samples position, surfaces
+  std::vector<Series> observables;
+};
+
+TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHeader& header,
+                                   const TrajectoryLayout& layout)
+    : m_path(path), m_layout(layout), m_impl(std::make_unique<Impl>()) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with our messages
+  // Metadata is written only by H5Fflush: with evictions enabled the metadata cache may write a
+  // chunk index node that points past the end-of-allocation recorded on disk while a step is half
+  // written, and a run killed then leaves earlier steps unreadable ("addr overflow"). Keeping dirty
+  // metadata in memory until the flush closes that window except during the flush itself.
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5AC_cache_config_t cache;
+  cache.version = H5AC__CURR_CACHE_CONFIG_VERSION;
+  checked(H5Pget_mdc_config(fapl.get(), &cache), path, "get metadata cache configuration", 0);
+  cache.incr_mode = H5C_incr__off;
+  cache.flash_incr_mode = H5C_flash_incr__off;
+  cache.decr_mode = H5C_decr__off;
+  cache.evictions_enabled = false;
+  cache.set_initial_size = true;
+  cache.initial_size = std::min<std::size_t>(cache.max_size, 8u << 20);
+  checked(H5Pset_mdc_config(fapl.get(), &cache), path, "set metadata cache configuration", 0);
+  m_impl->file = Handle(checked(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), path, "cannot create file"),
+                        H5Fclose);
+  const hid_t f = m_impl->file.get();
+
+  {
+    Handle h5md = group(f, "h5md", path);
+    int_attribute(h5md.get(), "version", {1, 1}, path);
+    Handle author = group(h5md.get(), "author", path);
+    string_attribute(author.get(), "name", header.author.empty() ? "unknown" : header.author, path);
+    Handle creator = group(h5md.get(), "creator", path);
+    string_attribute(creator.get(), "name", "fascia", path);
+    string_attribute(creator.get(), "version", header.creator_version, path);
+  }
+  {
+    Handle parameters = group(f, "parameters", path);
+    string_dataset(parameters.get(), "scene", header.scene, path);
+    string_dataset(parameters.get(), "scene_file", header.scene_file, path);
+    string_dataset(parameters.get(), "command_line", header.command_line, path);
+    string_dataset(parameters.get(), "version", header.creator_version, path);
+    string_dataset(parameters.get(), "environment", header.environment, path);
+  }
+
+  Handle particles = group(f, "particles", path);
+  const hsize_t n = static_cast<hsize_t>(layout.frames);
+  const hsize_t capacity = static_cast<hsize_t>(std::max(layout.capacity, 1));
+  m_capacity = static_cast<int>(capacity);
+  {
+    Handle frames = group(particles.get(), "frames", path);
+    write_box(frames.get(), path);
+    m_impl->particles.push_back(make_series(frames.get(), "position", {n, 3}, false, "m", capacity, path));
+    m_impl->particles.push_back(make_series(frames.get(), "orientation", {n, 4}, false, "", capacity, path));
+  }
+  if (layout.samples > 0) {
+    Handle samples = group(particles.get(), "samples", path);
+    write_box(samples.get(), path);
+    m_impl->particles.push_back(
+        make_series(samples.get(), "position", {static_cast<hsize_t>(layout.samples), 3}, false, "m", capacity, path));
+  }
+  {
+    Handle connectivity = group(f, "connectivity", path);
+    // Point clouds get explicit vertex connectivity (0..n-1) so that XDMF readers need not infer it.
+    auto vertices = [&](const char* name, int count) {
+      std::vector<int> ids(static_cast<std::size_t>(count));
+      for (int i = 0; i < count; ++i) ids[static_cast<std::size_t>(i)] = i;
+      const hsize_t count_h = ids.size();
+      Handle space(H5Screate_simple(1, &count_h, nullptr), H5Sclose);
+      Handle ds(checked(H5Dcreate2(connectivity.get(), name, H5T_STD_I32LE, space.get(), H5P_DEFAULT, H5P_DEFAULT,
+                                   H5P_DEFAULT),
+                        path, std::string("create connectivity of ") + name),
+                H5Dclose);
+      if (count > 0)
+        checked(H5Dwrite(ds.get(), H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, ids.data()), path,
+                std::string("write connectivity of ") + name, 0);
+      string_attribute(ds.get(), "cell_type", "vertex", path);
+      string_attribute(ds.get(), "particles_group", std::string("/particles/") + name, path);
+    };
+    vertices("frames", layout.frames);
+    if (layout.samples > 0) vertices("samples", layout.samples);
+    for (const SurfaceLayout& s : layout.surfaces) {
+      if (s.name == "frames" || s.name == "samples") fail(path, "surface name '" + s.name + "' is reserved");
+      Handle g = group(particles.get(), s.name, path);
+      write_box(g.get(), path);
+      const hsize_t v = s.vertex_frames.size();
+      m_impl->particles.push_back(make_series(g.get(), "position", {v, 3}, false, "m", capacity, path));
+      {
+        Handle space(H5Screate_simple(1, &v, nullptr), H5Sclose);
+        Handle ds(checked(H5Dcreate2(g.get(), "frames", H5T_STD_I32LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                          path, "create frames of " + s.name),
+                  H5Dclose);
+        checked(H5Dwrite(ds.get(), H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, s.vertex_frames.data()), path,
+                "write frames of " + s.name, 0);
+      }
+      const hsize_t dims[2] = {static_cast<hsize_t>(s.faces.size() / static_cast<std::size_t>(s.nodes_per_face)),
+                               static_cast<hsize_t>(s.nodes_per_face)};
+      Handle space(H5Screate_simple(2, dims, nullptr), H5Sclose);
+      Handle ds(checked(H5Dcreate2(connectivity.get(), s.name.c_str(), H5T_STD_I32LE, space.get(), H5P_DEFAULT,
+                                   H5P_DEFAULT, H5P_DEFAULT),
+                        path, "create connectivity of " + s.name),
+                H5Dclose);
+      checked(H5Dwrite(ds.get(), H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, s.faces.data()), path,
+              "write connectivity of " + s.name, 0);
+      string_attribute(ds.get(), "cell_type", s.nodes_per_face == 3 ? "triangle" : "quadrilateral", path);
+      string_attribute(ds.get(), "particles_group", "/particles/" + s.name, path);
+    }
+  }
+  Handle observables = group(f, "observables", path);
+  for (const auto& [name, integer] : layout.observables) {
+    std::string unit;
+    if (name.find("energy") != std::string::npos || name.find("potential") != std::string::npos) unit = "J";
+    if (name == "wall_time") unit = "s";
+    m_impl->observables.push_back(make_series(observables.get(), name, {}, integer, unit, capacity, path));
+  }
+  checked(H5Fflush(f, H5F_SCOPE_GLOBAL), path, "flush", 0);
+}
+
+TrajectoryWriter::~TrajectoryWriter() {
+  try {
+    close();
+  } catch (...) {
+    // destructors must not throw; close() explicitly to see errors
+  }
+}
+
+void TrajectoryWriter::close() {
+  if (!m_impl) return;
+  if (m_impl->file.valid()) {
+    // Shrink the preallocated rows to the written steps: a finished file has exact lengths.
+    try {
+      resize_all(static_cast<hsize_t>(m_steps));
+    } catch (const TrajectoryError&) {
+      m_impl->file.reset();
+      m_impl.reset();
+      throw;
+    }
+    H5Fflush(m_impl->file.get(), H5F_SCOPE_GLOBAL);
+  }
+  m_impl->particles.clear();
+  m_impl->observables.clear();
+  m_impl->file.reset();
+  m_impl.reset();
+}
+
+void TrajectoryWriter::append(const TrajectoryStep& step) {
+  if (!m_impl) throw TrajectoryError(m_path + ": write after close");
+  std::vector<std::pair<const double*, std::size_t>> arrays;
+  arrays.push_back({step.frame_positions, 3 * static_cast<std::size_t>(m_layout.frames)});
+  arrays.push_back({step.frame_orientations, 4 * static_cast<std::size_t>(m_layout.frames)});
+  if (m_layout.samples > 0) arrays.push_back({step.sample_positions, 3 * static_cast<std::size_t>(m_layout.samples)});
+  if (step.surface_positions.size() != m_layout.surfaces.size())
+    throw TrajectoryError(m_path + ": step has " + std::to_string(step.surface_positions.size()) + " surfaces, layout " +
+                          std::to_string(m_layout.surfaces.size()));
+  for (std::size_t s = 0; s < m_layout.surfaces.size(); ++s)
+    arrays.push_back({step.surface_positions[s], 3 * m_layout.surfaces[s].vertex_frames.size()});
+  if (step.observables.size() != m_layout.observables.size())
+    throw TrajectoryError(m_path + ": step has " + std::to_string(step.observables.size()) + " observables, layout " +
+                          std::to_string(m_layout.observables.size()));
+
+  // Check everything before writing anything: a step is written whole or not at all.
+  for (const auto& [data, count] : arrays) {
+    if (!data && count) throw TrajectoryError(m_path + ": missing data in step " + std::to_string(step.step));
+    for (std::size_t i = 0; i < count; ++i)
+      if (!std::isfinite(data[i]))
+        throw TrajectoryError(m_path + ": refusing to write non-finite values at step " + std::to_string(step.step));
+  }
+  for (double v : step.observables)
+    if (!std::isfinite(v))
+      throw TrajectoryError(m_path + ": refusing to write a non-finite observable at step " + std::to_string(step.step));
+  if (!std::isfinite(step.time)) throw TrajectoryError(m_path + ": non-finite time");
+
+  const hsize_t row = static_cast<hsize_t>(m_steps);
+  if (m_steps >= m_capacity) {
+    // Out of preallocated rows: double them (a metadata change, flushed before any data lands).
+    m_capacity *= 2;
+    resize_all(static_cast<hsize_t>(m_capacity));
+    checked(H5Fflush(m_impl->file.get(), H5F_SCOPE_GLOBAL), m_path, "flush", 0);
+  }
+  auto write_series = [&](Series& s, const void* data) {
+    write_row(s.value.get(), s.mem_type, data, row, m_path, s.name + "/value");
+    write_row(s.time.get(), H5T_NATIVE_DOUBLE, &step.time, row, m_path, s.name + "/time");
+    write_row(s.step.get(), H5T_NATIVE_INT, &step.step, row, m_path, s.name + "/step");
+  };
+  for (std::size_t i = 0; i < m_impl->particles.size(); ++i) write_series(m_impl->particles[i], arrays[i].first);
+  for (std::size_t i = 0; i < m_impl->observables.size(); ++i) {
+    Series& s = m_impl->observables[i];
+    if (s.mem_type == H5T_NATIVE_INT) {
+      const int v = static_cast<int>(std::lround(step.observables[i]));
+      write_series(s, &v);
+    } else {
+      write_series(s, &step.observables[i]);
+    }
+  }
+  checked(H5Fflush(m_impl->file.get(), H5F_SCOPE_GLOBAL), m_path, "flush", 0);
+  ++m_steps;
+}
+
+void TrajectoryWriter::resize_all(unsigned long long rows) {
+  auto resize = [&](Series& s) {
+    set_rows(s.value.get(), rows, m_path, s.name + "/value");
+    set_rows(s.time.get(), rows, m_path, s.name + "/time");
+    set_rows(s.step.get(), rows, m_path, s.name + "/step");
+  };
+  for (Series& s : m_impl->particles) resize(s);
+  for (Series& s : m_impl->observables) resize(s);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reader
+
+namespace {
+
+std::vector<hsize_t> extent(hid_t ds) {
+  Handle space(H5Dget_space(ds), H5Sclose);
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  std::vector<hsize_t> dims(static_cast<std::size_t>(std::max(rank, 0)));
+  if (rank > 0) H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
+  return dims;
+}
+
+std::vector<std::string> children(hid_t parent, const std::string& name) {
+  std::vector<std::string> out;
+  if (H5Lexists(parent, name.c_str(), H5P_DEFAULT) <= 0) return out;
+  Handle g(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), H5Gclose);
+  if (!g.valid()) return out;
+  H5G_info_t info;
+  if (H5Gget_info(g.get(), &info) < 0) return out;
+  for (hsize_t i = 0; i < info.nlinks; ++i) {
+    const ssize_t size = H5Lget_name_by_idx(g.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, nullptr, 0, H5P_DEFAULT);
+    if (size < 0) continue;
+    std::string s(static_cast<std::size_t>(size) + 1, '\0');
+    H5Lget_name_by_idx(g.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, s.data(), s.size(), H5P_DEFAULT);
+    s.resize(static_cast<std::size_t>(size));
+    out.push_back(s);
+  }
+  return out;
+}
+
+bool exists(hid_t file, const std::string& path) {
+  // H5Lexists needs each intermediate link to exist.
+  std::size_t pos = 0;
+  while ((pos = path.find('/', pos + 1)) != std::string::npos)
+    if (H5Lexists(file, path.substr(0, pos).c_str(), H5P_DEFAULT) <= 0) return false;
+  return H5Lexists(file, path.c_str(), H5P_DEFAULT) > 0;
+}
+
+std::string read_string_attribute(hid_t object, const std::string& name) {
+  if (H5Aexists(object, name.c_str()) <= 0) return "";
+  Handle attr(H5Aopen(object, name.c_str(), H5P_DEFAULT), H5Aclose);
+  Handle type(H5Aget_type(attr.get()), H5Tclose);
+  if (H5Tis_variable_str(type.get()) > 0) {
+    char* data = nullptr;
+    Handle mem = string_type(0);
+    if (H5Aread(attr.get(), mem.get(), &data) < 0 || !data) return "";
+    std::string s(data);
+    H5free_memory(data);
+    return s;
+  }
+  const std::size_t size = H5Tget_size(type.get());
+  std::string s(size, '\0');
+  H5Aread(attr.get(), type.get(), s.data());
+  s.resize(std::strlen(s.c_str()));
+  return s;
+}
+
+}  // namespace
+
+namespace {
+
+template <class T>
+std::vector<T> read_rows(hid_t file, const std::string& path, hid_t mem_type, hsize_t first, hsize_t rows,
+                         const std::string& file_path) {
+  Handle ds(H5Dopen2(file, path.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!ds.valid()) throw TrajectoryError(file_path + ": no dataset " + path);
+  std::vector<hsize_t> dims = extent(ds.get());
+  if (dims.empty()) dims.push_back(1);
+  if (first + rows > dims[0]) throw TrajectoryError(file_path + ": " + path + " has only " + std::to_string(dims[0]) + " rows");
+  std::vector<hsize_t> start(dims.size(), 0), count = dims;
+  start[0] = first;
+  count[0] = rows;
+  std::size_t total = 1;
+  for (hsize_t c : count) total *= c;
+  std::vector<T> out(total);
+  if (total == 0) return out;
+  Handle fspace(H5Dget_space(ds.get()), H5Sclose);
+  H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr);
+  Handle mspace(H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr), H5Sclose);
+  if (H5Dread(ds.get(), mem_type, mspace.get(), fspace.get(), H5P_DEFAULT, out.data()) < 0)
+    throw TrajectoryError(file_path + ": cannot read " + path);
+  return out;
+}
+
+}  // namespace
+
+struct TrajectoryReader::Impl {
+  std::string path;
+  Handle file;
+  std::vector<std::string> series;  // paths of all time-series groups
+};
+
+TrajectoryReader::TrajectoryReader(const std::string& path) : m_impl(std::make_unique<Impl>()) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  m_impl->path = path;
+  m_impl->file = Handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!m_impl->file.valid()) throw TrajectoryError(path + ": not a readable HDF5 file");
+  const hid_t f = m_impl->file.get();
+  if (!exists(f, "/h5md")) throw TrajectoryError(path + ": not an H5MD file (no /h5md group)");
+  for (const std::string& g : children(f, "/particles"))
+    for (const std::string& e : children(f, "/particles/" + g))
+      if (exists(f, "/particles/" + g + "/" + e + "/step")) m_impl->series.push_back("/particles/" + g + "/" + e);
+  for (const std::string& o : children(f, "/observables"))
+    if (exists(f, "/observables/" + o + "/step")) m_impl->series.push_back("/observables/" + o);
+  long steps = m_impl->series.empty() ? 0 : std::numeric_limits<long>::max();
+  for (const std::string& s : m_impl->series) {
+    for (const char* part : {"step", "time", "value"}) {
+      Handle ds(H5Dopen2(f, (s + "/" + part).c_str(), H5P_DEFAULT), H5Dclose);
+      if (!ds.valid()) throw TrajectoryError(path + ": cannot open " + s + "/" + part);
+      steps = std::min<long>(steps, static_cast<long>(extent(ds.get()).at(0)));
+    }
+  }
+  // A killed run leaves preallocated rows whose step was never written (-1): not complete.
+  for (const std::string& s : m_impl->series) {
+    const std::vector<int> rows =
+        read_rows<int>(f, s + "/step", H5T_NATIVE_INT, 0, static_cast<hsize_t>(steps), path);
+    long valid = 0;
+    while (valid < steps && rows[static_cast<std::size_t>(valid)] >= 0) ++valid;
+    steps = valid;
+  }
+  m_steps = static_cast<int>(steps);
+}
+
+TrajectoryReader::~TrajectoryReader() = default;
+
+
+std::vector<int> TrajectoryReader::steps() const {
+  if (m_impl->series.empty()) return {};
+  return read_rows<int>(m_impl->file.get(), m_impl->series.front() + "/step", H5T_NATIVE_INT, 0,
+                        static_cast<hsize_t>(m_steps), m_impl->path);
+}
+
+std::vector<double> TrajectoryReader::times() const {
+  if (m_impl->series.empty()) return {};
+  return read_rows<double>(m_impl->file.get(), m_impl->series.front() + "/time", H5T_NATIVE_DOUBLE, 0,
+                           static_cast<hsize_t>(m_steps), m_impl->path);
+}
+
+std::vector<ParticleGroupInfo> TrajectoryReader::particle_groups() const {
+  std::vector<ParticleGroupInfo> out;
+  const hid_t f = m_impl->file.get();
+  for (const std::string& g : children(f, "/particles")) {
+    const std::string p = "/particles/" + g + "/position/value";
+    if (!exists(f, p)) continue;
+    Handle ds(H5Dopen2(f, p.c_str(), H5P_DEFAULT), H5Dclose);
+    const std::vector<hsize_t> dims = extent(ds.get());
+    out.push_back({g, dims.size() > 1 ? static_cast<int>(dims[1]) : 0});
+  }
+  return out;
+}
+
+std::vector<std::string> TrajectoryReader::observable_names() const { return children(m_impl->file.get(), "/observables"); }
+
+std::vector<double> TrajectoryReader::observable(const std::string& name) const {
+  return read_rows<double>(m_impl->file.get(), "/observables/" + name + "/value", H5T_NATIVE_DOUBLE, 0,
+                           static_cast<hsize_t>(m_steps), m_impl->path);
+}
+
+std::vector<double> TrajectoryReader::particle_values(const std::string& group, const std::string& element, int k) const {
+  if (k < 0 || k >= m_steps) throw TrajectoryError(m_impl->path + ": step index " + std::to_string(k) + " out of range");
+  return read_rows<double>(m_impl->file.get(), "/particles/" + group + "/" + element + "/value", H5T_NATIVE_DOUBLE,
+                           static_cast<hsize_t>(k), 1, m_impl->path);
+}
+
+std::vector<int> TrajectoryReader::connectivity(const std::string& surface, int& nodes_per_face) const {
+  const std::string p = "/connectivity/" + surface;
+  Handle ds(H5Dopen2(m_impl->file.get(), p.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!ds.valid()) throw TrajectoryError(m_impl->path + ": no " + p);
+  const std::vector<hsize_t> dims = extent(ds.get());
+  nodes_per_face = dims.size() > 1 ? static_cast<int>(dims[1]) : 0;
+  return read_rows<int>(m_impl->file.get(), p, H5T_NATIVE_INT, 0, dims[0], m_impl->path);
+}
+
+std::string TrajectoryReader::parameter(const std::string& name) const {
+  const std::string p = "/parameters/" + name;
+  if (!exists(m_impl->file.get(), p)) return "";
+  Handle ds(H5Dopen2(m_impl->file.get(), p.c_str(), H5P_DEFAULT), H5Dclose);
+  Handle type = string_type(0);
+  char* data = nullptr;
+  if (H5Dread(ds.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &data) < 0 || !data) return "";
+  std::string s(data);
+  H5free_memory(data);
+  return s;
+}
+
+std::vector<int> TrajectoryReader::h5md_version() const {
+  Handle g(H5Gopen2(m_impl->file.get(), "/h5md", H5P_DEFAULT), H5Gclose);
+  if (H5Aexists(g.get(), "version") <= 0) return {};
+  Handle attr(H5Aopen(g.get(), "version", H5P_DEFAULT), H5Aclose);
+  std::vector<int> v(2, 0);
+  H5Aread(attr.get(), H5T_NATIVE_INT, v.data());
+  return v;
+}
+
+std::string TrajectoryReader::creator_name() const {
+  if (!exists(m_impl->file.get(), "/h5md/creator")) return "";
+  Handle g(H5Gopen2(m_impl->file.get(), "/h5md/creator", H5P_DEFAULT), H5Gclose);
+  return read_string_attribute(g.get(), "name");
+}
+
+std::string TrajectoryReader::creator_version() const {
+  if (!exists(m_impl->file.get(), "/h5md/creator")) return "";
+  Handle g(H5Gopen2(m_impl->file.get(), "/h5md/creator", H5P_DEFAULT), H5Gclose);
+  return read_string_attribute(g.get(), "version");
+}
+
+}  // namespace fascia

@@ -1,0 +1,128 @@
+// Round trip of the H5MD trajectory layout: what the writer puts in, the reader (and h5py, see
+// tests/python) gets back, including after a refused (non-finite) step.
+#include "io/trajectory.hpp"
+#include "io/xdmf.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+using namespace fascia;
+namespace fs = std::filesystem;
+
+namespace {
+
+TrajectoryLayout small_layout() {
+  TrajectoryLayout layout;
+  layout.frames = 3;
+  layout.samples = 2;
+  SurfaceLayout s;
+  s.name = "slab";
+  s.nodes_per_face = 3;
+  s.faces = {0, 1, 2};
+  s.vertex_frames = {0, 1, 2};
+  layout.surfaces.push_back(s);
+  layout.observables = {{"elastic_energy", false}, {"newton_iterations", true}};
+  layout.capacity = 2;  // the third step doubles the preallocated rows
+  return layout;
+}
+
+struct StepData {
+  std::vector<double> x, q, p, surface;
+  std::vector<double> observables;
+};
+
+StepData data_for(int k) {
+  StepData d;
+  for (int i = 0; i < 9; ++i) d.x.push_back(k + 0.1 * i);
+  for (int i = 0; i < 3; ++i) d.q.insert(d.q.end(), {1, 0, 0, 0.01 * k});
+  for (int i = 0; i < 6; ++i) d.p.push_back(-k - 0.5 * i);
+  d.surface = d.x;
+  d.observables = {0.5 * k, static_cast<double>(k + 2)};
+  return d;
+}
+
+TrajectoryStep step_of(const StepData& d, int k) {
+  TrajectoryStep s;
+  s.step = k;
+  s.time = 0.01 * k;
+  s.frame_positions = d.x.data();
+  s.frame_orientations = d.q.data();
+  s.sample_positions = d.p.data();
+  s.surface_positions = {d.surface.data()};
+  s.observables = d.observables;
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("trajectories round-trip through the H5MD layout", "[io]") {
+  const fs::path path = fs::temp_directory_path() / "fascia_test_roundtrip.h5";
+  TrajectoryHeader header;
+  header.creator_version = "9.9.9";
+  header.author = "tester";
+  header.scene = "materials: {}\n";
+  header.scene_file = "scene.yaml";
+  header.command_line = "fascia run scene.yaml";
+  header.environment = "{\"host\": \"h\"}";
+  std::vector<StepData> data;
+  {
+    TrajectoryWriter writer(path.string(), header, small_layout());
+    for (int k = 0; k < 3; ++k) {
+      data.push_back(data_for(k));
+      writer.append(step_of(data.back(), k));
+    }
+    // A diverged state is refused and leaves the file as it was.
+    StepData bad = data_for(3);
+    bad.x[4] = std::nan("");
+    CHECK_THROWS_AS(writer.append(step_of(bad, 3)), TrajectoryError);
+    CHECK(writer.steps_written() == 3);
+    CHECK(writer.rows_allocated() == 4);
+  }
+  TrajectoryReader reader(path.string());
+  CHECK(reader.step_count() == 3);
+  CHECK(reader.h5md_version() == std::vector<int>{1, 1});
+  CHECK(reader.creator_name() == "fascia");
+  CHECK(reader.creator_version() == "9.9.9");
+  CHECK(reader.steps() == std::vector<int>{0, 1, 2});
+  const std::vector<double> times = reader.times();
+  REQUIRE(times.size() == 3);
+  CHECK(times[2] == Approx(0.02));
+  for (int k = 0; k < 3; ++k) {
+    CHECK(reader.particle_values("frames", "position", k) == data[k].x);
+    CHECK(reader.particle_values("frames", "orientation", k) == data[k].q);
+    CHECK(reader.particle_values("samples", "position", k) == data[k].p);
+    CHECK(reader.particle_values("slab", "position", k) == data[k].surface);
+  }
+  CHECK(reader.observable("elastic_energy") == std::vector<double>{0, 0.5, 1.0});
+  CHECK(reader.observable("newton_iterations") == std::vector<double>{2, 3, 4});
+  int nodes = 0;
+  CHECK(reader.connectivity("slab", nodes) == std::vector<int>{0, 1, 2});
+  CHECK(nodes == 3);
+  CHECK(reader.parameter("scene") == header.scene);
+  CHECK(reader.parameter("command_line") == header.command_line);
+  CHECK(reader.parameter("environment") == header.environment);
+  const auto groups = reader.particle_groups();
+  REQUIRE(groups.size() == 3);
+  CHECK_THROWS_AS(reader.particle_values("frames", "position", 3), TrajectoryError);
+  fs::remove(path);
+}
+
+TEST_CASE("the XDMF sidecar references each written step's hyperslab", "[io]") {
+  const std::string text = xdmf_text("run.h5", small_layout(), {0.0, 0.01});
+  CHECK_THAT(text, Catch::Contains("CollectionType=\"Temporal\""));
+  CHECK_THAT(text, Catch::Contains("<Time Value=\"0.01\"/>"));
+  CHECK_THAT(text, Catch::Contains("run.h5:/connectivity/slab"));
+  CHECK_THAT(text, Catch::Contains("1 0 0 1 1 1 1 3 3</DataItem>"));
+  CHECK_THAT(text, Catch::Contains("Dimensions=\"2 3 3\""));
+  CHECK_THAT(text, Catch::Contains("TopologyType=\"Triangle\""));
+  CHECK(xdmf_path_for("out/run.h5") == "out/run.xmf");
+  CHECK(xdmf_path_for("out.d/run") == "out.d/run.xmf");
+}
+
+TEST_CASE("writing to an impossible path is an I/O error", "[io]") {
+  CHECK_THROWS_AS(TrajectoryWriter("/nonexistent/dir/run.h5", TrajectoryHeader{}, small_layout()), TrajectoryError);
+}

@@ -1,0 +1,42 @@
+#include "io/volume_mesh_io.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <fstream>
+
+using namespace fascia;
+namespace fs = std::filesystem;
+
+TEST_CASE("legacy VTK volume meshes round-trip", "[io]") {
+  const auto type = GENERATE(CellType::hexahedron, CellType::tetrahedron);
+  const VolumeMesh mesh = type == CellType::hexahedron ? box_hex_mesh({0, 0, 0}, {1, 2, 3}, 2, 1, 3)
+                                                      : box_tet_mesh({0, 0, 0}, {1, 2, 3}, 2, 1, 3);
+  const fs::path path = fs::temp_directory_path() / "fascia_test_mesh.vtk";
+  write_vtk_volume_mesh(path.string(), mesh);
+  const VolumeMesh back = read_volume_mesh(path.string());
+  CHECK(back.type == mesh.type);
+  CHECK(back.cells == mesh.cells);
+  CHECK(back.vertices == mesh.vertices);
+  fs::remove(path);
+}
+
+TEST_CASE("Gmsh 2.2 ASCII tetrahedra are read, surface elements skipped", "[io]") {
+  const fs::path path = fs::temp_directory_path() / "fascia_test_mesh.msh";
+  std::ofstream(path) << "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n10 0 0 0\n11 1 0 0\n12 0 1 0\n13 0 0 1\n"
+                         "$EndNodes\n$Elements\n2\n1 2 2 0 1 10 11 12\n2 4 2 0 1 10 11 12 13\n$EndElements\n";
+  const VolumeMesh mesh = read_volume_mesh(path.string());
+  CHECK(mesh.type == CellType::tetrahedron);
+  CHECK(mesh.cells == std::vector<int>{0, 1, 2, 3});
+  CHECK(mesh.vertex_count() == 4);
+  fs::remove(path);
+}
+
+TEST_CASE("broken meshes name the file and line", "[io]") {
+  const fs::path path = fs::temp_directory_path() / "fascia_test_broken.vtk";
+  std::ofstream(path) << "# vtk DataFile Version 3.0\nx\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 2 double\n0 0 0\n1 q 0\n";
+  CHECK_THROWS_WITH(read_volume_mesh(path.string()), Catch::Contains("fascia_test_broken.vtk:7: expected a coordinate"));
+  CHECK_THROWS_AS(read_volume_mesh("/nonexistent/mesh.vtk"), std::ios_base::failure);
+  CHECK_THROWS_AS(read_volume_mesh(path.string() + ".obj"), std::exception);
+  fs::remove(path);
+}

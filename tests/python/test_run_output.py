@@ -1,0 +1,186 @@
+"""Runs real scenes with the fascia program and checks the files with h5py: the H5MD layout, the
+XDMF sidecar, SIGTERM handling and a run killed with SIGKILL mid-way."""
+import os
+import signal
+import subprocess
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+
+def run_fascia(fascia_bin, root, *args, **kw):
+    return subprocess.run([fascia_bin, *args], cwd=root, capture_output=True, text=True, timeout=600, **kw)
+
+
+def complete_steps(f):
+    import fascia_post
+    return fascia_post.complete_steps(f)
+
+
+def check_file(path, expect_steps=None):
+    """Everything recorded reads back, is finite and consistent; returns the complete step count."""
+    with h5py.File(path, "r") as f:
+        assert list(f["h5md"].attrs["version"]) == [1, 1]
+        assert f["h5md/creator"].attrs["name"] in (b"fascia", "fascia")
+        t = complete_steps(f)
+        if expect_steps is not None:
+            assert t == expect_steps
+        n = f["particles/frames/position/value"].shape[1]
+        assert f["particles/frames/orientation/value"].shape[1:] == (n, 4)
+        for group in f["particles"].values():
+            assert "box" in group and group["box"].attrs["dimension"] == 3
+        def visit(name, obj):
+            if isinstance(obj, h5py.Group) and "step" in obj:
+                steps = obj["step"][:t]
+                times = obj["time"][:t]
+                values = obj["value"][:t]
+                assert np.all(np.isfinite(values)), name
+                assert np.all(np.isfinite(times)), name
+                assert np.all(np.diff(steps) > 0), name
+                assert np.all(np.diff(times) > 0), name
+        f.visititems(visit)
+        q = f["particles/frames/orientation/value"][:t]
+        assert np.allclose(np.linalg.norm(q, axis=2), 1.0, atol=1e-9)
+        for name, conn in f.get("connectivity", {}).items():
+            v = f["particles"][name]["position/value"].shape[1]
+            if name in ("frames", "samples"):
+                assert conn.shape == (v,)
+            assert conn[()].min() >= 0 and conn[()].max() < v
+        scene = f["parameters/scene"][()]
+        scene = scene.decode() if isinstance(scene, bytes) else scene
+        assert "materials:" in scene
+        return t
+
+
+def check_xdmf(xmf_path, h5_path, steps):
+    tree = ET.parse(xmf_path)
+    temporal = tree.getroot().find("Domain/Grid")
+    assert temporal.get("CollectionType") == "Temporal"
+    grids = temporal.findall("Grid")
+    assert len(grids) == steps
+    with h5py.File(h5_path, "r") as f:
+        for item in tree.getroot().iter("DataItem"):
+            if item.get("Format") != "HDF":
+                continue
+            file_name, dataset = item.text.strip().split(":")
+            assert file_name == Path(h5_path).name
+            dims = tuple(int(d) for d in item.get("Dimensions").split())
+            if dataset.startswith("/connectivity"):
+                assert f[dataset].shape == dims, dataset
+                continue
+            assert f[dataset].shape[1:] == dims[1:], dataset
+            assert f[dataset].shape[0] >= dims[0]
+
+
+def test_run_writes_a_complete_h5md_file(fascia_bin, root, tmp_path):
+    out = tmp_path / "pull.h5"
+    r = run_fascia(fascia_bin, root, "run", "scenes/tool_pull.yaml", "-o", str(out), "--set", "run.duration=50ms",
+                   "--json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    import json
+    summary = json.loads(r.stdout)
+    assert summary["status"] == "ok" and summary["steps"] == 5
+    assert check_file(out, expect_steps=6) == 6  # the initial state and 5 steps
+    check_xdmf(tmp_path / "pull.xmf", out, 6)
+    with h5py.File(out, "r") as f:
+        # The tool's jaws moved 20 mm/s * 50 ms = 1 mm along x.
+        x0 = f["particles/frames/position/value"][0]
+        x1 = f["particles/frames/position/value"][-1]
+        jaws = (x0[:, 0] > 0.0995) & (x0[:, 1] >= 0.01) & (x0[:, 1] <= 0.03)
+        assert jaws.sum() > 0
+        assert np.allclose(x1[jaws, 0] - x0[jaws, 0], 1e-3, rtol=1e-6)
+        cmd = f["parameters/command_line"][()]
+        assert b"run.duration=50ms" in (cmd if isinstance(cmd, bytes) else cmd.encode())
+
+
+def test_info_summarises_a_run(fascia_bin, root, tmp_path):
+    out = tmp_path / "pull.h5"
+    assert run_fascia(fascia_bin, root, "run", "scenes/tool_pull.yaml", "-o", str(out), "--set",
+                      "run.duration=30ms", "-q").returncode == 0
+    r = run_fascia(fascia_bin, root, "info", str(out), "--json")
+    assert r.returncode == 0, r.stderr
+    import json
+    info = json.loads(r.stdout)
+    assert info["steps"] == 4
+    assert {g["name"] for g in info["particles"]} == {"frames", "samples", "slab"}
+    assert "elastic_energy" in info["final"]
+    assert run_fascia(fascia_bin, root, "info", str(tmp_path / "missing.h5")).returncode == 66
+
+
+def test_sigterm_finishes_the_step_and_exits_75(fascia_bin, root, tmp_path):
+    out = tmp_path / "term.h5"
+    xmf = tmp_path / "term.xmf"
+    p = subprocess.Popen([fascia_bin, "run", "scenes/tool_pull.yaml", "-o", str(out), "--set", "run.duration=1000s",
+                          "-q"], cwd=root, stderr=subprocess.PIPE, text=True)
+    wait_for_steps(xmf, 2, p)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=300)
+    assert p.returncode == 75, err
+    assert "stopped by SIGTERM" in err
+    t = check_file(out)
+    assert t >= 2
+    check_xdmf(xmf, out, t)
+
+
+def wait_for_steps(xmf, steps, process, timeout=300):
+    """The sidecar is rewritten after each flushed step: count its time values."""
+    start = time.time()
+    while time.time() - start < timeout:
+        assert process.poll() is None, "fascia ended early"
+        try:
+            if xmf.read_text().count("<Time ") >= steps:
+                return
+        except FileNotFoundError:
+            pass
+        time.sleep(0.05)
+    raise AssertionError("no progress")
+
+
+def test_a_run_killed_with_sigkill_leaves_readable_complete_steps(fascia_bin, root, tmp_path):
+    out = tmp_path / "killed.h5"
+    xmf = tmp_path / "killed.xmf"
+    p = subprocess.Popen([fascia_bin, "run", "scenes/tool_pull.yaml", "-o", str(out), "--set", "run.duration=1000s",
+                          "-q"], cwd=root)
+    try:
+        wait_for_steps(xmf, 3, p)
+        os.kill(p.pid, signal.SIGKILL)
+    finally:
+        p.wait(timeout=60)
+    assert p.returncode == -signal.SIGKILL
+    t = check_file(out)
+    assert t >= 3
+    with h5py.File(out, "r") as f:
+        # Rows after the complete steps were preallocated and never completed: step -1.
+        steps = f["particles/frames/position/step"][()]
+        assert np.all(steps[:t] == np.arange(t)) and np.all(steps[t:] == -1)
+        # Every complete step reads back in full.
+        for k in range(t):
+            assert f["particles/frames/position/value"][k].shape == f["particles/frames/position/value"].shape[1:]
+
+
+def test_bad_scenes_exit_with_sysexits_codes(fascia_bin, root):
+    cases = {"13_young_negative.yaml": 78, "29_missing_mesh_file.yaml": 66, "30_malformed_mesh_file.yaml": 65,
+             "05_unknown_material_key.yaml": 78}
+    for name, code in cases.items():
+        path = f"tests/dsl/bad_scenes/{name}"
+        r = run_fascia(fascia_bin, root, "check", path)
+        assert r.returncode == code, (name, r.stderr)
+        assert r.stderr.startswith(path + ":"), r.stderr
+    r = run_fascia(fascia_bin, root, "run", "tests/dsl/bad_scenes/13_young_negative.yaml")
+    assert r.returncode == 78
+    r = run_fascia(fascia_bin, root, "run", "scenes/no_such_scene.yaml")
+    assert r.returncode == 66
+    r = run_fascia(fascia_bin, root, "run")
+    assert r.returncode == 64
+
+
+def test_schema_is_json_schema(fascia_bin, root):
+    import json
+    r = run_fascia(fascia_bin, root, "schema")
+    assert r.returncode == 0
+    schema = json.loads(r.stdout)
+    assert schema["$schema"].startswith("http://json-schema.org/draft-07")
+    assert "materials" in schema["properties"]
