@@ -377,6 +377,9 @@ BuiltScene build_meshless(const SceneSpec& scene, const ObjectSpec& o, const Mat
   options.frame_spacing = ml.frame_spacing.value;
   options.sample_spacing = ml.sample_spacing.value;
   options.shape.kind = ml.shape.value == "rbf" ? MeshlessShapeKind::rbf : MeshlessShapeKind::mls;
+  options.shape.neighbours = ml.neighbours.value;
+  options.seed = static_cast<std::uint64_t>(ml.seed.value);
+  options.thin_parts = ml.thin_parts.value == "stop" ? ThinParts::stop : ThinParts::repair;
   if (!(options.sample_spacing < options.frame_spacing)) {
     diagnostics.error(ml.sample_spacing.where, "sample_spacing must be smaller than frame_spacing");
     throw SceneError(diagnostics);
@@ -403,6 +406,7 @@ BuiltScene build_meshless(const SceneSpec& scene, const ObjectSpec& o, const Mat
   object.discretisation = "meshless (" + ml.shape.value + "), " + std::to_string(surface.triangle_count()) +
                           " surface triangles, " + std::to_string(result.statistics.added_frames) +
                           " frames added in thin parts";
+  object.meshless = result.statistics;
   built.objects.push_back(object);
 
   finish_scene(scene, o, ForceSurface{nullptr, nullptr, &surface, &options.shape}, built, diagnostics);
