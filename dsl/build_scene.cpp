@@ -6,6 +6,9 @@
 #include "shape/meshless_shape.hpp"
 #include "io/boundary_surface.hpp"
 #include "io/volume_mesh_io.hpp"
+#include "model/assembly.hpp"
+
+#include <cstdio>
 
 #include <algorithm>
 #include <cmath>
@@ -36,27 +39,31 @@ double region_tolerance(const Model& model) {
   return 1e-9 * std::max(diag, 1e-12);
 }
 
-// Frames of the region; reports ids out of range and empty selections.
-std::vector<int> select_frames(const Model& model, const RegionSpec& region, const std::string& object,
-                               Diagnostics& diagnostics) {
+// Frames of the region among `frames` (global indices of one object's frames; ids index that
+// list); reports ids out of range and empty selections.
+std::vector<int> select_frames(const Model& model, const std::vector<int>& frames, const RegionSpec& region,
+                               const std::string& object, Diagnostics& diagnostics) {
   std::vector<int> out;
+  const int count = static_cast<int>(frames.size());
   if (region.kind == RegionSpec::Kind::ids) {
     for (int id : region.ids) {
-      if (id < 0 || id >= model.frame_count()) {
+      if (id < 0 || id >= count) {
         diagnostics.error(region.where, "frame id " + std::to_string(id) + " is out of range: object '" + object +
-                                            "' has " + std::to_string(model.frame_count()) + " frames (0.." +
-                                            std::to_string(model.frame_count() - 1) + ")");
+                                            "' has " + std::to_string(count) + " frames (0.." +
+                                            std::to_string(count - 1) + ")");
         return {};
       }
-      out.push_back(id);
+      out.push_back(frames[static_cast<std::size_t>(id)]);
     }
     std::sort(out.begin(), out.end());
     out.erase(std::unique(out.begin(), out.end()), out.end());
     return out;
   }
   const double tol = region_tolerance(model);
-  for (int i = 0; i < model.frame_count(); ++i)
+  for (int i : frames)
     if (region.contains(frame_position(model, i), tol)) out.push_back(i);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
   if (out.empty())
     diagnostics.error(region.where, "region selects no frames of object '" + object +
                                         "' (frames are tested at their rest positions, world axes, metres)");
@@ -115,18 +122,185 @@ double face_area(const VolumeMesh& mesh, const BoundarySurface& s, int f, Vec3d&
   return 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
 }
 
-// The geometry a surface force needs: the volume mesh boundary (mesh-based) or the input surface
-// with the shape functions that carry it (meshless).
-struct ForceSurface {
-  const VolumeMesh* mesh = nullptr;
-  const BoundarySurface* boundary = nullptr;
-  const SurfaceMesh* surface = nullptr;
-  const MeshlessShapeOptions* shape = nullptr;
+// One object before assembly: its own discretisation (tissues), the surface used for couplings,
+// surface forces and output, in world axes at rest.
+struct ObjectPart {
+  const ObjectSpec* spec = nullptr;
+  Model part;                      // tissues: frames and samples of this object alone
+  bool mesh_based = false, meshless = false;
+  VolumeMesh mesh;                 // mesh-based tissue
+  BoundarySurface boundary;        // mesh-based tissue
+  SurfaceMesh surface;             // triangles (mesh-based: over all mesh vertices)
+  MeshlessShapeOptions shape;      // meshless tissue
+  double density = 0;              // rigid body
+  ShellProperties shell;           // shell
+  std::string discretisation;
+  std::optional<MeshlessStatistics> statistics;  // meshless tissue: what the build reports
+  std::vector<int> frames;         // after assembly: global index of each of the object's frames
 };
 
-void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const ForceSurface& geometry,
-                  BuiltScene& built, Diagnostics& diagnostics);
-BuiltScene build_meshless(const SceneSpec& scene, const ObjectSpec& o, const Material& material);
+Material scene_material(const SceneSpec& scene, const ObjectSpec& o) {
+  const MaterialSpec* m = scene.material(o.material->value);
+  const MaterialLaw law = m->law.value == "neo_hookean" ? MaterialLaw::neo_hookean : MaterialLaw::stvk;
+  return make_material(law, m->young.value, m->poisson.value, m->density.value);
+}
+
+bool read_transformed_surface(const ObjectSpec& o, SurfaceMesh& surface, Diagnostics& diagnostics) {
+  try {
+    surface = read_surface_mesh(o.surface->value);
+  } catch (const std::ios_base::failure& e) {
+    diagnostics.error(o.surface->where, std::string("surface: ") + e.what(), ExitCode::missing_input);
+    return false;
+  } catch (const std::exception& e) {
+    diagnostics.error(o.surface->where, std::string("surface: ") + e.what(), ExitCode::bad_data);
+    return false;
+  }
+  for (int v = 0; v < surface.vertex_count(); ++v) {
+    double* x = &surface.vertices[3 * static_cast<std::size_t>(v)];
+    const Vec3d p = o.transform.apply({x[0], x[1], x[2]});
+    x[0] = p[0];
+    x[1] = p[1];
+    x[2] = p[2];
+  }
+  return true;
+}
+
+// A mesh-based tissue: volume mesh, discretisation, boundary surface (quads split in triangles).
+bool make_mesh_tissue(const SceneSpec& scene, ObjectPart& part, Diagnostics& diagnostics) {
+  const ObjectSpec& o = *part.spec;
+  part.mesh = object_mesh(o, diagnostics);
+  if (!diagnostics.empty()) return false;
+  const int q = o.quadrature.value;
+  const bool tet = part.mesh.type == CellType::tetrahedron;
+  if (q != 0 && (tet ? (q != 1 && q != 4) : (q != 1 && q != 8 && q != 27))) {
+    diagnostics.error(o.quadrature.where, std::string("quadrature ") + std::to_string(q) + " is not available for " +
+                                              (tet ? "tetrahedra (use 1 or 4)" : "hexahedra (use 1, 8 or 27)"));
+    return false;
+  }
+  MeshDiscretisation options;
+  options.quadrature = tet ? q : (q == 1 ? 1 : q == 27 ? 3 : q == 8 ? 2 : 0);
+  try {
+    part.part = build_mesh_model(part.mesh, scene_material(scene, o), options);
+  } catch (const std::invalid_argument& e) {
+    const Location where = o.mesh ? o.mesh->where : o.where;
+    diagnostics.error(where, std::string("cannot discretise '") + o.name + "': " + e.what(),
+                      o.mesh ? ExitCode::bad_data : ExitCode::bad_scene);
+    return false;
+  }
+  if (o.lock_rotations) lock_rotations(part.part);
+  part.mesh_based = true;
+  part.boundary = boundary_surface(part.mesh);
+  part.surface.vertices = part.mesh.vertices;
+  const int k = part.boundary.nodes_per_face;
+  for (int f = 0; f < part.boundary.face_count(); ++f) {
+    auto v = [&](int j) {
+      return part.boundary.vertices[static_cast<std::size_t>(part.boundary.faces[static_cast<std::size_t>(f * k + j)])];
+    };
+    for (int j = 1; j + 1 < k; ++j) part.surface.triangles.insert(part.surface.triangles.end(), {v(0), v(j), v(j + 1)});
+  }
+  part.discretisation = std::string("mesh-based, ") + std::to_string(part.mesh.cell_count()) +
+                        (tet ? " tetrahedra" : " hexahedra");
+  return true;
+}
+
+bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, Diagnostics& diagnostics) {
+  const ObjectSpec& o = *part.spec;
+  if (!read_transformed_surface(o, part.surface, diagnostics)) return false;
+  const MeshlessSpec& ml = *o.meshless;
+  MeshlessOptions options;
+  options.frame_spacing = ml.frame_spacing.value;
+  options.sample_spacing = ml.sample_spacing.value;
+  options.shape.kind = ml.shape.value == "rbf" ? MeshlessShapeKind::rbf : MeshlessShapeKind::mls;
+  options.shape.neighbours = ml.neighbours.value;
+  options.seed = static_cast<std::uint64_t>(ml.seed.value);
+  options.thin_parts = ml.thin_parts.value == "stop" ? ThinParts::stop : ThinParts::repair;
+  if (!(options.sample_spacing < options.frame_spacing)) {
+    diagnostics.error(ml.sample_spacing.where, "sample_spacing must be smaller than frame_spacing");
+    return false;
+  }
+  MeshlessBuild result;
+  try {
+    result = build_meshless_model(part.surface, scene_material(scene, o), options);
+  } catch (const std::exception& e) {
+    diagnostics.error(ml.frame_spacing.where, "cannot discretise '" + o.name + "': " + e.what());
+    return false;
+  }
+  part.part = std::move(result.model);
+  if (o.lock_rotations) lock_rotations(part.part);
+  part.meshless = true;
+  part.shape = options.shape;
+  part.discretisation = "meshless (" + ml.shape.value + "), " + std::to_string(part.surface.triangle_count()) +
+                        " surface triangles, " + std::to_string(result.statistics.added_frames) +
+                        " frames added in thin parts";
+  part.statistics = result.statistics;
+  return true;
+}
+
+// Shape-function table of `points` over one object's own frames, re-indexed to the assembled
+// model's frames with the rest offsets re-based on them (l = p - x_g, as ModelBuilder does).
+NeighbourTable object_table(const ObjectPart& part, const Model& model, const std::vector<double>& points) {
+  NeighbourTable t = build_meshless_table(part.part.frame_rest_positions, points, part.shape).neighbours;
+  for (std::size_t q = 0; q + 1 < t.offsets.size(); ++q)
+    for (int pr = t.offsets[q]; pr < t.offsets[q + 1]; ++pr) {
+      const std::size_t r = static_cast<std::size_t>(pr);
+      const int g = part.frames[static_cast<std::size_t>(t.frames[r])];
+      t.frames[r] = g;
+      for (std::size_t k = 0; k < 3; ++k)
+        t.rest_offsets[3 * r + k] = points[3 * q + k] - model.frame_rest_positions[3 * static_cast<std::size_t>(g) + k];
+    }
+  return t;
+}
+
+BuiltObject output_object(const ObjectPart& part, const Model& model) {
+  const ObjectSpec& o = *part.spec;
+  BuiltObject object;
+  object.name = o.name;
+  object.surface.name = o.name;
+  object.discretisation = part.discretisation;
+  object.meshless = part.statistics;
+  if (part.mesh_based) {
+    object.surface.nodes_per_face = part.boundary.nodes_per_face;
+    object.surface.faces = part.boundary.faces;
+    for (int v : part.boundary.vertices) object.surface.vertex_frames.push_back(part.frames[static_cast<std::size_t>(v)]);
+    return object;
+  }
+  object.surface.nodes_per_face = 3;
+  object.surface.faces = part.surface.triangles;
+  const int V = part.surface.vertex_count();
+  if (o.kind.value == "shell") {  // a frame per vertex
+    object.surface.vertex_frames = part.frames;
+    return object;
+  }
+  object.surface.vertex_frames.assign(static_cast<std::size_t>(V), -1);
+  object.skinned = true;
+  if (part.meshless) {
+    object.skin = object_table(part, model, part.surface.vertices);
+    return object;
+  }
+  // Rigid: x = x_b + R_b (v - c), one neighbour of weight 1 per vertex.
+  const int g = part.frames.front();
+  NeighbourTable& t = object.skin;
+  t.offsets.push_back(0);
+  for (int v = 0; v < V; ++v) {
+    t.frames.push_back(g);
+    t.weights.push_back(1.0);
+    for (std::size_t k = 0; k < 3; ++k) {
+      t.weight_gradients.push_back(0.0);
+      t.rest_offsets.push_back(part.surface.vertices[3 * static_cast<std::size_t>(v) + k] -
+                               model.frame_rest_positions[3 * static_cast<std::size_t>(g) + k]);
+    }
+    t.offsets.push_back(v + 1);
+  }
+  return object;
+}
+
+std::string metres(double d) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%g mm", d * 1e3);
+  return text;
+}
+
+void finish_scene(const SceneSpec& scene, std::vector<ObjectPart>& parts, BuiltScene& built, Diagnostics& diagnostics);
 
 }  // namespace
 
@@ -156,81 +330,116 @@ DiscretisationStats discretisation_stats(const Model& model) {
 BuiltScene build_scene(const SceneSpec& scene) {
   Diagnostics diagnostics;
   BuiltScene built;
-
-  // Objects: one mesh-based tissue for now; other kinds are reported, not silently ignored.
-  const ObjectSpec* tissue = nullptr;
-  for (const ObjectSpec& o : scene.objects) {
-    if (o.kind.value == "shell" || o.kind.value == "rigid") {
-      diagnostics.error(o.kind.where, o.kind.value + " objects are not supported yet ('" + o.name +
-                                          "'; coupling with organs and bones comes in a later version)");
-      continue;
-    }
-    if (tissue) {
-      diagnostics.error(o.where, "several tissue objects are not supported yet ('" + tissue->name + "' and '" +
-                                     o.name + "'); coupling comes in a later version");
-      continue;
-    }
-    tissue = &o;
-  }
-  for (const CouplingSpec& c : scene.couplings)
-    diagnostics.error(c.where, "couplings are not supported yet");
-  if (scene.objects.empty()) diagnostics.error(Location{scene.file, 0, 0}, "the scene defines no objects");
-  if (!diagnostics.empty()) throw SceneError(diagnostics);
-  if (!tissue) throw SceneError(diagnostics);
-
-  const MaterialSpec* m = scene.material(tissue->material->value);
-  const MaterialLaw law = m->law.value == "neo_hookean" ? MaterialLaw::neo_hookean : MaterialLaw::stvk;
-  const Material material = make_material(law, m->young.value, m->poisson.value, m->density.value);
-  if (tissue->surface) return build_meshless(scene, *tissue, material);
-
-  // Discretisation.
-  VolumeMesh mesh = object_mesh(*tissue, diagnostics);
-  if (!diagnostics.empty()) throw SceneError(diagnostics);
-  const int q = tissue->quadrature.value;
-  const bool tet = mesh.type == CellType::tetrahedron;
-  if (q != 0 && (tet ? (q != 1 && q != 4) : (q != 1 && q != 8 && q != 27))) {
-    diagnostics.error(tissue->quadrature.where, std::string("quadrature ") + std::to_string(q) + " is not available for " +
-                                                    (tet ? "tetrahedra (use 1 or 4)" : "hexahedra (use 1, 8 or 27)"));
+  if (scene.objects.empty()) {
+    diagnostics.error(Location{scene.file, 0, 0}, "the scene defines no objects");
     throw SceneError(diagnostics);
   }
-  MeshDiscretisation options;
-  options.quadrature = tet ? q : (q == 1 ? 1 : q == 27 ? 3 : q == 8 ? 2 : 0);
-  try {
-    built.model = build_mesh_model(mesh, material, options);
-  } catch (const std::invalid_argument& e) {
-    const Location where = tissue->mesh ? tissue->mesh->where : tissue->where;
-    diagnostics.error(where, std::string("cannot discretise '") + tissue->name + "': " + e.what(),
-                      tissue->mesh ? ExitCode::bad_data : ExitCode::bad_scene);
-    throw SceneError(diagnostics);
+
+  // Each object on its own.
+  std::vector<ObjectPart> parts(scene.objects.size());
+  for (std::size_t k = 0; k < scene.objects.size(); ++k) {
+    const ObjectSpec& o = scene.objects[k];
+    ObjectPart& part = parts[k];
+    part.spec = &o;
+    if (o.kind.value == "tissue") {
+      if (o.surface) make_meshless_tissue(scene, part, diagnostics);
+      else make_mesh_tissue(scene, part, diagnostics);
+    } else if (o.kind.value == "shell") {
+      if (!read_transformed_surface(o, part.surface, diagnostics)) continue;
+      const MaterialSpec* m = scene.material(o.material->value);
+      part.shell = ShellProperties{o.thickness->value, m->young.value, m->poisson.value, m->density.value};
+      part.discretisation = "shell, " + std::to_string(part.surface.triangle_count()) + " triangles, " +
+                            std::to_string(part.surface.vertex_count()) + " frames, thickness " +
+                            metres(o.thickness->value);
+    } else {
+      if (!read_transformed_surface(o, part.surface, diagnostics)) continue;
+      part.density = o.density ? o.density->value
+                               : (o.material ? scene.material(o.material->value)->density.value : 1000.0);
+      part.discretisation = "rigid, " + std::to_string(part.surface.triangle_count()) + " triangles";
+    }
   }
-  if (tissue->lock_rotations) lock_rotations(built.model);
+  if (!diagnostics.empty()) throw SceneError(diagnostics);
 
-  const BoundarySurface boundary = boundary_surface(mesh);
-  BuiltObject object;
-  object.name = tissue->name;
-  object.surface.name = tissue->name;
-  object.surface.nodes_per_face = boundary.nodes_per_face;
-  object.surface.faces = boundary.faces;
-  object.surface.vertex_frames = boundary.vertices;  // mesh-based: frame i = vertex i
-  object.discretisation = std::string("mesh-based, ") + std::to_string(mesh.cell_count()) +
-                          (tet ? " tetrahedra" : " hexahedra");
-  built.objects.push_back(object);
-
-  finish_scene(scene, *tissue, ForceSurface{&mesh, &boundary, nullptr, nullptr}, built, diagnostics);
+  const bool single = parts.size() == 1 && scene.objects[0].kind.value == "tissue" && scene.couplings.empty();
+  if (single) {
+    // One tissue: its model as built (keeps lock_rotations' flag and frame order).
+    built.model = std::move(parts[0].part);
+    parts[0].part.frame_rest_positions = built.model.frame_rest_positions;
+    parts[0].frames.resize(static_cast<std::size_t>(built.model.frame_count()));
+    for (int i = 0; i < built.model.frame_count(); ++i) parts[0].frames[static_cast<std::size_t>(i)] = i;
+  } else {
+    ModelBuilder builder;
+    for (ObjectPart& part : parts) {
+      const ObjectSpec& o = *part.spec;
+      try {
+        if (o.kind.value == "tissue") {
+          builder.add_tissue(o.name, part.part, part.surface);
+        } else if (o.kind.value == "shell") {
+          builder.add_shell(o.name, part.surface, part.shell);
+        } else {
+          const int index = builder.add_rigid(o.name, part.surface, part.density);
+          if (o.fixed && o.fixed->value) builder.fix(index, [](double, double, double) { return true; });
+        }
+      } catch (const std::exception& e) {
+        diagnostics.error(o.where, "cannot build '" + o.name + "': " + e.what());
+      }
+    }
+    if (!diagnostics.empty()) throw SceneError(diagnostics);
+    for (const CouplingSpec& c : scene.couplings) {
+      const double within = c.within ? c.within->value : 2e-3;
+      const Location where = c.within ? c.within->where : c.where;
+      const bool is_share = !c.share.empty();
+      const Located<std::string>& a = is_share ? c.share[0] : *c.attach;
+      const Located<std::string>& b = is_share ? c.share[1] : *c.to;
+      const int ia = builder.find(a.value), ib = builder.find(b.value);
+      if (ia < 0 || ib < 0) {
+        const Located<std::string>& bad = ia < 0 ? a : b;
+        diagnostics.error(bad.where, "unknown object '" + bad.value + "' in coupling");
+        continue;
+      }
+      if (ia == ib) {
+        diagnostics.error(b.where, "object '" + a.value + "' is coupled with itself");
+        continue;
+      }
+      try {
+        const int n = is_share ? builder.share(ia, ib, within) : builder.attach(ia, ib, within);
+        if (n == 0)
+          diagnostics.error(where, std::string(is_share ? "share" : "attach") + ": no frame of '" + a.value +
+                                       "' lies within " + metres(within) + " of the surface of '" + b.value +
+                                       "' (rest positions); increase 'within' or move the objects together");
+      } catch (const std::invalid_argument& e) {
+        diagnostics.error(c.where, e.what());
+      }
+    }
+    if (!diagnostics.empty()) throw SceneError(diagnostics);
+    try {
+      built.model = builder.build();
+    } catch (const std::exception& e) {
+      diagnostics.error(Location{scene.file, 0, 0}, std::string("cannot assemble the scene: ") + e.what());
+      throw SceneError(diagnostics);
+    }
+    for (std::size_t k = 0; k < parts.size(); ++k) parts[k].frames = built.model.objects[k].frames;
+  }
+  for (const ObjectPart& part : parts) built.objects.push_back(output_object(part, built.model));
+  finish_scene(scene, parts, built, diagnostics);
   return built;
 }
 
 namespace {
 
-// Constraints, loads and solver settings, common to mesh-based and meshless tissues.
-void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const ForceSurface& geometry,
-                  BuiltScene& built, Diagnostics& diagnostics) {
-  const ObjectSpec* tissue = &tissue_spec;
+// Constraints, loads and solver settings.
+void finish_scene(const SceneSpec& scene, std::vector<ObjectPart>& parts, BuiltScene& built, Diagnostics& diagnostics) {
   Model& model = built.model;
+  auto part_of = [&](const std::string& name) -> const ObjectPart& {
+    for (const ObjectPart& p : parts)
+      if (p.spec->name == name) return p;
+    return parts.front();  // names were checked by the parser
+  };
   // Constraints.
   bool fixed_any = false;
+  for (const ObjectPart& p : parts) fixed_any = fixed_any || (p.spec->fixed && p.spec->fixed->value);
   for (const ConstraintSpec& c : scene.constraints) {
-    const std::vector<int> frames = select_frames(model, c.region, c.object.value, diagnostics);
+    const std::vector<int> frames = select_frames(model, part_of(c.object.value).frames, c.region, c.object.value, diagnostics);
     for (int i : frames) {
       for (int k = 0; k < (c.translations_only ? 3 : 6); ++k)
         model.fixed_dofs[static_cast<std::size_t>(kFrameDofs * i + k)] = 1;
@@ -246,11 +455,13 @@ void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const F
       continue;
     }
     const std::string& name = l.object->value;
+    const ObjectPart& part = part_of(name);
     if (l.kind == LoadSpec::Kind::surface_force) {
-      if (geometry.surface) {
-        // Meshless: one material-point force per selected triangle, traction x area at its
-        // centroid, carried by the frames through the shape functions there (consistent with eq. 3).
-        const SurfaceMesh& surf = *geometry.surface;
+      if (!part.mesh_based) {
+        // One material-point force per selected triangle, traction x area at its centroid,
+        // carried by the frames through the shape functions there (meshless, consistent with
+        // eq. 3), by the nearest vertex's frame (shell) or by the body's frame (rigid).
+        const SurfaceMesh& surf = part.surface;
         const double tol = region_tolerance(model);
         std::vector<double> centroids, forces;
         for (int t = 0; t < surf.triangle_count(); ++t) {
@@ -259,31 +470,46 @@ void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const F
           const Vec3 c = (1.0 / 3.0) * (p[0] + p[1] + p[2]);
           if (!l.region->contains({c.x, c.y, c.z}, tol)) continue;
           const double area = 0.5 * norm(cross(p[1] - p[0], p[2] - p[0]));
-          centroids.insert(centroids.end(), {c.x, c.y, c.z});
-          for (int k = 0; k < 3; ++k) forces.push_back(l.vector.value[static_cast<std::size_t>(k)] * area);
+          if (part.meshless) {
+            centroids.insert(centroids.end(), {c.x, c.y, c.z});
+            for (int k = 0; k < 3; ++k) forces.push_back(l.vector.value[static_cast<std::size_t>(k)] * area);
+          } else {
+            // Shell and rigid: equal shares at the triangle's vertices (shell) or the body frame.
+            const Vec3 f = area * to_vec3(l.vector.value);
+            if (part.spec->kind.value == "rigid") {
+              built.loads.point_forces.push_back({part.frames.front(), f});
+            } else {
+              for (int j = 0; j < 3; ++j)
+                built.loads.point_forces.push_back(
+                    {part.frames[static_cast<std::size_t>(surf.triangles[3 * static_cast<std::size_t>(t) + static_cast<std::size_t>(j)])],
+                     (1.0 / 3.0) * f});
+            }
+            centroids.insert(centroids.end(), {c.x, c.y, c.z});
+          }
         }
         if (centroids.empty()) {
           diagnostics.error(l.region->where, "region selects no surface triangles of object '" + name +
                                                  "' (a triangle is selected when its centre is inside)");
           continue;
         }
-        const MeshlessTable table = build_meshless_table(model.frame_rest_positions, centroids, *geometry.shape);
+        if (!part.meshless) continue;
+        const NeighbourTable table = object_table(part, model, centroids);
         for (std::size_t q = 0; q < centroids.size() / 3; ++q) {
           MaterialPointForce f;
-          for (int pr = table.neighbours.offsets[q]; pr < table.neighbours.offsets[q + 1]; ++pr) {
-            f.frames.push_back(table.neighbours.frames[static_cast<std::size_t>(pr)]);
-            f.weights.push_back(table.neighbours.weights[static_cast<std::size_t>(pr)]);
+          for (int pr = table.offsets[q]; pr < table.offsets[q + 1]; ++pr) {
+            f.frames.push_back(table.frames[static_cast<std::size_t>(pr)]);
+            f.weights.push_back(table.weights[static_cast<std::size_t>(pr)]);
             for (int k = 0; k < 3; ++k)
-              f.rest_offsets.push_back(table.neighbours.rest_offsets[3 * static_cast<std::size_t>(pr) + static_cast<std::size_t>(k)]);
+              f.rest_offsets.push_back(table.rest_offsets[3 * static_cast<std::size_t>(pr) + static_cast<std::size_t>(k)]);
           }
           f.force = Vec3{forces[3 * q], forces[3 * q + 1], forces[3 * q + 2]};
           built.loads.material_point_forces.push_back(std::move(f));
         }
         continue;
       }
-      const VolumeMesh& mesh = *geometry.mesh;
-      const BoundarySurface& boundary = *geometry.boundary;
-      std::vector<double> nodal(3 * static_cast<std::size_t>(model.frame_count()), 0.0);
+      const VolumeMesh& mesh = part.mesh;
+      const BoundarySurface& boundary = part.boundary;
+      std::vector<double> nodal(3 * static_cast<std::size_t>(mesh.vertex_count()), 0.0);
       const double tol = region_tolerance(model);
       int selected = 0;
       for (int f = 0; f < boundary.face_count(); ++f) {
@@ -304,13 +530,14 @@ void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const F
                                                "' (a face is selected when its centre is inside)");
         continue;
       }
-      for (int i = 0; i < model.frame_count(); ++i) {
+      for (int i = 0; i < mesh.vertex_count(); ++i) {
         const double* f = &nodal[3 * static_cast<std::size_t>(i)];
-        if (f[0] != 0 || f[1] != 0 || f[2] != 0) built.loads.point_forces.push_back({i, Vec3{f[0], f[1], f[2]}});
+        if (f[0] != 0 || f[1] != 0 || f[2] != 0)
+          built.loads.point_forces.push_back({part.frames[static_cast<std::size_t>(i)], Vec3{f[0], f[1], f[2]}});
       }
       continue;
     }
-    const std::vector<int> frames = select_frames(model, *l.region, name, diagnostics);
+    const std::vector<int> frames = select_frames(model, part.frames, *l.region, name, diagnostics);
     if (frames.empty()) continue;
     if (l.kind == LoadSpec::Kind::point_force) {
       const Vec3 share = (1.0 / static_cast<double>(frames.size())) * to_vec3(l.vector.value);
@@ -329,9 +556,10 @@ void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const F
 
   const SolverSpec& s = scene.solver;
   if (s.integrator.value == "static" && !fixed_any && diagnostics.empty()) {
-    diagnostics.error(s.integrator.where, "static solve: object '" + tissue->name +
+    const std::string& name = parts.front().spec->name;
+    diagnostics.error(s.integrator.where, "static solve: object '" + name +
                                               "' has no fixed frames, so its equilibrium is not defined; add a "
-                                              "constraint (constraints: [{fix: " + tissue->name + ", region: ...}])");
+                                              "constraint (constraints: [{fix: " + name + ", region: ...}])");
   }
   if (!diagnostics.empty()) throw SceneError(diagnostics);
 
@@ -353,64 +581,6 @@ void finish_scene(const SceneSpec& scene, const ObjectSpec& tissue_spec, const F
   settings.newton.linear.fixed_iterations = s.linear_fixed_iterations;
   built.steps = scene.run.step_count;
   built.stats = discretisation_stats(model);
-}
-
-BuiltScene build_meshless(const SceneSpec& scene, const ObjectSpec& o, const Material& material) {
-  Diagnostics diagnostics;
-  BuiltScene built;
-  SurfaceMesh surface;
-  try {
-    surface = read_surface_mesh(o.surface->value);
-  } catch (const std::exception& e) {
-    diagnostics.error(o.surface->where, std::string("surface: ") + e.what(), ExitCode::bad_data);
-    throw SceneError(diagnostics);
-  }
-  for (int v = 0; v < surface.vertex_count(); ++v) {
-    double* x = &surface.vertices[3 * static_cast<std::size_t>(v)];
-    const Vec3d p = o.transform.apply({x[0], x[1], x[2]});
-    x[0] = p[0];
-    x[1] = p[1];
-    x[2] = p[2];
-  }
-  const MeshlessSpec& ml = *o.meshless;
-  MeshlessOptions options;
-  options.frame_spacing = ml.frame_spacing.value;
-  options.sample_spacing = ml.sample_spacing.value;
-  options.shape.kind = ml.shape.value == "rbf" ? MeshlessShapeKind::rbf : MeshlessShapeKind::mls;
-  options.shape.neighbours = ml.neighbours.value;
-  options.seed = static_cast<std::uint64_t>(ml.seed.value);
-  options.thin_parts = ml.thin_parts.value == "stop" ? ThinParts::stop : ThinParts::repair;
-  if (!(options.sample_spacing < options.frame_spacing)) {
-    diagnostics.error(ml.sample_spacing.where, "sample_spacing must be smaller than frame_spacing");
-    throw SceneError(diagnostics);
-  }
-  MeshlessBuild result;
-  try {
-    result = build_meshless_model(surface, material, options);
-  } catch (const std::exception& e) {
-    diagnostics.error(ml.frame_spacing.where, "cannot discretise '" + o.name + "': " + e.what());
-    throw SceneError(diagnostics);
-  }
-  built.model = std::move(result.model);
-  if (o.lock_rotations) lock_rotations(built.model);
-
-  // The input surface, carried by the frames like samples: weights at its vertices.
-  BuiltObject object;
-  object.name = o.name;
-  object.surface.name = o.name;
-  object.surface.nodes_per_face = 3;
-  object.surface.faces = surface.triangles;
-  object.surface.vertex_frames.assign(static_cast<std::size_t>(surface.vertex_count()), -1);
-  object.skinned = true;
-  object.skin = build_meshless_table(built.model.frame_rest_positions, surface.vertices, options.shape).neighbours;
-  object.discretisation = "meshless (" + ml.shape.value + "), " + std::to_string(surface.triangle_count()) +
-                          " surface triangles, " + std::to_string(result.statistics.added_frames) +
-                          " frames added in thin parts";
-  object.meshless = result.statistics;
-  built.objects.push_back(object);
-
-  finish_scene(scene, o, ForceSurface{nullptr, nullptr, &surface, &options.shape}, built, diagnostics);
-  return built;
 }
 
 }  // namespace

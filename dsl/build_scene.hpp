@@ -43,11 +43,12 @@ struct BuiltScene {
   DiscretisationStats stats;
 };
 
-// Builds the model: a mesh-based tissue (box or volume mesh) or a meshless tissue (closed
-// surface). Throws SceneError (all problems at once) for unsupported features (shells, rigid
-// bodies, couplings, several tissues: "not supported yet"),
-// unreadable meshes (ExitCode::missing_input / bad_data), empty region selections, frame ids out
-// of range, and a static solve without fixed frames.
+// Builds the model: every object (mesh-based or meshless tissue, shell, rigid body), assembled by
+// ModelBuilder with the couplings (share, attach) when there is more than one object or any
+// coupling; a single tissue is used as discretised. Throws SceneError (all problems at once) for
+// unreadable meshes (ExitCode::missing_input / bad_data), couplings that catch no frame or pair
+// the wrong kinds, empty region selections, frame ids out of range, and a static solve without
+// fixed frames.
 BuiltScene build_scene(const SceneSpec& scene);
 
 DiscretisationStats discretisation_stats(const Model& model);

@@ -222,9 +222,14 @@ ParamSpec build_registry() {
           with_default(leaf("lock_rotations", ParamType::boolean,
                             "frames as 3-DOF nodes (R = I): classic FEM, the paper's Figure 3 baseline"),
                        "false"),
-          above(quantity("thickness", dim::length, "shell thickness"), 0),
-          above(quantity("density", dim::density, "rigid body density"), 0),
-          leaf("fixed", ParamType::boolean, "rigid body held in place"),
+          above(quantity("thickness", dim::length, "shell: wall thickness (required for shells)"), 0),
+          above(quantity("density", dim::density,
+                         "rigid body density (mass and inertia of the closed surface; default: the material's, "
+                         "else 1000 kg/m^3)"),
+                0),
+          with_default(leaf("fixed", ParamType::boolean,
+                            "rigid body held in place (move one instead with a motion load, region all: true)"),
+                       "false"),
       });
 
   ParamSpec constraint =
@@ -256,10 +261,16 @@ ParamSpec build_registry() {
 
   ParamSpec share = leaf("share", ParamType::string_list, "two objects that share frames where they overlap");
   share.length = 2;
-  ParamSpec coupling = object("coupling", "a mechanical coupling between objects",
-                              {share, leaf("attach", ParamType::string, "object attached to another"),
-                               leaf("to", ParamType::string, "the object it is attached to"),
-                               above(quantity("within", dim::length, "coupling distance"), 0)});
+  share.doc = "[a, b]: frames of a within 'within' of b's rest surface become b's nearest frames (put the "
+              "tissue first, the shell second)";
+  ParamSpec coupling = object(
+      "coupling", "a mechanical coupling between objects (paper §4.2): share frames, or attach to a rigid body",
+      {share, leaf("attach", ParamType::string, "object whose frames near the rigid body follow it"),
+       leaf("to", ParamType::string, "the rigid body it is attached to"),
+       with_default(above(quantity("within", dim::length,
+                                   "distance from a frame's rest position to the other object's rest surface"),
+                          0),
+                    "2 mm")});
 
   ParamSpec solver = object(
       "solver", "time integration and nonlinear solver",

@@ -43,6 +43,7 @@ namespace {
 constexpr int kThreads = 128;      // frame and sample kernels
 constexpr int kPaperGather = 96;   // paper §3.3: 6 threads per frame, 96 per block
 constexpr int kMaxBlockPairs = 1024;
+constexpr int kPersistentBlocksPerSm = 2;
 
 int grid_for(long long count, int threads) { return static_cast<int>(std::max<long long>(1, (count + threads - 1) / threads)); }
 
@@ -137,7 +138,20 @@ class System final : public DeviceElasticity::Impl {
       m_frame_slot_offsets.upload(L.frame_slot_offsets);
       m_frame_slots.upload(L.frame_slots);
       m_partials.resize(6 * static_cast<size_t>(m_slots));
+      m_cache.resize(10 * static_cast<size_t>(m_s));
+      // Threads per sample of the tangent pass. Auto (measured on an H200, docs/benchmarks.md):
+      // 1 up to 4 neighbours, 2 above in double, 1 in single (lanes loop over further pairs).
+      int max_pairs = 1;
+      for (int s = 0; s < m_s; ++s) max_pairs = std::max(max_pairs, nb.offsets[s + 1] - nb.offsets[s]);
+      m_lanes = 1;
+      if (opts.lanes > 0) {
+        while (m_lanes < std::min(opts.lanes, 32)) m_lanes *= 2;
+      } else {
+        m_lanes = max_pairs > 4 && sizeof(R) == sizeof(double) ? 2 : 1;
+      }
+      m_lane_threads = std::max(32, std::min({kLaneThreadsMax, opts.lane_threads, opts.block_samples * m_lanes}));
       const int max_shared = static_cast<int>(m_shared_bytes);
+      FASCIA_CUDA(cudaFuncSetAttribute(k_lanes_tangent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize, max_shared));
       FASCIA_CUDA(cudaFuncSetAttribute(k_fused_samples<Pass::gradient, R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
                                        max_shared));
       FASCIA_CUDA(cudaFuncSetAttribute(k_fused_samples<Pass::tangent, R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
@@ -274,7 +288,7 @@ class System final : public DeviceElasticity::Impl {
     const double frames = N * (9 * r + 3 * r + 6 * r + 6 * r + 9 * r + 6);
     if (design == Design::fused) {
       const double Q = m_slots;
-      return P * (4 + r + 3 * r) + S * (3 * r + r + 4 + 4) + N * 3 * r  // tables, rest positions
+      return P * (4 + r + 3 * r) + S * (3 * r + r + 4 + 4 + 19 * r) + N * 3 * r  // tables, F, cache
              + P * 4 + Q * 4 * 2 + N * 4 + m_blocks * 8                  // slot tables
              + Q * 6 * r * 2 + frames;                                    // slot partials out and in
     }
@@ -431,7 +445,7 @@ class System final : public DeviceElasticity::Impl {
     const FrameTermsFlags none{0.0, false};
     if (design == Design::fused) {
       k_fused_samples<Pass::gradient, R><<<m_blocks, options.block_samples, m_shared_bytes, m_stream>>>(
-          m_view, m_frame_view, nullptr, m_F.data(), m_partials.data(), reduction(), nullptr);
+          m_view, m_frame_view, nullptr, m_F.data(), m_cache.data(), m_partials.data(), reduction(), nullptr);
       check_launch();
       if (gather) {
         k_fused_gather<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
@@ -465,14 +479,17 @@ class System final : public DeviceElasticity::Impl {
   }
 
   // out = (K + M/h^2) d with the given flags; in the PCG (`pcg`) also alpha = rz / d.out.
-  void enqueue_tangent(const R* d, R* out, FrameTermsFlags flags, bool pcg) {
+  // Fused design in the PCG: d is the direction p, first set to z + beta p (z = m_cz).
+  void enqueue_tangent(R* d, R* out, FrameTermsFlags flags, bool pcg) {
     const Scalars* sc = pcg ? m_scalars.data() : nullptr;
     if (design == Design::fused) {
-      k_fused_samples<Pass::tangent, R><<<m_blocks, options.block_samples, m_shared_bytes, m_stream>>>(
-          m_view, m_frame_view, d, nullptr, m_partials.data(), reduction(), sc);
+      const R* z = pcg ? m_cz.data() : nullptr;
+      k_lanes_tangent<R><<<m_blocks, m_lane_threads, m_shared_bytes, m_stream>>>(
+          m_view, m_frame_view, m_F.data(), m_cache.data(), pcg ? z : d, pcg ? d : nullptr, m_partials.data(), sc,
+          m_lanes);
       check_launch();
       k_fused_gather<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
-          m_view, m_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(), pcg);
+          m_view, m_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(), pcg, z);
     } else {
       k_paper_tangent<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(
           m_view, m_frame_view, m_F.data(), m_cache.data(), m_a.data(), d, m_partials.data(), sc);
@@ -502,15 +519,20 @@ class System final : public DeviceElasticity::Impl {
                                                                          m_cx.data(), m_cr.data(), m_cz.data(),
                                                                          reduction(), m_step.cg_tolerance);
     check_launch();
-    k_pcg_direction<R><<<grid_for(6LL * m_n, kThreads), kThreads, 0, m_stream>>>(6 * m_n, m_cz.data(), m_cp.data(),
-                                                                                  m_scalars.data());
-    check_launch();
+    if (design != Design::fused) {  // the fused passes form p = z + beta p themselves
+      k_pcg_direction<R><<<grid_for(6LL * m_n, kThreads), kThreads, 0, m_stream>>>(6 * m_n, m_cz.data(), m_cp.data(),
+                                                                                    m_scalars.data());
+      check_launch();
+    }
   }
 
   // The PCG loop as one cooperative kernel (k_pcg_persistent), up to max_cg_iterations.
   void enqueue_persistent_pcg() {
     ModelView<R> view = m_view;
     FrameView<R> frames = m_frame_view;
+    const R* F = m_F.data();
+    const R* cache = m_cache.data();
+    int lanes = m_lanes;
     const R* geo = m_geo.data();
     const R* inertia = m_inertia_world.data();
     FrameTermsFlags flags = step_flags();
@@ -521,10 +543,10 @@ class System final : public DeviceElasticity::Impl {
     Scalars* scalars = m_scalars.data();
     int iterations = m_step.max_cg_iterations;
     double tolerance = m_step.cg_tolerance;
-    void* args[] = {&view, &frames, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
+    void* args[] = {&view, &frames, &F, &cache, &lanes, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
                     &slots, &partials, &scalars, &iterations, &tolerance};
     FASCIA_CUDA(cudaLaunchCooperativeKernel(reinterpret_cast<const void*>(&k_pcg_persistent<R>), dim3(m_persistent_grid),
-                                            dim3(options.block_samples), args, m_shared_bytes, m_stream));
+                                            dim3(m_lane_threads), args, m_shared_bytes, m_stream));
   }
 
   bool use_persistent() const { return m_step.persistent && m_persistent_grid > 0; }
@@ -540,16 +562,15 @@ class System final : public DeviceElasticity::Impl {
     if (!coop) return 0;
     FASCIA_CUDA(cudaFuncSetAttribute(k_pcg_persistent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
                                      static_cast<int>(m_shared_bytes)));
-    FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_pcg_persistent<R>, options.block_samples,
+    FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_pcg_persistent<R>, m_lane_threads,
                                                               m_shared_bytes));
     if (per_sm < 1) return 0;
-    // Only for small grids: measured on an H200 (docs/benchmarks.md), the persistent loop saves
-    // 8-25% per CG iteration up to 211 blocks (27,000 samples) but loses 7% at 272 blocks and
-    // 15-30% from 1,024 blocks on (grid barriers and per-block sums of all partials grow with
-    // the grid), so it is used up to two blocks per multiprocessor.
-    const int wanted = std::max(m_blocks, grid_for(m_n, options.block_samples));
-    if (wanted > std::min(per_sm, 2) * sms) return 0;
-    return std::max(1, wanted);
+    // Only for small grids (grid barriers and every block's sum of all partials grow with the
+    // grid): measured on an H200 (docs/benchmarks.md), it saves 8-25% per CG iteration up to 211
+    // sample blocks and loses from 272 on, so it is used up to two blocks per multiprocessor.
+    const int wanted = std::max(m_blocks, grid_for(m_n, m_lane_threads));
+    if (wanted > kPersistentBlocksPerSm * sms) return 0;
+    return std::max(1, std::min(wanted, per_sm * sms));
   }
 
   void enqueue_step_end() {
@@ -598,7 +619,7 @@ class System final : public DeviceElasticity::Impl {
     }
   }
 
-  int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0;
+  int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0, m_lanes = 1, m_lane_threads = 128;
   bool m_locked = false;
   size_t m_shared_bytes = 0;
   Origin m_origin{};
@@ -634,6 +655,8 @@ class System final : public DeviceElasticity::Impl {
 DeviceElasticity::DeviceElasticity(const Model& model, const DeviceOptions& options) {
   if (options.block_samples < 32 || options.block_samples % 32 != 0 || options.block_samples > 1024)
     throw std::invalid_argument("DeviceOptions: block_samples must be a multiple of 32 in [32, 1024]");
+  if (options.lane_threads < 32 || options.lane_threads % 32 != 0 || options.lane_threads > kLaneThreadsMax)
+    throw std::invalid_argument("DeviceOptions: lane_threads must be a multiple of 32 in [32, 512]");
   if (options.precision == Precision::double_precision)
     m_impl = std::make_unique<System<double>>(model, options);
   else

@@ -23,7 +23,8 @@ enum class Precision { double_precision, single_precision };
 
 // Design of the force and tangent-product passes (elasticity_phases.hpp).
 //  paper: the paper's two kernels with a partial-force buffer of one 6-vector per pair.
-//  fused: F and S recomputed in the product pass, pair sums reduced per frame in shared memory.
+//  fused: F and the material cache stored by the force pass, several threads per sample in the
+//         tangent product, pair sums reduced per frame in shared memory.
 enum class Design { paper, fused };
 
 const char* to_string(Precision precision);
@@ -47,6 +48,10 @@ struct DeviceOptions {
   Design design = Design::fused;
   bool reorder_samples = true;  // Morton order of samples on the device
   int block_samples = 128;      // fused design: samples per thread block
+  // Fused design: threads per sample in the tangent product (rounded up to a power of two, at
+  // most 32); 0 = measured default: 2 in double above 4 neighbours, else 1.
+  int lanes = 0;
+  int lane_threads = 128;       // fused design: at most this many threads per tangent block (32..512)
 };
 
 class DeviceBackwardEuler;

@@ -155,8 +155,8 @@ __global__ void k_paper_gather(ModelView<R> m, const R* partials, const R* geo, 
 // One block of consecutive samples (ModelView::block_samples); dynamic shared memory holds one
 // 6-vector per pair of the block.
 template <Pass pass, class R>
-__global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, const R* d, R* F_out, R* slot_partials, Reduction red,
-                                const Scalars* sc) {
+__global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, const R* d, R* F_out, R* cache_out, R* slot_partials,
+                                Reduction red, const Scalars* sc) {
   extern __shared__ unsigned char shared_raw[];
   R* local = reinterpret_cast<R*>(shared_raw);
   if (pass == Pass::tangent && finished(sc)) return;
@@ -165,21 +165,98 @@ __global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, const R* d, R* F
   const int pair_base = m.offsets[s0];
   const int s = s0 + static_cast<int>(threadIdx.x);
   double e = 0;
-  if (s < s1) e = fused_sample<pass>(m, f, d, s, pair_base, local, F_out);
+  if (s < s1) e = fused_sample<pass>(m, f, d, s, pair_base, local, F_out, static_cast<const R*>(nullptr), 0.0, cache_out);
   __syncthreads();
   for (int q = m.block_slots[b] + threadIdx.x; q < m.block_slots[b + 1]; q += blockDim.x)
     fused_slot_sum(m, local, q, slot_partials);
   if (pass == Pass::gradient) reduce_and_finish(e, red, Finish::energy, 0);
 }
 
+// Tangent sample pass of block b with `lanes` threads per sample (a power of two <= 32 that
+// divides blockDim.x; groups of lanes loop over the block's samples). Lane l of sample s takes the
+// pairs offsets[s] + l, + 2 l, ...; dF is summed over the lanes with an xor butterfly (a + b and
+// b + a are the same bits, so every lane holds the same dF), each lane forms dP = C[dF] from the
+// stored F and material cache and writes its pairs' v B_p^T dP to `local`. Then the block sums
+// its slots (fused_slot_sum). d = z + beta p_old is formed on the fly when p_old is set. Every
+// thread of the block must call it (shuffles with the full mask, __syncthreads).
+template <class R>
+__device__ void lanes_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* F, const R* cache,
+                                    const R* d, const R* p_old, double beta, int b, int lanes, R* local,
+                                    R* slot_partials) {
+  const int s0 = m.block_samples[b], s1 = m.block_samples[b + 1];
+  const int pair_base = m.offsets[s0];
+  const int lane = static_cast<int>(threadIdx.x) & (lanes - 1);
+  const int group = static_cast<int>(threadIdx.x) / lanes, groups = static_cast<int>(blockDim.x) / lanes;
+  for (int base = s0; base < s1; base += groups) {  // the same trip count in every thread
+    const int s = base + group;
+    const bool active = s < s1;
+    int begin = 0, end = 0;
+    Vec3 ps{0, 0, 0};
+    Mat3 dF = zero3();
+    LanePair first{};
+    if (active) {
+      begin = m.offsets[s];
+      end = m.offsets[s + 1];
+      ps = ld3(m.sample_rest + 3 * s);
+      for (int p = begin + lane; p < end; p += lanes) {
+        const LanePair q = lane_pair(m, f, ps, p);
+        if (p == begin + lane) first = q;
+        dF += lane_pair_dF(q, d, p_old, beta);
+      }
+    }
+    for (int o = 1; o < lanes; o <<= 1)
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) dF.m[r][c] += __shfl_xor_sync(0xffffffffu, dF.m[r][c], o);
+    if (active && begin + lane < end) {
+      const Material mat = m.materials[m.sample_materials[s]];
+      MaterialCache mc;
+      mc.a = ldm(cache + 10 * s);
+      mc.c = static_cast<double>(cache[10 * s + 9]);
+      const Mat3 dP = pk1_differential(mat, ldm(F + 9 * s), mc, dF);
+      const double v = static_cast<double>(m.volumes[s]);
+      for (int p = begin + lane; p < end; p += lanes) {
+        const LanePair q = p == begin + lane ? first : lane_pair(m, f, ps, p);
+        double out[6];
+        pair_virtual_work(dP, q.a, q.g, q.w, q.R, v, out);
+        R* dst = local + 6 * (p - pair_base);
+        for (int k = 0; k < 6; ++k) dst[k] = static_cast<R>(out[k]);
+      }
+    }
+  }
+  __syncthreads();
+  for (int q = m.block_slots[b] + threadIdx.x; q < m.block_slots[b + 1]; q += blockDim.x)
+    fused_slot_sum(m, local, q, slot_partials);
+}
+
+constexpr int kLaneThreadsMax = 512;
+
+// Tangent sample pass of the fused design, one block per sample block. In the PCG (p_old set) the
+// direction is p = z + beta p_old with z = d and beta from the scalars; k_fused_gather stores it.
+template <class R>
+__global__ void __launch_bounds__(kLaneThreadsMax) k_lanes_tangent(ModelView<R> m, FrameView<R> f, const R* F,
+                                                                   const R* cache, const R* d, const R* p_old,
+                                                                   R* slot_partials, const Scalars* sc, int lanes) {
+  extern __shared__ unsigned char shared_raw[];
+  R* local = reinterpret_cast<R*>(shared_raw);
+  if (finished(sc)) return;
+  const double beta = p_old ? sc->beta : 0.0;
+  lanes_tangent_block(m, f, F, cache, d, p_old, beta, static_cast<int>(blockIdx.x), lanes, local, slot_partials);
+}
+
 // Frame pass of the fused design: one thread per frame.
+// With `z` set (PCG), d is the direction p: first updated in place to p = z + beta p (beta from the
+// scalars; the sample pass formed the same bits on the fly), then used.
 template <class R>
 __global__ void k_fused_gather(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
-                               FrameTermsFlags flags, const R* d, R* out, Reduction red, bool pcg) {
+                               FrameTermsFlags flags, R* d, R* out, Reduction red, bool pcg, const R* z = nullptr) {
   if (pcg && finished(red.scalars)) return;
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   double dot = 0;
   if (i < m.frames) {
+    if (z) {
+      const double beta = red.scalars->beta;
+      for (int k = 0; k < 6; ++k) d[6 * i + k] = next_direction(z, d, beta, 6 * i + k);
+    }
     double acc[6];
     fused_gather(m, slot_partials, i, acc);
     for (int k = 0; k < 6; ++k) {
@@ -298,13 +375,12 @@ __device__ inline double grid_sum(double v, double* partials, cooperative_groups
 // p = z + beta p_old formed on the fly; (2) frame pass: writes p, Ap = H p and reduces p.Ap -> alpha;
 // (3) x += alpha p, r -= alpha Ap, z = M^-1 r, reduces r.z -> beta and the stopping test. Every
 // block computes the scalars from the same partials, so all take the same branches. Same
-// arithmetic as the launch-per-phase PCG (k_fused_samples, k_fused_gather, k_pcg_update,
-// k_pcg_direction). `partials` holds 2 gridDim.x doubles. Starts from k_pcg_init's scalars.
+// arithmetic as the launch-per-phase PCG (k_lanes_tangent, k_fused_gather, k_pcg_update). `partials` holds 2 gridDim.x doubles. Starts from k_pcg_init's scalars.
 template <class R>
-__global__ void k_pcg_persistent(ModelView<R> m, FrameView<R> f, const R* geo, const R* inertia_world,
-                                 FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, R* Ap,
-                                 R* slot_partials, double* partials, Scalars* scalars, int max_iterations,
-                                 double tolerance) {
+__global__ void __launch_bounds__(kLaneThreadsMax)
+    k_pcg_persistent(ModelView<R> m, FrameView<R> f, const R* F, const R* cache, int lanes, const R* geo,
+                     const R* inertia_world, FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, R* Ap,
+                     R* slot_partials, double* partials, Scalars* scalars, int max_iterations, double tolerance) {
   cooperative_groups::grid_group grid = cooperative_groups::this_grid();
   extern __shared__ unsigned char shared_raw[];
   R* local = reinterpret_cast<R*>(shared_raw);
@@ -316,12 +392,7 @@ __global__ void k_pcg_persistent(ModelView<R> m, FrameView<R> f, const R* geo, c
   while (done == 0 && it < max_iterations) {
     // (1) samples.
     for (int b = blockIdx.x; b < m.blocks; b += gridDim.x) {
-      const int s0 = m.block_samples[b], s1 = m.block_samples[b + 1];
-      const int s = s0 + static_cast<int>(threadIdx.x);
-      if (s < s1) fused_sample<Pass::tangent>(m, f, z, s, m.offsets[s0], local, static_cast<R*>(nullptr), p, beta);
-      __syncthreads();
-      for (int q = m.block_slots[b] + threadIdx.x; q < m.block_slots[b + 1]; q += blockDim.x)
-        fused_slot_sum(m, local, q, slot_partials);
+      lanes_tangent_block(m, f, F, cache, z, p, beta, b, lanes, local, slot_partials);
       __syncthreads();
     }
     grid.sync();

@@ -11,10 +11,13 @@
 //  - paper: thread per sample writes one 6-vector per sample-frame pair into a buffer; a second
 //    kernel sums each frame's pairs through the reverse table with 6 threads per frame. F, the
 //    material cache and a = R l are precomputed once per Newton iteration.
-//  - fused: thread per sample recomputes F and the material cache from the frames in the same
-//    pass as dF (each pair's w, grad w and frame index are read once per product, a = R (p_s - x_i)
-//    from the rest positions), its pairs' 6-vectors are summed per frame inside the thread block in
-//    shared memory in a fixed order, and a frame pass sums the few block partials of each frame.
+//  - fused: the force pass rebuilds F from the frames (a = R (p_s - x_i) from the rest positions)
+//    and stores F and the material cache per sample; the tangent product spreads each sample over
+//    `lanes` threads (one pair each, dF summed with a warp butterfly, dP formed by every lane of the
+//    sample, elasticity_kernels.cuh), its pairs' 6-vectors are summed per frame inside the thread
+//    block in shared memory in a fixed order, and a frame pass sums the few block partials of each
+//    frame. fused_sample below is the one-thread-per-sample form of the same pass (force pass; host
+//    tests).
 // Both are deterministic: every sum runs in an order fixed by the model, with no atomics on data.
 #pragma once
 
@@ -186,9 +189,11 @@ enum class Pass { gradient = 0, tangent = 1 };
 // (shared memory on the device). Returns v psi(F) in the gradient pass, 0 otherwise.
 // With `p_old` set (persistent PCG), the direction is formed on the fly: d_i = z_i + beta p_old_i
 // with d = z (next_direction), so the direction update needs no pass of its own.
+// `cache_out` [S][10] (gradient pass, nullable) receives the material cache for the tangent passes.
 template <Pass pass, class R>
 FASCIA_HD double fused_sample(const ModelView<R>& m, const FrameView<R>& f, const R* d, int s, int pair_base,
-                              R* local, R* F_out, const R* p_old = nullptr, double beta = 0) {
+                              R* local, R* F_out, const R* p_old = nullptr, double beta = 0,
+                              R* cache_out = nullptr) {
   const Vec3 ps = ld3(m.sample_rest + 3 * s);
   const int begin = m.offsets[s], end = m.offsets[s + 1];
   Mat3 F = zero3();
@@ -218,6 +223,10 @@ FASCIA_HD double fused_sample(const ModelView<R>& m, const FrameView<R>& f, cons
   if (pass == Pass::gradient) {
     energy = v * energy_density(mat, F);
     if (F_out) stm(F_out + 9 * s, F);
+    if (cache_out) {
+      stm(cache_out + 10 * s, cache.a);
+      cache_out[10 * s + 9] = static_cast<R>(cache.c);
+    }
   } else {
     T = pk1_differential(mat, F, cache, dF);
   }
@@ -231,6 +240,37 @@ FASCIA_HD double fused_sample(const ModelView<R>& m, const FrameView<R>& f, cons
     for (int k = 0; k < 6; ++k) dst[k] = static_cast<R>(out[k]);
   }
   return energy;
+}
+
+// One pair of the lane-parallel tangent pass (elasticity_kernels.cuh, lanes_tangent_block): the
+// pair's frame data and a = R_i (p_s - x_i), and its share of dF for the direction d_i (formed as
+// z + beta p_old when p_old is set, as fused_sample).
+struct LanePair {
+  Mat3 R;
+  Vec3 a, g;
+  double w;
+  int i;
+};
+
+template <class R>
+FASCIA_HD LanePair lane_pair(const ModelView<R>& m, const FrameView<R>& f, const Vec3& ps, int p) {
+  LanePair q;
+  q.i = m.frame_of[p];
+  q.R = ldm(f.rotations + 9 * q.i);
+  q.a = q.R * (ps - ld3(m.frame_rest + 3 * q.i));
+  q.g = ld3(m.gradients + 3 * p);
+  q.w = static_cast<double>(m.weights[p]);
+  return q;
+}
+
+template <class R>
+FASCIA_HD Mat3 lane_pair_dF(const LanePair& q, const R* d, const R* p_old, double beta) {
+  if (p_old) {
+    R di[6];
+    for (int k = 0; k < 6; ++k) di[k] = next_direction(d, p_old, beta, 6 * q.i + k);
+    return pair_deformation_differential(ld3(di), ld3(di + 3), q.a, q.g, q.w, q.R);
+  }
+  return pair_deformation_differential(ld3(d + 6 * q.i), ld3(d + 6 * q.i + 3), q.a, q.g, q.w, q.R);
 }
 
 // Sum of the pairs of block slot q (one frame of one block), in increasing pair order.

@@ -44,6 +44,8 @@ struct Case {
   gpu::Design design;
   LinearMethod linear;
   bool persistent;
+  int lanes = 0;
+  int lane_threads = 128;
 };
 
 // The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) on the device.
@@ -51,6 +53,8 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   gpu::DeviceOptions options;
   options.precision = c.precision;
   options.design = c.design;
+  options.lanes = c.lanes;
+  options.lane_threads = c.lane_threads;
   gpu::DeviceElasticity dev(model, options);
   const State start = rest_state(model);
   dev.set_state(start);
@@ -66,6 +70,8 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   row.neighbours = model.max_neighbours();
   row.precision = gpu::to_string(c.precision);
   row.design = gpu::to_string(dev.design());
+  if (dev.design() == gpu::Design::fused)
+    row.design += "/L" + std::to_string(c.lanes) + "x" + std::to_string(c.lane_threads);
   row.linear = to_string(c.linear);
   row.cg_kernel = report.persistent ? "persistent" : "launches";
   row.ms_per_step = stepper.time_step_ms(repeats);
@@ -119,7 +125,11 @@ std::vector<Case> cases(const BenchGpuOptions& o) {
         for (bool persistent : {true, false}) {
           if (de == gpu::Design::paper && persistent) continue;  // launches per phase only
           if (o.cg_kernel != "both" && (o.cg_kernel == "persistent") != persistent) continue;
-          out.push_back(Case{pr, de, lm, persistent});
+          if (de == gpu::Design::paper) {
+            out.push_back(Case{pr, de, lm, persistent});
+            continue;
+          }
+          for (int lanes : o.lanes) out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads});
         }
       }
     }
@@ -205,6 +215,8 @@ void add_bench_gpu_command(CLI::App& bench, Action& action) {
   cmd->add_flag("--tangent", options->tangent, "also time the tangent product alone at Table 3 sizes");
   cmd->add_option("--max-samples", options->max_samples, "largest scaling case (8 neighbours), 0: none");
   cmd->add_option("--repeats", options->repeats, "timed repeats per case");
+  cmd->add_option("--lanes", options->lanes, "fused design: threads per sample in the tangent product, 0: auto");
+  cmd->add_option("--lane-threads", options->lane_threads, "fused design: most threads per tangent block (32..512)");
   cmd->callback([options, &action] { action = [options] { return run_bench_gpu(*options); }; });
 }
 

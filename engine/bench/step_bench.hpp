@@ -25,7 +25,10 @@ Model bench_beam_model(int samples, int neighbours_per_sample = 4);
 
 struct StepTiming {
   int samples = 0, frames = 0, neighbours = 0, threads = 0, cg_iterations = 0;
-  double ms_per_step = 0;  // median over repetitions
+  double ms_per_step = 0;  // median over repetitions, wall clock
+  // Median process CPU time per step (all threads, OpenMP spin-waits included). With one thread
+  // and a busy machine it tells the work done from the time spent waiting for a core.
+  double cpu_ms_per_step = 0;
   int repetitions = 0;
 };
 

@@ -138,4 +138,26 @@ FASCIA_HD Vec3 axial(const Mat3& a) {
 }
 FASCIA_HD Mat3 symmetric_part(const Mat3& a) { return 0.5 * (a + transpose(a)); }
 
+// [v]x A without the zero entries of [v]x: 18 multiplies instead of 27.
+FASCIA_HD Mat3 skew_times(const Vec3& v, const Mat3& a) {
+  Mat3 c;
+  for (int j = 0; j < 3; ++j) {
+    c.m[0][j] = v.y * a.m[2][j] - v.z * a.m[1][j];
+    c.m[1][j] = v.z * a.m[0][j] - v.x * a.m[2][j];
+    c.m[2][j] = v.x * a.m[1][j] - v.y * a.m[0][j];
+  }
+  return c;
+}
+// axial(A B^T) from the rows of A and B: only the three antisymmetric combinations, 18 multiplies
+// instead of the 27 of the full product.
+FASCIA_HD Vec3 axial_times_transpose(const Mat3& a, const Mat3& b) {
+  Vec3 r{0, 0, 0};
+  for (int j = 0; j < 3; ++j) {
+    r.x += a.m[1][j] * b.m[2][j] - a.m[2][j] * b.m[1][j];
+    r.y += a.m[2][j] * b.m[0][j] - a.m[0][j] * b.m[2][j];
+    r.z += a.m[0][j] * b.m[1][j] - a.m[1][j] * b.m[0][j];
+  }
+  return r;
+}
+
 }  // namespace fascia

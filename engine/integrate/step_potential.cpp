@@ -153,29 +153,30 @@ LinearSystem StepPotential::system() {
     for (int r = 0; r < 3; ++r)
       for (int col = 0; col < 3; ++col) block6x6[6 * (3 + r) + 3 + col] += c * m_world_inertia[9 * i + 3 * r + col];
   };
-  sys.apply = [this, n, inertia_block](const double* d_reduced, double* out) {
+  // The load and inertia blocks once per system, [N][10] (t_i, Q_i): Elasticity::apply_tangent
+  // adds diag(t_i I3, Q_i) d_i in its pass over the frames.
+  m_frame_diagonal.assign(10 * n, 0.0);
+  for (int i = 0; i < n; ++i) {
+    double block[36] = {0};
+    if (m_dynamic) inertia_block(i, block);
+    double* e = &m_frame_diagonal[10 * i];
+    e[0] = block[0];
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) e[1 + 3 * r + c] = block[6 * (3 + r) + 3 + c] + m_load_blocks[9 * i + 3 * r + c];
+  }
+  sys.apply = [this, n](const double* d_reduced, double* out) {
     const double* d = d_reduced;
     if (!m_mapping.empty()) {
       m_expanded.assign(d_reduced, d_reduced + 6 * n);
       m_mapping.expand(m_expanded.data());
       d = m_expanded.data();
     }
-    m_elasticity.apply_tangent(d, out);
+    m_elasticity.apply_tangent(d, out, m_frame_diagonal.data());
     for (const auto& field : m_fields) field->add_tangent(d, out);
     if (m_dynamic && m_beta > 0) {
       m_scratch.resize(6 * n);
       m_start_elasticity->apply_tangent(d, m_scratch.data());
       for (int k = 0; k < 6 * n; ++k) out[k] += m_beta / m_dt * m_scratch[k];
-    }
-    for (int i = 0; i < n; ++i) {
-      const Vec3 r = load_mat3(&m_load_blocks[9 * i]) * load3(d + 6 * i + 3);
-      out[6 * i + 3] += r.x, out[6 * i + 4] += r.y, out[6 * i + 5] += r.z;
-      if (m_dynamic) {
-        double block[36] = {0};
-        inertia_block(i, block);
-        for (int a = 0; a < 6; ++a)
-          for (int b = 0; b < 6; ++b) out[6 * i + a] += block[6 * a + b] * d[6 * i + b];
-      }
     }
     if (!m_mapping.empty()) {
       m_mapping.reduce(out);

@@ -78,6 +78,7 @@ class StepPotential : public Potential {
   RigidMapping m_mapping;
   std::vector<std::uint8_t> m_fixed;  // model.fixed_dofs plus the rigidly mapped frames
   std::vector<double> m_expanded;     // d with mapped frames filled in
+  std::vector<double> m_frame_diagonal;  // [N][10] translational t_i and rotational Q_i of the system
 };
 
 // J_l^{-1}(phi), the inverse left Jacobian of SO(3) (Barfoot, State Estimation, eq. 7.77a).

@@ -51,6 +51,21 @@ FASCIA_HD Mat3 first_piola(const Material& m, const Mat3& F, MaterialCache& cach
   return neo_hookean_first_piola(m.lambda, m.mu, F, cache.a, cache.c);
 }
 
+// psi(F) and P(F) together (StVK computes E once); psi as energy_density, P and cache as
+// first_piola.
+FASCIA_HD Mat3 energy_and_first_piola(const Material& m, const Mat3& F, MaterialCache& cache, double& psi) {
+  if (m.law == MaterialLaw::stvk) {
+    const Mat3 E = green_lagrange_strain(F);
+    const double tr = trace(E);
+    psi = 0.5 * m.lambda * tr * tr + m.mu * ddot(E, E);
+    cache.a = stvk_stress_from_strain(m.lambda, m.mu, E);
+    cache.c = 0;
+    return F * cache.a;
+  }
+  psi = neo_hookean_energy(m.lambda, m.mu, F);
+  return neo_hookean_first_piola(m.lambda, m.mu, F, cache.a, cache.c);
+}
+
 // dP = (d^2 psi / dF^2) : dF at the state described by F and cache.
 FASCIA_HD Mat3 pk1_differential(const Material& m, const Mat3& F, const MaterialCache& cache, const Mat3& dF) {
   return m.law == MaterialLaw::stvk ? stvk_pk1_differential(m.lambda, m.mu, F, cache.a, dF)

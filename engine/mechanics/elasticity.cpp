@@ -14,10 +14,24 @@ constexpr int kChunk = 1024;
 // Below this many items a loop runs on one thread: a parallel region costs more than it saves.
 constexpr int kParallelMin = 1024;
 
+// F of sample s (eq. 8, as sample_deformation_gradient) and the rotated offsets a_p = R_i l_p of
+// its pairs, a[k] for the k-th pair, computed once for F and for the pair shares.
+Mat3 deformation_gradient_and_offsets(const NeighbourTable& nb, int s, const double* x, const double* R, Vec3* a) {
+  Mat3 F = zero3();
+  for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+    const int i = nb.frames[p];
+    const Mat3 Ri = load_mat3(R + 9 * i);
+    const Vec3 ap = Ri * load3(&nb.rest_offsets[3 * p]);
+    a[p - nb.offsets[s]] = ap;
+    F += outer(load3(x + 3 * i) + ap, load3(&nb.weight_gradients[3 * p])) + nb.weights[p] * Ri;
+  }
+  return F;
+}
+
 }  // namespace
 
 Elasticity::Elasticity(const Model& model, int threads)
-    : m_model(model), m_threads(threads > 0 ? threads : omp_get_max_threads()) {
+    : m_model(model), m_threads(threads > 0 ? threads : omp_get_max_threads()), m_lanes(model) {
   const NeighbourTable& nb = model.neighbours;
   m_table = PairTableView{nb.offsets.data(), nb.frames.data(), nb.weights.data(), nb.weight_gradients.data(),
                           nb.rest_offsets.data()};
@@ -28,6 +42,8 @@ Elasticity::Elasticity(const Model& model, int threads)
   m_cache.resize(s_count);
   m_frame_blocks.resize(9 * model.frame_count());
   m_pair.resize(6 * model.pair_count());
+  m_pair_blocks.resize(6 * model.pair_count());
+  m_max_pairs = model.max_neighbours();
   m_chunk.resize((s_count + kChunk - 1) / kChunk);
 }
 
@@ -65,41 +81,57 @@ double Elasticity::prepare(const State& state) {
 #pragma omp parallel for schedule(static) num_threads(m_threads) if (chunks > 1)
   for (int c = 0; c < chunks; ++c) {
     double sum = 0;
+    std::vector<Vec3> a(m_max_pairs);
     const int end = std::min(s_count, (c + 1) * kChunk);
     for (int s = c * kChunk; s < end; ++s) {
-      const Mat3 F = sample_deformation_gradient(m_table, s, x, R);
+      const Mat3 F = deformation_gradient_and_offsets(nb, s, x, R, a.data());
       const Material& mat = m_model.materials[m_model.samples.materials[s]];
       const double v = m_model.samples.volumes[s];
-      sum += v * energy_density(mat, F);
-      const Mat3 P = first_piola(mat, F, m_cache[s]);
+      double psi = 0;
+      const Mat3 P = energy_and_first_piola(mat, F, m_cache[s], psi);
+      sum += v * psi;
       store_mat3(&m_F[9 * s], F);
       store_mat3(&m_P[9 * s], P);
+      m_lanes.set_sample(s, mat, v, F, m_cache[s]);
+      const Mat3 vP = v * P;
       for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-        const int i = nb.frames[p];
-        const Mat3 Ri = load_mat3(R + 9 * i);
-        const Vec3 a = Ri * load3(&nb.rest_offsets[3 * p]);
+        const Mat3 Ri = load_mat3(R + 9 * nb.frames[p]);
         const Vec3 g = load3(&nb.weight_gradients[3 * p]);
-        store3(&m_offsets[3 * p], a);
+        const Vec3 ap = a[p - nb.offsets[s]];
+        store3(&m_offsets[3 * p], ap);
+        const Mat3 M = pair_lever(ap, g, nb.weights[p], Ri);
+        m_lanes.set_lever(s, p - nb.offsets[s], M);
         // Pair buffer: energy gradient share (columns 0-5) ...
-        pair_virtual_work(P, a, g, nb.weights[p], Ri, v, &m_pair[6 * p]);
+        pair_lever_virtual_work(vP, g, M, &m_pair[6 * p]);
+        // ... and the pair's rotational geometric block, which with B = M (v P)^T is
+        // sym(B) - tr(B) I (pair_rotational_geometric_block: B = w R (vP)^T + a (vP g)^T),
+        // 6 values xx yy zz yz xz xy.
+        const Mat3 B = M * transpose(vP);
+        const double tr = B.m[0][0] + B.m[1][1] + B.m[2][2];
+        double* q = &m_pair_blocks[6 * p];
+        q[0] = B.m[0][0] - tr;
+        q[1] = B.m[1][1] - tr;
+        q[2] = B.m[2][2] - tr;
+        q[3] = 0.5 * (B.m[1][2] + B.m[2][1]);
+        q[4] = 0.5 * (B.m[0][2] + B.m[2][0]);
+        q[5] = 0.5 * (B.m[0][1] + B.m[1][0]);
       }
     }
     m_chunk[c] = sum;
   }
-  // ... and the rotational geometric block, summed per frame through the reverse table.
+  // The rotational geometric blocks, summed per frame through the reverse table.
   const int n = m_model.frame_count();
 #pragma omp parallel for schedule(static) num_threads(m_threads) if (n > kParallelMin)
   for (int i = 0; i < n; ++i) {
-    Mat3 K = zero3();
-    const Mat3 Ri = load_mat3(R + 9 * i);
+    double K[6] = {0, 0, 0, 0, 0, 0};
     for (int k = m_model.reverse.offsets[i]; k < m_model.reverse.offsets[i + 1]; ++k) {
-      const int p = m_model.reverse.pairs[k];
-      const int s = m_model.reverse.pair_samples[p];
-      K += pair_rotational_geometric_block(load_mat3(&m_P[9 * s]), load3(&m_offsets[3 * p]),
-                                           load3(&nb.weight_gradients[3 * p]), nb.weights[p], Ri,
-                                           m_model.samples.volumes[s]);
+      const double* q = &m_pair_blocks[6 * m_model.reverse.pairs[k]];
+      for (int j = 0; j < 6; ++j) K[j] += q[j];
     }
-    store_mat3(&m_frame_blocks[9 * i], K);
+    double* G = &m_frame_blocks[9 * i];
+    G[0] = K[0], G[1] = K[5], G[2] = K[4];
+    G[3] = K[5], G[4] = K[1], G[5] = K[3];
+    G[6] = K[4], G[7] = K[3], G[8] = K[2];
   }
   double w = 0;
   for (double c : m_chunk) w += c;
@@ -116,19 +148,20 @@ double Elasticity::gradient(const State& state, double* gradient) {
 #pragma omp parallel for schedule(static) num_threads(m_threads) if (chunks > 1)
   for (int c = 0; c < chunks; ++c) {
     double sum = 0;
+    std::vector<Vec3> a(m_max_pairs);
     const int end = std::min(s_count, (c + 1) * kChunk);
     for (int s = c * kChunk; s < end; ++s) {
-      const Mat3 F = sample_deformation_gradient(m_table, s, x, R);
+      const Mat3 F = deformation_gradient_and_offsets(nb, s, x, R, a.data());
       const Material& mat = m_model.materials[m_model.samples.materials[s]];
       const double v = m_model.samples.volumes[s];
-      sum += v * energy_density(mat, F);
       MaterialCache cache;
-      const Mat3 P = first_piola(mat, F, cache);
+      double psi = 0;
+      const Mat3 vP = v * energy_and_first_piola(mat, F, cache, psi);
+      sum += v * psi;
       for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-        const int i = nb.frames[p];
-        const Mat3 Ri = load_mat3(R + 9 * i);
-        const Vec3 a = Ri * load3(&nb.rest_offsets[3 * p]);
-        pair_virtual_work(P, a, load3(&nb.weight_gradients[3 * p]), nb.weights[p], Ri, v, &m_pair[6 * p]);
+        const Mat3 Ri = load_mat3(R + 9 * nb.frames[p]);
+        const Vec3 g = load3(&nb.weight_gradients[3 * p]);
+        pair_lever_virtual_work(vP, g, pair_lever(a[p - nb.offsets[s]], g, nb.weights[p], Ri), &m_pair[6 * p]);
       }
     }
     m_chunk[c] = sum;
@@ -153,38 +186,22 @@ void Elasticity::gather(double* out) const {
   }
 }
 
-void Elasticity::apply_tangent(const double* d, double* out) {
-  const int s_count = m_model.sample_count();
-  const NeighbourTable& nb = m_model.neighbours;
-  const double* R = m_rotations.data();
-  // Pass 1 (samples): dF = sum_p B_p d_i (eq. 11), dP = C[dF] (eq. 22-24 in the P form), then
-  // each pair's share B_p^T dP v (eq. 21, 23) and the stress part dF S (eq. 25-26).
-#pragma omp parallel for schedule(static) num_threads(m_threads) if (s_count > kParallelMin)
-  for (int s = 0; s < s_count; ++s) {
-    Mat3 dF = zero3();
-    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-      const int i = nb.frames[p];
-      dF += pair_deformation_differential(load3(d + 6 * i), load3(d + 6 * i + 3), load3(&m_offsets[3 * p]),
-                                          load3(&nb.weight_gradients[3 * p]), nb.weights[p], load_mat3(R + 9 * i));
-    }
-    const Material& mat = m_model.materials[m_model.samples.materials[s]];
-    const Mat3 dP = pk1_differential(mat, load_mat3(&m_F[9 * s]), m_cache[s], dF);
-    const double v = m_model.samples.volumes[s];
-    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-      const int i = nb.frames[p];
-      pair_virtual_work(dP, load3(&m_offsets[3 * p]), load3(&nb.weight_gradients[3 * p]), nb.weights[p],
-                        load_mat3(R + 9 * i), v, &m_pair[6 * p]);
-    }
-  }
-  // Pass 2 (frames): sum the pairs, add the rotational geometric block.
-  gather(out);
+void Elasticity::apply_tangent(const double* d, double* out, const double* frame_diagonal) {
+  // Pass 1 (blocks of samples, sample_lanes.hpp): dF = sum_p B_p d_i (eq. 11), v dP (eq. 22-24
+  // in the P form, with the stress part dF S of eq. 25-26), each pair's share B_p^T v dP (eq. 21,
+  // 23). Pass 2 (frames): sum the pairs, add the rotational geometric block and frame_diagonal.
+  const int blocks = m_lanes.block_count();
   const int n = m_model.frame_count();
-#pragma omp parallel for schedule(static) num_threads(m_threads) if (n > kParallelMin)
-  for (int i = 0; i < n; ++i) {
-    const Vec3 r = load_mat3(&m_frame_blocks[9 * i]) * load3(d + 6 * i + 3);
-    out[6 * i + 3] += r.x;
-    out[6 * i + 4] += r.y;
-    out[6 * i + 5] += r.z;
+  const double* F = m_F.data();
+  const MaterialCache* cache = m_cache.data();
+  const double* G = m_frame_blocks.data();
+#pragma omp parallel num_threads(m_threads) if (m_model.sample_count() > kParallelMin)
+  {
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    m_lanes.pair_products(d, m_model, F, cache, blocks * t / nt, blocks * (t + 1) / nt);
+#pragma omp barrier
+    m_lanes.gather(d, G, frame_diagonal, out, static_cast<int>(static_cast<long>(n) * t / nt),
+                   static_cast<int>(static_cast<long>(n) * (t + 1) / nt));
   }
 }
 

@@ -8,6 +8,7 @@
 
 #include "core/small_math.hpp"
 #include "mechanics/frame_sample.hpp"
+#include "mechanics/sample_lanes.hpp"
 #include "material/material.hpp"
 #include "model/model.hpp"
 #include "model/state.hpp"
@@ -36,7 +37,10 @@ class Elasticity {
   // out = K d with K the symmetric Hessian of theta -> W(q (+) theta) at theta = 0: material
   // stiffness (eq. 21-24) plus geometric stiffness (eq. 25-28 and the exponential map's second
   // derivative). d and out are [N][6]. Call prepare() first.
-  void apply_tangent(const double* d, double* out);
+  // With frame_diagonal ([N][10]: t_i, then Q_i row-major, may be null) the product is
+  // (K + D) d with D block-diagonal, D_i = diag(t_i I3, Q_i): the inertia and load terms of a
+  // time step, added in the same pass over the frames.
+  void apply_tangent(const double* d, double* out, const double* frame_diagonal = nullptr);
 
   // The 6x6 diagonal blocks K_ii, [N][36] row-major, for block-Jacobi preconditioning.
   void tangent_diagonal_blocks(double* blocks);
@@ -57,6 +61,7 @@ class Elasticity {
 
   const Model& m_model;
   int m_threads;
+  int m_max_pairs = 0;  // largest neighbour count of a sample
   PairTableView m_table;
   std::vector<double> m_rotations;     // [N][9]
   std::vector<double> m_offsets;       // [P][3] a_p = R_i l_p
@@ -65,7 +70,9 @@ class Elasticity {
   std::vector<MaterialCache> m_cache;  // [S]
   std::vector<double> m_frame_blocks;  // [N][9]
   std::vector<double> m_pair;          // [P][6] partial contributions
+  std::vector<double> m_pair_blocks;   // [P][6] pair rotational geometric blocks (xx yy zz yz xz xy)
   std::vector<double> m_chunk;         // fixed-size chunk sums (deterministic reductions)
+  SampleLanes m_lanes;                 // SIMD layout of the tangent product
 };
 
 }  // namespace fascia

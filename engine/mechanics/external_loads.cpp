@@ -7,15 +7,29 @@
 namespace fascia {
 namespace {
 
-PairTableView view(const Model& model) {
-  const NeighbourTable& nb = model.neighbours;
-  return PairTableView{nb.offsets.data(), nb.frames.data(), nb.weights.data(), nb.weight_gradients.data(),
-                       nb.rest_offsets.data()};
-}
-
 Vec3 sample_weight(const Model& model, const ExternalLoads& loads, int s) {
   const double m = model.materials[model.samples.materials[s]].density * model.samples.volumes[s];
   return (loads.scale * m) * loads.gravity;
+}
+
+// Gravity acts on every sample with the same direction, so its pair terms sum per frame:
+// mu_i = sum_p w_p m_s (kg) and lambda_i = sum_p w_p m_s l_p (kg m), m_s = rho_s v_s, and the
+// weight of the samples seen by frame i is the force scale mu_i g applied through the offset
+// R_i lambda_i: potential -scale g . (mu_i x_i + R_i lambda_i), eq. (3) summed per frame.
+// mu: [N], lambda: [N][3]; O(pairs), no rotation.
+void gravity_moments(const Model& model, std::vector<double>& mu, std::vector<double>& lambda) {
+  const NeighbourTable& nb = model.neighbours;
+  mu.assign(model.frame_count(), 0.0);
+  lambda.assign(3 * model.frame_count(), 0.0);
+  for (int s = 0; s < model.sample_count(); ++s) {
+    const double m = model.materials[model.samples.materials[s]].density * model.samples.volumes[s];
+    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+      const int i = nb.frames[p];
+      const double wm = nb.weights[p] * m;
+      mu[i] += wm;
+      for (int k = 0; k < 3; ++k) lambda[3 * i + k] += wm * nb.rest_offsets[3 * p + k];
+    }
+  }
 }
 
 }  // namespace
@@ -23,10 +37,12 @@ Vec3 sample_weight(const Model& model, const ExternalLoads& loads, int s) {
 double load_potential(const Model& model, const ExternalLoads& loads, const State& state) {
   std::vector<double> R;
   rotation_matrices(state, R);
-  const PairTableView t = view(model);
+  std::vector<double> mu, lambda;
+  gravity_moments(model, mu, lambda);
+  const Vec3 g = loads.scale * loads.gravity;
   double v = 0;
-  for (int s = 0; s < model.sample_count(); ++s)
-    v -= dot(sample_weight(model, loads, s), sample_position(t, s, state.positions.data(), R.data()));
+  for (int i = 0; i < model.frame_count(); ++i)
+    v -= dot(g, mu[i] * load3(&state.positions[3 * i]) + load_mat3(&R[9 * i]) * load3(&lambda[3 * i]));
   for (const PointForce& f : loads.point_forces)
     v -= loads.scale * dot(f.force, load3(&state.positions[3 * f.frame]));
   for (size_t i = 0; i < model.frame_point_masses.size(); ++i)
@@ -43,18 +59,15 @@ double load_potential(const Model& model, const ExternalLoads& loads, const Stat
 void add_load_gradient(const Model& model, const ExternalLoads& loads, const State& state, double* gradient) {
   std::vector<double> R;
   rotation_matrices(state, R);
-  const NeighbourTable& nb = model.neighbours;
-  for (int s = 0; s < model.sample_count(); ++s) {
-    const Vec3 b = sample_weight(model, loads, s);
-    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-      const int i = nb.frames[p];
-      const double w = nb.weights[p];
-      const Vec3 a = load_mat3(&R[9 * i]) * load3(&nb.rest_offsets[3 * p]);
-      const Vec3 t = cross(a, b);
-      double* g = gradient + 6 * i;
-      g[0] -= w * b.x, g[1] -= w * b.y, g[2] -= w * b.z;
-      g[3] -= w * t.x, g[4] -= w * t.y, g[5] -= w * t.z;
-    }
+  std::vector<double> mu, lambda;
+  gravity_moments(model, mu, lambda);
+  const Vec3 weight = loads.scale * loads.gravity;
+  for (int i = 0; i < model.frame_count(); ++i) {
+    // Pair terms [-w b_s, -w (a x b_s)] summed over the frame's pairs.
+    const Vec3 t = cross(load_mat3(&R[9 * i]) * load3(&lambda[3 * i]), weight);
+    double* g = gradient + 6 * i;
+    g[0] -= mu[i] * weight.x, g[1] -= mu[i] * weight.y, g[2] -= mu[i] * weight.z;
+    g[3] -= t.x, g[4] -= t.y, g[5] -= t.z;
   }
   for (const PointForce& f : loads.point_forces) {
     double* g = gradient + 6 * f.frame;
@@ -79,16 +92,14 @@ void add_load_gradient(const Model& model, const ExternalLoads& loads, const Sta
 void add_load_rotational_blocks(const Model& model, const ExternalLoads& loads, const State& state, double* blocks) {
   std::vector<double> R;
   rotation_matrices(state, R);
-  const NeighbourTable& nb = model.neighbours;
-  for (int s = 0; s < model.sample_count(); ++s) {
-    const Vec3 b = sample_weight(model, loads, s);
-    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-      const int i = nb.frames[p];
-      const Vec3 a = load_mat3(&R[9 * i]) * load3(&nb.rest_offsets[3 * p]);
-      const Mat3 K = pair_body_force_block(b, a, nb.weights[p]);
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) blocks[9 * i + 3 * r + c] += K.m[r][c];
-    }
+  std::vector<double> mu, lambda;
+  gravity_moments(model, mu, lambda);
+  const Vec3 weight = loads.scale * loads.gravity;
+  for (int i = 0; i < model.frame_count(); ++i) {
+    // pair_body_force_block is linear in w a: the frame's sum is the block of R_i lambda_i.
+    const Mat3 K = pair_body_force_block(weight, load_mat3(&R[9 * i]) * load3(&lambda[3 * i]), 1.0);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) blocks[9 * i + 3 * r + c] += K.m[r][c];
   }
   for (const MaterialPointForce& m : loads.material_point_forces)
     for (size_t k = 0; k < m.frames.size(); ++k) {

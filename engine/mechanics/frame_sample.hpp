@@ -68,6 +68,29 @@ FASCIA_HD void pair_virtual_work(const Mat3& P, const Vec3& a, const Vec3& g, do
   out[5] = v * t.z;
 }
 
+// The pair's lever M = a g^T + w R, which folds the rotational columns of the pair's B block into
+// one 3x3 matrix: dF_p = dx g^T + [dr]x M (the same dF as pair_deformation_differential, since
+// (dr x a) g^T = [dr]x a g^T), and its transpose B^T P = [P g, axial(M P^T)] (pair_virtual_work
+// with v = 1, since axial(a (P g)^T) = a x (P g)). Precomputed once per state, it turns every
+// tangent product's pair work into 27 + 27 multiply-adds.
+FASCIA_HD Mat3 pair_lever(const Vec3& a, const Vec3& g, double w, const Mat3& R) { return outer(a, g) + w * R; }
+
+FASCIA_HD Mat3 pair_lever_differential(const Vec3& dx, const Vec3& dr, const Vec3& g, const Mat3& M) {
+  return outer(dx, g) + skew_times(dr, M);
+}
+
+// out = [P g, axial(M P^T)]: B_p^T applied to P, 6 values.
+FASCIA_HD void pair_lever_virtual_work(const Mat3& P, const Vec3& g, const Mat3& M, double* out) {
+  const Vec3 u = P * g;
+  const Vec3 t = axial_times_transpose(M, P);
+  out[0] = u.x;
+  out[1] = u.y;
+  out[2] = u.z;
+  out[3] = t.x;
+  out[4] = t.y;
+  out[5] = t.z;
+}
+
 // The pair's share of the rotational geometric stiffness that comes from the second derivative
 // of exp([dr]x) R (the term v P : F''[d, e] of the symmetric Hessian, DESIGN.md; it completes
 // eq. 25-28). Only rotation-rotation of the same frame, a symmetric 3x3 block:

@@ -62,12 +62,11 @@ LinearResult conjugate_gradient(const LinearSystem& system, const LinearSettings
   std::vector<double> b = b_in;
   project(system.fixed, b);
   x.assign(n, 0.0);
-  std::vector<double> r = b, z(n), p(n), hp(n);
+  std::vector<double> r = b, z(preconditioner ? n : 0), p(n), hp(n);
+  // Without a preconditioner z = r: refer to r instead of copying it every iteration.
+  const std::vector<double>& zr = preconditioner ? z : r;
   auto precondition = [&](const std::vector<double>& in, std::vector<double>& out) {
-    if (!preconditioner) {
-      out = in;
-      return;
-    }
+    if (!preconditioner) return;
     for (int i = 0; i < n / 6; ++i)
       for (int a = 0; a < 6; ++a) {
         double s = 0;
@@ -83,36 +82,58 @@ LinearResult conjugate_gradient(const LinearSystem& system, const LinearSettings
     return result;
   }
   precondition(r, z);
-  p = z;
-  double rz = dot(r, z);
+  p = zr;
+  double rz = dot(r, zr);
   for (int k = 0; k < settings.max_iterations; ++k) {
     system.apply(p.data(), hp.data());
-    project(system.fixed, hp);
-    const double curvature = dot(p, hp);
+    // p^T H p, with H p projected onto the free DOFs. The loops below are SIMD reductions: a
+    // fixed summation order for a given build, independent of the thread count.
+    double curvature = 0;
+    double* __restrict hpd = hp.data();
+    const double* __restrict pd = p.data();
+    if (system.fixed) {
+      const std::uint8_t* __restrict fixed = system.fixed;
+#pragma omp simd reduction(+ : curvature)
+      for (int j = 0; j < n; ++j) {
+        hpd[j] = fixed[j] ? 0.0 : hpd[j];
+        curvature += pd[j] * hpd[j];
+      }
+    } else {
+#pragma omp simd reduction(+ : curvature)
+      for (int j = 0; j < n; ++j) curvature += pd[j] * hpd[j];
+    }
     if (!(curvature > 0)) {
       result.negative_curvature = true;
-      if (k == 0) x = z;  // preconditioned steepest descent
+      if (k == 0) x = zr;  // preconditioned steepest descent
       result.iterations = k;
       result.relative_residual = std::sqrt(dot(r, r)) / b_norm;
       result.message = "non-positive curvature in CG; step truncated";
       return result;
     }
     const double alpha = rz / curvature;
+    double rr = 0;
+    double* __restrict xd = x.data();
+    double* __restrict rd = r.data();
+#pragma omp simd reduction(+ : rr)
     for (int j = 0; j < n; ++j) {
-      x[j] += alpha * p[j];
-      r[j] -= alpha * hp[j];
+      xd[j] += alpha * pd[j];
+      rd[j] -= alpha * hpd[j];
+      rr += rd[j] * rd[j];
     }
     result.iterations = k + 1;
-    result.relative_residual = std::sqrt(dot(r, r)) / b_norm;
+    result.relative_residual = std::sqrt(rr) / b_norm;
     if (!settings.fixed_iterations && result.relative_residual <= settings.tolerance) {
       result.converged = true;
       return result;
     }
     precondition(r, z);
-    const double rz_new = dot(r, z);
+    const double rz_new = preconditioner ? dot(r, z) : rr;
     const double beta = rz_new / rz;
     rz = rz_new;
-    for (int j = 0; j < n; ++j) p[j] = z[j] + beta * p[j];
+    const double* __restrict zd = zr.data();
+    double* __restrict pw = p.data();
+#pragma omp simd
+    for (int j = 0; j < n; ++j) pw[j] = zd[j] + beta * pw[j];
   }
   result.converged = result.relative_residual <= settings.tolerance || settings.fixed_iterations;
   if (!result.converged) result.message = "CG reached its iteration cap";
