@@ -135,6 +135,7 @@ struct ObjectPart {
   double density = 0;              // rigid body
   ShellProperties shell;           // shell
   std::string discretisation;
+  std::optional<MeshlessStatistics> statistics;  // meshless tissue: what the build reports
   std::vector<int> frames;         // after assembly: global index of each of the object's frames
 };
 
@@ -210,6 +211,9 @@ bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, Diagnostics&
   options.frame_spacing = ml.frame_spacing.value;
   options.sample_spacing = ml.sample_spacing.value;
   options.shape.kind = ml.shape.value == "rbf" ? MeshlessShapeKind::rbf : MeshlessShapeKind::mls;
+  options.shape.neighbours = ml.neighbours.value;
+  options.seed = static_cast<std::uint64_t>(ml.seed.value);
+  options.thin_parts = ml.thin_parts.value == "stop" ? ThinParts::stop : ThinParts::repair;
   if (!(options.sample_spacing < options.frame_spacing)) {
     diagnostics.error(ml.sample_spacing.where, "sample_spacing must be smaller than frame_spacing");
     return false;
@@ -228,6 +232,7 @@ bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, Diagnostics&
   part.discretisation = "meshless (" + ml.shape.value + "), " + std::to_string(part.surface.triangle_count()) +
                         " surface triangles, " + std::to_string(result.statistics.added_frames) +
                         " frames added in thin parts";
+  part.statistics = result.statistics;
   return true;
 }
 
@@ -252,6 +257,7 @@ BuiltObject output_object(const ObjectPart& part, const Model& model) {
   object.name = o.name;
   object.surface.name = o.name;
   object.discretisation = part.discretisation;
+  object.meshless = part.statistics;
   if (part.mesh_based) {
     object.surface.nodes_per_face = part.boundary.nodes_per_face;
     object.surface.faces = part.boundary.faces;

@@ -1,10 +1,12 @@
 // SceneSpec -> engine objects: geometry, discretisation, constraints, loads, solver settings.
 #pragma once
 
+#include "discretise/meshless.hpp"
 #include "dsl/scene_spec.hpp"
 #include "integrate/simulation.hpp"
 #include "io/trajectory.hpp"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +30,7 @@ struct BuiltObject {
   bool skinned = false;
   NeighbourTable skin;  // [V] rows: surface vertex -> frames, weights, rest offsets
   std::string discretisation;  // one-line description for `fascia check`
+  std::optional<MeshlessStatistics> meshless;  // meshless objects: what the build reports
 };
 
 struct BuiltScene {

@@ -177,7 +177,11 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
       spec.quadrature = {static_cast<int>(disc.integer_at("quadrature")), disc.at("quadrature").where};
       if (const Value* meshless = disc.find("meshless")) {
         spec.meshless = MeshlessSpec{located_num(meshless->at("frame_spacing")),
-                                     located_num(meshless->at("sample_spacing")), located_str(meshless->at("shape"))};
+                                     located_num(meshless->at("sample_spacing")),
+                                     located_str(meshless->at("shape")),
+                                     {static_cast<int>(meshless->integer_at("neighbours")), meshless->at("neighbours").where},
+                                     {meshless->integer_at("seed"), meshless->at("seed").where},
+                                     located_str(meshless->at("thin_parts"))};
       }
       const Value& transform = o.at("transform");
       spec.transform.scale = transform.num("scale");

@@ -53,7 +53,10 @@ struct BoxSpec {
 
 struct MeshlessSpec {
   Located<double> frame_spacing, sample_spacing;  // m
-  Located<std::string> shape;
+  Located<std::string> shape;       // "mls" | "rbf"
+  Located<int> neighbours;          // k nearest frames per sample
+  Located<long long> seed;          // Poisson-disk seed
+  Located<std::string> thin_parts;  // "repair" | "stop"
 };
 
 struct TransformSpec {

@@ -23,6 +23,20 @@ int check(const CheckOptions& options) {
   if (options.json) {
     nlohmann::json out = {{"scene", options.scene}, {"ok", true}, {"discretisation", stats_json(scene->built.stats)},
                           {"steps", scene->built.steps}, {"resolved_scene", scene->spec.resolved_yaml}};
+    for (const dsl::BuiltObject& o : scene->built.objects)
+      if (o.meshless) {
+        const MeshlessStatistics& m = *o.meshless;
+        out["meshless"][o.name] = {
+            {"frames", m.frames},
+            {"added_frames", m.added_frames},
+            {"samples", m.samples},
+            {"neighbours_per_sample", {{"min", m.neighbours_min}, {"mean", m.neighbours_mean}, {"max", m.neighbours_max}}},
+            {"min_spread", m.min_spread},
+            {"voxel_size_m", m.voxel_size},
+            {"surface_volume_m3", m.surface_volume},
+            {"volume_error", m.volume_error},
+            {"sample_volume_m3", m.sample_volume}};
+      }
     std::cout << out.dump(2) << "\n";
     return kOk;
   }

@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -15,16 +16,26 @@ namespace {
 struct StudyOptions {
   bool json = false;
   std::vector<std::string> methods;
-  std::vector<std::string> resolutions;  // "NXxNYxNZ"
+  std::vector<std::string> resolutions;  // "NXxNYxNZ", mesh-based methods
+  std::vector<double> frame_spacings;    // m, meshless methods
   int threads = 0;
+  double samples_per_frame = BeamSettings{}.samples_per_frame;
+  std::uint64_t seed = BeamSettings{}.seed;
 };
 
-std::vector<BeamCase> select_cases(const StudyOptions& o) {
+const char* const kMeshMethods[] = {"frame-hex", "frame-tet", "fem-hex", "fem-tet"};
+const char* const kMeshlessMethods[] = {"frame-meshless-mls", "frame-meshless-rbf"};
+
+// --resolution selects mesh-based cases and --frame-spacing meshless ones; with neither, the
+// default cases of both.
+std::vector<BeamCase> select_cases(const StudyOptions& o, const BeamSettings& settings) {
   std::vector<BeamCase> cases;
-  if (o.resolutions.empty()) {
+  if (o.resolutions.empty() && o.frame_spacings.empty()) {
     cases = default_beam_cases();
   } else {
-    for (const char* m : {"frame-hex", "frame-tet", "fem-hex", "fem-tet"})
+    for (const char* m : kMeshlessMethods)
+      for (double rf : o.frame_spacings) cases.push_back(meshless_beam_case(m, rf, settings));
+    for (const char* m : kMeshMethods)
       for (const std::string& r : o.resolutions) {
         BeamCase c{m, 0, 0, 0};
         char x1 = 0, x2 = 0;
@@ -47,14 +58,16 @@ std::vector<BeamCase> select_cases(const StudyOptions& o) {
 int run_beam(const StudyOptions& o) {
   BeamSettings settings;
   settings.threads = o.threads;
-  const std::vector<BeamCase> cases = select_cases(o);
+  settings.samples_per_frame = o.samples_per_frame;
+  settings.seed = o.seed;
+  const std::vector<BeamCase> cases = select_cases(o, settings);
   if (!o.json) {
     std::printf("Cantilever 16 x 1 x 1 m, 5 kg, E = 40 kPa, nu = 0.3, own weight (paper §4.1)\n");
     const Vec3 elastica = beam_elastica_deflection(settings);
     std::printf("small-deflection estimate qL^4/(8EI) = %.3f m; inextensible elastica: tip dx = %.4f m, dz = %.4f m\n\n",
                 beam_linear_deflection(settings), elastica.x, elastica.z);
-    std::printf("%-10s %-10s %7s %8s %7s %10s %10s %10s %8s\n", "method", "resolution", "frames", "samples", "dofs",
-                "tip dx", "tip dz", "|tip|", "seconds");
+    std::printf("%-18s %-10s %6s %7s %8s %7s %10s %10s %10s %8s\n", "method", "resolution", "r_f", "frames", "samples",
+                "dofs", "tip dx", "tip dz", "|tip|", "seconds");
   }
   bool all_converged = true;
   for (const BeamCase& c : cases) {
@@ -71,10 +84,14 @@ int run_beam(const StudyOptions& o) {
                           {"seconds", r.seconds},
                           {"converged", r.converged},
                           {"newton_iterations", r.newton_iterations}};
+      if (is_meshless_beam_method(c.method)) j["frame_spacing"] = c.frame_spacing;
       std::cout << j.dump() << std::endl;
     } else {
-      std::printf("%-10s %3dx%dx%-4d %7d %8d %7d %10.5f %10.5f %10.5f %8.2f%s\n", c.method.c_str(), c.nx, c.ny, c.nz,
-                  r.frames, r.samples, r.dofs, u.x, u.z, norm(u), r.seconds, r.converged ? "" : "  (not converged)");
+      char rf[16] = "-";
+      if (is_meshless_beam_method(c.method)) std::snprintf(rf, sizeof rf, "%.3g", c.frame_spacing);
+      std::printf("%-18s %3dx%dx%-4d %6s %7d %8d %7d %10.5f %10.5f %10.5f %8.2f%s\n", c.method.c_str(), c.nx, c.ny,
+                  c.nz, rf, r.frames, r.samples, r.dofs, u.x, u.z, norm(u), r.seconds,
+                  r.converged ? "" : "  (not converged)");
       std::fflush(stdout);
     }
     if (!r.converged) std::cerr << "fascia: " << c.method << " " << c.nx << "x" << c.ny << "x" << c.nz << ": " << r.message << "\n";
@@ -90,9 +107,16 @@ void register_study(CLI::App& app, Action& action) {
   auto options = std::make_shared<StudyOptions>();
   CLI::App* beam = study->add_subcommand("beam", "Cantilever convergence study (paper §4.1, Figure 3)");
   beam->add_flag("--json", options->json, "One JSON object per line on stdout");
-  beam->add_option("--method", options->methods, "Only these methods (frame-hex, frame-tet, fem-hex, fem-tet)")
-      ->check(CLI::IsMember({"frame-hex", "frame-tet", "fem-hex", "fem-tet"}));
-  beam->add_option("--resolution", options->resolutions, "Resolutions NXxNYxNZ (hexahedra per axis)");
+  beam->add_option("--method", options->methods,
+                   "Only these methods (frame-hex, frame-tet, fem-hex, fem-tet, frame-meshless-mls, frame-meshless-rbf)")
+      ->check(CLI::IsMember({"frame-hex", "frame-tet", "fem-hex", "fem-tet", "frame-meshless-mls", "frame-meshless-rbf"}));
+  beam->add_option("--resolution", options->resolutions, "Mesh-based cases: resolutions NXxNYxNZ (hexahedra per axis)");
+  beam->add_option("--frame-spacing", options->frame_spacings, "Meshless cases: frame spacings r_f (m)")
+      ->check(CLI::PositiveNumber);
+  beam->add_option("--samples-per-frame", options->samples_per_frame,
+                   "Meshless cases: r_s = r_f / cbrt(this) (default 10)")
+      ->check(CLI::Range(1.01, 1e6));
+  beam->add_option("--seed", options->seed, "Meshless cases: Poisson-disk seed (default 1)");
   beam->add_option("--threads", options->threads, "CPU threads (0 = all)")->check(CLI::NonNegativeNumber);
   beam->callback([options, &action] { action = [options] { return run_beam(*options); }; });
 }

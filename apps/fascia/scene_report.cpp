@@ -40,6 +40,12 @@ std::string stats_text(const dsl::DiscretisationStats& s, const LoadedScene& sce
     os << "  object " << o.name << ": " << o.discretisation << "; boundary " << o.surface.faces.size() / static_cast<std::size_t>(o.surface.nodes_per_face)
        << (o.surface.nodes_per_face == 3 ? " triangles, " : " quadrilaterals, ") << o.surface.vertex_frames.size()
        << " vertices\n";
+  for (const dsl::BuiltObject& o : scene.built.objects)
+    if (o.meshless) {
+      os << "  meshless " << o.name << ":\n";
+      std::istringstream lines(o.meshless->describe());
+      for (std::string line; std::getline(lines, line);) os << "    " << line << "\n";
+    }
   os << "  frames: " << s.frames << "\n"
      << "  samples: " << s.samples << "\n"
      << "  neighbours per sample: {min: " << s.neighbours_min << ", mean: " << s.neighbours_mean

@@ -71,6 +71,17 @@ Probe make_probe(const VolumeMesh& mesh, const Vec3& point) {
   throw std::invalid_argument("probe point lies outside the mesh");
 }
 
+Probe make_meshless_probe(const Model& model, const MeshlessShapeOptions& shape, const Vec3& point) {
+  const MeshlessTable table = build_meshless_table(model.frame_rest_positions, {point.x, point.y, point.z}, shape);
+  if (!table.failed.empty()) throw std::invalid_argument("meshless shape functions cannot be built at the probe point");
+  Probe p;
+  p.rest_position = point;
+  p.frames = table.neighbours.frames;
+  p.weights = table.neighbours.weights;
+  p.rest_offsets = table.neighbours.rest_offsets;
+  return p;
+}
+
 Vec3 probe_position(const Probe& probe, const State& state) {
   Vec3 p{0, 0, 0};
   for (size_t a = 0; a < probe.frames.size(); ++a) {

@@ -1,9 +1,10 @@
-// A probe: a material point of a mesh-based object followed through the deformation with the
+// A probe: a material point of a discretised object followed through the deformation with the
 // same interpolation as the samples (eq. 3), e.g. the centre of a beam's free end.
 #pragma once
 
 #include "discretise/volume_mesh.hpp"
 #include "model/state.hpp"
+#include "shape/meshless_shape.hpp"
 
 #include <vector>
 
@@ -19,6 +20,13 @@ struct Probe {
 // Locates the cell that contains point (tolerance 1e-9 relative in reference coordinates) and
 // returns its interpolation; throws std::invalid_argument when the point is outside the mesh.
 Probe make_probe(const VolumeMesh& mesh, const Vec3& point);
+
+// The same for a meshless model: the shape functions of `shape` (the options the model was built
+// with) evaluated at an arbitrary rest point, e.g. on the surface where no sample lies. The point
+// gets its own k-nearest frames and support, as a sample would. Throws std::invalid_argument when
+// the model has no frames or the shape functions cannot be built there (MLS with coplanar
+// neighbours).
+Probe make_meshless_probe(const Model& model, const MeshlessShapeOptions& shape, const Vec3& point);
 
 // Current position p = sum_i w_i (x_i + R_i l_i), eq. (3).
 Vec3 probe_position(const Probe& probe, const State& state);

@@ -184,3 +184,43 @@ TEST_CASE("a surface force on a meshless tissue becomes material-point forces of
   CHECK(wsum == Approx(2.0));                 // partition of unity at each point
   CHECK(b.stats.fixed_frames > 0);
 }
+
+TEST_CASE("meshless settings reach the discretisation; check's statistics come with the object", "[dsl]") {
+  const std::string surface = std::string(FASCIA_SOURCE_DIR) + "/scenes/meshes/slab_mm.obj";  // 60 x 20 x 10 mm
+  const auto build = [&](const std::string& meshless) {
+    const std::string text = "materials: {soft: {young: 3 kPa}}\n"
+                             "objects:\n  slab: {material: soft, surface: " + surface +
+                             ", transform: {scale: 1e-3},\n"
+                             "         discretisation: {meshless: {" + meshless + "}}}\n"
+                             "run: {steps: 1}\n";
+    return build_scene(parse_scene_text(text, "meshless.yaml"));
+  };
+  const BuiltScene a = build("frame_spacing: 5 mm, sample_spacing: 2.5 mm");
+  REQUIRE(a.objects.size() == 1);
+  REQUIRE(a.objects[0].meshless);
+  const fascia::MeshlessStatistics& sa = *a.objects[0].meshless;
+  CHECK(sa.frames == a.model.frame_count());
+  CHECK(sa.neighbours_max == 12);  // default
+  CHECK(sa.describe().find("frames " + std::to_string(sa.frames)) != std::string::npos);
+  const BuiltScene b = build("frame_spacing: 5 mm, sample_spacing: 2.5 mm, neighbours: 8, seed: 7");
+  CHECK(b.objects[0].meshless->neighbours_max == 8);
+  CHECK(b.model.frame_rest_positions != a.model.frame_rest_positions);
+  // A 60 x 60 x 3 mm sheet with frames 10 mm apart: one layer, neighbour frames nearly coplanar.
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "fascia_test_meshless";
+  fs::create_directories(dir);
+  std::ofstream(dir / "sheet.obj") << "v 0 0 0\nv 60 0 0\nv 60 60 0\nv 0 60 0\nv 0 0 3\nv 60 0 3\nv 60 60 3\nv 0 60 3\n"
+                                      "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\n"
+                                      "f 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+  const auto sheet = [&](const std::string& meshless) {
+    const std::string text = "materials: {soft: {young: 3 kPa}}\n"
+                             "objects:\n  sheet: {material: soft, surface: " + (dir / "sheet.obj").string() +
+                             ", transform: {scale: 1e-3},\n"
+                             "         discretisation: {meshless: {" + meshless + "}}}\n"
+                             "run: {steps: 1}\n";
+    return build_scene(parse_scene_text(text, "sheet.yaml"));
+  };
+  const BuiltScene repaired = sheet("frame_spacing: 10 mm, sample_spacing: 2 mm");
+  CHECK(repaired.objects[0].meshless->added_frames > 0);
+  CHECK_THROWS_AS(sheet("frame_spacing: 10 mm, sample_spacing: 2 mm, thin_parts: stop"), SceneError);
+}
