@@ -11,19 +11,6 @@
 using namespace fascia;
 using namespace fascia::test;
 
-namespace {
-
-std::vector<double> random_direction(const Model& model, unsigned seed, double length_scale) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  std::vector<double> d(model.dof_count());
-  for (int i = 0; i < model.frame_count(); ++i)
-    for (int k = 0; k < 6; ++k) d[6 * i + k] = (k < 3 ? length_scale : 1.0) * u(rng);
-  return d;
-}
-
-}  // namespace
-
 TEST_CASE("meshless: forces are minus the gradient of the energy", "[discretise][meshless][fd]") {
   const MeshlessShapeKind kind = GENERATE(MeshlessShapeKind::mls, MeshlessShapeKind::rbf);
   const MaterialLaw law = GENERATE(MaterialLaw::stvk, MaterialLaw::neo_hookean);

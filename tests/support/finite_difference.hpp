@@ -15,6 +15,7 @@
 #include "model/state.hpp"
 
 #include <functional>
+#include <random>
 #include <vector>
 
 namespace fascia::test {
@@ -42,6 +43,17 @@ inline double mixed_second_derivative(const Model& model, const Energy& energy, 
     return energy(perturbed(model, s, v, 1.0));
   };
   return (at(h, h) - at(h, -h) - at(-h, h) + at(-h, -h)) / (4 * h * h);
+}
+
+// A random increment [N][6]: translations uniform in [-length_scale, length_scale] (m), rotations
+// in [-1, 1] (rad), so both parts have comparable effect on a model of that size.
+inline std::vector<double> random_direction(const Model& model, unsigned seed, double length_scale) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<double> d(model.dof_count());
+  for (int i = 0; i < model.frame_count(); ++i)
+    for (int k = 0; k < 6; ++k) d[6 * i + k] = (k < 3 ? length_scale : 1.0) * u(rng);
+  return d;
 }
 
 inline double dot(const std::vector<double>& a, const std::vector<double>& b) {
