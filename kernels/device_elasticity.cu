@@ -42,8 +42,8 @@ namespace {
 
 constexpr int kThreads = 128;      // frame and sample kernels
 constexpr int kPaperGather = 96;   // paper §3.3: 6 threads per frame, 96 per block
+constexpr int kRowFrames = 16;     // frame row passes (k_frame_rows, k_update_rows): 96 threads
 constexpr int kMaxBlockPairs = 1024;
-constexpr int kPersistentBlocksPerSm = 2;
 
 int grid_for(long long count, int threads) { return static_cast<int>(std::max<long long>(1, (count + threads - 1) / threads)); }
 
@@ -70,6 +70,7 @@ struct DeviceElasticity::Impl {
 
   DeviceOptions options;
   Design design = Design::fused;
+  bool staged = false;
 };
 
 namespace {
@@ -138,18 +139,52 @@ class System final : public DeviceElasticity::Impl {
       m_frame_slot_offsets.upload(L.frame_slot_offsets);
       m_frame_slots.upload(L.frame_slots);
       m_partials.resize(6 * static_cast<size_t>(m_slots));
+      // Staged tangent pass: ELL tables and the largest block's shared memory.
+      m_ell_offsets.upload(L.ell_offsets);
+      m_ell_slot.upload(L.ell_slot);
+      m_slot_ell.upload(L.slot_ell);
+      const int E = L.ell_count();
+      std::vector<double> ell(4 * static_cast<size_t>(E), 0.0);
+      for (int p = 0; p < m_p; ++p) {
+        const int e = L.pair_ell[p];
+        ell[e] = nb.weights[p];
+        for (int k = 0; k < 3; ++k) ell[static_cast<size_t>(k + 1) * E + e] = nb.weight_gradients[3 * p + k];
+      }
+      m_ell_data.upload(ell);
+      m_ell_entries = E;
+      size_t staged_values = 0;
+      for (int b = 0; b < m_blocks; ++b) {
+        const size_t ns = L.block_samples[b + 1] - L.block_samples[b];
+        const size_t nq = L.block_slots[b + 1] - L.block_slots[b];
+        const size_t Eb = L.ell_offsets[b + 1] - L.ell_offsets[b];
+        staged_values = std::max(staged_values, kSlotStride * nq + std::max(kSampleStride * ns, 6 * Eb));
+      }
+      staged_bytes = staged_values * sizeof(R);
       m_cache.resize(10 * static_cast<size_t>(m_s));
       // Threads per sample of the tangent pass. Auto (measured on an H200, docs/benchmarks.md):
       // 1 up to 4 neighbours, 2 above in double, 1 in single (lanes loop over further pairs).
       int max_pairs = 1;
       for (int s = 0; s < m_s; ++s) max_pairs = std::max(max_pairs, nb.offsets[s + 1] - nb.offsets[s]);
       m_lanes = 1;
-      if (opts.lanes > 0) {
+      if (opts.staged && opts.lanes <= 1) {
+        m_lanes = 1;
+      } else if (opts.lanes > 0) {
         while (m_lanes < std::min(opts.lanes, 32)) m_lanes *= 2;
       } else {
         m_lanes = max_pairs > 4 && sizeof(R) == sizeof(double) ? 2 : 1;
       }
       m_lane_threads = std::max(32, std::min({kLaneThreadsMax, opts.lane_threads, opts.block_samples * m_lanes}));
+      int shared_limit = 0, dev = 0;
+      FASCIA_CUDA(cudaGetDevice(&dev));
+      FASCIA_CUDA(cudaDeviceGetAttribute(&shared_limit, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
+      // One thread per sample: the staged pass needs every sample of a block in one thread block.
+      staged = opts.staged && m_lanes == 1 && opts.block_samples <= kLaneThreadsMax &&
+                 staged_bytes <= static_cast<size_t>(shared_limit);
+      if (staged) {
+        m_lane_threads = opts.block_samples;
+        FASCIA_CUDA(cudaFuncSetAttribute(k_staged_tangent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                         static_cast<int>(staged_bytes)));
+      }
       const int max_shared = static_cast<int>(m_shared_bytes);
       FASCIA_CUDA(cudaFuncSetAttribute(k_lanes_tangent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize, max_shared));
       FASCIA_CUDA(cudaFuncSetAttribute(k_fused_samples<Pass::gradient, R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
@@ -190,6 +225,11 @@ class System final : public DeviceElasticity::Impl {
     m_view.slot_pairs = m_slot_pairs.data();
     m_view.frame_slot_offsets = m_frame_slot_offsets.data();
     m_view.frame_slots = m_frame_slots.data();
+    m_view.ell_entries = m_ell_entries;
+    m_view.ell_offsets = m_ell_offsets.data();
+    m_view.ell_slot = m_ell_slot.data();
+    m_view.ell_data = m_ell_data.data();
+    m_view.slot_ell = m_slot_ell.data();
 
     const size_t dofs = 6 * static_cast<size_t>(m_n);
     m_positions.resize(3 * static_cast<size_t>(m_n));
@@ -203,7 +243,7 @@ class System final : public DeviceElasticity::Impl {
     m_minv.resize(36 * static_cast<size_t>(m_n));
     m_diag.resize(36 * static_cast<size_t>(m_n));
     for (auto* v : {&m_grad, &m_d, &m_out, &m_cx, &m_cr, &m_cz, &m_cp, &m_cAp}) v->resize(dofs);
-    const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(6LL * m_n, kPaperGather), m_blocks, 1});
+    const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(m_n, kRowFrames), m_blocks, 1});
     m_red_partials.resize(max_grid);
     m_counter.resize(1);
     m_counter.zero();
@@ -286,6 +326,12 @@ class System final : public DeviceElasticity::Impl {
     const double r = sizeof(R), P = m_p, S = m_s, N = m_n;
     // Frames: rotation, position, d (read), out (write), geometric block (read), fixed flags.
     const double frames = N * (9 * r + 3 * r + 6 * r + 6 * r + 9 * r + 6);
+    if (design == Design::fused && staged) {
+      const double Q = m_slots, E = m_ell_entries;
+      return E * (4 * r + 2) + P * 4 + S * (3 * r + 9 * r + 10 * r + r + 4 + 4)  // ELL table, samples
+             + Q * 4 + m_blocks * 12                                              // slot and block tables
+             + Q * 6 * r * 2 + N * 4 + frames;  // slot partials out and in, frame slot lists
+    }
     if (design == Design::fused) {
       const double Q = m_slots;
       return P * (4 + r + 3 * r) + S * (3 * r + r + 4 + 4 + 19 * r) + N * 3 * r  // tables, F, cache
@@ -484,11 +530,15 @@ class System final : public DeviceElasticity::Impl {
     const Scalars* sc = pcg ? m_scalars.data() : nullptr;
     if (design == Design::fused) {
       const R* z = pcg ? m_cz.data() : nullptr;
-      k_lanes_tangent<R><<<m_blocks, m_lane_threads, m_shared_bytes, m_stream>>>(
-          m_view, m_frame_view, m_F.data(), m_cache.data(), pcg ? z : d, pcg ? d : nullptr, m_partials.data(), sc,
-          m_lanes);
+      if (staged)
+        k_staged_tangent<R><<<m_blocks, m_lane_threads, staged_bytes, m_stream>>>(
+            m_view, m_frame_view, m_F.data(), m_cache.data(), pcg ? z : d, pcg ? d : nullptr, m_partials.data(), sc);
+      else
+        k_lanes_tangent<R><<<m_blocks, m_lane_threads, m_shared_bytes, m_stream>>>(
+            m_view, m_frame_view, m_F.data(), m_cache.data(), pcg ? z : d, pcg ? d : nullptr, m_partials.data(), sc,
+            m_lanes);
       check_launch();
-      k_fused_gather<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
+      k_frame_rows<R><<<grid_for(m_n, kRowFrames), 6 * kRowFrames, 0, m_stream>>>(
           m_view, m_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(), pcg, z);
     } else {
       k_paper_tangent<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(
@@ -515,9 +565,9 @@ class System final : public DeviceElasticity::Impl {
 
   void enqueue_cg_iteration() {
     enqueue_tangent(m_cp.data(), m_cAp.data(), step_flags(), true);
-    k_pcg_update<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(m_n, m_minv.data(), m_cp.data(), m_cAp.data(),
-                                                                         m_cx.data(), m_cr.data(), m_cz.data(),
-                                                                         reduction(), m_step.cg_tolerance);
+    k_update_rows<R><<<grid_for(m_n, kRowFrames), 6 * kRowFrames, 0, m_stream>>>(
+        m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
+        m_step.cg_tolerance);
     check_launch();
     if (design != Design::fused) {  // the fused passes form p = z + beta p themselves
       k_pcg_direction<R><<<grid_for(6LL * m_n, kThreads), kThreads, 0, m_stream>>>(6 * m_n, m_cz.data(), m_cp.data(),
@@ -533,6 +583,7 @@ class System final : public DeviceElasticity::Impl {
     const R* F = m_F.data();
     const R* cache = m_cache.data();
     int lanes = m_lanes;
+    bool use_staged = staged;
     const R* geo = m_geo.data();
     const R* inertia = m_inertia_world.data();
     FrameTermsFlags flags = step_flags();
@@ -543,13 +594,14 @@ class System final : public DeviceElasticity::Impl {
     Scalars* scalars = m_scalars.data();
     int iterations = m_step.max_cg_iterations;
     double tolerance = m_step.cg_tolerance;
-    void* args[] = {&view, &frames, &F, &cache, &lanes, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
+    void* args[] = {&view, &frames, &F, &cache, &lanes, &use_staged, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
                     &slots, &partials, &scalars, &iterations, &tolerance};
     FASCIA_CUDA(cudaLaunchCooperativeKernel(reinterpret_cast<const void*>(&k_pcg_persistent<R>), dim3(m_persistent_grid),
-                                            dim3(m_lane_threads), args, m_shared_bytes, m_stream));
+                                            dim3(m_lane_threads), args, persistent_shared_bytes(), m_stream));
   }
 
   bool use_persistent() const { return m_step.persistent && m_persistent_grid > 0; }
+  size_t persistent_shared_bytes() const { return staged ? staged_bytes : m_shared_bytes; }
 
   // Grid of the persistent PCG: every block resident (cooperative launch), no more blocks than
   // sample blocks or frame blocks need. 0 where it cannot run (paper design, no cooperative launch).
@@ -561,15 +613,14 @@ class System final : public DeviceElasticity::Impl {
     FASCIA_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
     if (!coop) return 0;
     FASCIA_CUDA(cudaFuncSetAttribute(k_pcg_persistent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                     static_cast<int>(m_shared_bytes)));
+                                     static_cast<int>(persistent_shared_bytes())));
     FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_pcg_persistent<R>, m_lane_threads,
-                                                              m_shared_bytes));
+                                                              persistent_shared_bytes()));
     if (per_sm < 1) return 0;
     // Only for small grids (grid barriers and every block's sum of all partials grow with the
-    // grid): measured on an H200 (docs/benchmarks.md), it saves 8-25% per CG iteration up to 211
-    // sample blocks and loses from 272 on, so it is used up to two blocks per multiprocessor.
-    const int wanted = std::max(m_blocks, grid_for(m_n, m_lane_threads));
-    if (wanted > kPersistentBlocksPerSm * sms) return 0;
+    // grid): DeviceOptions::persistent_blocks_per_sm, measured on an H200 (docs/benchmarks.md).
+    const int wanted = std::max(m_blocks, grid_for(m_n, m_lane_threads / 6));
+    if (wanted > options.persistent_blocks_per_sm * sms) return 0;
     return std::max(1, std::min(wanted, per_sm * sms));
   }
 
@@ -621,7 +672,8 @@ class System final : public DeviceElasticity::Impl {
 
   int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0, m_lanes = 1, m_lane_threads = 128;
   bool m_locked = false;
-  size_t m_shared_bytes = 0;
+  int m_ell_entries = 0;
+  size_t m_shared_bytes = 0, staged_bytes = 0;
   Origin m_origin{};
   cudaStream_t m_stream = nullptr;
   cudaEvent_t m_start = nullptr, m_stop = nullptr;
@@ -637,7 +689,9 @@ class System final : public DeviceElasticity::Impl {
   DeviceBuffer<Material> m_materials;
   DeviceBuffer<unsigned char> m_fixed;
   DeviceBuffer<int> m_block_samples, m_block_slots, m_slot_frames, m_slot_pair_offsets, m_slot_pairs,
-      m_frame_slot_offsets, m_frame_slots;
+      m_frame_slot_offsets, m_frame_slots, m_ell_offsets, m_slot_ell;
+  DeviceBuffer<unsigned short> m_ell_slot;
+  DeviceBuffer<R> m_ell_data;
   // State (double) and per-iteration data (R).
   DeviceBuffer<double> m_positions, m_orientations, m_velocities, m_external, m_load_rot, m_diag;
   DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_a, m_partials, m_geo, m_inertia_world, m_minv;
@@ -672,6 +726,7 @@ double DeviceElasticity::prepare() { return m_impl->prepare(); }
 void DeviceElasticity::apply_tangent(const double* d, double* out) { m_impl->apply_tangent(d, out); }
 void DeviceElasticity::tangent_diagonal_blocks(double* blocks) { m_impl->diagonal_blocks(blocks); }
 Design DeviceElasticity::design() const { return m_impl->design; }
+bool DeviceElasticity::staged() const { return m_impl->staged; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }
 double DeviceElasticity::time_tangent_ms(int repeats) { return m_impl->time_tangent_ms(std::max(1, repeats)); }

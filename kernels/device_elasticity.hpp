@@ -48,10 +48,20 @@ struct DeviceOptions {
   Design design = Design::fused;
   bool reorder_samples = true;  // Morton order of samples on the device
   int block_samples = 128;      // fused design: samples per thread block
-  // Fused design: threads per sample in the tangent product (rounded up to a power of two, at
-  // most 32); 0 = measured default: 2 in double above 4 neighbours, else 1.
+  // Fused design, lane-parallel pass (staged false or lanes > 1): threads per sample in the
+  // tangent product (rounded up to a power of two, at most 32); 0 = measured default: 2 in double
+  // above 4 neighbours, else 1.
   int lanes = 0;
   int lane_threads = 128;       // fused design: at most this many threads per tangent block (32..512)
+  // Fused design: the tangent product's sample pass stages the block's frames and samples in
+  // shared memory and reads the pairs in ELL order (one thread per sample; used unless lanes > 1).
+  // Measured slower than the lane-parallel pass on an H200 (docs/benchmarks.md): off by default.
+  bool staged = false;
+  // Persistent PCG (StepOptions::persistent): used while the model needs at most this many
+  // thread blocks per multiprocessor (its blocks must all be resident). Measured on an H200
+  // (docs/benchmarks.md): at 34,848 samples (273 blocks) 25.3 us per CG iteration persistent
+  // against 28.8 us with launches.
+  int persistent_blocks_per_sm = 4;
 };
 
 class DeviceBackwardEuler;
@@ -80,6 +90,8 @@ class DeviceElasticity {
 
   // The design in use: `fused` falls back to `paper` when the model's rest offsets are not p_s - x_i.
   Design design() const;
+  // Fused design: whether the tangent product runs the staged sample pass (DeviceOptions::staged).
+  bool staged() const;
   Precision precision() const;
   const DeviceOptions& options() const;
 

@@ -243,6 +243,150 @@ __global__ void __launch_bounds__(kLaneThreadsMax) k_lanes_tangent(ModelView<R> 
   lanes_tangent_block(m, f, F, cache, d, p_old, beta, static_cast<int>(blockIdx.x), lanes, local, slot_partials);
 }
 
+// Staged tangent pass of sample block b, one thread per sample (blockDim.x >= the block's
+// samples). The block's slots (R_i, x_i - origin and d_i, with d = z + beta p_old formed here
+// when p_old is set) and its samples' rest positions, F and material caches are copied to shared
+// memory with coalesced loads (elasticity_phases.hpp, kSlotStride / kSampleStride); each thread
+// forms dP = C[dF] of its sample from shared memory and its pairs' ELL entries, a barrier lets
+// the pair outputs [6][E_b] overwrite the sample area, each thread writes its pairs' v B_p^T dP,
+// and the block sums them per slot. Every thread of the block must call it.
+template <class R>
+__device__ void staged_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* F, const R* cache,
+                                     const R* d, const R* p_old, double beta, int b, R* smem, R* slot_partials) {
+  const int s0 = m.block_samples[b], ns = m.block_samples[b + 1] - s0;
+  const int q0 = m.block_slots[b], nq = m.block_slots[b + 1] - q0;
+  const int e0 = m.ell_offsets[b], E = m.ell_offsets[b + 1] - e0;
+  R* slots = smem;
+  R* samples = smem + kSlotStride * nq;  // later the pair outputs [6][E]
+  const int tid = static_cast<int>(threadIdx.x), nt = static_cast<int>(blockDim.x);
+  for (int idx = tid; idx < 18 * nq; idx += nt) {
+    const int j = idx / 18, k = idx - 18 * j;
+    const int i = m.slot_frames[q0 + j];
+    R v;
+    if (k < 9)
+      v = f.rotations[9 * i + k];
+    else if (k < 12)
+      v = m.frame_rest[3 * i + k - 9];
+    else
+      v = p_old ? next_direction(d, p_old, beta, 6 * i + k - 12) : d[6 * i + k - 12];
+    slots[kSlotStride * j + k] = v;
+  }
+  for (int idx = tid; idx < 3 * ns; idx += nt) {
+    const int t = idx / 3;
+    samples[kSampleStride * t + idx - 3 * t] = m.sample_rest[3 * s0 + idx];
+  }
+  for (int idx = tid; idx < 9 * ns; idx += nt) {
+    const int t = idx / 9;
+    samples[kSampleStride * t + 3 + idx - 9 * t] = F[9 * static_cast<long long>(s0) + idx];
+  }
+  for (int idx = tid; idx < 10 * ns; idx += nt) {
+    const int t = idx / 10;
+    samples[kSampleStride * t + 12 + idx - 10 * t] = cache[10 * static_cast<long long>(s0) + idx];
+  }
+  __syncthreads();
+  const bool active = tid < ns;
+  Vec3 ps{0, 0, 0};
+  Mat3 dP = zero3();
+  if (active) {
+    ps = ld3(samples + kSampleStride * tid);
+    dP = staged_sample_dP(m, s0 + tid, tid, ns, e0, slots, samples + kSampleStride * tid);
+  }
+  __syncthreads();
+  if (active) staged_sample_outputs(m, s0 + tid, tid, ns, e0, E, slots, ps, dP, samples);
+  __syncthreads();
+  for (int j = tid; j < nq; j += nt) staged_slot_sum(m, samples, E, q0 + j, slot_partials);
+}
+
+template <class R>
+__global__ void __launch_bounds__(kLaneThreadsMax) k_staged_tangent(ModelView<R> m, FrameView<R> f, const R* F,
+                                                                    const R* cache, const R* d, const R* p_old,
+                                                                    R* slot_partials, const Scalars* sc) {
+  extern __shared__ unsigned char shared_raw[];
+  R* smem = reinterpret_cast<R*>(shared_raw);
+  if (finished(sc)) return;
+  const double beta = p_old ? sc->beta : 0.0;
+  staged_tangent_block(m, f, F, cache, d, p_old, beta, static_cast<int>(blockIdx.x), smem, slot_partials);
+}
+
+// Frame pass with one thread per frame row: chunk c covers frames [c fpc, (c + 1) fpc), fpc =
+// blockDim.x / 6. With z set (PCG) the direction p = z + beta p is formed (every thread of a frame
+// has read the old p before the barrier) and stored; out = H d from the block slots' sums (in
+// fused_gather's order) and frame_row's terms. Returns this thread's d_k out_k. Every thread of
+// the block must call it.
+template <class R>
+__device__ double frame_rows_chunk(const ModelView<R>& m, const R* slot_partials, const R* geo,
+                                   const R* inertia_world, const FrameTermsFlags& flags, R* d, R* out, const R* z,
+                                   double beta, int chunk) {
+  __shared__ double dir[kLaneThreadsMax];
+  const int fpc = static_cast<int>(blockDim.x) / 6;
+  const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
+  const bool active = t < 6 * fpc && i < m.frames;
+  if (active) dir[t] = static_cast<double>(z ? next_direction(z, d, beta, 6 * i + k) : d[6 * i + k]);
+  __syncthreads();
+  double dot = 0;
+  if (active) {
+    if (z) d[6 * i + k] = static_cast<R>(dir[t]);
+    double acc = 0;
+    for (int q = m.frame_slot_offsets[i]; q < m.frame_slot_offsets[i + 1]; ++q)
+      acc += static_cast<double>(slot_partials[6 * m.frame_slots[q] + k]);
+    const double v =
+        frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, dir + (t - k), i, k, acc, flags.k_scale);
+    out[6 * i + k] = static_cast<R>(v);
+    dot = dir[t] * static_cast<double>(static_cast<R>(v));
+  }
+  __syncthreads();
+  return dot;
+}
+
+// PCG update with one thread per frame row (chunks as frame_rows_chunk): x += alpha p,
+// r -= alpha Ap, z = M^-1 r (block_jacobi's order); returns this thread's r_k z_k.
+template <class R>
+__device__ double update_rows_chunk(int n, const R* minv, const R* p, const R* Ap, R* x, R* r, R* z, double alpha,
+                                    int chunk) {
+  __shared__ double res[kLaneThreadsMax];
+  const int fpc = static_cast<int>(blockDim.x) / 6;
+  const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
+  const bool active = t < 6 * fpc && i < n;
+  const int j = 6 * i + k;
+  if (active) {
+    x[j] = static_cast<R>(static_cast<double>(x[j]) + alpha * static_cast<double>(p[j]));
+    const R rj = static_cast<R>(static_cast<double>(r[j]) - alpha * static_cast<double>(Ap[j]));
+    r[j] = rj;
+    res[t] = static_cast<double>(rj);
+  }
+  __syncthreads();
+  double dot = 0;
+  if (active) {
+    double acc = 0;
+    for (int c = 0; c < 6; ++c) acc += static_cast<double>(minv[36 * i + 6 * k + c]) * res[t - k + c];
+    const R zk = static_cast<R>(acc);
+    z[j] = zk;
+    dot = res[t] * static_cast<double>(zk);
+  }
+  __syncthreads();
+  return dot;
+}
+
+// Launch-per-phase forms of the two row passes (one chunk per block); with `pcg`, the dot
+// products are reduced into alpha and beta as k_fused_gather / k_pcg_update.
+template <class R>
+__global__ void k_frame_rows(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
+                             FrameTermsFlags flags, R* d, R* out, Reduction red, bool pcg, const R* z) {
+  if (pcg && finished(red.scalars)) return;
+  const double beta = z ? red.scalars->beta : 0.0;
+  const double dot = frame_rows_chunk(m, slot_partials, geo, inertia_world, flags, d, out, z, beta,
+                                      static_cast<int>(blockIdx.x));
+  if (pcg) reduce_and_finish(dot, red, Finish::alpha, 0);
+}
+
+template <class R>
+__global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* x, R* r, R* z, Reduction red,
+                              double tolerance) {
+  if (finished(red.scalars)) return;
+  const double dot = update_rows_chunk(n, minv, p, Ap, x, r, z, red.scalars->alpha, static_cast<int>(blockIdx.x));
+  reduce_and_finish(dot, red, Finish::beta, tolerance);
+}
+
 // Frame pass of the fused design: one thread per frame.
 // With `z` set (PCG), d is the direction p: first updated in place to p = z + beta p (beta from the
 // scalars; the sample pass formed the same bits on the fly), then used.
@@ -375,10 +519,12 @@ __device__ inline double grid_sum(double v, double* partials, cooperative_groups
 // p = z + beta p_old formed on the fly; (2) frame pass: writes p, Ap = H p and reduces p.Ap -> alpha;
 // (3) x += alpha p, r -= alpha Ap, z = M^-1 r, reduces r.z -> beta and the stopping test. Every
 // block computes the scalars from the same partials, so all take the same branches. Same
-// arithmetic as the launch-per-phase PCG (k_lanes_tangent, k_fused_gather, k_pcg_update). `partials` holds 2 gridDim.x doubles. Starts from k_pcg_init's scalars.
+// arithmetic as the launch-per-phase PCG (k_staged_tangent or k_lanes_tangent, k_frame_rows,
+// k_update_rows); the frame phases run one thread per frame row in chunks of blockDim.x / 6
+// frames. `partials` holds 2 gridDim.x doubles. Starts from k_pcg_init's scalars.
 template <class R>
 __global__ void __launch_bounds__(kLaneThreadsMax)
-    k_pcg_persistent(ModelView<R> m, FrameView<R> f, const R* F, const R* cache, int lanes, const R* geo,
+    k_pcg_persistent(ModelView<R> m, FrameView<R> f, const R* F, const R* cache, int lanes, bool staged, const R* geo,
                      const R* inertia_world, FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, R* Ap,
                      R* slot_partials, double* partials, Scalars* scalars, int max_iterations, double tolerance) {
   cooperative_groups::grid_group grid = cooperative_groups::this_grid();
@@ -387,27 +533,22 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
   const double rz0 = scalars->rz0;
   double rz = scalars->rz, beta = 0;
   int done = scalars->done, it = 0;
-  const int threads = static_cast<int>(gridDim.x * blockDim.x);
+  const int fpc = static_cast<int>(blockDim.x) / 6, chunks = (m.frames + fpc - 1) / fpc;
   const int tid = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x);
   while (done == 0 && it < max_iterations) {
     // (1) samples.
     for (int b = blockIdx.x; b < m.blocks; b += gridDim.x) {
-      lanes_tangent_block(m, f, F, cache, z, p, beta, b, lanes, local, slot_partials);
+      if (staged)
+        staged_tangent_block(m, f, F, cache, z, p, beta, b, local, slot_partials);
+      else
+        lanes_tangent_block(m, f, F, cache, z, p, beta, b, lanes, local, slot_partials);
       __syncthreads();
     }
     grid.sync();
-    // (2) frames: p, Ap, p.Ap.
+    // (2) frames: p, Ap, p.Ap, one thread per frame row.
     double dot = 0;
-    for (int i = tid; i < m.frames; i += threads) {
-      for (int k = 0; k < 6; ++k) p[6 * i + k] = next_direction(z, p, beta, 6 * i + k);
-      double acc[6];
-      fused_gather(m, slot_partials, i, acc);
-      for (int k = 0; k < 6; ++k) {
-        const double v = frame_row(m, geo, inertia_world, flags.inv_h2, flags.project, p, i, k, acc[k], flags.k_scale);
-        Ap[6 * i + k] = static_cast<R>(v);
-        dot += static_cast<double>(p[6 * i + k]) * static_cast<double>(static_cast<R>(v));
-      }
-    }
+    for (int c = blockIdx.x; c < chunks; c += gridDim.x)
+      dot += frame_rows_chunk(m, slot_partials, geo, inertia_world, flags, p, Ap, z, beta, c);
     const double pAp = grid_sum(dot, partials, grid);
     if (!(pAp > 0 && pAp < HUGE_VAL)) {
       done = 2;
@@ -416,19 +557,8 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
     const double alpha = rz / pAp;
     // (3) update and preconditioner.
     dot = 0;
-    for (int i = tid; i < m.frames; i += threads) {
-      for (int k = 0; k < 6; ++k) {
-        const int j = 6 * i + k;
-        x[j] = static_cast<R>(static_cast<double>(x[j]) + alpha * static_cast<double>(p[j]));
-        r[j] = static_cast<R>(static_cast<double>(r[j]) - alpha * static_cast<double>(Ap[j]));
-      }
-      double zz[6];
-      block_jacobi(minv, r, i, zz);
-      for (int k = 0; k < 6; ++k) {
-        z[6 * i + k] = static_cast<R>(zz[k]);
-        dot += static_cast<double>(r[6 * i + k]) * static_cast<double>(static_cast<R>(zz[k]));
-      }
-    }
+    for (int c = blockIdx.x; c < chunks; c += gridDim.x)
+      dot += update_rows_chunk(m.frames, minv, p, Ap, x, r, z, alpha, c);
     const double rz_new = grid_sum(dot, partials + gridDim.x, grid);
     beta = rz > 0 ? rz_new / rz : 0;
     rz = rz_new;

@@ -85,6 +85,12 @@ struct ModelView {
   const int* slot_pairs = nullptr;          // [P] pair index relative to the block's first pair
   const int* frame_slot_offsets = nullptr;  // [N+1]
   const int* frame_slots = nullptr;         // [Q]
+  // Staged tangent pass: the pairs of each block in ELL order (sample_layout.hpp).
+  int ell_entries = 0;                      // E
+  const int* ell_offsets = nullptr;         // [B+1]
+  const unsigned short* ell_slot = nullptr; // [E] block-local slot of the entry's pair
+  const R* ell_data = nullptr;              // [4][E]: w, then the gradient's x, y, z (1/m); component-major
+  const int* slot_ell = nullptr;            // [P] as slot_pairs, block-local ELL entries
 };
 
 // Frame kinematics of the current state: R_i row-major and x_i - origin.
@@ -294,6 +300,75 @@ FASCIA_HD void fused_gather(const ModelView<R>& m, const R* partials, int i, dou
   }
 }
 
+// ---- staged tangent pass (fused design) ---------------------------------------------------------
+// The tangent product of one block of samples from data staged in shared memory
+// (elasticity_kernels.cuh, staged_tangent_block): per block slot j, kSlotStride values
+// [R_i row-major (9), x_i - origin (3), d_i (6)]; per block sample t, kSampleStride values
+// [p_s - origin (3), F (9), material cache (10)]; the pairs' w and g from the ELL table (global,
+// coalesced); the pairs' 6-vectors written [6][E_b] in ELL order. Same arithmetic as fused_sample.
+// Both strides are odd, so threads reading consecutive slots or samples hit distinct banks.
+constexpr int kSlotStride = 19;
+constexpr int kSampleStride = 23;
+
+template <class R>
+FASCIA_HD Vec3 ell_gradient(const ModelView<R>& m, int e) {
+  const int E = m.ell_entries;
+  return Vec3{static_cast<double>(m.ell_data[E + e]), static_cast<double>(m.ell_data[2 * E + e]),
+              static_cast<double>(m.ell_data[3 * E + e])};
+}
+
+// dP = C[dF] (eq. 22-24) of sample s, local index t of a block of ns samples whose ELL entries
+// start at e0, with dF = sum_p B_p d_i (eq. 11) over its pairs in neighbour order.
+template <class R>
+FASCIA_HD Mat3 staged_sample_dP(const ModelView<R>& m, int s, int t, int ns, int e0, const R* slots,
+                                const R* sample) {
+  const int count = m.offsets[s + 1] - m.offsets[s];
+  const Vec3 ps = ld3(sample);
+  Mat3 dF = zero3();
+  for (int j = 0; j < count; ++j) {
+    const int e = e0 + j * ns + t;
+    const R* sl = slots + kSlotStride * m.ell_slot[e];
+    const Mat3 Ri = ldm(sl);
+    const Vec3 a = Ri * (ps - ld3(sl + 9));
+    dF += pair_deformation_differential(ld3(sl + 12), ld3(sl + 15), a, ell_gradient(m, e),
+                                        static_cast<double>(m.ell_data[e]), Ri);
+  }
+  const Material mat = m.materials[m.sample_materials[s]];
+  MaterialCache c;
+  c.a = ldm(sample + 12);
+  c.c = static_cast<double>(sample[21]);
+  return pk1_differential(mat, ldm(sample + 3), c, dF);
+}
+
+// Each pair's v B_p^T dP (eq. 21, 23, 25-26) of sample s into outs[k E + e - e0] (E entries in
+// the block), ps = p_s - origin.
+template <class R>
+FASCIA_HD void staged_sample_outputs(const ModelView<R>& m, int s, int t, int ns, int e0, int E, const R* slots,
+                                     const Vec3& ps, const Mat3& dP, R* outs) {
+  const int count = m.offsets[s + 1] - m.offsets[s];
+  const double v = static_cast<double>(m.volumes[s]);
+  for (int j = 0; j < count; ++j) {
+    const int e = e0 + j * ns + t;
+    const R* sl = slots + kSlotStride * m.ell_slot[e];
+    const Mat3 Ri = ldm(sl);
+    const Vec3 a = Ri * (ps - ld3(sl + 9));
+    double out[6];
+    pair_virtual_work(dP, a, ell_gradient(m, e), static_cast<double>(m.ell_data[e]), Ri, v, out);
+    for (int k = 0; k < 6; ++k) outs[k * E + (e - e0)] = static_cast<R>(out[k]);
+  }
+}
+
+// Sum of the pairs of block slot q from the staged outputs [6][E], in increasing pair order.
+template <class R>
+FASCIA_HD void staged_slot_sum(const ModelView<R>& m, const R* outs, int E, int q, R* partials) {
+  double acc[6] = {0, 0, 0, 0, 0, 0};
+  for (int k = m.slot_pair_offsets[q]; k < m.slot_pair_offsets[q + 1]; ++k) {
+    const int e = m.slot_ell[k];
+    for (int j = 0; j < 6; ++j) acc[j] += static_cast<double>(outs[j * E + e]);
+  }
+  for (int j = 0; j < 6; ++j) partials[6 * q + j] = static_cast<R>(acc[j]);
+}
+
 // ---- frames: the rest of the operator ------------------------------------------------------------
 
 // Row k of the frame terms added after the gather of the sample terms `acc`: k_scale acc (the
@@ -303,13 +378,14 @@ FASCIA_HD void fused_gather(const ModelView<R>& m, const R* partials, int i, dou
 // inv_h2 M_i d (inv_h2 = (1 + alpha h)/h^2; translations m_i, rotations R_i I_0 R_i^T in
 // `inertia_world` [N][9]; gyroscopic terms neglected, as engine/integrate/step_potential.hpp), and,
 // when `project` is set, the projection of fixed DOFs (they leave the unknowns: row set to 0).
-template <class R>
-FASCIA_HD double frame_row(const ModelView<R>& m, const R* geo, const R* inertia_world, double inv_h2, bool project,
-                           const R* d, int i, int k, double acc, double k_scale = 1.0) {
+// frame_row_of takes the frame's 6 direction values di (d + 6 i, or a copy of them).
+template <class R, class D>
+FASCIA_HD double frame_row_of(const ModelView<R>& m, const R* geo, const R* inertia_world, double inv_h2, bool project,
+                              const D* di, int i, int k, double acc, double k_scale = 1.0) {
   if (project && m.fixed[6 * i + k]) return 0.0;
   acc *= k_scale;
   if (k >= 3) {
-    const R* dr = d + 6 * i + 3;
+    const D* dr = di + 3;
     if (geo) {
       const R* row = geo + 9 * i + 3 * (k - 3);
       acc += static_cast<double>(row[0]) * static_cast<double>(dr[0]) +
@@ -323,9 +399,15 @@ FASCIA_HD double frame_row(const ModelView<R>& m, const R* geo, const R* inertia
                        static_cast<double>(jr[2]) * static_cast<double>(dr[2]));
     }
   } else if (inv_h2 != 0) {
-    acc += inv_h2 * static_cast<double>(m.masses[i]) * static_cast<double>(d[6 * i + k]);
+    acc += inv_h2 * static_cast<double>(m.masses[i]) * static_cast<double>(di[k]);
   }
   return acc;
+}
+
+template <class R>
+FASCIA_HD double frame_row(const ModelView<R>& m, const R* geo, const R* inertia_world, double inv_h2, bool project,
+                           const R* d, int i, int k, double acc, double k_scale = 1.0) {
+  return frame_row_of(m, geo, inertia_world, inv_h2, project, d + 6 * i, i, k, acc, k_scale);
 }
 
 // In-place inverse of a symmetric 6x6 matrix by Cholesky factorisation; false if it is not

@@ -127,6 +127,29 @@ BlockLayout build_block_layout(const Model& model, int max_samples, int max_pair
     if (!frame_pair.empty()) L.slot_pair_offsets.push_back(static_cast<int>(L.slot_pairs.size()));
     L.block_slots.push_back(static_cast<int>(L.slot_frames.size()));
   }
+  // ELL order of each block's pairs (pair j of local sample t at j * ns + t).
+  L.ell_offsets.assign(1, 0);
+  L.pair_ell.assign(nb.frames.size(), 0);
+  for (int b = 0; b < blocks; ++b) {
+    const int s0 = L.block_samples[b], s1 = L.block_samples[b + 1], ns = s1 - s0;
+    int width = 0;
+    for (int s = s0; s < s1; ++s) width = std::max(width, nb.offsets[s + 1] - nb.offsets[s]);
+    const int e0 = L.ell_offsets.back();
+    for (int s = s0; s < s1; ++s)
+      for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) L.pair_ell[p] = e0 + (p - nb.offsets[s]) * ns + (s - s0);
+    L.ell_offsets.push_back(e0 + width * ns);
+  }
+  L.ell_slot.assign(L.ell_count(), 0);
+  L.slot_ell.assign(L.slot_pairs.size(), 0);
+  for (int b = 0; b < blocks; ++b) {
+    const int p0 = nb.offsets[L.block_samples[b]], e0 = L.ell_offsets[b], q0 = L.block_slots[b];
+    for (int q = q0; q < L.block_slots[b + 1]; ++q)
+      for (int k = L.slot_pair_offsets[q]; k < L.slot_pair_offsets[q + 1]; ++k) {
+        const int e = L.pair_ell[p0 + L.slot_pairs[k]];
+        L.ell_slot[e] = q - q0;
+        L.slot_ell[k] = e - e0;
+      }
+  }
   // Frame -> its slots, in slot (= block) order.
   const int q_count = L.slot_count();
   L.frame_slot_offsets.assign(n + 1, 0);

@@ -6,7 +6,11 @@
 //  - the block tables of the fused design (elasticity_phases.hpp): consecutive samples grouped
 //    into blocks, each block's distinct frames ("slots") with the block-local pairs that touch
 //    them, and per frame the slots that hold its partial sums. Every list is in increasing order,
-//    which fixes the summation order and makes the device results bitwise reproducible.
+//    which fixes the summation order and makes the device results bitwise reproducible;
+//  - the staged tangent pass's per-block ELL order of pairs: pair j of the block's sample t sits at
+//    j * ns + t (ns samples in the block, width = the block's largest neighbour count), so that
+//    thread t reading its j-th pair and the warp's threads reading neighbouring words coincide:
+//    every per-pair load and shared-memory store of that pass is coalesced.
 #pragma once
 
 #include "model/model.hpp"
@@ -35,6 +39,12 @@ struct BlockLayout {
   std::vector<int> slot_pairs;          // [P] pair index minus the block's first pair
   std::vector<int> frame_slot_offsets;  // [N+1]
   std::vector<int> frame_slots;         // [Q]
+  // Staged tangent pass (ELL order within each block; entries past a sample's count are padding).
+  std::vector<int> ell_offsets;         // [B+1] first ELL entry of each block; block b has ns_b * width_b
+  std::vector<int> pair_ell;            // [P] ELL entry of each pair (global)
+  std::vector<int> ell_slot;            // [E] slot of the entry's pair minus the block's first slot (0 on padding)
+  std::vector<int> slot_ell;            // [P] as slot_pairs, the ELL entry minus the block's first entry
+  int ell_count() const { return ell_offsets.empty() ? 0 : ell_offsets.back(); }
   int block_count() const { return static_cast<int>(block_samples.size()) - 1; }
   int slot_count() const { return static_cast<int>(slot_frames.size()); }
 };

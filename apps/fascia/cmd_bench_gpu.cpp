@@ -46,6 +46,9 @@ struct Case {
   bool persistent;
   int lanes = 0;
   int lane_threads = 128;
+  bool staged = false;
+  int block_samples = 128;
+  int persistent_blocks_per_sm = 4;
 };
 
 // The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) on the device.
@@ -55,6 +58,9 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   options.design = c.design;
   options.lanes = c.lanes;
   options.lane_threads = c.lane_threads;
+  options.staged = c.staged;
+  options.block_samples = c.block_samples;
+  options.persistent_blocks_per_sm = c.persistent_blocks_per_sm;
   gpu::DeviceElasticity dev(model, options);
   const State start = rest_state(model);
   dev.set_state(start);
@@ -70,8 +76,11 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   row.neighbours = model.max_neighbours();
   row.precision = gpu::to_string(c.precision);
   row.design = gpu::to_string(dev.design());
-  if (dev.design() == gpu::Design::fused)
-    row.design += "/L" + std::to_string(c.lanes) + "x" + std::to_string(c.lane_threads);
+  if (dev.staged())
+    row.design += "/staged";
+  else if (dev.design() == gpu::Design::fused)
+    row.design += "/L" + std::to_string(c.lanes) + "x" + std::to_string(c.lane_threads) + "b" +
+                  std::to_string(c.block_samples);
   row.linear = to_string(c.linear);
   row.cg_kernel = report.persistent ? "persistent" : "launches";
   row.ms_per_step = stepper.time_step_ms(repeats);
@@ -129,7 +138,17 @@ std::vector<Case> cases(const BenchGpuOptions& o) {
             out.push_back(Case{pr, de, lm, persistent});
             continue;
           }
-          for (int lanes : o.lanes) out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads});
+          for (bool staged : {true, false}) {
+            if (o.sample_pass != "both" && (o.sample_pass == "staged") != staged) continue;
+            if (staged) {
+              out.push_back(Case{pr, de, lm, persistent, 1, o.lane_threads, true, o.block_samples,
+                                 o.persistent_blocks_per_sm});
+              continue;
+            }
+            for (int lanes : o.lanes)
+              out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, false, o.block_samples,
+                                 o.persistent_blocks_per_sm});
+          }
         }
       }
     }
@@ -215,8 +234,14 @@ void add_bench_gpu_command(CLI::App& bench, Action& action) {
   cmd->add_flag("--tangent", options->tangent, "also time the tangent product alone at Table 3 sizes");
   cmd->add_option("--max-samples", options->max_samples, "largest scaling case (8 neighbours), 0: none");
   cmd->add_option("--repeats", options->repeats, "timed repeats per case");
+  cmd->add_option("--sample-pass", options->sample_pass,
+                  "fused design's tangent sample pass: staged (shared-memory staging) | lanes | both")
+      ->check(CLI::IsMember({"staged", "lanes", "both"}));
   cmd->add_option("--lanes", options->lanes, "fused design: threads per sample in the tangent product, 0: auto");
   cmd->add_option("--lane-threads", options->lane_threads, "fused design: most threads per tangent block (32..512)");
+  cmd->add_option("--block-samples", options->block_samples, "fused design: samples per block (multiple of 32)");
+  cmd->add_option("--persistent-blocks-per-sm", options->persistent_blocks_per_sm,
+                  "persistent PCG while the model needs at most this many blocks per multiprocessor");
   cmd->callback([options, &action] { action = [options] { return run_bench_gpu(*options); }; });
 }
 

@@ -22,8 +22,11 @@ struct BenchGpuOptions {
   bool tangent = false;              // time the tangent product alone at Table 3 sizes too
   long long max_samples = 4200000;   // largest scaling case (8 neighbours), 0: none
   int repeats = 10;
-  std::vector<int> lanes = {0};      // fused design: threads per sample in the tangent (0: auto)
+  std::string sample_pass = "lanes";  // fused design's tangent sample pass: staged | lanes | both
+  std::vector<int> lanes = {0};      // fused design, lanes pass: threads per sample in the tangent (0: auto)
   int lane_threads = 128;            // fused design: most threads per tangent block
+  int block_samples = 128;           // fused design: samples per block
+  int persistent_blocks_per_sm = 4;  // persistent PCG while the model needs at most this many blocks per SM
 };
 
 // ms per benchmark step (engine/bench/step_bench.hpp) on the device, for `fascia bench step

@@ -57,6 +57,7 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
                           Case{Precision::single_precision, Design::fused, CellType::tetrahedron, MaterialLaw::stvk},
                           Case{Precision::single_precision, Design::fused, CellType::hexahedron, MaterialLaw::neo_hookean},
                           Case{Precision::single_precision, Design::paper, CellType::hexahedron, MaterialLaw::stvk});
+  const bool staged = GENERATE(true, false);  // fused design: staged or lane-parallel sample pass
   const Model model = kernels_test_model(c.type, c.law);
   const State state = kernels_test_state(model, 21);
   const int dofs = model.dof_count(), n = model.frame_count();
@@ -73,8 +74,10 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
   options.precision = c.precision;
   options.design = c.design;
   options.block_samples = 32;  // several blocks even on the small test model
+  options.staged = staged;
   DeviceElasticity dev(model, options);
   REQUIRE(dev.design() == c.design);
+  REQUIRE(dev.staged() == (staged && c.design == Design::fused));
   dev.set_state(state);
   std::vector<double> dg(dofs), dKd(dofs), dblocks(36 * n);
   const double dw = dev.gradient(dg.data());
@@ -84,8 +87,9 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
 
   const double e_energy = std::abs(dw - w) / std::abs(w), e_grad = relative_difference(dg, g),
                e_tangent = relative_difference(dKd, Kd), e_blocks = relative_difference(dblocks, blocks);
-  std::printf("[gpu] %s %s %s %s: energy %.2e gradient %.2e tangent %.2e blocks %.2e\n", to_string(c.precision),
-              to_string(c.design), name(c.type), to_string(c.law), e_energy, e_grad, e_tangent, e_blocks);
+  std::printf("[gpu] %s %s%s %s %s: energy %.2e gradient %.2e tangent %.2e blocks %.2e\n", to_string(c.precision),
+              to_string(c.design), dev.staged() ? "/staged" : "", name(c.type), to_string(c.law), e_energy, e_grad,
+              e_tangent, e_blocks);
   const double tol = bound(c.precision, false);
   CHECK(e_energy < tol);
   CHECK(dw2 == dw);
@@ -101,6 +105,7 @@ TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]")
                           Case{Precision::single_precision, Design::fused, CellType::tetrahedron, MaterialLaw::stvk});
   const bool graphs = GENERATE(true, false);
   const bool persistent = GENERATE(true, false);
+  const bool staged = GENERATE(true, false);
   const Model model = kernels_test_model(c.type, c.law);
   const State state = kernels_test_state(model, 33);
   const double h = 0.01;
@@ -111,7 +116,9 @@ TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]")
   options.precision = c.precision;
   options.design = c.design;
   options.block_samples = 32;
+  options.staged = staged;
   DeviceElasticity dev(model, options);
+  REQUIRE(dev.staged() == (staged && c.design == Design::fused));
   dev.set_state(state);
   StepOptions so;
   so.dt = h;
@@ -135,8 +142,9 @@ TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]")
   const double e_pos = relative_difference(after.positions, expected.positions);
   const double e_vel = relative_difference(after.velocities, v_expected);
   std::printf(
-      "[gpu] step %s %s %s %s graphs=%d persistent=%d: cg %d (cpu %d) delta %.2e positions %.2e velocities %.2e\n",
-      to_string(c.precision), to_string(c.design), name(c.type), to_string(c.law), graphs ? 1 : 0,
+      "[gpu] step %s %s%s %s %s graphs=%d persistent=%d: cg %d (cpu %d) delta %.2e positions %.2e velocities %.2e\n",
+      to_string(c.precision), to_string(c.design), dev.staged() ? "/staged" : "", name(c.type), to_string(c.law),
+      graphs ? 1 : 0,
       report.persistent ? 1 : 0, report.cg_iterations, ref.iterations, e_delta, e_pos, e_vel);
   CHECK(report.cg_iterations == ref.iterations);
   const double tol = bound(c.precision, true);
@@ -220,6 +228,7 @@ TEST_CASE("device PCG with a tolerance stops early and checks without per-iterat
 TEST_CASE("repeated device runs are bitwise identical", "[gpu]") {
   const Design design = GENERATE(Design::fused, Design::paper);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
+  const bool staged = GENERATE(true, false);
   const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::neo_hookean, 6, 5, 4);
   const State state = kernels_test_state(model, 8);
   const std::vector<double> d = random_vector(model.dof_count(), 6);
@@ -228,6 +237,7 @@ TEST_CASE("repeated device runs are bitwise identical", "[gpu]") {
     DeviceOptions options;
     options.precision = precision;
     options.design = design;
+    options.staged = staged;
     DeviceElasticity dev(model, options);
     dev.set_state(state);
     std::vector<double> out(3 * model.dof_count() + 1);

@@ -17,7 +17,8 @@ namespace {
 struct HostDevice {
   Model model;
   BlockLayout layout;
-  std::vector<double> sample_rest, frame_rest, x, rot;
+  std::vector<double> sample_rest, frame_rest, x, rot, ell_data;
+  std::vector<unsigned short> ell_slot;
   ModelView<double> view;
   FrameView<double> frames;
 
@@ -62,7 +63,59 @@ struct HostDevice {
     view.slot_pairs = layout.slot_pairs.data();
     view.frame_slot_offsets = layout.frame_slot_offsets.data();
     view.frame_slots = layout.frame_slots.data();
+    const int E = layout.ell_count();
+    ell_data.assign(4 * static_cast<size_t>(E), 0.0);
+    for (int p = 0; p < model.pair_count(); ++p) {
+      const int e = layout.pair_ell[p];
+      ell_data[e] = nb.weights[p];
+      for (int k = 0; k < 3; ++k) ell_data[static_cast<size_t>(k + 1) * E + e] = nb.weight_gradients[3 * p + k];
+    }
+    ell_slot.assign(layout.ell_slot.begin(), layout.ell_slot.end());
+    view.ell_entries = E;
+    view.ell_offsets = layout.ell_offsets.data();
+    view.ell_slot = ell_slot.data();
+    view.ell_data = ell_data.data();
+    view.slot_ell = layout.slot_ell.data();
     frames = FrameView<double>{rot.data(), x.data()};
+  }
+
+  // The staged tangent pass as staged_tangent_block runs it: staging, dP per sample, the pair
+  // outputs over the sample area, slot sums; then the frame gather. F and cache from the force pass.
+  std::vector<double> staged(const std::vector<double>& d, const std::vector<double>& F,
+                             const std::vector<double>& cache) {
+    std::vector<double> partials(6 * static_cast<size_t>(layout.slot_count()));
+    for (int b = 0; b < layout.block_count(); ++b) {
+      const int s0 = layout.block_samples[b], ns = layout.block_samples[b + 1] - s0;
+      const int q0 = layout.block_slots[b], nq = layout.block_slots[b + 1] - q0;
+      const int e0 = layout.ell_offsets[b], E = layout.ell_offsets[b + 1] - e0;
+      std::vector<double> smem(kSlotStride * nq + std::max(kSampleStride * ns, 6 * E));
+      double* slots = smem.data();
+      double* samples = slots + kSlotStride * nq;
+      for (int j = 0; j < nq; ++j) {
+        const int i = layout.slot_frames[q0 + j];
+        for (int k = 0; k < 9; ++k) slots[kSlotStride * j + k] = rot[9 * i + k];
+        for (int k = 0; k < 3; ++k) slots[kSlotStride * j + 9 + k] = frame_rest[3 * i + k];
+        for (int k = 0; k < 6; ++k) slots[kSlotStride * j + 12 + k] = d[6 * i + k];
+      }
+      for (int t = 0; t < ns; ++t) {
+        const int s = s0 + t;
+        for (int k = 0; k < 3; ++k) samples[kSampleStride * t + k] = sample_rest[3 * s + k];
+        for (int k = 0; k < 9; ++k) samples[kSampleStride * t + 3 + k] = F[9 * s + k];
+        for (int k = 0; k < 10; ++k) samples[kSampleStride * t + 12 + k] = cache[10 * s + k];
+      }
+      std::vector<Mat3> dP(ns);
+      std::vector<Vec3> ps(ns);
+      for (int t = 0; t < ns; ++t) {
+        ps[t] = ld3(samples + kSampleStride * t);
+        dP[t] = staged_sample_dP(view, s0 + t, t, ns, e0, slots, samples + kSampleStride * t);
+      }
+      std::fill(samples, smem.data() + smem.size(), std::nan(""));  // the outputs must not read the sample area
+      for (int t = 0; t < ns; ++t) staged_sample_outputs(view, s0 + t, t, ns, e0, E, slots, ps[t], dP[t], samples);
+      for (int q = q0; q < q0 + nq; ++q) staged_slot_sum(view, samples, E, q, partials.data());
+    }
+    std::vector<double> out(model.dof_count());
+    for (int i = 0; i < model.frame_count(); ++i) fused_gather(view, partials.data(), i, &out[6 * i]);
+    return out;
   }
 
   // The fused pass as the device runs it: blocks, shared-memory slots, frame gather.
@@ -135,6 +188,34 @@ TEST_CASE("block layout lists every pair once, per frame, in increasing order", 
     }
 }
 
+TEST_CASE("ELL order holds every pair of a block once, with its block slot", "[kernels][layout]") {
+  const Model model = kernels_test_model(CellType::tetrahedron, MaterialLaw::stvk, 4, 3, 3);
+  const int block_samples = GENERATE(32, 128);
+  const BlockLayout L = build_block_layout(model, block_samples, 1024);
+  const NeighbourTable& nb = model.neighbours;
+  std::vector<int> owner(L.ell_count(), -1);
+  for (int b = 0; b < L.block_count(); ++b) {
+    const int s0 = L.block_samples[b], ns = L.block_samples[b + 1] - s0;
+    const int e0 = L.ell_offsets[b], E = L.ell_offsets[b + 1] - e0;
+    int width = 0;
+    for (int s = s0; s < s0 + ns; ++s) width = std::max(width, nb.offsets[s + 1] - nb.offsets[s]);
+    REQUIRE(E == width * ns);
+    for (int s = s0; s < s0 + ns; ++s)
+      for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+        const int e = L.pair_ell[p];
+        REQUIRE(e == e0 + (p - nb.offsets[s]) * ns + (s - s0));
+        REQUIRE(owner[e] == -1);
+        owner[e] = p;
+        REQUIRE(L.slot_frames[L.block_slots[b] + L.ell_slot[e]] == nb.frames[p]);
+      }
+    const int p0 = nb.offsets[s0];
+    for (int k = L.slot_pair_offsets[L.block_slots[b]]; k < L.slot_pair_offsets[L.block_slots[b + 1]]; ++k)
+      REQUIRE(L.slot_ell[k] == L.pair_ell[p0 + L.slot_pairs[k]] - e0);
+  }
+  // Tetrahedral cells give samples 4 neighbours each: no padding.
+  REQUIRE(std::count(owner.begin(), owner.end(), -1) == 0);
+}
+
 TEST_CASE("kernel bodies stepped on the host reproduce the CPU reference", "[kernels][emulation]") {
   const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
   const MaterialLaw law = GENERATE(MaterialLaw::stvk, MaterialLaw::neo_hookean);
@@ -164,6 +245,23 @@ TEST_CASE("kernel bodies stepped on the host reproduce the CPU reference", "[ker
   for (int i = 0; i < n; ++i)
     for (int k = 0; k < 6; ++k) fk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, fk[6 * i + k]);
   CHECK(relative_difference(fk, Kd) < 1e-12);
+
+  // Fused design, staged tangent pass (F and material cache from the force pass).
+  {
+    const int S = model.sample_count();
+    std::vector<double> sF(9 * S), cache(10 * S), local(6 * static_cast<size_t>(dev.layout.max_block_pairs));
+    for (int b = 0; b < dev.layout.block_count(); ++b) {
+      const int s0 = dev.layout.block_samples[b];
+      for (int s = s0; s < dev.layout.block_samples[b + 1]; ++s)
+        fused_sample<Pass::gradient>(dev.view, dev.frames, d.data(), s, model.neighbours.offsets[s0], local.data(),
+                                     sF.data(), static_cast<const double*>(nullptr), 0.0, cache.data());
+    }
+    std::vector<double> sk = dev.staged(d, sF, cache);
+    for (int i = 0; i < n; ++i)
+      for (int k = 0; k < 6; ++k)
+        sk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, sk[6 * i + k]);
+    CHECK(relative_difference(sk, Kd) < 1e-12);
+  }
 
   // Paper design.
   const int P = model.pair_count(), S = model.sample_count();
