@@ -275,11 +275,13 @@ ParamSpec build_registry() {
   ParamSpec solver = object(
       "solver", "time integration and nonlinear solver",
       {
-          with_default(enumeration("integrator", {"static", "backward_euler"},
-                                   "static equilibrium (Newton on W - f.x) or backward Euler"),
+          with_default(enumeration("integrator", {"static", "backward_euler", "variational"},
+                                   "static equilibrium (Newton on W - f.x), backward Euler (dissipative), or "
+                                   "variational (midpoint discrete Lagrangian: conserves momenta, no damping)"),
                        "backward_euler"),
           with_default(above(quantity("dt", dim::time, "time step (static: pseudo-time per step)"), 0), "10 ms"),
-          with_default(above(quantity("rayleigh_mass", dim::frequency, "Rayleigh damping alpha (D = alpha M + beta K)"),
+          with_default(above(quantity("rayleigh_mass", dim::frequency,
+                                      "Rayleigh damping alpha (D = alpha M + beta K; backward_euler only)"),
                              0, false),
                        "0"),
           with_default(above(quantity("rayleigh_stiffness", dim::time, "Rayleigh damping beta"), 0, false), "0"),

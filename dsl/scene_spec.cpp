@@ -311,6 +311,12 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   s.dt = located_num(solver.at("dt"));
   s.rayleigh_mass = solver.num("rayleigh_mass");
   s.rayleigh_stiffness = solver.num("rayleigh_stiffness");
+  if (s.integrator.value == "variational")
+    for (const char* key : {"rayleigh_mass", "rayleigh_stiffness"})
+      if (solver.num(key) != 0)
+        diagnostics.error(solver.at(key).where, std::string("solver: the variational integrator conserves energy and "
+                                                            "momentum and takes no damping; remove '") +
+                                                    key + "' or use 'integrator: backward_euler'");
   s.load_steps = static_cast<int>(solver.integer_at("load_steps"));
   s.max_load_halvings = static_cast<int>(solver.integer_at("max_load_halvings"));
   s.threads = static_cast<int>(solver.integer_at("threads"));
@@ -340,7 +346,8 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   } else if (s.integrator.value == "static") {
     scene.run.step_count = 1;
   } else {
-    diagnostics.error(run.where, "run: a backward_euler scene needs a duration (e.g. 'duration: 1 s') or steps");
+    diagnostics.error(run.where, "run: a " + s.integrator.value +
+                                     " scene needs a duration (e.g. 'duration: 1 s') or steps");
   }
 
   const Value& output = root.at("output");

@@ -109,7 +109,7 @@ struct CouplingSpec {
 };
 
 struct SolverSpec {
-  Located<std::string> integrator;  // "static" | "backward_euler"
+  Located<std::string> integrator;  // "static" | "backward_euler" | "variational"
   Located<double> dt;               // s
   double rayleigh_mass = 0, rayleigh_stiffness = 0;
   int load_steps = 1, max_load_halvings = 10, threads = 0;
