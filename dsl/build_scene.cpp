@@ -546,6 +546,18 @@ void finish_scene(const SceneSpec& scene, std::vector<ObjectPart>& parts, BuiltS
       PrescribedMotion motion;
       motion.frames = frames;
       motion.velocity = to_vec3(l.vector.value);
+      if (l.angular_velocity) {
+        motion.rotates = true;
+        motion.angular_velocity = to_vec3(l.angular_velocity->value);
+        if (l.pivot) {
+          motion.pivot = to_vec3(l.pivot->value);
+        } else if (part.spec->kind.value == "rigid") {
+          motion.pivot = load3(&model.frame_rest_positions[3 * static_cast<std::size_t>(part.frames.front())]);
+        } else {
+          for (int i : frames) motion.pivot += load3(&model.frame_rest_positions[3 * static_cast<std::size_t>(i)]);
+          motion.pivot = (1.0 / static_cast<double>(frames.size())) * motion.pivot;
+        }
+      }
       motion.start = l.start;
       if (l.end) motion.end = *l.end;
       built.motions.push_back(motion);

@@ -266,6 +266,13 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
                                                                               : "velocity";
         spec.vector = located(value.at(vector_key).vec3(), value.at(vector_key));
         if (spec.kind == LoadSpec::Kind::motion) {
+          if (value.has("angular_velocity"))
+            spec.angular_velocity = located(value.at("angular_velocity").vec3(), value.at("angular_velocity"));
+          if (value.has("pivot")) {
+            spec.pivot = located(value.at("pivot").vec3(), value.at("pivot"));
+            if (!spec.angular_velocity)
+              diagnostics.error(value.at("pivot").where, "motion: a pivot needs an angular_velocity to rotate about it");
+          }
           spec.start = value.num("start");
           if (value.has("end")) {
             spec.end = value.num("end");

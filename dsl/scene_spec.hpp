@@ -97,6 +97,8 @@ struct LoadSpec {
   Located<Vec3d> vector;               // gravity (m/s^2), force (N), traction (Pa), velocity (m/s)
   std::optional<Located<std::string>> object;
   std::optional<RegionSpec> region;
+  std::optional<Located<Vec3d>> angular_velocity;  // motion, rad/s
+  std::optional<Located<Vec3d>> pivot;             // motion, m
   double start = 0;                    // motion, s
   std::optional<double> end;           // motion, s
 };

@@ -50,9 +50,7 @@ Simulation::Simulation(Model model, ExternalLoads loads, SimulationSettings sett
     : m_model(std::move(model)), m_loads(std::move(loads)), m_settings(settings), m_motions(std::move(motions)) {
   if (m_model.fixed_dofs.size() != static_cast<size_t>(m_model.dof_count()))
     m_model.fixed_dofs.resize(m_model.dof_count(), 0);
-  for (const PrescribedMotion& m : m_motions)
-    for (int f : m.frames)
-      for (int k = 0; k < 3; ++k) m_model.fixed_dofs[kFrameDofs * f + k] = 1;
+  fix_prescribed_dofs(m_model, m_motions);
   validate(m_model);
   if (!(m_settings.dt > 0)) throw std::invalid_argument("time step must be > 0 s");
   if (m_settings.integrator == Integrator::variational && (m_settings.rayleigh_mass != 0 || m_settings.rayleigh_stiffness != 0))
@@ -73,14 +71,6 @@ bool finite_state(const State& s) {
   for (double x : s.orientations)
     if (!std::isfinite(x)) return false;
   return true;
-}
-
-void apply_motions(const Model& model, const std::vector<PrescribedMotion>& motions, double t, State& state) {
-  for (const PrescribedMotion& m : motions) {
-    const double active = std::clamp(t, m.start, m.end) - m.start;
-    for (int f : m.frames)
-      store3(&state.positions[3 * f], load3(&model.frame_rest_positions[3 * f]) + std::max(0.0, active) * m.velocity);
-  }
 }
 
 }  // namespace

@@ -2,12 +2,12 @@
 // This is what `fascia run` drives; each step reports what the HDF5 observables record.
 #pragma once
 
+#include "integrate/prescribed_motion.hpp"
 #include "mechanics/external_loads.hpp"
 #include "model/model.hpp"
 #include "model/state.hpp"
 #include "solve/newton.hpp"
 
-#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -21,15 +21,6 @@ enum class Integrator { static_equilibrium, backward_euler, variational };
 
 const char* to_string(Integrator integrator);
 Integrator parse_integrator(const std::string& name);  // "static" | "backward_euler" | "variational"
-
-// Frames moved along a prescribed path (e.g. a tool pulling tissue): their translations are
-// fixed DOFs, displaced by velocity * (t - start) for start <= t <= end, then held.
-struct PrescribedMotion {
-  std::vector<int> frames;
-  Vec3 velocity{0, 0, 0};  // m/s
-  double start = 0;        // s
-  double end = std::numeric_limits<double>::infinity();  // s
-};
 
 struct SimulationSettings {
   Integrator integrator = Integrator::backward_euler;
