@@ -403,6 +403,7 @@ BuiltScene build_scene(const SceneSpec& scene) {
       }
       try {
         const int n = is_share ? builder.share(ia, ib, within) : builder.attach(ia, ib, within);
+        built.couplings.push_back(CouplingReport{is_share ? "share" : "attach", a.value, b.value, n, within, c.where});
         if (n == 0)
           diagnostics.error(where, std::string(is_share ? "share" : "attach") + ": no frame of '" + a.value +
                                        "' lies within " + metres(within) + " of the surface of '" + b.value +
