@@ -223,6 +223,11 @@ double VariationalStep::residual(const State& start, const State& end, const std
   return free_norm(r, m_fixed);
 }
 
+LinearSystem VariationalStep::iteration_matrix(const State& start, const State& end) {
+  midpoint(start, end, m_mid);
+  return approximate_jacobian(start, end);
+}
+
 LinearSystem VariationalStep::approximate_jacobian(const State& start, const State& end) {
   const int n = m_model.frame_count();
   const double h = m_dt;
@@ -358,7 +363,6 @@ NewtonResult VariationalStep::advance(const State& start, State& end, const Newt
   std::vector<double> minus_d1, p_end;
   action_derivatives(start, end, minus_d1, p_end);
   set_velocities(start, end, p_end);
-  result.value = 0;
   return result;
 }
 

@@ -89,6 +89,13 @@ class VariationalStep {
   // h), expanded to attached frames.
   void set_velocities(const State& start, State& end, const std::vector<double>& p);
 
+  // r = -D_1 S - p_start of (4) at the free DOFs (zero elsewhere), N s; returns its norm.
+  double residual(const State& start, const State& end, const std::vector<double>& p_start,
+                  std::vector<double>& r);
+  // The iteration matrix 4 H = 4 M_kin / h^2 + K(q_mid) at (start, end), N/m (see above): the
+  // Jacobian of 4 r / h w.r.t. increments of q_{k+1} up to the omitted terms.
+  LinearSystem iteration_matrix(const State& start, const State& end);
+
   // Free-DOF norm of the residual of (4) at the end of the last advance(), N s, and the force
   // scale its relative value was measured against (N).
   double residual_norm() const { return m_residual_norm; }
@@ -102,9 +109,7 @@ class VariationalStep {
   // A_i^T g and B_i^T g of (3) for every reduced frame.
   void midpoint_transposes(const State& start, const State& end, const std::vector<double>& g,
                            std::vector<double>& at_g, std::vector<double>& bt_g) const;
-  // r = -D_1 S - p_start at the free DOFs (zero elsewhere); keeps q_mid in m_mid. Returns |r|.
-  double residual(const State& start, const State& end, const std::vector<double>& p_start,
-                  std::vector<double>& r);
+  // iteration_matrix() at the midpoint m_mid left by the last residual().
   LinearSystem approximate_jacobian(const State& start, const State& end);
 
   const Model& m_model;
