@@ -403,6 +403,7 @@ BuiltScene build_scene(const SceneSpec& scene) {
       }
       try {
         const int n = is_share ? builder.share(ia, ib, within) : builder.attach(ia, ib, within);
+        built.couplings.push_back(CouplingReport{is_share ? "share" : "attach", a.value, b.value, n, within, c.where});
         if (n == 0)
           diagnostics.error(where, std::string(is_share ? "share" : "attach") + ": no frame of '" + a.value +
                                        "' lies within " + metres(within) + " of the surface of '" + b.value +
@@ -546,6 +547,18 @@ void finish_scene(const SceneSpec& scene, std::vector<ObjectPart>& parts, BuiltS
       PrescribedMotion motion;
       motion.frames = frames;
       motion.velocity = to_vec3(l.vector.value);
+      if (l.angular_velocity) {
+        motion.rotates = true;
+        motion.angular_velocity = to_vec3(l.angular_velocity->value);
+        if (l.pivot) {
+          motion.pivot = to_vec3(l.pivot->value);
+        } else if (part.spec->kind.value == "rigid") {
+          motion.pivot = load3(&model.frame_rest_positions[3 * static_cast<std::size_t>(part.frames.front())]);
+        } else {
+          for (int i : frames) motion.pivot += load3(&model.frame_rest_positions[3 * static_cast<std::size_t>(i)]);
+          motion.pivot = (1.0 / static_cast<double>(frames.size())) * motion.pivot;
+        }
+      }
       motion.start = l.start;
       if (l.end) motion.end = *l.end;
       built.motions.push_back(motion);

@@ -21,6 +21,17 @@ struct DiscretisationStats {
   double mass = 0;    // kg
 };
 
+// What one coupling of the scene did (`fascia check`): `frames` frames of `object` were merged into
+// frames of `other` (share) or made to follow rigid body `other` (attach).
+struct CouplingReport {
+  std::string kind;    // "share" | "attach"
+  std::string object;  // a
+  std::string other;   // b
+  int frames = 0;
+  double within = 0;   // m
+  Location where;      // the coupling in the scene
+};
+
 struct BuiltObject {
   std::string name;
   // Boundary surface. Mesh-based objects: its vertices are frames (vertex_frames). Meshless
@@ -39,6 +50,7 @@ struct BuiltScene {
   SimulationSettings settings;
   std::vector<PrescribedMotion> motions;
   std::vector<BuiltObject> objects;
+  std::vector<CouplingReport> couplings;  // in the scene's order
   int steps = 1;
   DiscretisationStats stats;
 };

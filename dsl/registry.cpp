@@ -253,8 +253,16 @@ ParamSpec build_registry() {
                  selection({required(vec3("force", dim::force, "total force"))})),
           object("surface_force", "a constant traction on the boundary faces whose centre lies in a region",
                  selection({required(vec3("traction", dim::pressure, "force per unit rest area"))})),
-          object("motion", "frames moved at constant velocity between start and end, then held (a tool pulling)",
-                 selection({required(vec3("velocity", dim::velocity, "velocity of the frames")),
+          object("motion",
+                 "frames moved rigidly between start and end, then held (a tool pulling, a bone flexing about a "
+                 "joint)",
+                 selection({required(vec3("velocity", dim::velocity, "velocity of the frames (and of the pivot)")),
+                            vec3("angular_velocity", dim::frequency,
+                                 "rotation rate about the pivot, world axes, e.g. [0, 0, 20 deg/s] (SI: rad/s); "
+                                 "prescribes the frames' rotations too"),
+                            vec3("pivot", dim::length,
+                                 "centre of the rotation at rest (default: a rigid body's centre of mass, else "
+                                 "the centroid of the selected frames)"),
                             with_default(above(quantity("start", dim::time, "start time"), 0, false), "0 s"),
                             above(quantity("end", dim::time, "end time (default: never)"), 0)})),
       });
@@ -275,11 +283,13 @@ ParamSpec build_registry() {
   ParamSpec solver = object(
       "solver", "time integration and nonlinear solver",
       {
-          with_default(enumeration("integrator", {"static", "backward_euler"},
-                                   "static equilibrium (Newton on W - f.x) or backward Euler"),
+          with_default(enumeration("integrator", {"static", "backward_euler", "variational"},
+                                   "static equilibrium (Newton on W - f.x), backward Euler (dissipative), or "
+                                   "variational (midpoint discrete Lagrangian: conserves momenta, no damping)"),
                        "backward_euler"),
           with_default(above(quantity("dt", dim::time, "time step (static: pseudo-time per step)"), 0), "10 ms"),
-          with_default(above(quantity("rayleigh_mass", dim::frequency, "Rayleigh damping alpha (D = alpha M + beta K)"),
+          with_default(above(quantity("rayleigh_mass", dim::frequency,
+                                      "Rayleigh damping alpha (D = alpha M + beta K; backward_euler only)"),
                              0, false),
                        "0"),
           with_default(above(quantity("rayleigh_stiffness", dim::time, "Rayleigh damping beta"), 0, false), "0"),

@@ -266,6 +266,13 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
                                                                               : "velocity";
         spec.vector = located(value.at(vector_key).vec3(), value.at(vector_key));
         if (spec.kind == LoadSpec::Kind::motion) {
+          if (value.has("angular_velocity"))
+            spec.angular_velocity = located(value.at("angular_velocity").vec3(), value.at("angular_velocity"));
+          if (value.has("pivot")) {
+            spec.pivot = located(value.at("pivot").vec3(), value.at("pivot"));
+            if (!spec.angular_velocity)
+              diagnostics.error(value.at("pivot").where, "motion: a pivot needs an angular_velocity to rotate about it");
+          }
           spec.start = value.num("start");
           if (value.has("end")) {
             spec.end = value.num("end");
@@ -311,6 +318,12 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   s.dt = located_num(solver.at("dt"));
   s.rayleigh_mass = solver.num("rayleigh_mass");
   s.rayleigh_stiffness = solver.num("rayleigh_stiffness");
+  if (s.integrator.value == "variational")
+    for (const char* key : {"rayleigh_mass", "rayleigh_stiffness"})
+      if (solver.num(key) != 0)
+        diagnostics.error(solver.at(key).where, std::string("solver: the variational integrator conserves energy and "
+                                                            "momentum and takes no damping; remove '") +
+                                                    key + "' or use 'integrator: backward_euler'");
   s.load_steps = static_cast<int>(solver.integer_at("load_steps"));
   s.max_load_halvings = static_cast<int>(solver.integer_at("max_load_halvings"));
   s.threads = static_cast<int>(solver.integer_at("threads"));
@@ -340,7 +353,8 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   } else if (s.integrator.value == "static") {
     scene.run.step_count = 1;
   } else {
-    diagnostics.error(run.where, "run: a backward_euler scene needs a duration (e.g. 'duration: 1 s') or steps");
+    diagnostics.error(run.where, "run: a " + s.integrator.value +
+                                     " scene needs a duration (e.g. 'duration: 1 s') or steps");
   }
 
   const Value& output = root.at("output");

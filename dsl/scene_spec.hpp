@@ -97,6 +97,8 @@ struct LoadSpec {
   Located<Vec3d> vector;               // gravity (m/s^2), force (N), traction (Pa), velocity (m/s)
   std::optional<Located<std::string>> object;
   std::optional<RegionSpec> region;
+  std::optional<Located<Vec3d>> angular_velocity;  // motion, rad/s
+  std::optional<Located<Vec3d>> pivot;             // motion, m
   double start = 0;                    // motion, s
   std::optional<double> end;           // motion, s
 };
@@ -109,7 +111,7 @@ struct CouplingSpec {
 };
 
 struct SolverSpec {
-  Located<std::string> integrator;  // "static" | "backward_euler"
+  Located<std::string> integrator;  // "static" | "backward_euler" | "variational"
   Located<double> dt;               // s
   double rayleigh_mass = 0, rayleigh_stiffness = 0;
   int load_steps = 1, max_load_halvings = 10, threads = 0;

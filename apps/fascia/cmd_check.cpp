@@ -1,5 +1,5 @@
 // fascia check SCENE: validate a scene, print it resolved (defaults, SI units) and the
-// discretisation figures, without solving.
+// discretisation figures and what every coupling did (frames merged or attached), without solving.
 #include "commands.hpp"
 #include "scene_report.hpp"
 
@@ -22,7 +22,8 @@ int check(const CheckOptions& options) {
   if (!scene) return code;
   if (options.json) {
     nlohmann::json out = {{"scene", options.scene}, {"ok", true}, {"discretisation", stats_json(scene->built.stats)},
-                          {"steps", scene->built.steps}, {"resolved_scene", scene->spec.resolved_yaml}};
+                          {"steps", scene->built.steps}, {"couplings", couplings_json(scene->built.couplings)},
+                          {"resolved_scene", scene->spec.resolved_yaml}};
     for (const dsl::BuiltObject& o : scene->built.objects)
       if (o.meshless) {
         const MeshlessStatistics& m = *o.meshless;

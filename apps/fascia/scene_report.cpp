@@ -22,6 +22,14 @@ std::unique_ptr<LoadedScene> load_scene(const std::string& path, const std::vect
   return scene;
 }
 
+nlohmann::json couplings_json(const std::vector<dsl::CouplingReport>& couplings) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const dsl::CouplingReport& c : couplings)
+    out.push_back({{"kind", c.kind}, {"object", c.object}, {"other", c.other}, {"frames", c.frames},
+                   {"within_m", c.within}, {"line", c.where.line}, {"column", c.where.column}});
+  return out;
+}
+
 nlohmann::json stats_json(const dsl::DiscretisationStats& s) {
   return {{"frames", s.frames},
           {"samples", s.samples},
@@ -58,6 +66,12 @@ std::string stats_text(const dsl::DiscretisationStats& s, const LoadedScene& sce
      << "  point forces: " << scene.built.loads.point_forces.size() << " frames\n"
      << "  material-point forces: " << scene.built.loads.material_point_forces.size() << "\n"
      << "  prescribed motions: " << scene.built.motions.size() << "\n";
+  if (!scene.built.couplings.empty()) os << "couplings:\n";
+  for (const dsl::CouplingReport& c : scene.built.couplings) {
+    os << "  " << c.kind << " " << c.object << (c.kind == "share" ? " with " : " to ") << c.other << ": " << c.frames
+       << " frames of " << c.object << (c.kind == "share" ? " merged into frames of " : " follow ") << c.other
+       << " (within " << c.within << " m; " << c.where.line << ":" << c.where.column << ")\n";
+  }
   return os.str();
 }
 

@@ -22,6 +22,8 @@ std::unique_ptr<LoadedScene> load_scene(const std::string& path, const std::vect
                                         int& exit_code);
 
 nlohmann::json stats_json(const dsl::DiscretisationStats& stats);
+// One entry per coupling: kind, object, other, frames, within_m, line, column.
+nlohmann::json couplings_json(const std::vector<dsl::CouplingReport>& couplings);
 std::string stats_text(const dsl::DiscretisationStats& stats, const LoadedScene& scene);
 
 }  // namespace fascia::app

@@ -2,6 +2,7 @@
 
 #include "core/rotation.hpp"
 #include "integrate/step_potential.hpp"
+#include "integrate/variational_step.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -12,13 +13,19 @@
 namespace fascia {
 
 const char* to_string(Integrator integrator) {
-  return integrator == Integrator::static_equilibrium ? "static" : "backward_euler";
+  switch (integrator) {
+    case Integrator::static_equilibrium: return "static";
+    case Integrator::backward_euler: return "backward_euler";
+    case Integrator::variational: return "variational";
+  }
+  return "?";
 }
 
 Integrator parse_integrator(const std::string& name) {
   if (name == "static") return Integrator::static_equilibrium;
   if (name == "backward_euler") return Integrator::backward_euler;
-  throw std::invalid_argument("unknown integrator '" + name + "' (expected static or backward_euler)");
+  if (name == "variational") return Integrator::variational;
+  throw std::invalid_argument("unknown integrator '" + name + "' (expected static, backward_euler or variational)");
 }
 
 double kinetic_energy(const Model& model, const State& state) {
@@ -35,6 +42,7 @@ double kinetic_energy(const Model& model, const State& state) {
 struct Simulation::Impl {
   Impl(const Model& model, const ExternalLoads& loads, int threads) : potential(model, loads, threads) {}
   StepPotential potential;
+  std::unique_ptr<VariationalStep> variational;
 };
 
 Simulation::Simulation(Model model, ExternalLoads loads, SimulationSettings settings,
@@ -42,13 +50,15 @@ Simulation::Simulation(Model model, ExternalLoads loads, SimulationSettings sett
     : m_model(std::move(model)), m_loads(std::move(loads)), m_settings(settings), m_motions(std::move(motions)) {
   if (m_model.fixed_dofs.size() != static_cast<size_t>(m_model.dof_count()))
     m_model.fixed_dofs.resize(m_model.dof_count(), 0);
-  for (const PrescribedMotion& m : m_motions)
-    for (int f : m.frames)
-      for (int k = 0; k < 3; ++k) m_model.fixed_dofs[kFrameDofs * f + k] = 1;
+  fix_prescribed_dofs(m_model, m_motions);
   validate(m_model);
   if (!(m_settings.dt > 0)) throw std::invalid_argument("time step must be > 0 s");
+  if (m_settings.integrator == Integrator::variational && (m_settings.rayleigh_mass != 0 || m_settings.rayleigh_stiffness != 0))
+    throw std::invalid_argument("the variational integrator takes no Rayleigh damping (use backward_euler)");
   m_state = rest_state(m_model);
   m_impl = std::make_unique<Impl>(m_model, m_loads, settings.threads);
+  if (m_settings.integrator == Integrator::variational)
+    m_impl->variational = std::make_unique<VariationalStep>(m_model, m_impl->potential, m_settings.dt);
 }
 
 Simulation::~Simulation() = default;
@@ -63,14 +73,6 @@ bool finite_state(const State& s) {
   return true;
 }
 
-void apply_motions(const Model& model, const std::vector<PrescribedMotion>& motions, double t, State& state) {
-  for (const PrescribedMotion& m : motions) {
-    const double active = std::clamp(t, m.start, m.end) - m.start;
-    for (int f : m.frames)
-      store3(&state.positions[3 * f], load3(&model.frame_rest_positions[3 * f]) + std::max(0.0, active) * m.velocity);
-  }
-}
-
 }  // namespace
 
 StepReport Simulation::step() {
@@ -82,7 +84,23 @@ StepReport Simulation::step() {
   const double reference = load_force_norm(m_model, m_loads);
   State start = m_state;
 
-  if (m_settings.integrator == Integrator::backward_euler) {
+  if (m_settings.integrator == Integrator::variational) {
+    potential.set_static();
+    State trial = start;
+    apply_motions(m_model, m_motions, t_next, trial);
+    potential.rigid_mapping().sync(trial);
+    const NewtonResult r = m_impl->variational->advance(start, trial, m_settings.newton, reference);
+    report.newton_iterations = r.iterations;
+    report.cg_iterations = r.cg_iterations;
+    report.residual = r.residual;
+    if (!r.converged || !finite_state(trial)) {
+      std::ostringstream msg;
+      msg << "step " << report.step << " (t = " << t_next << " s): "
+          << (finite_state(trial) ? r.message : "the state became non-finite (diverged)");
+      throw SolverError(msg.str());
+    }
+    m_state = std::move(trial);
+  } else if (m_settings.integrator == Integrator::backward_euler) {
     potential.set_dynamic(start, m_settings.dt, m_settings.rayleigh_mass, m_settings.rayleigh_stiffness);
     State trial = start;
     apply_motions(m_model, m_motions, t_next, trial);

@@ -2,36 +2,30 @@
 // This is what `fascia run` drives; each step reports what the HDF5 observables record.
 #pragma once
 
+#include "integrate/prescribed_motion.hpp"
 #include "mechanics/external_loads.hpp"
 #include "model/model.hpp"
 #include "model/state.hpp"
 #include "solve/newton.hpp"
 
-#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
 
 namespace fascia {
 
-enum class Integrator { static_equilibrium, backward_euler };
+// static: equilibrium under the loads; backward_euler: the incremental potential (dissipative,
+// step_potential.hpp); variational: the midpoint discrete Lagrangian, which conserves linear and
+// angular momentum of a free system and does not dissipate (variational_step.hpp).
+enum class Integrator { static_equilibrium, backward_euler, variational };
 
 const char* to_string(Integrator integrator);
-Integrator parse_integrator(const std::string& name);  // "static" | "backward_euler"
-
-// Frames moved along a prescribed path (e.g. a tool pulling tissue): their translations are
-// fixed DOFs, displaced by velocity * (t - start) for start <= t <= end, then held.
-struct PrescribedMotion {
-  std::vector<int> frames;
-  Vec3 velocity{0, 0, 0};  // m/s
-  double start = 0;        // s
-  double end = std::numeric_limits<double>::infinity();  // s
-};
+Integrator parse_integrator(const std::string& name);  // "static" | "backward_euler" | "variational"
 
 struct SimulationSettings {
   Integrator integrator = Integrator::backward_euler;
-  double dt = 0.01;                 // s (backward Euler); static: pseudo-time per load step
-  double rayleigh_mass = 0;         // alpha, 1/s:   damping D = alpha M + beta K
+  double dt = 0.01;                 // s (dynamic); static: pseudo-time per load step
+  double rayleigh_mass = 0;         // alpha, 1/s:   damping D = alpha M + beta K (backward Euler only)
   double rayleigh_stiffness = 0;    // beta,  s
   int load_steps = 1;               // static: initial number of load increments
   int max_load_halvings = 10;       // static: halvings of a failed increment before giving up
@@ -61,7 +55,7 @@ class Simulation {
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
-  // One step: a backward-Euler time step, or for static equilibrium a full solve with load
+  // One step: a backward-Euler or variational time step, or for static equilibrium a full solve with load
   // stepping (repeated static steps follow prescribed motions in pseudo-time dt). Throws
   // SolverError when Newton fails or the state becomes non-finite; the state is then left at
   // the last converged step.

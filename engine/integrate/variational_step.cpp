@@ -1,0 +1,369 @@
+#include "integrate/variational_step.hpp"
+
+#include "core/rotation.hpp"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace fascia {
+
+Mat3 left_jacobian(const Vec3& phi) {
+  const double t = norm(phi);
+  // Coefficients (1 - cos t)/t^2 and (t - sin t)/t^3; their Taylor series below t = 1e-3, where
+  // the closed forms lose about 6 and 9 digits to cancellation.
+  const double a = t < 1e-3 ? 0.5 - t * t / 24.0 : (1 - std::cos(t)) / (t * t);
+  const double b = t < 1e-3 ? 1.0 / 6.0 - t * t / 120.0 : (t - std::sin(t)) / (t * t * t);
+  const Mat3 K = skew(phi);
+  return identity3() + a * K + b * (K * K);
+}
+
+namespace {
+
+// vee(A - A^T): the axial vector a with [a]x = A - A^T.
+Vec3 vee_of_skew_part(const Mat3& a) {
+  return {a.m[2][1] - a.m[1][2], a.m[0][2] - a.m[2][0], a.m[1][0] - a.m[0][1]};
+}
+
+Mat3 frame_rotation(const State& s, int i) { return rotation_matrix(load_quat(&s.orientations[4 * i])); }
+
+// Relative rotation psi = log(R_end R_start^T), world axes.
+Vec3 relative_rotation(const State& start, const State& end, int i) {
+  return quat_log(load_quat(&end.orientations[4 * i]) * conjugate(load_quat(&start.orientations[4 * i])));
+}
+
+double free_norm(const std::vector<double>& v, const std::vector<std::uint8_t>& fixed) {
+  double s = 0;
+  for (size_t k = 0; k < v.size(); ++k)
+    if (!fixed[k]) s += v[k] * v[k];
+  return std::sqrt(s);
+}
+
+}  // namespace
+
+VariationalStep::VariationalStep(const Model& model, StepPotential& potential, double dt)
+    : m_model(model), m_potential(potential), m_dt(dt), m_start_mapping(model), m_end_mapping(model) {
+  if (!(dt > 0)) throw std::invalid_argument("variational step: time step must be > 0 s");
+  m_fixed = m_start_mapping.reduced_fixed(model);
+  m_potential.set_static();
+}
+
+void VariationalStep::midpoint(const State& start, const State& end, State& mid) const {
+  mid = end;
+  const int n = m_model.frame_count();
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) mid.positions[3 * i + k] = 0.5 * (start.positions[3 * i + k] + end.positions[3 * i + k]);
+    if (m_model.rotations_locked) continue;
+    const Vec3 psi = relative_rotation(start, end, i);
+    store_quat(&mid.orientations[4 * i], apply_increment(load_quat(&start.orientations[4 * i]), 0.5 * psi));
+  }
+  m_potential.rigid_mapping().sync(mid);
+}
+
+void VariationalStep::kinetic_momenta(const State& start, const State& end, std::vector<double>& kappa) const {
+  const int n = m_model.frame_count();
+  const double h = m_dt;
+  kappa.assign(6 * n, 0.0);
+  for (int i = 0; i < n; ++i) {
+    const double m = m_model.frame_masses[i];
+    store3(&kappa[6 * i], (m / h) * (load3(&end.positions[3 * i]) - load3(&start.positions[3 * i])));
+    if (m_model.rotations_locked) continue;
+    const Mat3 J = load_mat3(&m_model.frame_inertias[9 * i]);
+    const Mat3 Jd = 0.5 * trace(J) * identity3() - J;
+    const Mat3 Rk = frame_rotation(start, i);
+    const Mat3 F = transpose(Rk) * frame_rotation(end, i);
+    store3(&kappa[6 * i + 3], (1 / h) * (Rk * vee_of_skew_part(F * Jd)));  // (2)
+  }
+}
+
+void VariationalStep::midpoint_transposes(const State& start, const State& end, const std::vector<double>& g,
+                                          std::vector<double>& at_g, std::vector<double>& bt_g) const {
+  const int n = m_model.frame_count();
+  at_g.assign(6 * n, 0.0);
+  bt_g.assign(6 * n, 0.0);
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) at_g[6 * i + k] = bt_g[6 * i + k] = 0.5 * g[6 * i + k];
+    if (m_model.rotations_locked) continue;
+    const Vec3 psi = relative_rotation(start, end, i);
+    const Mat3 Jh = left_jacobian(0.5 * psi);
+    const Mat3 A = 0.5 * (Jh * inverse_left_jacobian(psi));                     // (3)
+    const Mat3 B = rotation_matrix(quat_exp(0.5 * psi)) - 0.5 * (Jh * inverse_left_jacobian(-1.0 * psi));
+    const Vec3 tau = load3(&g[6 * i + 3]);
+    store3(&at_g[6 * i + 3], transpose(A) * tau);
+    store3(&bt_g[6 * i + 3], transpose(B) * tau);
+  }
+}
+
+double VariationalStep::action(const State& start, const State& end) {
+  const int n = m_model.frame_count();
+  const double h = m_dt;
+  double s = 0;
+  for (int i = 0; i < n; ++i) {
+    const Vec3 dx = load3(&end.positions[3 * i]) - load3(&start.positions[3 * i]);
+    s += 0.5 * m_model.frame_masses[i] * dot(dx, dx) / h;
+    if (m_model.rotations_locked) continue;
+    const Mat3 J = load_mat3(&m_model.frame_inertias[9 * i]);
+    const Mat3 Jd = 0.5 * trace(J) * identity3() - J;
+    const Mat3 F = transpose(frame_rotation(start, i)) * frame_rotation(end, i);
+    s += trace((identity3() - F) * Jd) / h;
+  }
+  midpoint(start, end, m_mid);
+  m_potential.set_static();
+  return s - h * m_potential.value(m_mid);
+}
+
+void VariationalStep::action_derivatives(const State& start, const State& end, std::vector<double>& minus_d1,
+                                         std::vector<double>& d2) {
+  std::vector<double> kappa, g, at_g, bt_g;
+  kinetic_momenta(start, end, kappa);
+  midpoint(start, end, m_mid);
+  m_potential.set_static();
+  m_potential.gradient(m_mid, g);
+  midpoint_transposes(start, end, g, at_g, bt_g);
+  minus_d1 = kappa;
+  d2 = kappa;
+  m_start_mapping.set_state(start);
+  m_start_mapping.reduce(minus_d1.data());
+  m_end_mapping.set_state(end);
+  m_end_mapping.reduce(d2.data());
+  for (size_t k = 0; k < kappa.size(); ++k) {
+    minus_d1[k] += m_dt * bt_g[k];
+    d2[k] -= m_dt * at_g[k];
+  }
+}
+
+void VariationalStep::momenta(const State& state, std::vector<double>& p) {
+  const int n = m_model.frame_count();
+  p.assign(6 * n, 0.0);
+  for (int i = 0; i < n; ++i) {
+    store3(&p[6 * i], m_model.frame_masses[i] * load3(&state.velocities[6 * i]));
+    if (m_model.rotations_locked) continue;
+    const Mat3 R = frame_rotation(state, i);
+    const Mat3 I = R * load_mat3(&m_model.frame_inertias[9 * i]) * transpose(R);
+    store3(&p[6 * i + 3], I * load3(&state.velocities[6 * i + 3]));
+  }
+  m_start_mapping.set_state(state);
+  m_start_mapping.reduce(p.data());
+}
+
+void VariationalStep::set_velocities(const State& start, State& end, const std::vector<double>& p) {
+  const int n = m_model.frame_count();
+  const double h = m_dt;
+  // Reduced mass matrix per reduced frame: diag(m I, R J R^T), plus J_a^T M_a J_a of every frame
+  // attached to it, J_a = [[I, -[r_a]x], [0, I]]:
+  //   J^T M J = [[m I, -m [r]x], [m [r]x, I_a - m [r]x [r]x]].
+  std::vector<Eigen::Matrix<double, 6, 6>> blocks(n, Eigen::Matrix<double, 6, 6>::Zero());
+  auto add_frame = [&](int target, int frame, const Vec3& r) {
+    const double m = m_model.frame_masses[frame];
+    const Mat3 R = frame_rotation(end, frame);
+    const Mat3 I = R * load_mat3(&m_model.frame_inertias[9 * frame]) * transpose(R);
+    const Mat3 S = skew(r), SS = S * S;
+    Eigen::Matrix<double, 6, 6>& b = blocks[target];
+    for (int a = 0; a < 3; ++a) {
+      b(a, a) += m;
+      for (int c = 0; c < 3; ++c) {
+        b(a, 3 + c) -= m * S.m[a][c];
+        b(3 + a, c) += m * S.m[a][c];
+        b(3 + a, 3 + c) += (m_model.rotations_locked ? 0.0 : I.m[a][c]) - m * SS.m[a][c];
+      }
+    }
+  };
+  const std::vector<int>& mapped = m_end_mapping.mapped();
+  std::vector<char> is_mapped(n, 0);
+  for (int a : mapped) is_mapped[a] = 1;
+  for (int i = 0; i < n; ++i)
+    if (!is_mapped[i]) add_frame(i, i, Vec3{0, 0, 0});
+  for (size_t k = 0; k < mapped.size(); ++k) {
+    const int a = mapped[k], b = m_end_mapping.bodies()[k];
+    add_frame(b, a, load3(&end.positions[3 * a]) - load3(&end.positions[3 * b]));
+  }
+  for (int i = 0; i < n; ++i) {
+    if (is_mapped[i]) continue;
+    // Fixed DOFs move as prescribed: their velocity is the step's increment over h.
+    Eigen::Matrix<double, 6, 1> v, rhs;
+    const Vec3 dx = (1 / h) * (load3(&end.positions[3 * i]) - load3(&start.positions[3 * i]));
+    const Vec3 dr = m_model.rotations_locked ? Vec3{0, 0, 0} : (1 / h) * relative_rotation(start, end, i);
+    v << dx.x, dx.y, dx.z, dr.x, dr.y, dr.z;
+    std::vector<int> free;
+    for (int c = 0; c < 6; ++c)
+      if (!m_fixed[6 * i + c]) free.push_back(c);
+    if (!free.empty()) {
+      const int f = static_cast<int>(free.size());
+      Eigen::MatrixXd Mff(f, f);
+      Eigen::VectorXd b(f);
+      for (int r = 0; r < f; ++r) {
+        b(r) = p[6 * i + free[r]];
+        for (int c = 0; c < 6; ++c)
+          if (m_fixed[6 * i + c]) b(r) -= blocks[i](free[r], c) * v(c);
+        for (int c = 0; c < f; ++c) Mff(r, c) = blocks[i](free[r], free[c]);
+      }
+      const Eigen::LDLT<Eigen::MatrixXd> ldlt(Mff);
+      if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 0)) {
+        std::ostringstream msg;
+        msg << "variational step: frame " << i << " has no mass or inertia along a free degree of freedom";
+        throw std::invalid_argument(msg.str());
+      }
+      const Eigen::VectorXd vf = ldlt.solve(b);
+      for (int r = 0; r < f; ++r) v(free[r]) = vf(r);
+    }
+    for (int c = 0; c < 6; ++c) end.velocities[6 * i + c] = v(c);
+  }
+  m_end_mapping.set_state(end);
+  m_end_mapping.expand(end.velocities.data());  // v_a = v_b + w_b x r_a, w_a = w_b
+}
+
+double VariationalStep::residual(const State& start, const State& end, const std::vector<double>& p_start,
+                                 std::vector<double>& r) {
+  std::vector<double> d2;
+  action_derivatives(start, end, r, d2);
+  for (size_t k = 0; k < r.size(); ++k) r[k] = m_fixed[k] ? 0.0 : r[k] - p_start[k];
+  return free_norm(r, m_fixed);
+}
+
+LinearSystem VariationalStep::iteration_matrix(const State& start, const State& end) {
+  midpoint(start, end, m_mid);
+  return approximate_jacobian(start, end);
+}
+
+LinearSystem VariationalStep::approximate_jacobian(const State& start, const State& end) {
+  const int n = m_model.frame_count();
+  const double h = m_dt;
+  m_potential.prepare_hessian(m_mid);
+  LinearSystem K = m_potential.system();
+  // 4 M_kin / h^2 per frame (the system below is 4 H = 4 M_kin / h^2 + K).
+  m_mass_blocks.assign(36 * n, 0.0);
+  for (int i = 0; i < n; ++i) {
+    double* b = &m_mass_blocks[36 * i];
+    const double c = 4 / (h * h);
+    for (int k = 0; k < 3; ++k) b[7 * k] = c * m_model.frame_masses[i];
+    if (m_model.rotations_locked) continue;
+    const Mat3 J = load_mat3(&m_model.frame_inertias[9 * i]);
+    const Mat3 Jd = 0.5 * trace(J) * identity3() - J;
+    const Mat3 Rk = frame_rotation(start, i);
+    const Mat3 C = transpose(Rk) * frame_rotation(end, i) * Jd;
+    const Mat3 Q = Rk * symmetric_part(trace(C) * identity3() - C) * transpose(Rk);
+    for (int r = 0; r < 3; ++r)
+      for (int col = 0; col < 3; ++col) b[6 * (3 + r) + 3 + col] = c * Q.m[r][col];
+  }
+  m_end_mapping.set_state(end);
+  LinearSystem sys;
+  sys.size = K.size;
+  sys.fixed = m_fixed.data();
+  sys.apply = [this, n, K](const double* d, double* out) {
+    K.apply(d, out);
+    m_expanded.assign(d, d + 6 * n);
+    m_end_mapping.expand(m_expanded.data());
+    m_scratch.assign(6 * n, 0.0);
+    for (int i = 0; i < n; ++i)
+      for (int r = 0; r < 6; ++r)
+        for (int c = 0; c < 6; ++c) m_scratch[6 * i + r] += m_mass_blocks[36 * i + 6 * r + c] * m_expanded[6 * i + c];
+    m_end_mapping.reduce(m_scratch.data());
+    for (int k = 0; k < 6 * n; ++k) out[k] += m_scratch[k];
+  };
+  sys.diagonal_blocks = [this, n, K](double* blocks) {
+    K.diagonal_blocks(blocks);
+    std::vector<double> mass = m_mass_blocks;
+    m_end_mapping.reduce_diagonal_blocks(mass.data());  // no geometric term: m_end_mapping has no forces
+    for (int k = 0; k < 36 * n; ++k) blocks[k] += mass[k];
+    for (int a : m_end_mapping.mapped())
+      for (int k = 0; k < 36; ++k) blocks[36 * a + k] = (k % 7 == 0) ? 1.0 : 0.0;
+  };
+  sys.assemble = [this, n, K]() {
+    Eigen::SparseMatrix<double> H = K.assemble();
+    std::vector<Eigen::Triplet<double>> t;
+    for (int i = 0; i < n; ++i)
+      for (int r = 0; r < 6; ++r)
+        for (int c = 0; c < 6; ++c)
+          if (m_mass_blocks[36 * i + 6 * r + c] != 0) t.emplace_back(6 * i + r, 6 * i + c, m_mass_blocks[36 * i + 6 * r + c]);
+    Eigen::SparseMatrix<double> M(6 * n, 6 * n);
+    M.setFromTriplets(t.begin(), t.end());
+    if (!m_end_mapping.empty()) {
+      const Eigen::SparseMatrix<double> P = m_end_mapping.projection(6 * n);
+      const Eigen::SparseMatrix<double> Pt = P.transpose();
+      M = Pt * M * P;
+    }
+    H += M;
+    return H;
+  };
+  return sys;
+}
+
+NewtonResult VariationalStep::advance(const State& start, State& end, const NewtonSettings& settings,
+                                      double reference_force) {
+  const int n = m_model.frame_count();
+  const double h = m_dt;
+  NewtonResult result;
+  std::vector<double> p_start;
+  momenta(start, p_start);
+  // Predictor q_{k+1} = q_k (+) h v_k on the free DOFs of the reduced frames.
+  {
+    std::vector<double> d(6 * n, 0.0);
+    for (int k = 0; k < 6 * n; ++k)
+      if (!m_fixed[k]) d[k] = h * start.velocities[k];
+    m_potential.retract(end, d.data(), 1.0);
+  }
+  std::vector<double> r, r_trial, d(6 * n), rhs(6 * n);
+  double norm_r = residual(start, end, p_start, r);
+  if (!std::isfinite(norm_r)) {
+    result.message = "the predicted state has non-finite energy (inverted element?)";
+    return result;
+  }
+  m_scale = std::max({reference_force, free_norm(p_start, m_fixed) / h, norm_r / h, 1e-300});
+  for (int it = 0; it < settings.max_iterations; ++it) {
+    result.residual = norm_r / h / m_scale;
+    if (result.residual <= settings.tolerance) {
+      result.converged = true;
+      break;
+    }
+    const LinearSystem sys = approximate_jacobian(start, end);
+    for (int k = 0; k < 6 * n; ++k) rhs[k] = m_fixed[k] ? 0.0 : -4 * r[k] / h;
+    const LinearResult lin = solve_linear(sys, settings.linear, rhs, d);
+    result.cg_iterations += lin.iterations;
+    ++result.iterations;
+    // Halve the step until |r| decreases.
+    double alpha = 1.0;
+    bool accepted = false;
+    for (int b = 0; b <= settings.max_backtracks; ++b, alpha *= 0.5) {
+      State trial = end;
+      m_potential.retract(trial, d.data(), alpha);
+      const double norm_trial = residual(start, trial, p_start, r_trial);
+      if (std::isfinite(norm_trial) && norm_trial < norm_r) {
+        end = std::move(trial);
+        r.swap(r_trial);
+        norm_r = norm_trial;
+        accepted = true;
+        break;
+      }
+    }
+    if (!accepted) {
+      std::ostringstream msg;
+      msg << "variational step: no step reduced the residual after " << settings.max_backtracks
+          << " halvings at iteration " << it + 1 << " (relative residual " << result.residual << ")";
+      result.message = msg.str();
+      m_residual_norm = norm_r;
+      return result;
+    }
+  }
+  result.residual = norm_r / h / m_scale;
+  m_residual_norm = norm_r;
+  if (!result.converged) {
+    result.converged = result.residual <= settings.tolerance;
+    if (!result.converged) {
+      std::ostringstream msg;
+      msg << "variational step did not converge in " << settings.max_iterations << " iterations (relative residual "
+          << result.residual << ", tolerance " << settings.tolerance << ")";
+      result.message = msg.str();
+      return result;
+    }
+  }
+  // (5): momenta at q_{k+1}, then velocities.
+  std::vector<double> minus_d1, p_end;
+  action_derivatives(start, end, minus_d1, p_end);
+  set_velocities(start, end, p_end);
+  return result;
+}
+
+}  // namespace fascia
