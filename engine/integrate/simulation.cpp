@@ -33,7 +33,8 @@ double kinetic_energy(const Model& model, const State& state) {
 }
 
 struct Simulation::Impl {
-  Impl(const Model& model, const ExternalLoads& loads, int threads) : potential(model, loads, threads) {}
+  Impl(const Model& model, const ExternalLoads& loads, const SimulationSettings& settings)
+      : potential(model, loads, settings.threads, settings.elasticity) {}
   StepPotential potential;
 };
 
@@ -48,7 +49,7 @@ Simulation::Simulation(Model model, ExternalLoads loads, SimulationSettings sett
   validate(m_model);
   if (!(m_settings.dt > 0)) throw std::invalid_argument("time step must be > 0 s");
   m_state = rest_state(m_model);
-  m_impl = std::make_unique<Impl>(m_model, m_loads, settings.threads);
+  m_impl = std::make_unique<Impl>(m_model, m_loads, m_settings);
 }
 
 Simulation::~Simulation() = default;

@@ -4,10 +4,8 @@
 #include "core/rotation.hpp"
 #include "integrate/simulation.hpp"
 #include "integrate/step_potential.hpp"
-#include "model/assembly.hpp"
 #include "support/finite_difference.hpp"
-#include "support/fixtures.hpp"
-#include "support/shell_fixtures.hpp"
+#include "support/coupling_fixtures.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -17,21 +15,6 @@ using namespace fascia;
 using namespace fascia::test;
 
 namespace {
-
-// Block 0.2 x 0.1 x 0.05 m (hexahedra, StVK 10 kPa), a shell on its top face sharing its 9 top
-// frames, a rigid plate (2 cm thick, 1000 kg/m^3) under it carrying its 9 bottom frames.
-Model coupled_model() {
-  const Model block = small_box_model(CellType::hexahedron);
-  SurfaceMesh top = rectangle_surface(0.2, 0.1, 2, 2);
-  for (int k = 0; k < top.vertex_count(); ++k) top.vertices[3 * k + 2] = 0.05;
-  ModelBuilder builder;
-  const int tissue = builder.add_tissue("tissue", block, SurfaceMesh{});
-  const int wall = builder.add_shell("wall", top, ShellProperties{0.004, 5.0e4, 0.35, 1000.0});
-  const int bone = builder.add_rigid("bone", box_surface({0, 0, -0.02}, {0.2, 0.1, 0}), 1000.0);
-  REQUIRE(builder.share(tissue, wall, 1e-6) == 9);
-  REQUIRE(builder.attach(tissue, bone, 1e-6) == 9);
-  return builder.build();
-}
 
 std::vector<double> reduced_direction(const Model& model, unsigned seed, double length_scale) {
   std::mt19937 rng(seed);
