@@ -40,7 +40,7 @@ int run_step(const BenchOptions& o) {
   std::string gpu_name;
   if (!cuda_device_available(&gpu_name)) {
     std::cerr << "fascia bench step: no CUDA device\n";
-    return 69;
+    return kUnavailable;
   }
   const LinearMethod linear = parse_linear_method(o.linear);
   if (!o.json)
@@ -67,7 +67,7 @@ int run_step(const BenchOptions& o) {
   return kOk;
 #else
   std::cerr << "fascia bench step: this build has no CUDA backend (configure with -DFASCIA_WITH_CUDA=ON)\n";
-  return 69;
+  return kUnavailable;
 #endif
 }
 

@@ -181,7 +181,7 @@ int run_bench_gpu(const BenchGpuOptions& o) {
   const gpu::DeviceInfo info = gpu::device_info();
   if (info.device_count == 0) {
     std::cerr << "fascia bench gpu: no CUDA device\n";
-    return 69;
+    return kUnavailable;
   }
   const std::vector<Case> all = cases(o);
   const int repeats = o.quick ? 3 : o.repeats;

@@ -3,7 +3,8 @@
 // Robustness contract (DESIGN.md): every written step is flushed, so a run killed at any moment
 // leaves a readable file; SIGINT/SIGTERM finish the current step, write it, close the file and
 // exit 75; a solver failure keeps the completed steps and exits 1; non-finite states are never
-// written.
+// written. --backend cuda without a usable device exits 69 before anything is read or written.
+#include "backend.hpp"
 #include "commands.hpp"
 #include "progress.hpp"
 #include "scene_report.hpp"
@@ -37,7 +38,7 @@ struct RunOptions {
   std::string scene;
   std::string output;
   std::vector<std::string> overrides;
-  std::string backend = "cpu";
+  BackendOptions backend;
   int threads = -1;
   bool quiet = false;
   bool json = false;
@@ -87,7 +88,9 @@ std::string env(const char* name) {
   return v ? v : "";
 }
 
-std::string environment_json(int threads) {
+// Where and how the run was computed: host, user, start time, threads, job ids, and the backend
+// of the volumetric elasticity ("backend"; with cuda also "gpu" and "precision").
+std::string environment_json(int threads, const nlohmann::json& backend) {
   nlohmann::json e;
   char host[256] = {0};
   gethostname(host, sizeof host - 1);
@@ -100,6 +103,7 @@ std::string environment_json(int threads) {
   std::strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
   e["started"] = stamp;
   e["threads"] = threads;
+  for (const auto& [key, value] : backend.items()) e[key] = value;
   for (const char* key : {"SLURM_JOB_ID", "SLURM_ARRAY_JOB_ID", "SLURM_ARRAY_TASK_ID", "SLURM_JOB_NAME",
                           "SLURM_CLUSTER_NAME", "PBS_JOBID", "LSB_JOBID", "OMP_NUM_THREADS"})
     if (!env(key).empty()) e[key] = env(key);
@@ -206,19 +210,14 @@ bool finite_state(const State& state) {
 }
 
 int run(const RunOptions& options) {
+  // The device first: a missing GPU is reported before the scene is discretised.
+  Backend backend;
+  if (const int code = resolve_backend("run", options.backend, backend); code != kOk) return code;
   int code = 0;
   std::unique_ptr<LoadedScene> scene = load_scene(options.scene, options.overrides, code);
   if (!scene) return code;
   dsl::BuiltScene& built = scene->built;
-
-  if (options.backend != "cpu") {
-#if FASCIA_WITH_CUDA
-    std::cerr << "fascia: error: --backend " << options.backend << " is not wired into 'run' yet; use --backend cpu\n";
-#else
-    std::cerr << "fascia: error: this fascia was built without CUDA (FASCIA_WITH_CUDA=OFF); use --backend cpu\n";
-#endif
-    return kUsage;
-  }
+  built.settings.elasticity = backend.elasticity;
   if (options.threads >= 0) built.settings.threads = options.threads;
 
   const std::string output = options.output.empty() ? scene->spec.output.file : options.output;
@@ -229,7 +228,7 @@ int run(const RunOptions& options) {
     const dsl::DiscretisationStats& s = built.stats;
     std::cerr << "fascia: " << options.scene << ": " << s.frames << " frames, " << s.samples << " samples, " << s.dofs
               << " dofs, " << built.steps << " steps of " << built.settings.dt << " s (" << to_string(built.settings.integrator)
-              << ") -> " << output << "\n";
+              << "), backend " << backend.description << " -> " << output << "\n";
   }
 
   install_signal_handlers();
@@ -273,7 +272,7 @@ int run(const RunOptions& options) {
     header.scene = scene->spec.resolved_yaml;
     header.scene_file = options.scene;
     header.command_line = command_line();
-    header.environment = environment_json(built.settings.threads);
+    header.environment = environment_json(built.settings.threads, backend.provenance);
     writer = std::make_unique<TrajectoryWriter>(output, header, layout);
 
     // Step 0: the initial configuration.
@@ -354,6 +353,7 @@ int run(const RunOptions& options) {
           {"kinetic_energy", last.kinetic_energy},
           {"external_potential", last.external_potential},
           {"residual", last.residual}}}};
+    for (const auto& [key, value] : backend.provenance.items()) summary[key] = value;  // backend, gpu, precision
     if (!failure.empty()) summary["message"] = failure;
     std::cout << summary.dump() << "\n";
   }
@@ -370,7 +370,7 @@ void register_run(CLI::App& app, Action& action) {
   cmd->add_option("--set", options->overrides, "Override a scene value: path=value (e.g. materials.fascia.young=50kPa)")
       ->take_all()
       ->allow_extra_args(false);
-  cmd->add_option("--backend", options->backend, "Force and tangent backend")->check(CLI::IsMember({"cpu", "cuda"}));
+  add_backend_options(*cmd, options->backend);
   cmd->add_option("--threads", options->threads, "CPU threads (0 = all; default: the scene's solver.threads)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("-q,--quiet", options->quiet, "No progress output");

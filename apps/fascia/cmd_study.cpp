@@ -1,4 +1,6 @@
-// `fascia study beam`: the paper's cantilever convergence study (§4.1, Figure 3).
+// `fascia study beam`: the paper's cantilever convergence study (§4.1, Figure 3), on the CPU or
+// with the volumetric elasticity on the CUDA backend (--backend cuda; backend.hpp).
+#include "backend.hpp"
 #include "commands.hpp"
 
 #include "study/beam_study.hpp"
@@ -19,6 +21,7 @@ struct StudyOptions {
   std::vector<std::string> resolutions;  // "NXxNYxNZ", mesh-based methods
   std::vector<double> frame_spacings;    // m, meshless methods
   int threads = 0;
+  BackendOptions backend;
   double samples_per_frame = BeamSettings{}.samples_per_frame;
   std::uint64_t seed = BeamSettings{}.seed;
 };
@@ -56,16 +59,20 @@ std::vector<BeamCase> select_cases(const StudyOptions& o, const BeamSettings& se
 }
 
 int run_beam(const StudyOptions& o) {
+  Backend backend;
+  if (const int code = resolve_backend("study", o.backend, backend); code != kOk) return code;
   BeamSettings settings;
   settings.threads = o.threads;
+  settings.elasticity = backend.elasticity;
   settings.samples_per_frame = o.samples_per_frame;
   settings.seed = o.seed;
   const std::vector<BeamCase> cases = select_cases(o, settings);
   if (!o.json) {
     std::printf("Cantilever 16 x 1 x 1 m, 5 kg, E = 40 kPa, nu = 0.3, own weight (paper §4.1)\n");
     const Vec3 elastica = beam_elastica_deflection(settings);
-    std::printf("small-deflection estimate qL^4/(8EI) = %.3f m; inextensible elastica: tip dx = %.4f m, dz = %.4f m\n\n",
+    std::printf("small-deflection estimate qL^4/(8EI) = %.3f m; inextensible elastica: tip dx = %.4f m, dz = %.4f m\n",
                 beam_linear_deflection(settings), elastica.x, elastica.z);
+    std::printf("backend: %s\n\n", backend.description.c_str());
     std::printf("%-18s %-10s %6s %7s %8s %7s %10s %10s %10s %8s\n", "method", "resolution", "r_f", "frames", "samples",
                 "dofs", "tip dx", "tip dz", "|tip|", "seconds");
   }
@@ -84,6 +91,7 @@ int run_beam(const StudyOptions& o) {
                           {"seconds", r.seconds},
                           {"converged", r.converged},
                           {"newton_iterations", r.newton_iterations}};
+      for (const auto& [key, value] : backend.provenance.items()) j[key] = value;  // backend, gpu, precision
       if (is_meshless_beam_method(c.method)) j["frame_spacing"] = c.frame_spacing;
       std::cout << j.dump() << std::endl;
     } else {
@@ -118,6 +126,7 @@ void register_study(CLI::App& app, Action& action) {
       ->check(CLI::Range(1.01, 1e6));
   beam->add_option("--seed", options->seed, "Meshless cases: Poisson-disk seed (default 1)");
   beam->add_option("--threads", options->threads, "CPU threads (0 = all)")->check(CLI::NonNegativeNumber);
+  add_backend_options(*beam, options->backend);
   beam->callback([options, &action] { action = [options] { return run_beam(*options); }; });
 }
 

@@ -15,6 +15,7 @@ enum ExitCode : int {
   kUsage = 64,
   kDataError = 65,
   kNoInput = 66,
+  kUnavailable = 69,  // a required service is missing: --backend cuda without a usable CUDA device
   kIoError = 74,
   kStoppedOnSignal = 75,
   kBadScene = 78,

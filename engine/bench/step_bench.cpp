@@ -84,7 +84,7 @@ StepTiming time_cpu_step(const Model& model, int threads, int cg_iterations, dou
   t.samples = model.sample_count();
   t.frames = model.frame_count();
   t.neighbours = model.max_neighbours();
-  t.threads = potential.elasticity().threads();
+  t.threads = potential.threads();
   t.cg_iterations = cg;
   t.ms_per_step = ms[ms.size() / 2];
   t.cpu_ms_per_step = cpu_ms[cpu_ms.size() / 2];

@@ -40,7 +40,8 @@ double kinetic_energy(const Model& model, const State& state) {
 }
 
 struct Simulation::Impl {
-  Impl(const Model& model, const ExternalLoads& loads, int threads) : potential(model, loads, threads) {}
+  Impl(const Model& model, const ExternalLoads& loads, const SimulationSettings& settings)
+      : potential(model, loads, settings.threads, settings.elasticity) {}
   StepPotential potential;
   std::unique_ptr<VariationalStep> variational;
 };
@@ -56,7 +57,7 @@ Simulation::Simulation(Model model, ExternalLoads loads, SimulationSettings sett
   if (m_settings.integrator == Integrator::variational && (m_settings.rayleigh_mass != 0 || m_settings.rayleigh_stiffness != 0))
     throw std::invalid_argument("the variational integrator takes no Rayleigh damping (use backward_euler)");
   m_state = rest_state(m_model);
-  m_impl = std::make_unique<Impl>(m_model, m_loads, settings.threads);
+  m_impl = std::make_unique<Impl>(m_model, m_loads, m_settings);
   if (m_settings.integrator == Integrator::variational)
     m_impl->variational = std::make_unique<VariationalStep>(m_model, m_impl->potential, m_settings.dt);
 }

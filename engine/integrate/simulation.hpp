@@ -4,6 +4,7 @@
 
 #include "integrate/prescribed_motion.hpp"
 #include "mechanics/external_loads.hpp"
+#include "mechanics/volumetric_elasticity.hpp"
 #include "model/model.hpp"
 #include "model/state.hpp"
 #include "solve/newton.hpp"
@@ -31,6 +32,9 @@ struct SimulationSettings {
   int max_load_halvings = 10;       // static: halvings of a failed increment before giving up
   int threads = 0;                  // 0 = all
   NewtonSettings newton;
+  // Backend of the volumetric elasticity (mechanics/volumetric_elasticity.hpp); empty: the CPU
+  // Elasticity. kernels/cuda_elasticity.hpp makes the CUDA one.
+  ElasticityFactory elasticity;
 };
 
 struct StepReport {

@@ -5,6 +5,7 @@
 #include "mechanics/shell.hpp"
 
 #include <cmath>
+#include <omp.h>
 
 namespace fascia {
 
@@ -17,15 +18,21 @@ Mat3 inverse_left_jacobian(const Vec3& phi) {
   return identity3() - 0.5 * K + c * (K * K);
 }
 
-StepPotential::StepPotential(const Model& model, const ExternalLoads& loads, int threads)
-    : m_model(model), m_loads(loads), m_elasticity(model, threads), m_mapping(model) {
+StepPotential::StepPotential(const Model& model, const ExternalLoads& loads, int threads,
+                             const ElasticityFactory& elasticity)
+    : m_model(model),
+      m_loads(loads),
+      m_threads(threads > 0 ? threads : omp_get_max_threads()),
+      m_factory(elasticity),
+      m_elasticity(make_elasticity(elasticity, model, m_threads)),
+      m_mapping(model) {
   m_load_blocks.assign(9 * model.frame_count(), 0.0);
   for (const Shell& shell : model.shells) m_fields.push_back(std::make_unique<ShellForceField>(model, shell, threads));
   m_fixed = m_mapping.reduced_fixed(model);
 }
 
 double StepPotential::elastic_energy(const State& state) {
-  double w = m_elasticity.energy(state);
+  double w = m_elasticity->energy(state);
   for (auto& field : m_fields) w += field->energy(state);
   return w;
 }
@@ -50,7 +57,7 @@ void StepPotential::set_dynamic(const State& start, double dt, double rayleigh_m
     store_mat3(&m_world_inertia[9 * i], R * load_mat3(&m_model.frame_inertias[9 * i]) * transpose(R));
   }
   if (m_beta > 0) {
-    if (!m_start_elasticity) m_start_elasticity = std::make_unique<Elasticity>(m_model, m_elasticity.threads());
+    if (!m_start_elasticity) m_start_elasticity = make_elasticity(m_factory, m_model, m_threads);
     m_start_elasticity->prepare(start);
   }
 }
@@ -112,7 +119,7 @@ double StepPotential::value(const State& state) {
 
 double StepPotential::full_gradient(const State& state, std::vector<double>& g) {
   g.assign(m_model.dof_count(), 0.0);
-  double phi = m_elasticity.gradient(state, g.data());
+  double phi = m_elasticity->gradient(state, g.data());
   for (auto& field : m_fields) phi += field->add_gradient(state, g.data());
   add_load_gradient(m_model, m_loads, state, g.data());
   phi += load_potential(m_model, m_loads, state);
@@ -135,7 +142,7 @@ void StepPotential::prepare_hessian(const State& state) {
     m_mapping.set_state(state);
     m_mapping.set_geometric(m_scratch.data());
   }
-  m_elasticity.prepare(state);
+  m_elasticity->prepare(state);
   for (auto& field : m_fields) field->prepare(state);
   std::fill(m_load_blocks.begin(), m_load_blocks.end(), 0.0);
   add_load_rotational_blocks(m_model, m_loads, state, m_load_blocks.data());
@@ -171,7 +178,7 @@ LinearSystem StepPotential::system() {
       m_mapping.expand(m_expanded.data());
       d = m_expanded.data();
     }
-    m_elasticity.apply_tangent(d, out, m_frame_diagonal.data());
+    m_elasticity->apply_tangent(d, out, m_frame_diagonal.data());
     for (const auto& field : m_fields) field->add_tangent(d, out);
     if (m_dynamic && m_beta > 0) {
       m_scratch.resize(6 * n);
@@ -184,7 +191,7 @@ LinearSystem StepPotential::system() {
     }
   };
   sys.diagonal_blocks = [this, n, inertia_block](double* blocks) {
-    m_elasticity.tangent_diagonal_blocks(blocks);
+    m_elasticity->tangent_diagonal_blocks(blocks);
     std::vector<double> start_blocks;
     if (m_dynamic && m_beta > 0) {
       start_blocks.resize(36 * n);
@@ -205,7 +212,7 @@ LinearSystem StepPotential::system() {
   };
   sys.assemble = [this, n, inertia_block]() {
     if (!m_assembler) m_assembler = std::make_unique<TangentAssembler>(m_model);
-    Eigen::SparseMatrix<double> H = m_assembler->assemble(m_elasticity);
+    Eigen::SparseMatrix<double> H = m_assembler->assemble(m_elasticity->prepared_reference());
     std::vector<Eigen::Triplet<double>> t;
     for (int i = 0; i < n; ++i) {
       double block[36] = {0};
@@ -220,7 +227,7 @@ LinearSystem StepPotential::system() {
     Eigen::SparseMatrix<double> extra(H.rows(), H.cols());
     extra.setFromTriplets(t.begin(), t.end());
     H += extra;
-    if (m_dynamic && m_beta > 0) H += (m_beta / m_dt) * assemble_tangent(*m_start_elasticity);
+    if (m_dynamic && m_beta > 0) H += (m_beta / m_dt) * assemble_tangent(m_start_elasticity->prepared_reference());
     if (!m_mapping.empty()) {
       const Eigen::SparseMatrix<double> P = m_mapping.projection(6 * n);
       const Eigen::SparseMatrix<double> Pt = P.transpose();

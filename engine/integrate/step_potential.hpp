@@ -12,6 +12,11 @@
 // blocks and assembled matrix are those of the reduced potential, and retract() keeps attached
 // frames on their bodies. Stiffness-proportional damping uses the volumetric tangent only.
 //
+// The volumetric elasticity comes from an ElasticityFactory (mechanics/volumetric_elasticity.hpp;
+// default: the CPU Elasticity), for W and for K_n alike; shells, loads, inertia and the rigid
+// mapping always run here on the CPU. The assembled matrix (direct solves) is built from the
+// factory's prepared_reference(), a CPU Elasticity at the same state.
+//
 // The value and gradient are exact (the rotational gradient carries the inverse left Jacobian of
 // SO(3), J_l^{-T}(phi), since d log(exp(theta) exp(phi)) / d theta = J_l^{-1}(phi)); the Hessian
 // uses J_l ~ I for the inertia and damping terms (exact for translations and at phi = 0), which
@@ -23,6 +28,7 @@
 #include "mechanics/external_loads.hpp"
 #include "mechanics/force_field.hpp"
 #include "mechanics/rigid_mapping.hpp"
+#include "mechanics/volumetric_elasticity.hpp"
 #include "solve/newton.hpp"
 
 #include <memory>
@@ -31,7 +37,9 @@ namespace fascia {
 
 class StepPotential : public Potential {
  public:
-  StepPotential(const Model& model, const ExternalLoads& loads, int threads = 0);
+  // @param elasticity makes the volumetric elasticity (empty: the CPU Elasticity).
+  StepPotential(const Model& model, const ExternalLoads& loads, int threads = 0,
+                const ElasticityFactory& elasticity = {});
 
   // Static equilibrium: no inertia, no damping.
   void set_static();
@@ -50,7 +58,8 @@ class StepPotential : public Potential {
   const std::vector<std::unique_ptr<ForceField>>& force_fields() const { return m_fields; }
   const RigidMapping& rigid_mapping() const { return m_mapping; }
 
-  Elasticity& elasticity() { return m_elasticity; }
+  VolumetricElasticity& elasticity() { return *m_elasticity; }
+  int threads() const { return m_threads; }  // OpenMP threads of the CPU work (0 resolved)
   const ExternalLoads& loads() const { return m_loads; }
   // Volumetric elastic energy plus every force field's energy (J).
   double elastic_energy(const State& state);
@@ -65,9 +74,11 @@ class StepPotential : public Potential {
 
   const Model& m_model;
   const ExternalLoads& m_loads;
-  Elasticity m_elasticity;
+  int m_threads;
+  ElasticityFactory m_factory;
+  std::unique_ptr<VolumetricElasticity> m_elasticity;
   std::unique_ptr<TangentAssembler> m_assembler;  // built on the first direct solve
-  std::unique_ptr<Elasticity> m_start_elasticity;  // K_n for stiffness-proportional damping
+  std::unique_ptr<VolumetricElasticity> m_start_elasticity;  // K_n for stiffness-proportional damping
   std::vector<double> m_load_blocks;               // [N][9] rotational Hessian of V
   bool m_dynamic = false;
   State m_start;

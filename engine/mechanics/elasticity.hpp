@@ -4,11 +4,14 @@
 // Forces follow the paper's two-pass scheme (§3.2): a pass over samples writes one 6-vector per
 // sample-frame pair into a buffer, a pass over frames sums each frame's pairs through the reverse
 // table. No atomics; results do not depend on the thread count.
+//
+// It is the CPU implementation of VolumetricElasticity (mechanics/volumetric_elasticity.hpp).
 #pragma once
 
 #include "core/small_math.hpp"
 #include "mechanics/frame_sample.hpp"
 #include "mechanics/sample_lanes.hpp"
+#include "mechanics/volumetric_elasticity.hpp"
 #include "material/material.hpp"
 #include "model/model.hpp"
 #include "model/state.hpp"
@@ -17,22 +20,22 @@
 
 namespace fascia {
 
-class Elasticity {
+class Elasticity final : public VolumetricElasticity {
  public:
   // @param threads OpenMP threads, 0 = the OpenMP default.
   explicit Elasticity(const Model& model, int threads = 0);
 
   // W = sum_s v_s psi(F_s) in J; +inf if a neo-Hookean sample is inverted.
-  double energy(const State& state);
+  double energy(const State& state) override;
 
   // Energy and its gradient dW/d(theta) at theta = 0 for theta -> W(q (+) theta), [N][6]
   // (N, then N m about world axes). The internal forces of eq. (18) are its negative.
-  double gradient(const State& state, double* gradient);
+  double gradient(const State& state, double* gradient) override;
 
   // Precomputes what every tangent product of this state reuses (paper §3, "precompute per
   // Newton iteration"): R_i, a_p = R_i l_p, F_s, P_s and the material cache, and the per-frame
   // rotational geometric blocks. Returns the energy.
-  double prepare(const State& state);
+  double prepare(const State& state) override;
 
   // out = K d with K the symmetric Hessian of theta -> W(q (+) theta) at theta = 0: material
   // stiffness (eq. 21-24) plus geometric stiffness (eq. 25-28 and the exponential map's second
@@ -40,17 +43,19 @@ class Elasticity {
   // With frame_diagonal ([N][10]: t_i, then Q_i row-major, may be null) the product is
   // (K + D) d with D block-diagonal, D_i = diag(t_i I3, Q_i): the inertia and load terms of a
   // time step, added in the same pass over the frames.
-  void apply_tangent(const double* d, double* out, const double* frame_diagonal = nullptr);
+  void apply_tangent(const double* d, double* out, const double* frame_diagonal = nullptr) override;
 
   // The 6x6 diagonal blocks K_ii, [N][36] row-major, for block-Jacobi preconditioning.
-  void tangent_diagonal_blocks(double* blocks);
+  void tangent_diagonal_blocks(double* blocks) override;
 
   // The 9x9 matrix D_s = d^2 psi / dF^2 of sample s at the prepared state (row k = vec(dP[E_k]),
   // vec row-major), and the pair's 9x6 Jacobian B_p (columns: dF for unit dx and dr, eq. 11).
   void material_matrix(int s, double* D) const;
   void pair_jacobian(int p, double* B) const;
 
-  const Model& model() const { return m_model; }
+  const Model& model() const override { return m_model; }
+  // Itself: the assembled tangent reads this object's prepared state.
+  const Elasticity& prepared_reference() override { return *this; }
   int threads() const { return m_threads; }
   // Prepared per-frame rotational geometric blocks [N][9].
   const std::vector<double>& rotational_blocks() const { return m_frame_blocks; }

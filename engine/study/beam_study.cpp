@@ -71,6 +71,7 @@ BeamResult run_beam_case(const BeamCase& beam, const BeamSettings& s) {
   SimulationSettings settings;
   settings.integrator = Integrator::static_equilibrium;
   settings.threads = s.threads;
+  settings.elasticity = s.elasticity;
   settings.newton.tolerance = s.tolerance;
   // Frame hexahedra need many regularised Newton iterations (zero-energy twist modes, README);
   // the budget keeps a non-converging row to minutes and the row reports its residual.

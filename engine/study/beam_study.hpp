@@ -6,6 +6,7 @@
 
 #include "core/small_math.hpp"
 #include "material/material.hpp"
+#include "mechanics/volumetric_elasticity.hpp"
 
 #include <cstdint>
 #include <string>
@@ -33,6 +34,7 @@ struct BeamSettings {
   std::uint64_t seed = 1;                     // meshless: Poisson-disk seed
   double tolerance = 1e-7;                    // Newton, relative to the weight
   int threads = 0;
+  ElasticityFactory elasticity;               // backend of the volumetric elasticity; empty: CPU
 };
 
 struct BeamResult {

@@ -1,5 +1,6 @@
-// Coupled-system fixtures (paper §4.2): a tissue block sharing its top frames with a shell and
-// carrying a rigid plate under it, momenta of a state, and a free spinning start.
+// Coupled-system fixtures (paper §4.2): a tissue block with a shell on its top face and a rigid
+// plate under it, a scene of shells and rigid bodies only (no samples), momenta of a state, and a
+// free spinning start.
 #pragma once
 
 #include "core/rotation.hpp"
@@ -12,10 +13,12 @@
 
 namespace fascia::test {
 
-// Block 0.2 x 0.1 x 0.05 m (hexahedra, StVK 10 kPa), a shell on its top face sharing its 9 top
-// frames, a rigid plate (2 cm thick, 1000 kg/m^3) under it carrying its 9 bottom frames.
-inline Model coupled_model() {
-  const Model block = small_box_model(CellType::hexahedron);
+// Block 0.2 x 0.1 x 0.05 m (2 x 2 x 1 hexahedra or their tetrahedra, StVK 10 kPa), a shell on
+// its top face sharing its 9 top frames, a rigid plate (2 cm thick, 1000 kg/m^3) under it
+// carrying its 9 bottom frames. With fixed_plate the plate's frame is fixed (the block then
+// stands on it under gravity).
+inline Model coupled_model(CellType cells = CellType::hexahedron, bool fixed_plate = false) {
+  const Model block = small_box_model(cells);
   SurfaceMesh top = rectangle_surface(0.2, 0.1, 2, 2);
   for (int k = 0; k < top.vertex_count(); ++k) top.vertices[3 * k + 2] = 0.05;
   ModelBuilder builder;
@@ -24,6 +27,16 @@ inline Model coupled_model() {
   const int bone = builder.add_rigid("bone", box_surface({0, 0, -0.02}, {0.2, 0.1, 0}), 1000.0);
   REQUIRE(builder.share(tissue, wall, 1e-6) == 9);
   REQUIRE(builder.attach(tissue, bone, 1e-6) == 9);
+  if (fixed_plate) REQUIRE(builder.fix(bone, [](double, double, double) { return true; }) == 1);
+  return builder.build();
+}
+
+// No volumetric samples: a 0.2 x 0.1 m shell clamped along x = 0 and a free rigid box.
+inline Model shells_and_rigid_model() {
+  ModelBuilder builder;
+  const int wall = builder.add_shell("wall", rectangle_surface(0.2, 0.1, 4, 2), ShellProperties{0.004, 5.0e4, 0.35, 1000.0});
+  builder.add_rigid("bone", box_surface({0, 0, -0.1}, {0.1, 0.05, -0.05}), 1000.0);
+  REQUIRE(builder.fix(wall, [](double x, double, double) { return x < 1e-9; }) == 3);
   return builder.build();
 }
 

@@ -1,0 +1,52 @@
+#include "backend.hpp"
+
+#if FASCIA_WITH_CUDA
+#include "cuda_elasticity.hpp"
+#endif
+
+#include <iostream>
+
+namespace fascia::app {
+
+void add_backend_options(CLI::App& command, BackendOptions& options) {
+  command
+      .add_option("--backend", options.backend,
+                  "cpu | cuda: where the volumetric elasticity is evaluated (cuda: the elastic forces and tangent "
+                  "products of the samples on the GPU; Newton, linear solves, loads, shells and rigid bodies stay on "
+                  "the CPU; exit 69 without a usable device)")
+      ->check(CLI::IsMember({"cpu", "cuda"}));
+  command
+      .add_option("--precision", options.precision,
+                  "cuda: double | single storage on the device (single: forces to about 1e-6 relative, use a Newton "
+                  "tolerance of 1e-5 or more)")
+      ->check(CLI::IsMember({"double", "single"}));
+}
+
+int resolve_backend(const char* command, const BackendOptions& options, Backend& backend) {
+  backend = Backend{};
+  if (options.backend == "cpu") {
+    backend.provenance = {{"backend", "cpu"}};
+    backend.description = "cpu";
+    return kOk;
+  }
+#if FASCIA_WITH_CUDA
+  const gpu::DeviceInfo info = gpu::device_info();
+  if (info.device_count == 0) {
+    std::cerr << "fascia " << command << ": error: --backend cuda: no usable CUDA device (no GPU or no driver); "
+              << "use --backend cpu\n";
+    return kUnavailable;
+  }
+  gpu::DeviceOptions device;
+  device.precision = options.precision == "single" ? gpu::Precision::single_precision : gpu::Precision::double_precision;
+  backend.elasticity = gpu::cuda_elasticity_factory(device);
+  backend.provenance = {{"backend", "cuda"}, {"gpu", info.name}, {"precision", options.precision}};
+  backend.description = "cuda (" + info.name + ", " + options.precision + ")";
+  return kOk;
+#else
+  std::cerr << "fascia " << command << ": error: --backend cuda: this fascia was built without CUDA "
+            << "(FASCIA_WITH_CUDA=OFF); use --backend cpu\n";
+  return kUnavailable;
+#endif
+}
+
+}  // namespace fascia::app

@@ -1,0 +1,35 @@
+// `--backend cpu|cuda` and `--precision double|single` of `fascia run` and `fascia study`: which
+// implementation evaluates the volumetric elasticity (engine/mechanics/volumetric_elasticity.hpp).
+// With cuda, the CUDA kernels (kernels/cuda_elasticity.hpp) evaluate the volumetric energy,
+// forces and tangent products; Newton, the linear solves, loads, shells and rigid bodies stay on
+// the CPU (docs/gpu.md).
+#pragma once
+
+#include "commands.hpp"
+#include "mechanics/volumetric_elasticity.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+namespace fascia::app {
+
+struct BackendOptions {
+  std::string backend = "cpu";       // cpu | cuda
+  std::string precision = "double";  // cuda: storage precision on the device
+};
+
+// Adds --backend and --precision to a subcommand.
+void add_backend_options(CLI::App& command, BackendOptions& options);
+
+struct Backend {
+  ElasticityFactory elasticity;  // empty for cpu
+  nlohmann::json provenance;     // {"backend", and for cuda "gpu", "precision"}
+  std::string description;       // for logs: "cpu" or "cuda (NVIDIA H200, double)"
+};
+
+// Resolves the options. Without a usable CUDA device, or in a build without CUDA, prints one
+// line "fascia <command>: error: ..." on stderr and returns kUnavailable; kOk otherwise.
+int resolve_backend(const char* command, const BackendOptions& options, Backend& backend);
+
+}  // namespace fascia::app

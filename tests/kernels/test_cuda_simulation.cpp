@@ -1,0 +1,152 @@
+// Simulations on the CUDA backend (`fascia run --backend cuda`, `fascia study beam --backend
+// cuda`) against the CPU engine: the Newton solver, loads, shells and rigid mapping run on the
+// CPU in both; only the volumetric elasticity (CudaElasticity) differs, in summation order.
+//
+// Bounds. Each step starts both backends from the same state and must end within the
+// a-posteriori distance of support/minimiser_bound.hpp: both runs stop at |g_free| <= tau F, so
+// each lies within |g_free| / lambda_min of the exact minimiser (gradients re-evaluated by the
+// CPU engine, lambda_min the smallest eigenvalue of the free Hessian). With tau = 1e-10 this is
+// far below 1e-9 relative; the device's own round-off (energy, forces, tangent within 1e-12
+// relative, test_device_elasticity.cpp) enters only through the gradient at which Newton stops,
+// which the bound measures.
+#include "cuda_elasticity.hpp"
+#include "discretise/mesh_based.hpp"
+#include "discretise/probe.hpp"
+#include "study/beam_study.hpp"
+#include "support/backend_comparison.hpp"
+#include "support/coupling_fixtures.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+
+using namespace fascia;
+using namespace fascia::gpu;
+using namespace fascia::test;
+
+namespace {
+
+SimulationSettings comparison_settings(Integrator integrator, LinearMethod method) {
+  SimulationSettings s;
+  s.integrator = integrator;
+  s.dt = 0.01;
+  s.rayleigh_mass = 0.5;
+  s.rayleigh_stiffness = 0.002;  // the start-of-step tangent on the device too
+  s.newton.tolerance = 1e-10;
+  s.newton.linear.method = method;
+  s.newton.linear.tolerance = 1e-10;
+  return s;
+}
+
+ExternalLoads gravity() {
+  ExternalLoads loads;
+  loads.gravity = Vec3{0, 0, -9.81};
+  return loads;
+}
+
+// The study's frame-tet 4 x 1 x 1 cantilever (study/beam_study.cpp, discretise_beam): 16 x 1 x 1 m,
+// 5 kg, StVK E = 40 kPa, nu = 0.3, clamped at x = 0.
+Model study_beam_model(const BeamSettings& s) {
+  const VolumeMesh mesh = box_tet_mesh({0, 0, 0}, {s.length, s.width, s.height}, 4, 1, 1);
+  const double density = s.mass / (s.length * s.width * s.height);
+  Model model = build_mesh_model(mesh, make_material(s.law, s.young, s.poisson, density));
+  const double clamp = 1e-9 * s.length;
+  fix_frames(model, [clamp](double x, double, double) { return x <= clamp; });
+  return model;
+}
+
+}  // namespace
+
+TEST_CASE("backward Euler on a tissue block: CUDA backend equals the CPU engine", "[gpu]") {
+  const Design design = GENERATE(Design::fused, Design::paper);
+  const LinearMethod method = GENERATE(LinearMethod::pcg, LinearMethod::cholmod);
+  Model model = small_box_model(CellType::hexahedron, MaterialLaw::neo_hookean, 4, 3, 2);
+  fix_frames(model, [](double x, double, double) { return x < 1e-9; });
+  DeviceOptions options;
+  options.design = design;
+  options.block_samples = 32;  // several blocks on the small model
+  char label[64];
+  std::snprintf(label, sizeof label, "gpu block %s %s", to_string(design), to_string(method));
+  const double worst = check_backends_agree(label, model, gravity(), comparison_settings(Integrator::backward_euler, method),
+                                            cuda_elasticity_factory(options), 3);
+  CHECK(worst <= 1.0);
+}
+
+TEST_CASE("backward Euler and a static solve of a coupled scene: CUDA backend equals the CPU engine", "[gpu]") {
+  // Tetrahedral block (no zero-energy modes, so the static Hessian is definite), its top frames
+  // shared with a shell, its bottom frames on a fixed rigid plate.
+  const Integrator integrator = GENERATE(Integrator::backward_euler, Integrator::static_equilibrium);
+  const LinearMethod method = GENERATE(LinearMethod::pcg, LinearMethod::cholmod);
+  const Model model = coupled_model(CellType::tetrahedron, true);
+  char label[64];
+  std::snprintf(label, sizeof label, "gpu coupled %s %s", to_string(integrator), to_string(method));
+  const int steps = integrator == Integrator::backward_euler ? 3 : 1;
+  const double worst = check_backends_agree(label, model, gravity(), comparison_settings(integrator, method),
+                                            cuda_elasticity_factory(), steps);
+  CHECK(worst <= 1.0);
+}
+
+TEST_CASE("static cantilever: CUDA backend equals the CPU engine", "[gpu]") {
+  // Large deflection (tip about 2.3 m of 16 m): load stepping, line search and the assembled
+  // tangent (CHOLMOD, from the CPU reference prepared at the device's state).
+  const LinearMethod method = GENERATE(LinearMethod::cholmod, LinearMethod::pcg);
+  const Model model = study_beam_model(BeamSettings{});
+  SimulationSettings settings = comparison_settings(Integrator::static_equilibrium, method);
+  settings.newton.max_iterations = 300;
+  const double worst = check_backends_agree(method == LinearMethod::cholmod ? "gpu beam cholmod" : "gpu beam pcg", model,
+                                            gravity(), settings, cuda_elasticity_factory(), 1);
+  CHECK(worst <= 1.0);
+}
+
+TEST_CASE("backward Euler in single precision stays within its Newton tolerance of the CPU engine", "[gpu]") {
+  // Single storage: forces carry about 1e-6 relative error (docs/gpu.md), so Newton's tolerance
+  // is 1e-5; the bound is a-posteriori (CPU gradients at both end states), so it holds for any
+  // storage precision.
+  Model model = small_box_model(CellType::hexahedron, MaterialLaw::stvk, 4, 3, 2);
+  fix_frames(model, [](double x, double, double) { return x < 1e-9; });
+  SimulationSettings settings = comparison_settings(Integrator::backward_euler, LinearMethod::pcg);
+  settings.newton.tolerance = 1e-5;
+  DeviceOptions options;
+  options.precision = Precision::single_precision;
+  const double worst = check_backends_agree("gpu block single", model, gravity(), settings,
+                                            cuda_elasticity_factory(options), 3);
+  CHECK(worst <= 1.0);
+}
+
+TEST_CASE("a beam study row on the CUDA backend equals the CPU row", "[gpu]") {
+  // `fascia study beam --method frame-tet --resolution 4x1x1`, tolerance 1e-7 of the weight.
+  BeamSettings cpu_settings, gpu_settings;
+  gpu_settings.elasticity = cuda_elasticity_factory();
+  const BeamCase row{"frame-tet", 4, 1, 1};
+  const BeamResult cpu = run_beam_case(row, cpu_settings);
+  const BeamResult gpu = run_beam_case(row, gpu_settings);
+  REQUIRE(cpu.converged);
+  REQUIRE(gpu.converged);
+  CHECK(gpu.frames == cpu.frames);
+  CHECK(gpu.samples == cpu.samples);
+
+  // Bound: each run stops at |g_free| <= residual * F, F = |f_ext| (the reference force of the
+  // last load increment; at its start the gradient is a fraction of f_ext); the tip is
+  // sum_i w_i (x_i + R_i l_i), so |d tip| <= (1 + extent) |dq|. lambda_min at the CPU solution.
+  const Model model = study_beam_model(cpu_settings);
+  ExternalLoads loads = gravity();
+  SimulationSettings settings = comparison_settings(Integrator::static_equilibrium, LinearMethod::cholmod);
+  settings.newton.max_iterations = 300;
+  Simulation solved(model, loads, settings);
+  solved.step();
+  StepPotential probe(solved.model(), solved.loads());
+  probe.set_static();
+  const MinimiserBound b = minimiser_bound(probe, solved.state(), solved.state());
+  const double F = load_force_norm(solved.model(), solved.loads());
+  const double bound = (1 + b.extent) * 2 * (cpu.residual + gpu.residual) * F / b.lambda_min +
+                       state_round_off(cpu_settings.length);
+  const double diff = norm(gpu.tip_displacement - cpu.tip_displacement);
+  std::printf("[gpu study] frame-tet 4x1x1: tip dz cpu %.9f gpu %.9f, |difference| %.2e (bound %.2e), newton %d/%d, "
+              "residual %.1e/%.1e\n",
+              cpu.tip_displacement.z, gpu.tip_displacement.z, diff, bound, cpu.newton_iterations, gpu.newton_iterations,
+              cpu.residual, gpu.residual);
+  REQUIRE(b.lambda_min > 0);
+  CHECK(diff <= bound);
+  // The study's own check: the tip moved as much as the row in the README (-2.347 m).
+  CHECK(cpu.tip_displacement.z == Approx(-2.347).margin(5e-4));
+}
