@@ -85,12 +85,19 @@ StepReport Simulation::step() {
   const double reference = load_force_norm(m_model, m_loads);
   State start = m_state;
 
-  if (m_settings.integrator == Integrator::variational) {
-    potential.set_static();
+  if (m_settings.integrator != Integrator::static_equilibrium) {
+    // One time step: the variational step solves its discrete Euler-Lagrange equations (with V
+    // from the static potential), backward Euler minimises its incremental potential.
+    const bool variational = m_settings.integrator == Integrator::variational;
+    if (variational)
+      potential.set_static();
+    else
+      potential.set_dynamic(start, m_settings.dt, m_settings.rayleigh_mass, m_settings.rayleigh_stiffness);
     State trial = start;
     apply_motions(m_model, m_motions, t_next, trial);
     potential.rigid_mapping().sync(trial);
-    const NewtonResult r = m_impl->variational->advance(start, trial, m_settings.newton, reference);
+    const NewtonResult r = variational ? m_impl->variational->advance(start, trial, m_settings.newton, reference)
+                                       : minimise(potential, trial, m_settings.newton, reference);
     report.newton_iterations = r.iterations;
     report.cg_iterations = r.cg_iterations;
     report.residual = r.residual;
@@ -100,25 +107,11 @@ StepReport Simulation::step() {
           << (finite_state(trial) ? r.message : "the state became non-finite (diverged)");
       throw SolverError(msg.str());
     }
-    m_state = std::move(trial);
-  } else if (m_settings.integrator == Integrator::backward_euler) {
-    potential.set_dynamic(start, m_settings.dt, m_settings.rayleigh_mass, m_settings.rayleigh_stiffness);
-    State trial = start;
-    apply_motions(m_model, m_motions, t_next, trial);
-    potential.rigid_mapping().sync(trial);
-    const NewtonResult r = minimise(potential, trial, m_settings.newton, reference);
-    report.newton_iterations = r.iterations;
-    report.cg_iterations = r.cg_iterations;
-    report.residual = r.residual;
-    if (!r.converged || !finite_state(trial)) {
-      std::ostringstream msg;
-      msg << "step " << report.step << " (t = " << t_next << " s): "
-          << (finite_state(trial) ? r.message : "the state became non-finite (diverged)");
-      throw SolverError(msg.str());
+    if (!variational) {  // the variational step sets its velocities from the momenta
+      std::vector<double> delta;
+      potential.increments(trial, delta);
+      for (size_t k = 0; k < delta.size(); ++k) trial.velocities[k] = delta[k] / m_settings.dt;
     }
-    std::vector<double> delta;
-    potential.increments(trial, delta);
-    for (size_t k = 0; k < delta.size(); ++k) trial.velocities[k] = delta[k] / m_settings.dt;
     m_state = std::move(trial);
   } else {
     // Static equilibrium with load stepping: the load factor goes to 1 in increments, halved on
