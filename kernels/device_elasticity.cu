@@ -127,7 +127,7 @@ class System final : public DeviceElasticity::Impl {
     m_fixed.upload(model.fixed_dofs);
 
     if (design == Design::fused) {
-      const BlockLayout L = build_block_layout(model, opts.block_samples, kMaxBlockPairs);
+      BlockLayout L = build_block_layout(model, opts.block_samples, kMaxBlockPairs);
       m_blocks = L.block_count();
       m_slots = L.slot_count();
       m_shared_bytes = static_cast<size_t>(L.max_block_pairs) * 6 * sizeof(R);
@@ -139,52 +139,20 @@ class System final : public DeviceElasticity::Impl {
       m_frame_slot_offsets.upload(L.frame_slot_offsets);
       m_frame_slots.upload(L.frame_slots);
       m_partials.resize(6 * static_cast<size_t>(m_slots));
-      // Staged tangent pass: ELL tables and the largest block's shared memory.
-      m_ell_offsets.upload(L.ell_offsets);
-      m_ell_slot.upload(L.ell_slot);
-      m_slot_ell.upload(L.slot_ell);
-      const int E = L.ell_count();
-      std::vector<double> ell(4 * static_cast<size_t>(E), 0.0);
-      for (int p = 0; p < m_p; ++p) {
-        const int e = L.pair_ell[p];
-        ell[e] = nb.weights[p];
-        for (int k = 0; k < 3; ++k) ell[static_cast<size_t>(k + 1) * E + e] = nb.weight_gradients[3 * p + k];
-      }
-      m_ell_data.upload(ell);
-      m_ell_entries = E;
-      size_t staged_values = 0;
-      for (int b = 0; b < m_blocks; ++b) {
-        const size_t ns = L.block_samples[b + 1] - L.block_samples[b];
-        const size_t nq = L.block_slots[b + 1] - L.block_slots[b];
-        const size_t Eb = L.ell_offsets[b + 1] - L.ell_offsets[b];
-        staged_values = std::max(staged_values, kSlotStride * nq + std::max(kSampleStride * ns, 6 * Eb));
-      }
-      staged_bytes = staged_values * sizeof(R);
       m_cache.resize(10 * static_cast<size_t>(m_s));
-      // Threads per sample of the tangent pass. Auto (measured on an H200, docs/benchmarks.md):
-      // 1 up to 4 neighbours, 2 above in double, 1 in single (lanes loop over further pairs).
-      int max_pairs = 1;
-      for (int s = 0; s < m_s; ++s) max_pairs = std::max(max_pairs, nb.offsets[s + 1] - nb.offsets[s]);
-      m_lanes = 1;
-      if (opts.staged && opts.lanes <= 1) {
-        m_lanes = 1;
-      } else if (opts.lanes > 0) {
-        while (m_lanes < std::min(opts.lanes, 32)) m_lanes *= 2;
-      } else {
-        m_lanes = max_pairs > 4 && sizeof(R) == sizeof(double) ? 2 : 1;
-      }
-      m_lane_threads = std::max(32, std::min({kLaneThreadsMax, opts.lane_threads, opts.block_samples * m_lanes}));
-      int shared_limit = 0, dev = 0;
-      FASCIA_CUDA(cudaGetDevice(&dev));
-      FASCIA_CUDA(cudaDeviceGetAttribute(&shared_limit, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
       // One thread per sample: the staged pass needs every sample of a block in one thread block.
-      staged = opts.staged && m_lanes == 1 && opts.block_samples <= kLaneThreadsMax &&
-                 staged_bytes <= static_cast<size_t>(shared_limit);
-      if (staged) {
-        m_lane_threads = opts.block_samples;
-        FASCIA_CUDA(cudaFuncSetAttribute(k_staged_tangent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                         static_cast<int>(staged_bytes)));
+      staged = opts.staged && opts.lanes <= 1 && opts.block_samples <= kLaneThreadsMax && upload_staged(model, L);
+      // Threads per sample of the lane-parallel pass. Auto (measured on an H200,
+      // docs/benchmarks.md): 1 up to 4 neighbours, 2 above in double, 1 in single (lanes loop over
+      // further pairs).
+      m_lanes = 1;
+      if (!staged && opts.lanes > 0) {
+        while (m_lanes < std::min(opts.lanes, 32)) m_lanes *= 2;
+      } else if (!staged && model.max_neighbours() > 4 && sizeof(R) == sizeof(double)) {
+        m_lanes = 2;
       }
+      m_lane_threads = staged ? opts.block_samples
+                              : std::max(32, std::min({kLaneThreadsMax, opts.lane_threads, opts.block_samples * m_lanes}));
       const int max_shared = static_cast<int>(m_shared_bytes);
       FASCIA_CUDA(cudaFuncSetAttribute(k_lanes_tangent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize, max_shared));
       FASCIA_CUDA(cudaFuncSetAttribute(k_fused_samples<Pass::gradient, R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
@@ -342,6 +310,40 @@ class System final : public DeviceElasticity::Impl {
     return P * (4 + r + 3 * r + 3 * r) + S * (9 * r + 10 * r + r + 4 + 4) + P * 6 * r * 2 + P * 4 + N * 4 + frames;
   }
 
+  // The staged tangent pass's tables (build_ell_order) and shared-memory size; false, with
+  // nothing uploaded, where its largest block would not fit in a thread block's shared memory.
+  bool upload_staged(const Model& model, BlockLayout& L) {
+    build_ell_order(model, L);
+    size_t values = 0;
+    for (int b = 0; b < L.block_count(); ++b) {
+      const size_t ns = L.block_samples[b + 1] - L.block_samples[b];
+      const size_t nq = L.block_slots[b + 1] - L.block_slots[b];
+      const size_t Eb = L.ell_offsets[b + 1] - L.ell_offsets[b];
+      values = std::max(values, kSlotStride * nq + std::max(kSampleStride * ns, 6 * Eb));
+    }
+    int shared_limit = 0, dev = 0;
+    FASCIA_CUDA(cudaGetDevice(&dev));
+    FASCIA_CUDA(cudaDeviceGetAttribute(&shared_limit, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
+    if (values * sizeof(R) > static_cast<size_t>(shared_limit)) return false;
+    m_staged_bytes = values * sizeof(R);
+    const NeighbourTable& nb = model.neighbours;
+    const int E = L.ell_count();
+    std::vector<double> ell(4 * static_cast<size_t>(E), 0.0);  // [4][E]: w, g
+    for (int p = 0; p < model.pair_count(); ++p) {
+      const int e = L.pair_ell[p];
+      ell[e] = nb.weights[p];
+      for (int k = 0; k < 3; ++k) ell[static_cast<size_t>(k + 1) * E + e] = nb.weight_gradients[3 * p + k];
+    }
+    m_ell_offsets.upload(L.ell_offsets);
+    m_ell_slot.upload(L.ell_slot);
+    m_slot_ell.upload(L.slot_ell);
+    m_ell_data.upload(ell);
+    m_ell_entries = E;
+    FASCIA_CUDA(cudaFuncSetAttribute(k_staged_tangent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                     static_cast<int>(m_staged_bytes)));
+    return true;
+  }
+
   // ---- stepper -------------------------------------------------------------------------------
 
   void configure_step(const StepOptions& o) override {
@@ -494,8 +496,8 @@ class System final : public DeviceElasticity::Impl {
           m_view, m_frame_view, nullptr, m_F.data(), m_cache.data(), m_partials.data(), reduction(), nullptr);
       check_launch();
       if (gather) {
-        k_fused_gather<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
-            m_view, m_partials.data(), nullptr, nullptr, none, m_d.data(), m_grad.data(), reduction(), false);
+        k_frame_rows<R><<<grid_for(m_n, kRowFrames), 6 * kRowFrames, 0, m_stream>>>(
+            m_view, m_partials.data(), nullptr, nullptr, none, nullptr, m_grad.data(), reduction(), false, nullptr);
         check_launch();
       }
     } else {
@@ -531,7 +533,7 @@ class System final : public DeviceElasticity::Impl {
     if (design == Design::fused) {
       const R* z = pcg ? m_cz.data() : nullptr;
       if (staged)
-        k_staged_tangent<R><<<m_blocks, m_lane_threads, staged_bytes, m_stream>>>(
+        k_staged_tangent<R><<<m_blocks, m_lane_threads, m_staged_bytes, m_stream>>>(
             m_view, m_frame_view, m_F.data(), m_cache.data(), pcg ? z : d, pcg ? d : nullptr, m_partials.data(), sc);
       else
         k_lanes_tangent<R><<<m_blocks, m_lane_threads, m_shared_bytes, m_stream>>>(
@@ -601,7 +603,7 @@ class System final : public DeviceElasticity::Impl {
   }
 
   bool use_persistent() const { return m_step.persistent && m_persistent_grid > 0; }
-  size_t persistent_shared_bytes() const { return staged ? staged_bytes : m_shared_bytes; }
+  size_t persistent_shared_bytes() const { return staged ? m_staged_bytes : m_shared_bytes; }
 
   // Grid of the persistent PCG: every block resident (cooperative launch), no more blocks than
   // sample blocks or frame blocks need. 0 where it cannot run (paper design, no cooperative launch).
@@ -673,7 +675,7 @@ class System final : public DeviceElasticity::Impl {
   int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0, m_lanes = 1, m_lane_threads = 128;
   bool m_locked = false;
   int m_ell_entries = 0;
-  size_t m_shared_bytes = 0, staged_bytes = 0;
+  size_t m_shared_bytes = 0, m_staged_bytes = 0;
   Origin m_origin{};
   cudaStream_t m_stream = nullptr;
   cudaEvent_t m_start = nullptr, m_stop = nullptr;

@@ -231,7 +231,7 @@ __device__ void lanes_tangent_block(const ModelView<R>& m, const FrameView<R>& f
 constexpr int kLaneThreadsMax = 512;
 
 // Tangent sample pass of the fused design, one block per sample block. In the PCG (p_old set) the
-// direction is p = z + beta p_old with z = d and beta from the scalars; k_fused_gather stores it.
+// direction is p = z + beta p_old with z = d and beta from the scalars; k_frame_rows stores it.
 template <class R>
 __global__ void __launch_bounds__(kLaneThreadsMax) k_lanes_tangent(ModelView<R> m, FrameView<R> f, const R* F,
                                                                    const R* cache, const R* d, const R* p_old,
@@ -311,8 +311,9 @@ __global__ void __launch_bounds__(kLaneThreadsMax) k_staged_tangent(ModelView<R>
 // Frame pass with one thread per frame row: chunk c covers frames [c fpc, (c + 1) fpc), fpc =
 // blockDim.x / 6. With z set (PCG) the direction p = z + beta p is formed (every thread of a frame
 // has read the old p before the barrier) and stored; out = H d from the block slots' sums (in
-// fused_gather's order) and frame_row's terms. Returns this thread's d_k out_k. Every thread of
-// the block must call it.
+// fused_gather's order) and frame_row's terms. Returns this thread's d_k out_k. With d null (a
+// gather of the sample terms alone: no geo, inertia or projection) d is taken as 0. Every thread
+// of the block must call it.
 template <class R>
 __device__ double frame_rows_chunk(const ModelView<R>& m, const R* slot_partials, const R* geo,
                                    const R* inertia_world, const FrameTermsFlags& flags, R* d, R* out, const R* z,
@@ -321,7 +322,7 @@ __device__ double frame_rows_chunk(const ModelView<R>& m, const R* slot_partials
   const int fpc = static_cast<int>(blockDim.x) / 6;
   const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
   const bool active = t < 6 * fpc && i < m.frames;
-  if (active) dir[t] = static_cast<double>(z ? next_direction(z, d, beta, 6 * i + k) : d[6 * i + k]);
+  if (active) dir[t] = z ? static_cast<double>(next_direction(z, d, beta, 6 * i + k)) : d ? static_cast<double>(d[6 * i + k]) : 0.0;
   __syncthreads();
   double dot = 0;
   if (active) {
@@ -368,7 +369,7 @@ __device__ double update_rows_chunk(int n, const R* minv, const R* p, const R* A
 }
 
 // Launch-per-phase forms of the two row passes (one chunk per block); with `pcg`, the dot
-// products are reduced into alpha and beta as k_fused_gather / k_pcg_update.
+// products are reduced into alpha and beta.
 template <class R>
 __global__ void k_frame_rows(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
                              FrameTermsFlags flags, R* d, R* out, Reduction red, bool pcg, const R* z) {
@@ -385,31 +386,6 @@ __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* 
   if (finished(red.scalars)) return;
   const double dot = update_rows_chunk(n, minv, p, Ap, x, r, z, red.scalars->alpha, static_cast<int>(blockIdx.x));
   reduce_and_finish(dot, red, Finish::beta, tolerance);
-}
-
-// Frame pass of the fused design: one thread per frame.
-// With `z` set (PCG), d is the direction p: first updated in place to p = z + beta p (beta from the
-// scalars; the sample pass formed the same bits on the fly), then used.
-template <class R>
-__global__ void k_fused_gather(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
-                               FrameTermsFlags flags, R* d, R* out, Reduction red, bool pcg, const R* z = nullptr) {
-  if (pcg && finished(red.scalars)) return;
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  double dot = 0;
-  if (i < m.frames) {
-    if (z) {
-      const double beta = red.scalars->beta;
-      for (int k = 0; k < 6; ++k) d[6 * i + k] = next_direction(z, d, beta, 6 * i + k);
-    }
-    double acc[6];
-    fused_gather(m, slot_partials, i, acc);
-    for (int k = 0; k < 6; ++k) {
-      const double v = frame_row(m, geo, inertia_world, flags.inv_h2, flags.project, d, i, k, acc[k], flags.k_scale);
-      out[6 * i + k] = static_cast<R>(v);
-      if (pcg) dot += static_cast<double>(d[6 * i + k]) * static_cast<double>(static_cast<R>(v));
-    }
-  }
-  if (pcg) reduce_and_finish(dot, red, Finish::alpha, 0);
 }
 
 // ---- frames: preparation and PCG ----
@@ -460,30 +436,6 @@ __global__ void k_pcg_init(ModelView<R> m, const R* gradient, const R* inertia_w
     }
   }
   reduce_and_finish(dot, red, Finish::init, 0);
-}
-
-// x += alpha p, r -= alpha Ap, z = M^-1 r, rz_new = r . z; the last block sets beta and the flag.
-template <class R>
-__global__ void k_pcg_update(int n, const R* minv, const R* p, const R* Ap, R* x, R* r, R* z, Reduction red,
-                             double tolerance) {
-  if (finished(red.scalars)) return;
-  const double alpha = red.scalars->alpha;
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  double dot = 0;
-  if (i < n) {
-    for (int k = 0; k < 6; ++k) {
-      const int j = 6 * i + k;
-      x[j] = static_cast<R>(static_cast<double>(x[j]) + alpha * static_cast<double>(p[j]));
-      r[j] = static_cast<R>(static_cast<double>(r[j]) - alpha * static_cast<double>(Ap[j]));
-    }
-    double zz[6];
-    block_jacobi(minv, r, i, zz);
-    for (int k = 0; k < 6; ++k) {
-      z[6 * i + k] = static_cast<R>(zz[k]);
-      dot += static_cast<double>(r[6 * i + k]) * static_cast<double>(static_cast<R>(zz[k]));
-    }
-  }
-  reduce_and_finish(dot, red, Finish::beta, tolerance);
 }
 
 // p = z + beta p.

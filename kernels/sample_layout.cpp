@@ -127,7 +127,20 @@ BlockLayout build_block_layout(const Model& model, int max_samples, int max_pair
     if (!frame_pair.empty()) L.slot_pair_offsets.push_back(static_cast<int>(L.slot_pairs.size()));
     L.block_slots.push_back(static_cast<int>(L.slot_frames.size()));
   }
-  // ELL order of each block's pairs (pair j of local sample t at j * ns + t).
+  // Frame -> its slots, in slot (= block) order.
+  const int q_count = L.slot_count();
+  L.frame_slot_offsets.assign(n + 1, 0);
+  for (int q = 0; q < q_count; ++q) ++L.frame_slot_offsets[L.slot_frames[q] + 1];
+  for (int i = 0; i < n; ++i) L.frame_slot_offsets[i + 1] += L.frame_slot_offsets[i];
+  L.frame_slots.assign(q_count, 0);
+  std::vector<int> cursor(L.frame_slot_offsets.begin(), L.frame_slot_offsets.end() - 1);
+  for (int q = 0; q < q_count; ++q) L.frame_slots[cursor[L.slot_frames[q]]++] = q;
+  return L;
+}
+
+void build_ell_order(const Model& model, BlockLayout& L) {
+  const NeighbourTable& nb = model.neighbours;
+  const int blocks = L.block_count();
   L.ell_offsets.assign(1, 0);
   L.pair_ell.assign(nb.frames.size(), 0);
   for (int b = 0; b < blocks; ++b) {
@@ -150,15 +163,6 @@ BlockLayout build_block_layout(const Model& model, int max_samples, int max_pair
         L.slot_ell[k] = e - e0;
       }
   }
-  // Frame -> its slots, in slot (= block) order.
-  const int q_count = L.slot_count();
-  L.frame_slot_offsets.assign(n + 1, 0);
-  for (int q = 0; q < q_count; ++q) ++L.frame_slot_offsets[L.slot_frames[q] + 1];
-  for (int i = 0; i < n; ++i) L.frame_slot_offsets[i + 1] += L.frame_slot_offsets[i];
-  L.frame_slots.assign(q_count, 0);
-  std::vector<int> cursor(L.frame_slot_offsets.begin(), L.frame_slot_offsets.end() - 1);
-  for (int q = 0; q < q_count; ++q) L.frame_slots[cursor[L.slot_frames[q]]++] = q;
-  return L;
 }
 
 }  // namespace fascia::gpu

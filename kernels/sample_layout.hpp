@@ -39,7 +39,8 @@ struct BlockLayout {
   std::vector<int> slot_pairs;          // [P] pair index minus the block's first pair
   std::vector<int> frame_slot_offsets;  // [N+1]
   std::vector<int> frame_slots;         // [Q]
-  // Staged tangent pass (ELL order within each block; entries past a sample's count are padding).
+  // Staged tangent pass (build_ell_order; ELL order within each block, entries past a sample's
+  // count are padding). Empty unless built.
   std::vector<int> ell_offsets;         // [B+1] first ELL entry of each block; block b has ns_b * width_b
   std::vector<int> pair_ell;            // [P] ELL entry of each pair (global)
   std::vector<int> ell_slot;            // [E] slot of the entry's pair minus the block's first slot (0 on padding)
@@ -52,5 +53,9 @@ struct BlockLayout {
 // Blocks of at most max_samples consecutive samples and at most max_pairs pairs (a sample with
 // more pairs than that gets a block of its own: there is no cap on neighbours).
 BlockLayout build_block_layout(const Model& model, int max_samples, int max_pairs);
+
+// Fills the ELL tables of the staged tangent pass into a layout of build_block_layout: pair j of
+// a block's local sample t at entry j * ns + t.
+void build_ell_order(const Model& model, BlockLayout& layout);
 
 }  // namespace fascia::gpu

@@ -25,6 +25,7 @@ struct HostDevice {
   HostDevice(const Model& input, const State& state, int block_samples, int block_pairs)
       : model(reorder_samples(input, spatial_sample_order(input))),
         layout(build_block_layout(model, block_samples, block_pairs)) {
+    build_ell_order(model, layout);
     sample_rest = model.samples.rest_positions;
     frame_rest = model.frame_rest_positions;
     const double origin[3] = {0.1, 0.05, 0.025};
@@ -191,7 +192,8 @@ TEST_CASE("block layout lists every pair once, per frame, in increasing order", 
 TEST_CASE("ELL order holds every pair of a block once, with its block slot", "[kernels][layout]") {
   const Model model = kernels_test_model(CellType::tetrahedron, MaterialLaw::stvk, 4, 3, 3);
   const int block_samples = GENERATE(32, 128);
-  const BlockLayout L = build_block_layout(model, block_samples, 1024);
+  BlockLayout L = build_block_layout(model, block_samples, 1024);
+  build_ell_order(model, L);
   const NeighbourTable& nb = model.neighbours;
   std::vector<int> owner(L.ell_count(), -1);
   for (int b = 0; b < L.block_count(); ++b) {
