@@ -13,6 +13,9 @@ const char* to_string(Precision precision) {
   return precision == Precision::double_precision ? "double" : "single";
 }
 const char* to_string(Design design) { return design == Design::paper ? "paper" : "fused"; }
+const char* to_string(SamplePass pass) {
+  return pass == SamplePass::records ? "records" : pass == SamplePass::lanes ? "lanes" : "staged";
+}
 
 DeviceInfo device_info() {
   DeviceInfo info;
@@ -42,7 +45,6 @@ namespace {
 
 constexpr int kThreads = 128;      // frame and sample kernels
 constexpr int kPaperGather = 96;   // paper §3.3: 6 threads per frame, 96 per block
-constexpr int kRowFrames = 16;     // frame row passes (k_frame_rows, k_update_rows): 96 threads
 constexpr int kMaxBlockPairs = 1024;
 
 int grid_for(long long count, int threads) { return static_cast<int>(std::max<long long>(1, (count + threads - 1) / threads)); }
@@ -70,7 +72,9 @@ struct DeviceElasticity::Impl {
 
   DeviceOptions options;
   Design design = Design::fused;
-  bool staged = false;
+  SamplePass pass = SamplePass::records;  // fused design
+  bool staged = false;                    // pass == SamplePass::staged
+  int lanes = 1;                          // fused design, records and lanes passes
 };
 
 namespace {
@@ -91,6 +95,7 @@ class System final : public DeviceElasticity::Impl {
     m_s = model.sample_count();
     m_p = model.pair_count();
     m_locked = model.rotations_locked;
+    m_row_frames = opts.row_frames;
 
     // Origin: centre of the rest bounding box of the frames.
     for (int k = 0; k < 3; ++k) {
@@ -141,18 +146,24 @@ class System final : public DeviceElasticity::Impl {
       m_partials.resize(6 * static_cast<size_t>(m_slots));
       m_cache.resize(10 * static_cast<size_t>(m_s));
       // One thread per sample: the staged pass needs every sample of a block in one thread block.
-      staged = opts.staged && opts.lanes <= 1 && opts.block_samples <= kLaneThreadsMax && upload_staged(model, L);
-      // Threads per sample of the lane-parallel pass. Auto (measured on an H200,
-      // docs/benchmarks.md): 1 up to 4 neighbours, 2 above in double, 1 in single (lanes loop over
-      // further pairs).
+      pass = opts.sample_pass;
+      if (pass == SamplePass::staged &&
+          !(opts.lanes <= 1 && opts.block_samples <= kLaneThreadsMax && upload_staged(model, L)))
+        pass = SamplePass::lanes;
+      staged = pass == SamplePass::staged;
       m_lanes = 1;
-      if (!staged && opts.lanes > 0) {
-        while (m_lanes < std::min(opts.lanes, 32)) m_lanes *= 2;
-      } else if (!staged && model.max_neighbours() > 4 && sizeof(R) == sizeof(double)) {
-        m_lanes = 2;
+      if (!staged) {
+        const int wanted = opts.lanes > 0 ? std::min(opts.lanes, 32) : default_lanes(pass, model.max_neighbours());
+        while (m_lanes < wanted) m_lanes *= 2;
       }
+      lanes = m_lanes;
+      if (pass == SamplePass::records) upload_records(model, sample_rest);
       m_lane_threads = staged ? opts.block_samples
                               : std::max(32, std::min({kLaneThreadsMax, opts.lane_threads, opts.block_samples * m_lanes}));
+      for (const void* k : {reinterpret_cast<const void*>(&k_records_tangent<R, 1, 128>),
+                            reinterpret_cast<const void*>(&k_records_tangent<R, 2, 128>),
+                            reinterpret_cast<const void*>(&k_records_tangent<R, 2, kLaneThreadsMax>)})
+        FASCIA_CUDA(cudaFuncSetAttribute(k, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_shared_bytes)));
       const int max_shared = static_cast<int>(m_shared_bytes);
       FASCIA_CUDA(cudaFuncSetAttribute(k_lanes_tangent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize, max_shared));
       FASCIA_CUDA(cudaFuncSetAttribute(k_fused_samples<Pass::gradient, R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
@@ -198,6 +209,8 @@ class System final : public DeviceElasticity::Impl {
     m_view.ell_slot = m_ell_slot.data();
     m_view.ell_data = m_ell_data.data();
     m_view.slot_ell = m_slot_ell.data();
+    m_view.pair_records = m_pair_records.data();
+    m_view.sample_records = m_sample_records.data();
 
     const size_t dofs = 6 * static_cast<size_t>(m_n);
     m_positions.resize(3 * static_cast<size_t>(m_n));
@@ -211,7 +224,7 @@ class System final : public DeviceElasticity::Impl {
     m_minv.resize(36 * static_cast<size_t>(m_n));
     m_diag.resize(36 * static_cast<size_t>(m_n));
     for (auto* v : {&m_grad, &m_d, &m_out, &m_cx, &m_cr, &m_cz, &m_cp, &m_cAp}) v->resize(dofs);
-    const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(m_n, kRowFrames), m_blocks, 1});
+    const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(m_n, m_row_frames), m_blocks, 1});
     m_red_partials.resize(max_grid);
     m_counter.resize(1);
     m_counter.zero();
@@ -219,6 +232,33 @@ class System final : public DeviceElasticity::Impl {
     m_scalars.zero();
     m_frame_view.rotations = m_rot.data();
     m_frame_view.positions = m_x.data();
+    m_frame_view.records = m_records.size() ? m_records.data() : nullptr;
+  }
+
+  // Threads per sample when DeviceOptions::lanes is 0, measured on an H200 (docs/benchmarks.md).
+  // records: enough lanes that each keeps at most kKeep pairs in registers; lanes: 2 in double
+  // above 4 neighbours, else 1.
+  static int default_lanes(SamplePass pass, int neighbours) {
+    if (pass == SamplePass::records) return (neighbours + kKeep - 1) / kKeep;
+    return neighbours > 4 && sizeof(R) == sizeof(double) ? 2 : 1;
+  }
+
+  // The record pass's packed pair and sample records (kPairRecord, kSampleRecord) and the frame
+  // records' storage (written by k_kinematics).
+  void upload_records(const Model& model, const std::vector<double>& sample_rest) {
+    const NeighbourTable& nb = model.neighbours;
+    std::vector<double> pairs(kPairRecord * static_cast<size_t>(m_p)), samples(kSampleRecord * static_cast<size_t>(m_s));
+    for (int p = 0; p < m_p; ++p) {
+      for (int k = 0; k < 3; ++k) pairs[kPairRecord * static_cast<size_t>(p) + k] = nb.weight_gradients[3 * static_cast<size_t>(p) + k];
+      pairs[kPairRecord * static_cast<size_t>(p) + 3] = nb.weights[p];
+    }
+    for (int t = 0; t < m_s; ++t) {
+      for (int k = 0; k < 3; ++k) samples[kSampleRecord * static_cast<size_t>(t) + k] = sample_rest[3 * static_cast<size_t>(t) + k];
+      samples[kSampleRecord * static_cast<size_t>(t) + 3] = model.samples.volumes[t];
+    }
+    m_pair_records.upload(pairs);
+    m_sample_records.upload(samples);
+    m_records.resize(kFrameRecord * static_cast<size_t>(m_n));
   }
 
   ~System() override {
@@ -294,6 +334,13 @@ class System final : public DeviceElasticity::Impl {
     const double r = sizeof(R), P = m_p, S = m_s, N = m_n;
     // Frames: rotation, position, d (read), out (write), geometric block (read), fixed flags.
     const double frames = N * (9 * r + 3 * r + 6 * r + 6 * r + 9 * r + 6);
+    if (design == Design::fused && pass == SamplePass::records) {
+      // Pair records and frame indices, sample records, offsets and materials, frame records
+      // (instead of rotation and position), slot tables, slot partials out and in.
+      const double Q = m_slots;
+      return P * (4 * r + 4) + S * (4 * r + 4 + 4) + N * (16 * r - 12 * r) + Q * 4 * 2 + N * 4 + m_blocks * 8 +
+             Q * 6 * r * 2 + frames;
+    }
     if (design == Design::fused && staged) {
       const double Q = m_slots, E = m_ell_entries;
       return E * (4 * r + 2) + P * 4 + S * (3 * r + 9 * r + 10 * r + r + 4 + 4)  // ELL table, samples
@@ -488,7 +535,9 @@ class System final : public DeviceElasticity::Impl {
   // (always for the fused design's F), F (and the paper's cache and a) stored.
   void enqueue_gradient_pass(bool gather) {
     k_kinematics<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(m_n, m_positions.data(), m_orientations.data(),
-                                                                         m_origin, m_x.data(), m_rot.data());
+                                                                         m_origin, m_x.data(), m_rot.data(),
+                                                                         m_frame_rest.data(),
+                                                                         m_records.size() ? m_records.data() : nullptr);
     check_launch();
     const FrameTermsFlags none{0.0, false};
     if (design == Design::fused) {
@@ -496,7 +545,7 @@ class System final : public DeviceElasticity::Impl {
           m_view, m_frame_view, nullptr, m_F.data(), m_cache.data(), m_partials.data(), reduction(), nullptr);
       check_launch();
       if (gather) {
-        k_frame_rows<R><<<grid_for(m_n, kRowFrames), 6 * kRowFrames, 0, m_stream>>>(
+        k_frame_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
             m_view, m_partials.data(), nullptr, nullptr, none, nullptr, m_grad.data(), reduction(), false, nullptr);
         check_launch();
       }
@@ -532,7 +581,20 @@ class System final : public DeviceElasticity::Impl {
     const Scalars* sc = pcg ? m_scalars.data() : nullptr;
     if (design == Design::fused) {
       const R* z = pcg ? m_cz.data() : nullptr;
-      if (staged)
+      if (pass == SamplePass::records) {
+        const R* pd = pcg ? z : d;
+        const R* pold = pcg ? d : nullptr;
+        if (m_lane_threads > 128)
+          k_records_tangent<R, 2, kLaneThreadsMax><<<m_blocks, m_lane_threads, m_shared_bytes, m_stream>>>(
+              m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes);
+        else if (options.record_keep == 1)
+          k_records_tangent<R, 1, 128><<<m_blocks, m_lane_threads, m_shared_bytes, m_stream>>>(
+              m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes);
+        else
+          k_records_tangent<R, 2, 128><<<m_blocks, m_lane_threads, m_shared_bytes, m_stream>>>(
+              m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes);
+      }
+      else if (staged)
         k_staged_tangent<R><<<m_blocks, m_lane_threads, m_staged_bytes, m_stream>>>(
             m_view, m_frame_view, m_F.data(), m_cache.data(), pcg ? z : d, pcg ? d : nullptr, m_partials.data(), sc);
       else
@@ -540,7 +602,7 @@ class System final : public DeviceElasticity::Impl {
             m_view, m_frame_view, m_F.data(), m_cache.data(), pcg ? z : d, pcg ? d : nullptr, m_partials.data(), sc,
             m_lanes);
       check_launch();
-      k_frame_rows<R><<<grid_for(m_n, kRowFrames), 6 * kRowFrames, 0, m_stream>>>(
+      k_frame_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
           m_view, m_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(), pcg, z);
     } else {
       k_paper_tangent<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(
@@ -567,7 +629,7 @@ class System final : public DeviceElasticity::Impl {
 
   void enqueue_cg_iteration() {
     enqueue_tangent(m_cp.data(), m_cAp.data(), step_flags(), true);
-    k_update_rows<R><<<grid_for(m_n, kRowFrames), 6 * kRowFrames, 0, m_stream>>>(
+    k_update_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
         m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
         m_step.cg_tolerance);
     check_launch();
@@ -585,7 +647,7 @@ class System final : public DeviceElasticity::Impl {
     const R* F = m_F.data();
     const R* cache = m_cache.data();
     int lanes = m_lanes;
-    bool use_staged = staged;
+    SamplePass use_pass = pass;
     const R* geo = m_geo.data();
     const R* inertia = m_inertia_world.data();
     FrameTermsFlags flags = step_flags();
@@ -596,7 +658,7 @@ class System final : public DeviceElasticity::Impl {
     Scalars* scalars = m_scalars.data();
     int iterations = m_step.max_cg_iterations;
     double tolerance = m_step.cg_tolerance;
-    void* args[] = {&view, &frames, &F, &cache, &lanes, &use_staged, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
+    void* args[] = {&view, &frames, &F, &cache, &lanes, &use_pass, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
                     &slots, &partials, &scalars, &iterations, &tolerance};
     FASCIA_CUDA(cudaLaunchCooperativeKernel(reinterpret_cast<const void*>(&k_pcg_persistent<R>), dim3(m_persistent_grid),
                                             dim3(m_lane_threads), args, persistent_shared_bytes(), m_stream));
@@ -672,6 +734,7 @@ class System final : public DeviceElasticity::Impl {
     }
   }
 
+  int m_row_frames = 42;
   int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0, m_lanes = 1, m_lane_threads = 128;
   bool m_locked = false;
   int m_ell_entries = 0;
@@ -693,7 +756,7 @@ class System final : public DeviceElasticity::Impl {
   DeviceBuffer<int> m_block_samples, m_block_slots, m_slot_frames, m_slot_pair_offsets, m_slot_pairs,
       m_frame_slot_offsets, m_frame_slots, m_ell_offsets, m_slot_ell;
   DeviceBuffer<unsigned short> m_ell_slot;
-  DeviceBuffer<R> m_ell_data;
+  DeviceBuffer<R> m_ell_data, m_pair_records, m_sample_records, m_records;
   // State (double) and per-iteration data (R).
   DeviceBuffer<double> m_positions, m_orientations, m_velocities, m_external, m_load_rot, m_diag;
   DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_a, m_partials, m_geo, m_inertia_world, m_minv;
@@ -713,6 +776,10 @@ DeviceElasticity::DeviceElasticity(const Model& model, const DeviceOptions& opti
     throw std::invalid_argument("DeviceOptions: block_samples must be a multiple of 32 in [32, 1024]");
   if (options.lane_threads < 32 || options.lane_threads % 32 != 0 || options.lane_threads > kLaneThreadsMax)
     throw std::invalid_argument("DeviceOptions: lane_threads must be a multiple of 32 in [32, 512]");
+  if (options.row_frames < 1 || 6 * options.row_frames > kLaneThreadsMax)
+    throw std::invalid_argument("DeviceOptions: row_frames must be in [1, 85]");
+  if (options.record_keep < 1 || options.record_keep > 2)
+    throw std::invalid_argument("DeviceOptions: record_keep must be 1 or 2");
   if (options.precision == Precision::double_precision)
     m_impl = std::make_unique<System<double>>(model, options);
   else
@@ -728,7 +795,8 @@ double DeviceElasticity::prepare() { return m_impl->prepare(); }
 void DeviceElasticity::apply_tangent(const double* d, double* out) { m_impl->apply_tangent(d, out); }
 void DeviceElasticity::tangent_diagonal_blocks(double* blocks) { m_impl->diagonal_blocks(blocks); }
 Design DeviceElasticity::design() const { return m_impl->design; }
-bool DeviceElasticity::staged() const { return m_impl->staged; }
+SamplePass DeviceElasticity::sample_pass() const { return m_impl->pass; }
+int DeviceElasticity::lanes() const { return m_impl->lanes; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }
 double DeviceElasticity::time_tangent_ms(int repeats) { return m_impl->time_tangent_ms(std::max(1, repeats)); }

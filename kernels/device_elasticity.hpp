@@ -27,8 +27,16 @@ enum class Precision { double_precision, single_precision };
 //         tangent product, pair sums reduced per frame in shared memory.
 enum class Design { paper, fused };
 
+// Sample pass of the fused design's tangent product (elasticity_phases.hpp).
+//  lanes:   F and the material cache read per sample, frames gathered value by value (default).
+//  records: F rebuilt from the frames with dF, packed records read with vector loads.
+//  staged:  the block's frames and samples staged in shared memory, pairs in ELL order.
+// Measured on an H200 (docs/benchmarks.md): lanes is the fastest at every size so far.
+enum class SamplePass { records, lanes, staged };
+
 const char* to_string(Precision precision);
 const char* to_string(Design design);
+const char* to_string(SamplePass pass);
 
 struct DeviceInfo {
   int device_count = 0;  // 0 when there is no device or no driver
@@ -48,15 +56,22 @@ struct DeviceOptions {
   Design design = Design::fused;
   bool reorder_samples = true;  // Morton order of samples on the device
   int block_samples = 128;      // fused design: samples per thread block
-  // Fused design, lane-parallel pass (staged false or lanes > 1): threads per sample in the
-  // tangent product (rounded up to a power of two, at most 32); 0 = measured default: 2 in double
-  // above 4 neighbours, else 1.
+  // Fused design: the tangent product's sample pass. `staged` runs one thread per sample and is
+  // used only with lanes <= 1.
+  SamplePass sample_pass = SamplePass::lanes;
+  // Fused design, records and lanes passes: threads per sample in the tangent product (rounded up
+  // to a power of two, at most 32); 0 = measured default (device_elasticity.cu, default_lanes).
   int lanes = 0;
   int lane_threads = 128;       // fused design: at most this many threads per tangent block (32..512)
-  // Fused design: the tangent product's sample pass stages the block's frames and samples in
-  // shared memory and reads the pairs in ELL order (one thread per sample; used unless lanes > 1).
-  // Measured slower than the lane-parallel pass on an H200 (docs/benchmarks.md): off by default.
-  bool staged = false;
+  // Records pass: pairs per lane whose levers stay in registers (1 or 2; further pairs are read
+  // again for the outputs).
+  int record_keep = 2;
+  // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
+  // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
+  // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16
+  // took 4.18 M x 8 from 1.92 to 1.73 ms per CG iteration (single) and 34,848 samples from 27.2
+  // to 25.5 us (launches); 85 is within 1.5 % of 42.
+  int row_frames = 42;
   // Persistent PCG (StepOptions::persistent): used while the model needs at most this many
   // thread blocks per multiprocessor (its blocks must all be resident). Measured on an H200
   // (docs/benchmarks.md): at 34,848 samples (273 blocks) 25.3 us per CG iteration persistent
@@ -90,8 +105,10 @@ class DeviceElasticity {
 
   // The design in use: `fused` falls back to `paper` when the model's rest offsets are not p_s - x_i.
   Design design() const;
-  // Fused design: whether the tangent product runs the staged sample pass (DeviceOptions::staged).
-  bool staged() const;
+  // Fused design: the tangent product's sample pass in use (DeviceOptions::sample_pass).
+  SamplePass sample_pass() const;
+  // Fused design: threads per sample of the records or lanes pass in use.
+  int lanes() const;
   Precision precision() const;
   const DeviceOptions& options() const;
 

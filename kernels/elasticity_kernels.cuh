@@ -6,6 +6,7 @@
 // partials in block order and writes the scalar. The result does not depend on scheduling.
 #pragma once
 
+#include "device_elasticity.hpp"
 #include "elasticity_phases.hpp"
 
 #include <cooperative_groups.h>
@@ -97,15 +98,17 @@ struct Origin {
   double x[3];
 };
 
+// Frame kinematics, and the frame records of the record tangent pass when `records` is set.
 template <class R>
 __global__ void k_kinematics(int n, const double* positions, const double* orientations, Origin origin, R* x_out,
-                             R* r_out) {
+                             R* r_out, const R* frame_rest, R* records) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   double x[3], r[9];
   frame_kinematics(i, positions, orientations, origin.x, x, r);
   for (int k = 0; k < 3; ++k) x_out[3 * i + k] = static_cast<R>(x[k]);
   for (int k = 0; k < 9; ++k) r_out[9 * i + k] = static_cast<R>(r[k]);
+  if (records) write_frame_record(x, r, frame_rest, i, records);
 }
 
 // ---- paper design ----
@@ -228,6 +231,65 @@ __device__ void lanes_tangent_block(const ModelView<R>& m, const FrameView<R>& f
     fused_slot_sum(m, local, q, slot_partials);
 }
 
+// Record tangent pass of block b (elasticity_phases.hpp, "record tangent pass"), `lanes` threads
+// per sample as lanes_tangent_block: lane l of sample s takes the pairs offsets[s] + l + k lanes.
+// The first kKeep of them keep their lever in registers; further ones (more than kKeep lanes
+// worth of neighbours) are read again for the outputs. F and dF are summed over the lanes with one
+// xor butterfly, so every lane holds the same bits and forms the same dP. Outputs [6][pairs of the
+// block] in `local`, then the block sums its slots (record_slot_sum). Every thread must call it.
+constexpr int kKeep = 2;
+
+template <class R, int Keep = kKeep>
+__device__ void records_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
+                                      double beta, int b, int lanes, R* local, R* slot_partials) {
+  const int s0 = m.block_samples[b], s1 = m.block_samples[b + 1];
+  const int pair_base = m.offsets[s0], stride = m.offsets[s1] - pair_base;
+  const int lane = static_cast<int>(threadIdx.x) & (lanes - 1);
+  const int group = static_cast<int>(threadIdx.x) / lanes, groups = static_cast<int>(blockDim.x) / lanes;
+  for (int base = s0; base < s1; base += groups) {  // the same trip count in every thread
+    const int s = base + group;
+    const bool active = s < s1;
+    int begin = 0, end = 0;
+    double sr[kSampleRecord] = {0, 0, 0, 0};
+    Mat3 F = zero3(), dF = zero3();
+    RecordPair kept[Keep] = {};
+    if (active) {
+      begin = m.offsets[s];
+      end = m.offsets[s + 1];
+      load_aligned<kSampleRecord>(m.sample_records + kSampleRecord * s, sr);
+      const Vec3 ps{sr[0], sr[1], sr[2]};
+#pragma unroll
+      for (int k = 0; k < Keep; ++k) {
+        const int p = begin + lane + k * lanes;
+        if (p < end) kept[k] = record_pair(m, f.records, ps, p, d, p_old, beta, F, dF);
+      }
+      for (int p = begin + lane + Keep * lanes; p < end; p += lanes) record_pair(m, f.records, ps, p, d, p_old, beta, F, dF);
+    }
+    for (int o = 1; o < lanes; o <<= 1)
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) {
+          F.m[r][c] += __shfl_xor_sync(0xffffffffu, F.m[r][c], o);
+          dF.m[r][c] += __shfl_xor_sync(0xffffffffu, dF.m[r][c], o);
+        }
+    if (active && begin + lane < end) {
+      const Mat3 dP = record_sample_dP(m, s, F, dF);
+      const Vec3 ps{sr[0], sr[1], sr[2]};
+#pragma unroll
+      for (int k = 0; k < Keep; ++k) {
+        const int p = begin + lane + k * lanes;
+        if (p < end) record_pair_output(kept[k], dP, sr[3], p - pair_base, stride, local);
+      }
+      Mat3 unused_F = zero3(), unused_dF = zero3();
+      for (int p = begin + lane + Keep * lanes; p < end; p += lanes)
+        record_pair_output(record_pair(m, f.records, ps, p, d, p_old, beta, unused_F, unused_dF), dP, sr[3],
+                           p - pair_base, stride, local);
+    }
+  }
+  __syncthreads();
+  for (int q = m.block_slots[b] + threadIdx.x; q < m.block_slots[b + 1]; q += blockDim.x)
+    record_slot_sum(m, local, stride, q, slot_partials);
+}
+
 constexpr int kLaneThreadsMax = 512;
 
 // Tangent sample pass of the fused design, one block per sample block. In the PCG (p_old set) the
@@ -241,6 +303,19 @@ __global__ void __launch_bounds__(kLaneThreadsMax) k_lanes_tangent(ModelView<R> 
   if (finished(sc)) return;
   const double beta = p_old ? sc->beta : 0.0;
   lanes_tangent_block(m, f, F, cache, d, p_old, beta, static_cast<int>(blockIdx.x), lanes, local, slot_partials);
+}
+
+// Record tangent pass, one block per sample block (as k_lanes_tangent), at most MaxThreads threads
+// per block (the register budget: 128 threads allow 255 registers per thread, 512 allow 128).
+template <class R, int Keep, int MaxThreads>
+__global__ void __launch_bounds__(MaxThreads) k_records_tangent(ModelView<R> m, FrameView<R> f, const R* d,
+                                                                const R* p_old, R* slot_partials, const Scalars* sc,
+                                                                int lanes) {
+  extern __shared__ unsigned char shared_raw[];
+  R* local = reinterpret_cast<R*>(shared_raw);
+  if (finished(sc)) return;
+  const double beta = p_old ? sc->beta : 0.0;
+  records_tangent_block<R, Keep>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), lanes, local, slot_partials);
 }
 
 // Staged tangent pass of sample block b, one thread per sample (blockDim.x >= the block's
@@ -471,12 +546,12 @@ __device__ inline double grid_sum(double v, double* partials, cooperative_groups
 // p = z + beta p_old formed on the fly; (2) frame pass: writes p, Ap = H p and reduces p.Ap -> alpha;
 // (3) x += alpha p, r -= alpha Ap, z = M^-1 r, reduces r.z -> beta and the stopping test. Every
 // block computes the scalars from the same partials, so all take the same branches. Same
-// arithmetic as the launch-per-phase PCG (k_staged_tangent or k_lanes_tangent, k_frame_rows,
+// arithmetic as the launch-per-phase PCG (k_records_tangent, k_lanes_tangent or k_staged_tangent, k_frame_rows,
 // k_update_rows); the frame phases run one thread per frame row in chunks of blockDim.x / 6
 // frames. `partials` holds 2 gridDim.x doubles. Starts from k_pcg_init's scalars.
 template <class R>
 __global__ void __launch_bounds__(kLaneThreadsMax)
-    k_pcg_persistent(ModelView<R> m, FrameView<R> f, const R* F, const R* cache, int lanes, bool staged, const R* geo,
+    k_pcg_persistent(ModelView<R> m, FrameView<R> f, const R* F, const R* cache, int lanes, SamplePass pass, const R* geo,
                      const R* inertia_world, FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, R* Ap,
                      R* slot_partials, double* partials, Scalars* scalars, int max_iterations, double tolerance) {
   cooperative_groups::grid_group grid = cooperative_groups::this_grid();
@@ -490,7 +565,9 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
   while (done == 0 && it < max_iterations) {
     // (1) samples.
     for (int b = blockIdx.x; b < m.blocks; b += gridDim.x) {
-      if (staged)
+      if (pass == SamplePass::records)
+        records_tangent_block(m, f, z, p, beta, b, lanes, local, slot_partials);
+      else if (pass == SamplePass::staged)
         staged_tangent_block(m, f, F, cache, z, p, beta, b, local, slot_partials);
       else
         lanes_tangent_block(m, f, F, cache, z, p, beta, b, lanes, local, slot_partials);

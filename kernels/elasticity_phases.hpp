@@ -91,6 +91,9 @@ struct ModelView {
   const unsigned short* ell_slot = nullptr; // [E] block-local slot of the entry's pair
   const R* ell_data = nullptr;              // [4][E]: w, then the gradient's x, y, z (1/m); component-major
   const int* slot_ell = nullptr;            // [P] as slot_pairs, block-local ELL entries
+  // Record tangent pass: packed records (kPairRecord, kSampleRecord values each).
+  const R* pair_records = nullptr;          // [P][4]: g (1/m), w
+  const R* sample_records = nullptr;        // [S][4]: p_s - origin (m), v (m^3)
 };
 
 // Frame kinematics of the current state: R_i row-major and x_i - origin.
@@ -98,6 +101,7 @@ template <class R>
 struct FrameView {
   const R* rotations = nullptr;  // [N][9]
   const R* positions = nullptr;  // [N][3]
+  const R* records = nullptr;    // [N][kFrameRecord] (record tangent pass)
 };
 
 // Component j of the CG direction p_new = z + beta p_old, rounded to the storage precision. One
@@ -367,6 +371,153 @@ FASCIA_HD void staged_slot_sum(const ModelView<R>& m, const R* outs, int E, int 
     for (int j = 0; j < 6; ++j) acc[j] += static_cast<double>(outs[j * E + e]);
   }
   for (int j = 0; j < 6; ++j) partials[6 * q + j] = static_cast<R>(acc[j]);
+}
+
+// ---- record tangent pass (fused design, default) ----------------------------------------------
+// The tangent product's sample pass without per-sample state in memory: F is rebuilt from the
+// frames in the same loop that forms dF (eq. 2 and its differential share R_i, a and g), the
+// material cache from F (first_piola), so a sample reads only its record [p_s, v], its pairs'
+// records [g, w] and their frames' records [R_i, x_i, x̄_i] plus the direction — each a packed,
+// 16-byte-aligned record read with vector loads (load_aligned). A pair's lever M = a g^T + w R
+// (pair_lever) is kept in registers between the dF and output halves, so no frame is read twice.
+// Pair outputs go to shared memory component-major, [6][pairs of the block], summed per slot by
+// record_slot_sum in fused_slot_sum's order.
+constexpr int kFrameRecord = 16;   // [R_i row-major (9), x_i - origin (3) m, x̄_i - origin (3) m, 0]
+constexpr int kPairRecord = 4;     // [g (3) 1/m, w]
+constexpr int kSampleRecord = 4;   // [p_s - origin (3) m, v m^3]
+
+// n values (n a multiple of 4) from a 16-byte-aligned address into double registers: 16-byte
+// loads through the read-only cache on the device, plain loads on the host.
+template <int n>
+FASCIA_HD void load_aligned(const double* src, double* dst) {
+#ifdef __CUDA_ARCH__
+  const double2* v = reinterpret_cast<const double2*>(src);
+#pragma unroll
+  for (int k = 0; k < n / 2; ++k) {
+    const double2 t = __ldg(v + k);
+    dst[2 * k] = t.x;
+    dst[2 * k + 1] = t.y;
+  }
+#else
+  for (int k = 0; k < n; ++k) dst[k] = src[k];
+#endif
+}
+template <int n>
+FASCIA_HD void load_aligned(const float* src, double* dst) {
+#ifdef __CUDA_ARCH__
+  const float4* v = reinterpret_cast<const float4*>(src);
+#pragma unroll
+  for (int k = 0; k < n / 4; ++k) {
+    const float4 t = __ldg(v + k);
+    dst[4 * k] = t.x;
+    dst[4 * k + 1] = t.y;
+    dst[4 * k + 2] = t.z;
+    dst[4 * k + 3] = t.w;
+  }
+#else
+  for (int k = 0; k < n; ++k) dst[k] = static_cast<double>(src[k]);
+#endif
+}
+
+// The 6 direction values of frame i (8- or 16-byte loads: [N][6] floats are 8-byte aligned).
+FASCIA_HD void load_six(const double* src, int i, double* dst) {
+#ifdef __CUDA_ARCH__
+  const double2* v = reinterpret_cast<const double2*>(src + 6 * i);
+#pragma unroll
+  for (int k = 0; k < 3; ++k) {
+    const double2 t = __ldg(v + k);
+    dst[2 * k] = t.x;
+    dst[2 * k + 1] = t.y;
+  }
+#else
+  for (int k = 0; k < 6; ++k) dst[k] = src[6 * i + k];
+#endif
+}
+FASCIA_HD void load_six(const float* src, int i, double* dst) {
+#ifdef __CUDA_ARCH__
+  const float2* v = reinterpret_cast<const float2*>(src + 6 * i);
+#pragma unroll
+  for (int k = 0; k < 3; ++k) {
+    const float2 t = __ldg(v + k);
+    dst[2 * k] = t.x;
+    dst[2 * k + 1] = t.y;
+  }
+#else
+  for (int k = 0; k < 6; ++k) dst[k] = static_cast<double>(src[6 * i + k]);
+#endif
+}
+
+// Frame i's record from its kinematics (k_kinematics): R row-major, x - origin, x̄ - origin.
+template <class R>
+FASCIA_HD void write_frame_record(const double* x, const double* rot, const R* frame_rest, int i, R* records) {
+  R* rec = records + kFrameRecord * i;
+  for (int k = 0; k < 9; ++k) rec[k] = static_cast<R>(rot[k]);
+  for (int k = 0; k < 3; ++k) rec[9 + k] = static_cast<R>(x[k]);
+  for (int k = 0; k < 3; ++k) rec[12 + k] = frame_rest[3 * i + k];
+  rec[15] = R(0);
+}
+
+// One pair of the record pass as kept between its two halves.
+struct RecordPair {
+  Mat3 M;  // lever a g^T + w R_i (pair_lever)
+  Vec3 g;  // 1/m
+  int i;   // frame
+};
+
+// Pair p of the sample at ps (p_s - origin): adds its terms of F (eq. 2) and of dF (eq. 11) for the
+// direction d (d_i = z_i + beta p_old_i, rounded as next_direction, when p_old is set) and
+// returns its lever.
+template <class R>
+FASCIA_HD RecordPair record_pair(const ModelView<R>& m, const R* frame_records, const Vec3& ps, int p, const R* d,
+                                 const R* p_old, double beta, Mat3& F, Mat3& dF) {
+  RecordPair q;
+  q.i = m.frame_of[p];
+  double fr[kFrameRecord], pr[kPairRecord], di[6];
+  load_aligned<kFrameRecord>(frame_records + kFrameRecord * q.i, fr);
+  load_aligned<kPairRecord>(m.pair_records + kPairRecord * p, pr);
+  load_six(d, q.i, di);
+  if (p_old) {
+    double po[6];
+    load_six(p_old, q.i, po);
+    for (int k = 0; k < 6; ++k) di[k] = static_cast<double>(static_cast<R>(fma(beta, po[k], di[k])));
+  }
+  Mat3 Ri;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) Ri.m[r][c] = fr[3 * r + c];
+  const Vec3 a = Ri * (ps - Vec3{fr[12], fr[13], fr[14]});
+  q.g = Vec3{pr[0], pr[1], pr[2]};
+  F += outer(Vec3{fr[9], fr[10], fr[11]} + a, q.g) + pr[3] * Ri;
+  dF += pair_deformation_differential(Vec3{di[0], di[1], di[2]}, Vec3{di[3], di[4], di[5]}, a, q.g, pr[3], Ri);
+  q.M = pair_lever(a, q.g, pr[3], Ri);
+  return q;
+}
+
+// dP = C[dF] (eq. 22-24) of sample s at F, the material cache rebuilt from F.
+template <class R>
+FASCIA_HD Mat3 record_sample_dP(const ModelView<R>& m, int s, const Mat3& F, const Mat3& dF) {
+  const Material mat = m.materials[m.sample_materials[s]];
+  MaterialCache cache;
+  first_piola(mat, F, cache);
+  return pk1_differential(mat, F, cache, dF);
+}
+
+// The pair's v B_p^T dP (eq. 21, 23, 25-26) into outs[k * stride + j], j its index in the block.
+template <class R>
+FASCIA_HD void record_pair_output(const RecordPair& q, const Mat3& dP, double v, int j, int stride, R* outs) {
+  double out[6];
+  pair_lever_virtual_work(dP, q.g, q.M, out);
+  for (int k = 0; k < 6; ++k) outs[k * stride + j] = static_cast<R>(v * out[k]);
+}
+
+// Sum of the pairs of block slot q from outputs [6][stride], in increasing pair order.
+template <class R>
+FASCIA_HD void record_slot_sum(const ModelView<R>& m, const R* outs, int stride, int q, R* partials) {
+  double acc[6] = {0, 0, 0, 0, 0, 0};
+  for (int k = m.slot_pair_offsets[q]; k < m.slot_pair_offsets[q + 1]; ++k) {
+    const int j = m.slot_pairs[k];
+    for (int c = 0; c < 6; ++c) acc[c] += static_cast<double>(outs[c * stride + j]);
+  }
+  for (int c = 0; c < 6; ++c) partials[6 * q + c] = static_cast<R>(acc[c]);
 }
 
 // ---- frames: the rest of the operator ------------------------------------------------------------

@@ -46,9 +46,11 @@ struct Case {
   bool persistent;
   int lanes = 0;
   int lane_threads = 128;
-  bool staged = false;
+  gpu::SamplePass pass = gpu::SamplePass::records;
   int block_samples = 128;
   int persistent_blocks_per_sm = 4;
+  int record_keep = 2;
+  int row_frames = 42;
 };
 
 // The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) on the device.
@@ -58,7 +60,9 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   options.design = c.design;
   options.lanes = c.lanes;
   options.lane_threads = c.lane_threads;
-  options.staged = c.staged;
+  options.sample_pass = c.pass;
+  options.record_keep = c.record_keep;
+  options.row_frames = c.row_frames;
   options.block_samples = c.block_samples;
   options.persistent_blocks_per_sm = c.persistent_blocks_per_sm;
   gpu::DeviceElasticity dev(model, options);
@@ -76,11 +80,14 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   row.neighbours = model.max_neighbours();
   row.precision = gpu::to_string(c.precision);
   row.design = gpu::to_string(dev.design());
-  if (dev.staged())
+  if (dev.design() == gpu::Design::fused && dev.sample_pass() == gpu::SamplePass::staged)
     row.design += "/staged";
   else if (dev.design() == gpu::Design::fused)
-    row.design += "/L" + std::to_string(c.lanes) + "x" + std::to_string(c.lane_threads) + "b" +
-                  std::to_string(c.block_samples);
+    row.design += std::string("/") + (dev.sample_pass() == gpu::SamplePass::records ? "R" : "L") +
+                  std::to_string(dev.lanes()) + "x" + std::to_string(c.lane_threads) + "b" +
+                  std::to_string(c.block_samples) +
+                  (dev.sample_pass() == gpu::SamplePass::records ? "k" + std::to_string(c.record_keep) : "") +
+                  (c.row_frames != 42 ? "r" + std::to_string(c.row_frames) : "");
   row.linear = to_string(c.linear);
   row.cg_kernel = report.persistent ? "persistent" : "launches";
   row.ms_per_step = stepper.time_step_ms(repeats);
@@ -138,16 +145,21 @@ std::vector<Case> cases(const BenchGpuOptions& o) {
             out.push_back(Case{pr, de, lm, persistent});
             continue;
           }
-          for (bool staged : {true, false}) {
-            if (o.sample_pass != "both" && (o.sample_pass == "staged") != staged) continue;
-            if (staged) {
-              out.push_back(Case{pr, de, lm, persistent, 1, o.lane_threads, true, o.block_samples,
+          for (const std::string& name : o.sample_pass) {
+            const gpu::SamplePass pass = name == "staged"  ? gpu::SamplePass::staged
+                                         : name == "lanes" ? gpu::SamplePass::lanes
+                                                           : gpu::SamplePass::records;
+            if (pass == gpu::SamplePass::staged) {
+              out.push_back(Case{pr, de, lm, persistent, 1, o.lane_threads, pass, o.block_samples,
                                  o.persistent_blocks_per_sm});
               continue;
             }
             for (int lanes : o.lanes)
-              out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, false, o.block_samples,
-                                 o.persistent_blocks_per_sm});
+              for (int keep : o.record_keep)
+                for (int rows : o.row_frames)
+                  if (pass == gpu::SamplePass::records || keep == o.record_keep.front())
+                    out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, pass, o.block_samples,
+                                       o.persistent_blocks_per_sm, keep, rows});
           }
         }
       }
@@ -235,10 +247,17 @@ void add_bench_gpu_command(CLI::App& bench, Action& action) {
   cmd->add_option("--max-samples", options->max_samples, "largest scaling case (8 neighbours), 0: none");
   cmd->add_option("--repeats", options->repeats, "timed repeats per case");
   cmd->add_option("--sample-pass", options->sample_pass,
-                  "fused design's tangent sample pass: staged (shared-memory staging) | lanes | both")
-      ->check(CLI::IsMember({"staged", "lanes", "both"}));
-  cmd->add_option("--lanes", options->lanes, "fused design: threads per sample in the tangent product, 0: auto");
+                  "fused design's tangent sample passes: lanes (F and material cache per sample; default) | records "
+                  "(packed records, F rebuilt) | staged (shared-memory staging)")
+      ->check(CLI::IsMember({"records", "lanes", "staged"}));
+  cmd->add_option("--lanes", options->lanes, "fused design, records and lanes passes: threads per sample, 0: auto");
   cmd->add_option("--lane-threads", options->lane_threads, "fused design: most threads per tangent block (32..512)");
+  cmd->add_option("--record-keep", options->record_keep,
+                  "records pass: pairs per lane kept in registers (1 | 2), several to compare")
+      ->check(CLI::Range(1, 2));
+  cmd->add_option("--row-frames", options->row_frames,
+                  "frames per block of the launched frame-row passes (1..85), several to compare")
+      ->check(CLI::Range(1, 85));
   cmd->add_option("--block-samples", options->block_samples, "fused design: samples per block (multiple of 32)");
   cmd->add_option("--persistent-blocks-per-sm", options->persistent_blocks_per_sm,
                   "persistent PCG while the model needs at most this many blocks per multiprocessor");

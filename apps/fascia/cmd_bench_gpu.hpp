@@ -22,10 +22,12 @@ struct BenchGpuOptions {
   bool tangent = false;              // time the tangent product alone at Table 3 sizes too
   long long max_samples = 4200000;   // largest scaling case (8 neighbours), 0: none
   int repeats = 10;
-  std::string sample_pass = "lanes";  // fused design's tangent sample pass: staged | lanes | both
-  std::vector<int> lanes = {0};      // fused design, lanes pass: threads per sample in the tangent (0: auto)
+  std::vector<std::string> sample_pass = {"lanes"};  // fused design's tangent sample passes: records | lanes | staged
+  std::vector<int> lanes = {0};  // fused design, records and lanes passes: threads per sample (0: auto)
   int lane_threads = 128;            // fused design: most threads per tangent block
   int block_samples = 128;           // fused design: samples per block
+  std::vector<int> record_keep = {2};  // records pass: pairs per lane kept in registers
+  std::vector<int> row_frames = {42};  // frames per block of the launched frame-row passes
   int persistent_blocks_per_sm = 4;  // persistent PCG while the model needs at most this many blocks per SM
 };
 

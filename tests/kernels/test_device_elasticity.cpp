@@ -57,7 +57,8 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
                           Case{Precision::single_precision, Design::fused, CellType::tetrahedron, MaterialLaw::stvk},
                           Case{Precision::single_precision, Design::fused, CellType::hexahedron, MaterialLaw::neo_hookean},
                           Case{Precision::single_precision, Design::paper, CellType::hexahedron, MaterialLaw::stvk});
-  const bool staged = GENERATE(true, false);  // fused design: staged or lane-parallel sample pass
+  // Fused design: every sample pass of the tangent product.
+  const SamplePass pass = GENERATE(SamplePass::records, SamplePass::lanes, SamplePass::staged);
   const Model model = kernels_test_model(c.type, c.law);
   const State state = kernels_test_state(model, 21);
   const int dofs = model.dof_count(), n = model.frame_count();
@@ -74,10 +75,10 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
   options.precision = c.precision;
   options.design = c.design;
   options.block_samples = 32;  // several blocks even on the small test model
-  options.staged = staged;
+  options.sample_pass = pass;
   DeviceElasticity dev(model, options);
   REQUIRE(dev.design() == c.design);
-  REQUIRE(dev.staged() == (staged && c.design == Design::fused));
+  if (c.design == Design::fused) REQUIRE(dev.sample_pass() == pass);
   dev.set_state(state);
   std::vector<double> dg(dofs), dKd(dofs), dblocks(36 * n);
   const double dw = dev.gradient(dg.data());
@@ -87,8 +88,8 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
 
   const double e_energy = std::abs(dw - w) / std::abs(w), e_grad = relative_difference(dg, g),
                e_tangent = relative_difference(dKd, Kd), e_blocks = relative_difference(dblocks, blocks);
-  std::printf("[gpu] %s %s%s %s %s: energy %.2e gradient %.2e tangent %.2e blocks %.2e\n", to_string(c.precision),
-              to_string(c.design), dev.staged() ? "/staged" : "", name(c.type), to_string(c.law), e_energy, e_grad,
+  std::printf("[gpu] %s %s/%s %s %s: energy %.2e gradient %.2e tangent %.2e blocks %.2e\n", to_string(c.precision),
+              to_string(c.design), dev.design() == Design::fused ? to_string(dev.sample_pass()) : "", name(c.type), to_string(c.law), e_energy, e_grad,
               e_tangent, e_blocks);
   const double tol = bound(c.precision, false);
   CHECK(e_energy < tol);
@@ -98,6 +99,34 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
   CHECK(e_blocks < tol);
 }
 
+TEST_CASE("record pass equals the CPU reference with every lane count", "[gpu]") {
+  // 8 neighbours per sample: with 1 and 2 lanes each lane keeps kKeep = 2 pairs and reads the
+  // others again for the outputs; with 4 and 8 lanes every pair is kept.
+  const int lanes = GENERATE(1, 2, 4, 8);
+  const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
+  const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::neo_hookean);
+  const State state = kernels_test_state(model, 13);
+  const int dofs = model.dof_count();
+  Elasticity cpu(model, 1);
+  cpu.prepare(state);
+  const std::vector<double> d = random_vector(dofs, 5);
+  std::vector<double> Kd(dofs), dKd(dofs);
+  cpu.apply_tangent(d.data(), Kd.data());
+  DeviceOptions options;
+  options.precision = precision;
+  options.block_samples = 32;
+  options.lanes = lanes;
+  DeviceElasticity dev(model, options);
+  REQUIRE(dev.sample_pass() == SamplePass::records);
+  REQUIRE(dev.lanes() == lanes);
+  dev.set_state(state);
+  dev.prepare();
+  dev.apply_tangent(d.data(), dKd.data());
+  const double e = relative_difference(dKd, Kd);
+  std::printf("[gpu] records %s lanes %d: tangent %.2e\n", to_string(precision), lanes, e);
+  CHECK(e < bound(precision, false));
+}
+
 TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]") {
   const Case c = GENERATE(Case{Precision::double_precision, Design::fused, CellType::tetrahedron, MaterialLaw::stvk},
                           Case{Precision::double_precision, Design::fused, CellType::hexahedron, MaterialLaw::neo_hookean},
@@ -105,7 +134,7 @@ TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]")
                           Case{Precision::single_precision, Design::fused, CellType::tetrahedron, MaterialLaw::stvk});
   const bool graphs = GENERATE(true, false);
   const bool persistent = GENERATE(true, false);
-  const bool staged = GENERATE(true, false);
+  const SamplePass pass = GENERATE(SamplePass::records, SamplePass::lanes, SamplePass::staged);
   const Model model = kernels_test_model(c.type, c.law);
   const State state = kernels_test_state(model, 33);
   const double h = 0.01;
@@ -116,9 +145,9 @@ TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]")
   options.precision = c.precision;
   options.design = c.design;
   options.block_samples = 32;
-  options.staged = staged;
+  options.sample_pass = pass;
   DeviceElasticity dev(model, options);
-  REQUIRE(dev.staged() == (staged && c.design == Design::fused));
+  if (c.design == Design::fused) REQUIRE(dev.sample_pass() == pass);
   dev.set_state(state);
   StepOptions so;
   so.dt = h;
@@ -142,8 +171,8 @@ TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]")
   const double e_pos = relative_difference(after.positions, expected.positions);
   const double e_vel = relative_difference(after.velocities, v_expected);
   std::printf(
-      "[gpu] step %s %s%s %s %s graphs=%d persistent=%d: cg %d (cpu %d) delta %.2e positions %.2e velocities %.2e\n",
-      to_string(c.precision), to_string(c.design), dev.staged() ? "/staged" : "", name(c.type), to_string(c.law),
+      "[gpu] step %s %s/%s %s %s graphs=%d persistent=%d: cg %d (cpu %d) delta %.2e positions %.2e velocities %.2e\n",
+      to_string(c.precision), to_string(c.design), dev.design() == Design::fused ? to_string(dev.sample_pass()) : "", name(c.type), to_string(c.law),
       graphs ? 1 : 0,
       report.persistent ? 1 : 0, report.cg_iterations, ref.iterations, e_delta, e_pos, e_vel);
   CHECK(report.cg_iterations == ref.iterations);
@@ -228,7 +257,7 @@ TEST_CASE("device PCG with a tolerance stops early and checks without per-iterat
 TEST_CASE("repeated device runs are bitwise identical", "[gpu]") {
   const Design design = GENERATE(Design::fused, Design::paper);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
-  const bool staged = GENERATE(true, false);
+  const SamplePass pass = GENERATE(SamplePass::records, SamplePass::lanes, SamplePass::staged);
   const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::neo_hookean, 6, 5, 4);
   const State state = kernels_test_state(model, 8);
   const std::vector<double> d = random_vector(model.dof_count(), 6);
@@ -237,7 +266,7 @@ TEST_CASE("repeated device runs are bitwise identical", "[gpu]") {
     DeviceOptions options;
     options.precision = precision;
     options.design = design;
-    options.staged = staged;
+    options.sample_pass = pass;
     DeviceElasticity dev(model, options);
     dev.set_state(state);
     std::vector<double> out(3 * model.dof_count() + 1);

@@ -119,6 +119,48 @@ struct HostDevice {
     return out;
   }
 
+  // The record tangent pass as records_tangent_block runs it with one lane: frame records from
+  // the kinematics, F and dF per sample from its pairs, dP with the cache rebuilt from F, outputs
+  // [6][pairs of the block], slot sums; then the frame gather. No F or cache from the force pass.
+  std::vector<double> records(const std::vector<double>& d) {
+    const int n = model.frame_count(), S = model.sample_count(), P = model.pair_count();
+    const NeighbourTable& nb = model.neighbours;
+    std::vector<double> frame_records(kFrameRecord * static_cast<size_t>(n), std::nan(""));
+    for (int i = 0; i < n; ++i) write_frame_record(&x[3 * i], &rot[9 * i], frame_rest.data(), i, frame_records.data());
+    std::vector<double> pair_records(kPairRecord * static_cast<size_t>(P)), sample_records(kSampleRecord * static_cast<size_t>(S));
+    for (int p = 0; p < P; ++p) {
+      for (int k = 0; k < 3; ++k) pair_records[4 * p + k] = nb.weight_gradients[3 * p + k];
+      pair_records[4 * p + 3] = nb.weights[p];
+    }
+    for (int t = 0; t < S; ++t) {
+      for (int k = 0; k < 3; ++k) sample_records[4 * t + k] = sample_rest[3 * t + k];
+      sample_records[4 * t + 3] = model.samples.volumes[t];
+    }
+    ModelView<double> rv = view;
+    rv.pair_records = pair_records.data();
+    rv.sample_records = sample_records.data();
+    std::vector<double> partials(6 * static_cast<size_t>(layout.slot_count()));
+    for (int b = 0; b < layout.block_count(); ++b) {
+      const int s0 = layout.block_samples[b], s1 = layout.block_samples[b + 1];
+      const int base = nb.offsets[s0], stride = nb.offsets[s1] - base;
+      std::vector<double> outs(6 * static_cast<size_t>(stride), std::nan(""));
+      for (int s = s0; s < s1; ++s) {
+        const Vec3 ps = ld3(&sample_records[4 * s]);
+        Mat3 F = zero3(), dF = zero3();
+        std::vector<RecordPair> kept;
+        for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p)
+          kept.push_back(record_pair(rv, frame_records.data(), ps, p, d.data(), static_cast<const double*>(nullptr), 0.0, F, dF));
+        const Mat3 dP = record_sample_dP(rv, s, F, dF);
+        for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p)
+          record_pair_output(kept[p - nb.offsets[s]], dP, sample_records[4 * s + 3], p - base, stride, outs.data());
+      }
+      for (int q = layout.block_slots[b]; q < layout.block_slots[b + 1]; ++q) record_slot_sum(rv, outs.data(), stride, q, partials.data());
+    }
+    std::vector<double> out(model.dof_count());
+    for (int i = 0; i < n; ++i) fused_gather(view, partials.data(), i, &out[6 * i]);
+    return out;
+  }
+
   // The fused pass as the device runs it: blocks, shared-memory slots, frame gather.
   template <Pass pass>
   std::vector<double> fused(const std::vector<double>& d, std::vector<double>* F) {
@@ -263,6 +305,15 @@ TEST_CASE("kernel bodies stepped on the host reproduce the CPU reference", "[ker
       for (int k = 0; k < 6; ++k)
         sk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, sk[6 * i + k]);
     CHECK(relative_difference(sk, Kd) < 1e-12);
+  }
+
+  // Fused design, record tangent pass (F and the material cache rebuilt from the frames).
+  {
+    std::vector<double> rk = dev.records(d);
+    for (int i = 0; i < n; ++i)
+      for (int k = 0; k < 6; ++k)
+        rk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, rk[6 * i + k]);
+    CHECK(relative_difference(rk, Kd) < 1e-12);
   }
 
   // Paper design.
