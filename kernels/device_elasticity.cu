@@ -224,7 +224,9 @@ class System final : public DeviceElasticity::Impl {
     m_minv.resize(36 * static_cast<size_t>(m_n));
     m_diag.resize(36 * static_cast<size_t>(m_n));
     for (auto* v : {&m_grad, &m_d, &m_out, &m_cx, &m_cr, &m_cz, &m_cp, &m_cAp}) v->resize(dofs);
-    const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(m_n, m_row_frames), m_blocks, 1});
+    // One partial per block of every kernel that reduces (reduce_and_finish).
+    const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(m_n, kThreads), grid_for(m_n, m_row_frames),
+                                   grid_for(6LL * m_n, kPaperGather), m_blocks, 1});
     m_red_partials.resize(max_grid);
     m_counter.resize(1);
     m_counter.zero();

@@ -115,6 +115,7 @@ TEST_CASE("record pass equals the CPU reference with every lane count", "[gpu]")
   DeviceOptions options;
   options.precision = precision;
   options.block_samples = 32;
+  options.sample_pass = SamplePass::records;
   options.lanes = lanes;
   DeviceElasticity dev(model, options);
   REQUIRE(dev.sample_pass() == SamplePass::records);
