@@ -31,10 +31,12 @@ const char* to_string(MaterialLaw law);
 
 // Per-sample quantities reused by every tangent product of one Newton iteration.
 // StVK: a = S (second Piola-Kirchhoff). Neo-Hookean: a = F^{-T}, c = mu - lambda ln J.
-struct MaterialCache {
-  Mat3 a;
-  double c;
+template <class T>
+struct MaterialCacheT {
+  Mat3T<T> a;
+  T c;
 };
+using MaterialCache = MaterialCacheT<double>;
 
 // psi(F) in J/m^3; +infinity for a neo-Hookean element with det F <= 0 (inverted).
 FASCIA_HD double energy_density(const Material& m, const Mat3& F) {
@@ -66,10 +68,14 @@ FASCIA_HD Mat3 energy_and_first_piola(const Material& m, const Mat3& F, Material
   return neo_hookean_first_piola(m.lambda, m.mu, F, cache.a, cache.c);
 }
 
-// dP = (d^2 psi / dF^2) : dF at the state described by F and cache.
-FASCIA_HD Mat3 pk1_differential(const Material& m, const Mat3& F, const MaterialCache& cache, const Mat3& dF) {
-  return m.law == MaterialLaw::stvk ? stvk_pk1_differential(m.lambda, m.mu, F, cache.a, dF)
-                                    : neo_hookean_pk1_differential(m.lambda, m.mu, cache.a, cache.c, dF);
+// dP = (d^2 psi / dF^2) : dF at the state described by F and cache. T = float evaluates the same
+// expressions in single precision (the CUDA backend's single-precision tangent product).
+template <class T>
+FASCIA_HD Mat3T<T> pk1_differential(const Material& m, const Mat3T<T>& F, const MaterialCacheT<T>& cache,
+                                    const Mat3T<T>& dF) {
+  return m.law == MaterialLaw::stvk
+             ? stvk_pk1_differential<T>(static_cast<T>(m.lambda), static_cast<T>(m.mu), F, cache.a, dF)
+             : neo_hookean_pk1_differential<T>(static_cast<T>(m.lambda), static_cast<T>(m.mu), cache.a, cache.c, dF);
 }
 
 }  // namespace fascia

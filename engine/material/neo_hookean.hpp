@@ -27,9 +27,11 @@ FASCIA_HD Mat3 neo_hookean_first_piola(double lambda, double mu, const Mat3& F, 
   return mu * F + (lambda * ln_j - mu) * f_inv_t;
 }
 
-FASCIA_HD Mat3 neo_hookean_pk1_differential(double lambda, double mu, const Mat3& f_inv_t, double c, const Mat3& dF) {
+template <class T>
+FASCIA_HD Mat3T<T> neo_hookean_pk1_differential(Scalar<T> lambda, Scalar<T> mu, const Mat3T<T>& f_inv_t, Scalar<T> c,
+                                                const Mat3T<T>& dF) {
   // tr(F^{-1} dF) = F^{-T} : dF
-  const double tr = ddot(f_inv_t, dF);
+  const T tr = ddot(f_inv_t, dF);
   return mu * dF + c * (f_inv_t * transpose(dF) * f_inv_t) + (lambda * tr) * f_inv_t;
 }
 

@@ -11,12 +11,13 @@
 
 namespace fascia {
 
-FASCIA_HD Mat3 green_lagrange_strain(const Mat3& F) {
-  Mat3 E = transpose(F) * F;
+template <class T>
+FASCIA_HD Mat3T<T> green_lagrange_strain(const Mat3T<T>& F) {
+  Mat3T<T> E = transpose(F) * F;
   E.m[0][0] -= 1;
   E.m[1][1] -= 1;
   E.m[2][2] -= 1;
-  return 0.5 * E;
+  return T(0.5) * E;
 }
 
 FASCIA_HD double stvk_energy(double lambda, double mu, const Mat3& F) {
@@ -25,23 +26,27 @@ FASCIA_HD double stvk_energy(double lambda, double mu, const Mat3& F) {
   return 0.5 * lambda * tr * tr + mu * ddot(E, E);
 }
 
-FASCIA_HD Mat3 stvk_stress_from_strain(double lambda, double mu, const Mat3& E) {
-  Mat3 S = (2 * mu) * E;
-  const double lt = lambda * trace(E);
+template <class T>
+FASCIA_HD Mat3T<T> stvk_stress_from_strain(Scalar<T> lambda, Scalar<T> mu, const Mat3T<T>& E) {
+  Mat3T<T> S = (2 * mu) * E;
+  const T lt = lambda * trace(E);
   S.m[0][0] += lt;
   S.m[1][1] += lt;
   S.m[2][2] += lt;
   return S;
 }
 
-FASCIA_HD Mat3 stvk_second_piola(double lambda, double mu, const Mat3& F) {
-  return stvk_stress_from_strain(lambda, mu, green_lagrange_strain(F));
+template <class T>
+FASCIA_HD Mat3T<T> stvk_second_piola(Scalar<T> lambda, Scalar<T> mu, const Mat3T<T>& F) {
+  return stvk_stress_from_strain<T>(lambda, mu, green_lagrange_strain(F));
 }
 
 // dP for the stress S = stvk_second_piola(F).
-FASCIA_HD Mat3 stvk_pk1_differential(double lambda, double mu, const Mat3& F, const Mat3& S, const Mat3& dF) {
-  const Mat3 dE = symmetric_part(transpose(F) * dF);
-  return dF * S + F * stvk_stress_from_strain(lambda, mu, dE);
+template <class T>
+FASCIA_HD Mat3T<T> stvk_pk1_differential(Scalar<T> lambda, Scalar<T> mu, const Mat3T<T>& F, const Mat3T<T>& S,
+                                         const Mat3T<T>& dF) {
+  const Mat3T<T> dE = symmetric_part(transpose(F) * dF);
+  return dF * S + F * stvk_stress_from_strain<T>(lambda, mu, dE);
 }
 
 }  // namespace fascia

@@ -46,8 +46,9 @@ FASCIA_HD Vec3 sample_position(const PairTableView& t, int s, const double* x, c
 
 // Differential of F along a frame increment of one pair (eq. 10, 11: the 9x6 block B times d):
 //   dF_p = (dx + dr x a) g^T + w [dr]x R.
-FASCIA_HD Mat3 pair_deformation_differential(const Vec3& dx, const Vec3& dr, const Vec3& a, const Vec3& g, double w,
-                                              const Mat3& R) {
+template <class T>
+FASCIA_HD Mat3T<T> pair_deformation_differential(const Vec3T<T>& dx, const Vec3T<T>& dr, const Vec3T<T>& a,
+                                                 const Vec3T<T>& g, Scalar<T> w, const Mat3T<T>& R) {
   return outer(dx + cross(dr, a), g) + w * (skew(dr) * R);
 }
 
@@ -56,10 +57,11 @@ FASCIA_HD Mat3 pair_deformation_differential(const Vec3& dx, const Vec3& dr, con
 //   out_x = v P g,   out_r = v (a x (P g) + w axial(R P^T)).
 // With P the stress this is the energy gradient (minus the internal force, eq. 18); with P = dP
 // it is the pair's share of the tangent product (eq. 21-24).
-FASCIA_HD void pair_virtual_work(const Mat3& P, const Vec3& a, const Vec3& g, double w, const Mat3& R, double v,
-                                 double* out) {
-  const Vec3 u = P * g;
-  const Vec3 t = cross(a, u) + w * axial(R * transpose(P));
+template <class T>
+FASCIA_HD void pair_virtual_work(const Mat3T<T>& P, const Vec3T<T>& a, const Vec3T<T>& g, Scalar<T> w,
+                                 const Mat3T<T>& R, Scalar<T> v, T* out) {
+  const Vec3T<T> u = P * g;
+  const Vec3T<T> t = cross(a, u) + w * axial(R * transpose(P));
   out[0] = v * u.x;
   out[1] = v * u.y;
   out[2] = v * u.z;
@@ -73,16 +75,22 @@ FASCIA_HD void pair_virtual_work(const Mat3& P, const Vec3& a, const Vec3& g, do
 // (dr x a) g^T = [dr]x a g^T), and its transpose B^T P = [P g, axial(M P^T)] (pair_virtual_work
 // with v = 1, since axial(a (P g)^T) = a x (P g)). Precomputed once per state, it turns every
 // tangent product's pair work into 27 + 27 multiply-adds.
-FASCIA_HD Mat3 pair_lever(const Vec3& a, const Vec3& g, double w, const Mat3& R) { return outer(a, g) + w * R; }
+template <class T>
+FASCIA_HD Mat3T<T> pair_lever(const Vec3T<T>& a, const Vec3T<T>& g, Scalar<T> w, const Mat3T<T>& R) {
+  return outer(a, g) + w * R;
+}
 
-FASCIA_HD Mat3 pair_lever_differential(const Vec3& dx, const Vec3& dr, const Vec3& g, const Mat3& M) {
+template <class T>
+FASCIA_HD Mat3T<T> pair_lever_differential(const Vec3T<T>& dx, const Vec3T<T>& dr, const Vec3T<T>& g,
+                                           const Mat3T<T>& M) {
   return outer(dx, g) + skew_times(dr, M);
 }
 
 // out = [P g, axial(M P^T)]: B_p^T applied to P, 6 values.
-FASCIA_HD void pair_lever_virtual_work(const Mat3& P, const Vec3& g, const Mat3& M, double* out) {
-  const Vec3 u = P * g;
-  const Vec3 t = axial_times_transpose(M, P);
+template <class T>
+FASCIA_HD void pair_lever_virtual_work(const Mat3T<T>& P, const Vec3T<T>& g, const Mat3T<T>& M, T* out) {
+  const Vec3T<T> u = P * g;
+  const Vec3T<T> t = axial_times_transpose(M, P);
   out[0] = u.x;
   out[1] = u.y;
   out[2] = u.z;
