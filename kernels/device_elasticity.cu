@@ -14,7 +14,17 @@ const char* to_string(Precision precision) {
 }
 const char* to_string(Design design) { return design == Design::paper ? "paper" : "fused"; }
 const char* to_string(SamplePass pass) {
-  return pass == SamplePass::records ? "records" : pass == SamplePass::lanes ? "lanes" : "staged";
+  switch (pass) {
+    case SamplePass::records:
+      return "records";
+    case SamplePass::lanes:
+      return "lanes";
+    case SamplePass::staged:
+      return "staged";
+    case SamplePass::coalesced:
+      return "coalesced";
+  }
+  return "?";
 }
 
 DeviceInfo device_info() {
@@ -150,6 +160,7 @@ class System final : public DeviceElasticity::Impl {
       if (pass == SamplePass::staged &&
           !(opts.lanes <= 1 && opts.block_samples <= kLaneThreadsMax && upload_staged(model, L)))
         pass = SamplePass::lanes;
+      if (pass == SamplePass::coalesced && !upload_coalesced(model, L)) pass = SamplePass::lanes;
       staged = pass == SamplePass::staged;
       m_lanes = 1;
       if (!staged) {
@@ -158,6 +169,13 @@ class System final : public DeviceElasticity::Impl {
       }
       lanes = m_lanes;
       if (pass == SamplePass::records) upload_records(model, sample_rest);
+      // Coalesced pass: ELL entries kept per lane, the smallest instantiated count (2, 4, 8) that
+      // holds the largest sample's pairs (more are read again).
+      m_keep = opts.record_keep;
+      if (pass == SamplePass::coalesced) {
+        const int per_lane = (model.max_neighbours() + m_lanes - 1) / m_lanes;
+        m_keep = opts.coalesced_keep > 0 ? opts.coalesced_keep : per_lane <= 2 ? 2 : 4;
+      }
       m_lane_threads = staged ? opts.block_samples
                               : std::max(32, std::min({kLaneThreadsMax, opts.lane_threads, opts.block_samples * m_lanes}));
       for (const void* k : {reinterpret_cast<const void*>(&k_records_tangent<R, 1, 128>),
@@ -209,6 +227,8 @@ class System final : public DeviceElasticity::Impl {
     m_view.ell_slot = m_ell_slot.data();
     m_view.ell_data = m_ell_data.data();
     m_view.slot_ell = m_slot_ell.data();
+    m_view.ell_frame = m_ell_frame.data();
+    m_view.ell_pos = m_ell_pos.data();
     m_view.pair_records = m_pair_records.data();
     m_view.sample_records = m_sample_records.data();
 
@@ -235,13 +255,16 @@ class System final : public DeviceElasticity::Impl {
     m_frame_view.rotations = m_rot.data();
     m_frame_view.positions = m_x.data();
     m_frame_view.records = m_records.size() ? m_records.data() : nullptr;
+    m_frame_view.levers = m_levers.size() ? m_levers.data() : nullptr;
+    m_frame_view.sample_state = m_sample_state.size() ? m_sample_state.data() : nullptr;
   }
 
   // Threads per sample when DeviceOptions::lanes is 0, measured on an H200 (docs/benchmarks.md).
-  // records: enough lanes that each keeps at most kKeep pairs in registers; lanes: 2 in double
-  // above 4 neighbours, else 1.
+  // records: enough lanes that each keeps at most kKeep pairs in registers; coalesced: one;
+  // lanes: 2 in double above 4 neighbours, else 1.
   static int default_lanes(SamplePass pass, int neighbours) {
     if (pass == SamplePass::records) return (neighbours + kKeep - 1) / kKeep;
+    if (pass == SamplePass::coalesced) return 1;
     return neighbours > 4 && sizeof(R) == sizeof(double) ? 2 : 1;
   }
 
@@ -343,6 +366,14 @@ class System final : public DeviceElasticity::Impl {
       return P * (4 * r + 4) + S * (4 * r + 4 + 4) + N * (16 * r - 12 * r) + Q * 4 * 2 + N * 4 + m_blocks * 8 +
              Q * 6 * r * 2 + frames;
     }
+    if (design == Design::fused && pass == SamplePass::coalesced) {
+      // ELL entries (frame, w, g), per-sample state and offsets and materials, lever records
+      // (instead of rotation and position), slot tables, slot partials out and in.
+      // StVK reads 13 state values per sample (elasticity_phases.hpp, kSampleState).
+      const double Q = m_slots, E = m_ell_entries;
+      return E * (4 * r + 4 + 2) + S * (13 * r + 4 + 4) + N * (kLeverRecord * r - 12 * r) + Q * 4 + N * 4 +
+             m_blocks * 12 + Q * 6 * r * 2 + frames;
+    }
     if (design == Design::fused && staged) {
       const double Q = m_slots, E = m_ell_entries;
       return E * (4 * r + 2) + P * 4 + S * (3 * r + 9 * r + 10 * r + r + 4 + 4)  // ELL table, samples
@@ -375,22 +406,56 @@ class System final : public DeviceElasticity::Impl {
     FASCIA_CUDA(cudaDeviceGetAttribute(&shared_limit, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
     if (values * sizeof(R) > static_cast<size_t>(shared_limit)) return false;
     m_staged_bytes = values * sizeof(R);
+    upload_ell(model, L, false);
+    FASCIA_CUDA(cudaFuncSetAttribute(k_staged_tangent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                     static_cast<int>(m_staged_bytes)));
+    return true;
+  }
+
+  // The coalesced tangent pass's tables (build_ell_order, the entries' frames), the storage of
+  // lever records and samples' state, and its shared-memory size (6 values per ELL entry of the
+  // largest block); false, with nothing uploaded, where that would not fit in a thread block.
+  bool upload_coalesced(const Model& model, BlockLayout& L) {
+    build_ell_order(model, L);
+    const size_t pairs = static_cast<size_t>(L.max_block_pairs);
+    int shared_limit = 0, dev = 0;
+    FASCIA_CUDA(cudaGetDevice(&dev));
+    FASCIA_CUDA(cudaDeviceGetAttribute(&shared_limit, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
+    if (6 * pairs * sizeof(R) > static_cast<size_t>(shared_limit) || pairs > 65535) return false;
+    m_ell_bytes = 6 * pairs * sizeof(R);
+    upload_ell(model, L, true);
+    m_ell_pos.upload(std::vector<unsigned short>(L.ell_pos.begin(), L.ell_pos.end()));
+    m_levers.resize(kLeverRecord * static_cast<size_t>(m_n));
+    m_sample_state.resize(kSampleState * static_cast<size_t>(m_s));
+    for (const void* k : {reinterpret_cast<const void*>(&k_ell_tangent<R, 2>),
+                          reinterpret_cast<const void*>(&k_ell_tangent<R, 4>),
+                          reinterpret_cast<const void*>(&k_ell_tangent<R, 8>),
+                          reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>),
+                          reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>),
+                          reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>)})
+      FASCIA_CUDA(cudaFuncSetAttribute(k, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
+    return true;
+  }
+
+  // The ELL tables of a layout with build_ell_order's order: entry offsets, slots, w and g
+  // ([4][E]), and with `frames` each entry's frame.
+  void upload_ell(const Model& model, const BlockLayout& L, bool frames) {
     const NeighbourTable& nb = model.neighbours;
     const int E = L.ell_count();
     std::vector<double> ell(4 * static_cast<size_t>(E), 0.0);  // [4][E]: w, g
+    std::vector<int> ell_frame(frames ? E : 0, 0);
     for (int p = 0; p < model.pair_count(); ++p) {
       const int e = L.pair_ell[p];
       ell[e] = nb.weights[p];
       for (int k = 0; k < 3; ++k) ell[static_cast<size_t>(k + 1) * E + e] = nb.weight_gradients[3 * p + k];
+      if (frames) ell_frame[e] = nb.frames[p];
     }
     m_ell_offsets.upload(L.ell_offsets);
     m_ell_slot.upload(L.ell_slot);
     m_slot_ell.upload(L.slot_ell);
     m_ell_data.upload(ell);
+    if (frames) m_ell_frame.upload(ell_frame);
     m_ell_entries = E;
-    FASCIA_CUDA(cudaFuncSetAttribute(k_staged_tangent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                     static_cast<int>(m_staged_bytes)));
-    return true;
   }
 
   // ---- stepper -------------------------------------------------------------------------------
@@ -539,13 +604,19 @@ class System final : public DeviceElasticity::Impl {
     k_kinematics<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(m_n, m_positions.data(), m_orientations.data(),
                                                                          m_origin, m_x.data(), m_rot.data(),
                                                                          m_frame_rest.data(),
-                                                                         m_records.size() ? m_records.data() : nullptr);
+                                                                         m_records.size() ? m_records.data() : nullptr,
+                                                                         m_levers.size() ? m_levers.data() : nullptr);
     check_launch();
     const FrameTermsFlags none{0.0, false};
     if (design == Design::fused) {
       k_fused_samples<Pass::gradient, R><<<m_blocks, options.block_samples, m_shared_bytes, m_stream>>>(
           m_view, m_frame_view, nullptr, m_F.data(), m_cache.data(), m_partials.data(), reduction(), nullptr);
       check_launch();
+      if (pass == SamplePass::coalesced) {
+        k_pack_samples<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(m_view, m_F.data(), m_cache.data(),
+                                                                              m_sample_state.data());
+        check_launch();
+      }
       if (gather) {
         k_frame_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
             m_view, m_partials.data(), nullptr, nullptr, none, nullptr, m_grad.data(), reduction(), false, nullptr);
@@ -565,7 +636,7 @@ class System final : public DeviceElasticity::Impl {
 
   void enqueue_frame_prepare(double inv_h2, bool diag, double k_scale = 1.0, const double* load_rot = nullptr,
                              bool precondition = true) {
-    k_frame_prepare<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
+    k_frame_prepare<R><<<grid_for(m_n, kPrepareFrames), 6 * kPrepareParts * kPrepareFrames, 0, m_stream>>>(
         m_view, m_frame_view, m_F.data(), design == Design::fused, inv_h2, m_geo.data(), m_inertia_world.data(),
         m_minv.data(), diag ? m_diag.data() : nullptr, k_scale, load_rot, precondition);
     check_launch();
@@ -583,7 +654,19 @@ class System final : public DeviceElasticity::Impl {
     const Scalars* sc = pcg ? m_scalars.data() : nullptr;
     if (design == Design::fused) {
       const R* z = pcg ? m_cz.data() : nullptr;
-      if (pass == SamplePass::records) {
+      if (pass == SamplePass::coalesced) {
+        const R* pd = pcg ? z : d;
+        const R* pold = pcg ? d : nullptr;
+        if (m_keep == 2)
+          k_ell_tangent<R, 2><<<m_blocks, m_lane_threads, m_ell_bytes, m_stream>>>(
+              m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes, options.slot_lanes);
+        else if (m_keep == 4)
+          k_ell_tangent<R, 4><<<m_blocks, m_lane_threads, m_ell_bytes, m_stream>>>(
+              m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes, options.slot_lanes);
+        else
+          k_ell_tangent<R, 8><<<m_blocks, m_lane_threads, m_ell_bytes, m_stream>>>(
+              m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes, options.slot_lanes);
+      } else if (pass == SamplePass::records) {
         const R* pd = pcg ? z : d;
         const R* pold = pcg ? d : nullptr;
         if (m_lane_threads > 128)
@@ -660,14 +743,33 @@ class System final : public DeviceElasticity::Impl {
     Scalars* scalars = m_scalars.data();
     int iterations = m_step.max_cg_iterations;
     double tolerance = m_step.cg_tolerance;
+    if (pass == SamplePass::coalesced) {
+      int slot_lanes = options.slot_lanes;
+      void* args[] = {&view, &frames, &lanes, &slot_lanes, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
+                      &slots, &partials, &scalars, &iterations, &tolerance};
+      FASCIA_CUDA(cudaLaunchCooperativeKernel(persistent_kernel(), dim3(m_persistent_grid), dim3(m_lane_threads), args,
+                                              persistent_shared_bytes(), m_stream));
+      return;
+    }
     void* args[] = {&view, &frames, &F, &cache, &lanes, &use_pass, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
                     &slots, &partials, &scalars, &iterations, &tolerance};
-    FASCIA_CUDA(cudaLaunchCooperativeKernel(reinterpret_cast<const void*>(&k_pcg_persistent<R>), dim3(m_persistent_grid),
-                                            dim3(m_lane_threads), args, persistent_shared_bytes(), m_stream));
+    FASCIA_CUDA(cudaLaunchCooperativeKernel(persistent_kernel(), dim3(m_persistent_grid), dim3(m_lane_threads), args,
+                                            persistent_shared_bytes(), m_stream));
   }
 
   bool use_persistent() const { return m_step.persistent && m_persistent_grid > 0; }
-  size_t persistent_shared_bytes() const { return staged ? m_staged_bytes : m_shared_bytes; }
+  size_t persistent_shared_bytes() const {
+    return staged ? m_staged_bytes : pass == SamplePass::coalesced ? m_ell_bytes : m_shared_bytes;
+  }
+
+  // The persistent PCG kernel of the sample pass in use: two grid barriers per iteration for the
+  // coalesced pass (k_pcg_two_barrier), three otherwise (k_pcg_persistent).
+  const void* persistent_kernel() const {
+    if (pass != SamplePass::coalesced) return reinterpret_cast<const void*>(&k_pcg_persistent<R>);
+    if (m_keep == 2) return reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>);
+    if (m_keep == 4) return reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>);
+    return reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>);
+  }
 
   // Grid of the persistent PCG: every block resident (cooperative launch), no more blocks than
   // sample blocks or frame blocks need. 0 where it cannot run (paper design, no cooperative launch).
@@ -678,9 +780,9 @@ class System final : public DeviceElasticity::Impl {
     FASCIA_CUDA(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, dev));
     FASCIA_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
     if (!coop) return 0;
-    FASCIA_CUDA(cudaFuncSetAttribute(k_pcg_persistent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
+    FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
                                      static_cast<int>(persistent_shared_bytes())));
-    FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_pcg_persistent<R>, m_lane_threads,
+    FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), m_lane_threads,
                                                               persistent_shared_bytes()));
     if (per_sm < 1) return 0;
     // Only for small grids (grid barriers and every block's sum of all partials grow with the
@@ -739,8 +841,8 @@ class System final : public DeviceElasticity::Impl {
   int m_row_frames = 42;
   int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0, m_lanes = 1, m_lane_threads = 128;
   bool m_locked = false;
-  int m_ell_entries = 0;
-  size_t m_shared_bytes = 0, m_staged_bytes = 0;
+  int m_ell_entries = 0, m_keep = 2;
+  size_t m_shared_bytes = 0, m_staged_bytes = 0, m_ell_bytes = 0;
   Origin m_origin{};
   cudaStream_t m_stream = nullptr;
   cudaEvent_t m_start = nullptr, m_stop = nullptr;
@@ -756,9 +858,9 @@ class System final : public DeviceElasticity::Impl {
   DeviceBuffer<Material> m_materials;
   DeviceBuffer<unsigned char> m_fixed;
   DeviceBuffer<int> m_block_samples, m_block_slots, m_slot_frames, m_slot_pair_offsets, m_slot_pairs,
-      m_frame_slot_offsets, m_frame_slots, m_ell_offsets, m_slot_ell;
-  DeviceBuffer<unsigned short> m_ell_slot;
-  DeviceBuffer<R> m_ell_data, m_pair_records, m_sample_records, m_records;
+      m_frame_slot_offsets, m_frame_slots, m_ell_offsets, m_slot_ell, m_ell_frame;
+  DeviceBuffer<unsigned short> m_ell_slot, m_ell_pos;
+  DeviceBuffer<R> m_ell_data, m_pair_records, m_sample_records, m_records, m_levers, m_sample_state;
   // State (double) and per-iteration data (R).
   DeviceBuffer<double> m_positions, m_orientations, m_velocities, m_external, m_load_rot, m_diag;
   DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_a, m_partials, m_geo, m_inertia_world, m_minv;
@@ -782,6 +884,11 @@ DeviceElasticity::DeviceElasticity(const Model& model, const DeviceOptions& opti
     throw std::invalid_argument("DeviceOptions: row_frames must be in [1, 85]");
   if (options.record_keep < 1 || options.record_keep > 2)
     throw std::invalid_argument("DeviceOptions: record_keep must be 1 or 2");
+  if (options.coalesced_keep != 0 && options.coalesced_keep != 2 && options.coalesced_keep != 4 &&
+      options.coalesced_keep != 8)
+    throw std::invalid_argument("DeviceOptions: coalesced_keep must be 0, 2, 4 or 8");
+  if (options.slot_lanes < 1 || options.slot_lanes > 32 || (options.slot_lanes & (options.slot_lanes - 1)) != 0)
+    throw std::invalid_argument("DeviceOptions: slot_lanes must be a power of two in [1, 32]");
   if (options.precision == Precision::double_precision)
     m_impl = std::make_unique<System<double>>(model, options);
   else

@@ -28,11 +28,15 @@ enum class Precision { double_precision, single_precision };
 enum class Design { paper, fused };
 
 // Sample pass of the fused design's tangent product (elasticity_phases.hpp).
-//  lanes:   F and the material cache read per sample, frames gathered value by value (default).
-//  records: F rebuilt from the frames with dF, packed records read with vector loads.
-//  staged:  the block's frames and samples staged in shared memory, pairs in ELL order.
-// Measured on an H200 (docs/benchmarks.md): lanes is the fastest at every size so far.
-enum class SamplePass { records, lanes, staged };
+//  coalesced: pairs in ELL order and the samples' state component-major (every per-pair and
+//             per-sample load coalesced), frames as lever records read with vector loads, all
+//             arithmetic in the storage precision.
+//  lanes:     F and the material cache read per sample, frames gathered value by value, double
+//             arithmetic.
+//  records:   F rebuilt from the frames with dF, packed records read with vector loads.
+//  staged:    the block's frames and samples staged in shared memory, pairs in ELL order.
+// Measured on an H200: docs/benchmarks.md.
+enum class SamplePass { records, lanes, staged, coalesced };
 
 const char* to_string(Precision precision);
 const char* to_string(Design design);
@@ -58,14 +62,21 @@ struct DeviceOptions {
   int block_samples = 128;      // fused design: samples per thread block
   // Fused design: the tangent product's sample pass. `staged` runs one thread per sample and is
   // used only with lanes <= 1.
-  SamplePass sample_pass = SamplePass::lanes;
+  SamplePass sample_pass = SamplePass::coalesced;
   // Fused design, records and lanes passes: threads per sample in the tangent product (rounded up
   // to a power of two, at most 32); 0 = measured default (device_elasticity.cu, default_lanes).
   int lanes = 0;
   int lane_threads = 128;       // fused design: at most this many threads per tangent block (32..512)
   // Records pass: pairs per lane whose levers stay in registers (1 or 2; further pairs are read
-  // again for the outputs).
+  // again for the outputs). The coalesced pass sizes its register-held pairs itself.
   int record_keep = 2;
+  // Coalesced pass: ELL entries per lane held in registers between its two halves (2, 4 or 8;
+  // further ones are read again); 0 = 2 where a lane has at most 2 pairs, else 4.
+  int coalesced_keep = 0;
+  // Coalesced pass: lanes that sum one slot of a block's pair outputs (a power of two, 1..32; 1:
+  // one thread per slot). Measured on an H100 (docs/benchmarks.md): 1 is the fastest at 34,848
+  // samples, 4 at 4.18 M within 3 %.
+  int slot_lanes = 1;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16

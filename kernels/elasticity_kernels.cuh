@@ -98,10 +98,11 @@ struct Origin {
   double x[3];
 };
 
-// Frame kinematics, and the frame records of the record tangent pass when `records` is set.
+// Frame kinematics, and the frame records of the record tangent pass when `records` is set, the
+// lever records of the coalesced pass when `levers` is set.
 template <class R>
 __global__ void k_kinematics(int n, const double* positions, const double* orientations, Origin origin, R* x_out,
-                             R* r_out, const R* frame_rest, R* records) {
+                             R* r_out, const R* frame_rest, R* records, R* levers) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   double x[3], r[9];
@@ -109,6 +110,14 @@ __global__ void k_kinematics(int n, const double* positions, const double* orien
   for (int k = 0; k < 3; ++k) x_out[3 * i + k] = static_cast<R>(x[k]);
   for (int k = 0; k < 9; ++k) r_out[9 * i + k] = static_cast<R>(r[k]);
   if (records) write_frame_record(x, r, frame_rest, i, records);
+  if (levers) write_lever_record(r, frame_rest, i, levers);
+}
+
+// The samples' state of the coalesced tangent pass, component-major (pack_sample_state).
+template <class R>
+__global__ void k_pack_samples(ModelView<R> m, const R* F, const R* cache, R* state) {
+  const int s = blockIdx.x * blockDim.x + threadIdx.x;
+  if (s < m.samples) pack_sample_state(m, F, cache, s, state);
 }
 
 // ---- paper design ----
@@ -290,7 +299,125 @@ __device__ void records_tangent_block(const ModelView<R>& m, const FrameView<R>&
     record_slot_sum(m, local, stride, q, slot_partials);
 }
 
+// The slot sums of block b's outputs [6][stride] in slot-major order (the coalesced pass):
+// `slot_lanes` lanes per slot (a power of two <= 32; 1: a thread per slot), lane l of a slot's
+// group adds its positions l, l + slot_lanes, ... per component, an xor butterfly within the
+// group combines the lanes (slot_tree_sum's order, so the host emulation has the same bits), and
+// the group's lanes 0..5 write the six components (lane 0 all six when slot_lanes < 6). Every
+// thread of the block must call it (blockDim.x a multiple of 32).
+template <class R>
+__device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride, int b, int slot_lanes,
+                               R* slot_partials) {
+  const int lane = static_cast<int>(threadIdx.x) & (slot_lanes - 1);
+  const int group = static_cast<int>(threadIdx.x) / slot_lanes, groups = static_cast<int>(blockDim.x) / slot_lanes;
+  const int q0 = m.block_slots[b], q1 = m.block_slots[b + 1];
+  const int base = m.slot_pair_offsets[q0];
+  for (int first = q0; first < q1; first += groups) {  // the same trip count in every thread
+    const int q = first + group;
+    R acc[6] = {0, 0, 0, 0, 0, 0};
+    if (q < q1) {
+      const int a = m.slot_pair_offsets[q] - base, e = m.slot_pair_offsets[q + 1] - base;
+      for (int k = a + lane; k < e; k += slot_lanes)
+#pragma unroll
+        for (int c = 0; c < 6; ++c) acc[c] += outs[c * stride + k];
+    }
+    for (int o = slot_lanes / 2; o > 0; o >>= 1)
+#pragma unroll
+      for (int c = 0; c < 6; ++c) acc[c] += __shfl_xor_sync(0xffffffffu, acc[c], o);
+    if (q < q1) {
+      R* dst = slot_partials + 6 * static_cast<size_t>(q);
+      if (slot_lanes < 6) {
+        if (lane == 0)
+#pragma unroll
+          for (int c = 0; c < 6; ++c) dst[c] = acc[c];
+      } else {
+        R mine = 0;
+#pragma unroll
+        for (int c = 0; c < 6; ++c)
+          if (lane == c) mine = acc[c];
+        if (lane < 6) dst[lane] = mine;
+      }
+    }
+  }
+}
+
+// Coalesced tangent pass of block b (elasticity_phases.hpp, "coalesced tangent pass") with
+// `lanes` threads per sample as lanes_tangent_block: lane l of block-local sample t takes its
+// pairs j = l, l + lanes, ... at ELL entries e0 + j ns + t. The first Keep of them have their ELL
+// entries loaded at once (independent loads in flight together) and kept in registers for the
+// output half; further ones are read again. The frames' lever records are gathered in each half
+// (the second read hits the cache). dF is summed over the lanes with an xor butterfly (every lane
+// holds the same bits and forms the same dP); outputs [6][P_b] in slot-major order in `local`,
+// then `slot_lanes` lanes per slot sum it (warp_slot_sums). All arithmetic in R. Every thread of the block
+// must call it. Returns this thread's share of v dF : dP over its samples (lane 0 of each sample), the
+// sample terms of p . K p for the persistent PCG.
+template <class R, int Keep>
+__device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
+                                    double beta, int b, int lanes, int slot_lanes, R* local, R* slot_partials) {
+  const int s0 = m.block_samples[b], ns = m.block_samples[b + 1] - s0;
+  const int e0 = m.ell_offsets[b];
+  const int stride = m.offsets[s0 + ns] - m.offsets[s0];  // the block's pairs
+  const int lane = static_cast<int>(threadIdx.x) & (lanes - 1);
+  const int group = static_cast<int>(threadIdx.x) / lanes, groups = static_cast<int>(blockDim.x) / lanes;
+  double work = 0;
+  for (int base = 0; base < ns; base += groups) {  // the same trip count in every thread
+    const int t = base + group, s = s0 + t;
+    const bool active = t < ns;
+    int count = 0;
+    Vec3T<R> ps{0, 0, 0};
+    Mat3T<R> dF = zero3<R>();
+    EllEntry<R> kept[Keep] = {};
+    if (active) {
+      count = m.offsets[s + 1] - m.offsets[s];
+      ps = Vec3T<R>{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
+                    sample_value(f.sample_state, m.samples, 2, s)};
+#pragma unroll
+      for (int k = 0; k < Keep; ++k) {
+        const int j = lane + k * lanes;
+        if (j < count) kept[k] = ell_entry(m, e0 + j * ns + t);
+      }
+#pragma unroll
+      for (int k = 0; k < Keep; ++k)
+        if (lane + k * lanes < count) ell_pair_dF(ell_pair_of(kept[k], f.levers, ps), d, p_old, beta, dF);
+      for (int j = lane + Keep * lanes; j < count; j += lanes)
+        ell_pair_dF(ell_pair(m, f.levers, ps, e0 + j * ns + t), d, p_old, beta, dF);
+    }
+    for (int o = 1; o < lanes; o <<= 1)
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) dF.m[r][c] += __shfl_xor_sync(0xffffffffu, dF.m[r][c], o);
+    if (active && lane < count) {
+      const Mat3T<R> dP = ell_sample_dP(m, f.sample_state, s, dF);
+      const R v = sample_value(f.sample_state, m.samples, 3, s);
+      if (lane == 0) work += static_cast<double>(v) * static_cast<double>(ddot(dF, dP));
+#pragma unroll
+      for (int k = 0; k < Keep; ++k)
+        if (lane + k * lanes < count)
+          ell_pair_output(ell_pair_of(kept[k], f.levers, ps), dP, v, kept[k].pos, stride, local);
+      for (int j = lane + Keep * lanes; j < count; j += lanes) {
+        const EllEntry<R> en = ell_entry(m, e0 + j * ns + t);
+        ell_pair_output(ell_pair_of(en, f.levers, ps), dP, v, en.pos, stride, local);
+      }
+    }
+  }
+  __syncthreads();
+  warp_slot_sums(m, local, stride, b, slot_lanes, slot_partials);
+  return work;
+}
+
 constexpr int kLaneThreadsMax = 512;
+
+// Coalesced tangent pass, one block per sample block (as k_lanes_tangent).
+template <class R, int Keep>
+__global__ void __launch_bounds__(kLaneThreadsMax) k_ell_tangent(ModelView<R> m, FrameView<R> f, const R* d,
+                                                                 const R* p_old, R* slot_partials, const Scalars* sc,
+                                                                 int lanes, int slot_lanes) {
+  extern __shared__ unsigned char shared_raw[];
+  R* local = reinterpret_cast<R*>(shared_raw);
+  if (finished(sc)) return;
+  const double beta = p_old ? sc->beta : 0.0;
+  ell_tangent_block<R, Keep>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), lanes, slot_lanes, local,
+                             slot_partials);
+}
 
 // Tangent sample pass of the fused design, one block per sample block. In the PCG (p_old set) the
 // direction is p = z + beta p_old with z = d and beta from the scalars; k_frame_rows stores it.
@@ -465,13 +592,69 @@ __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* 
 
 // ---- frames: preparation and PCG ----
 
+// Threads per frame of k_frame_prepare: 6 columns times kPrepareParts interleaved subsets of
+// the frame's pairs, so a frame's serial work is a sixth of a column's pairs / kPrepareParts.
+constexpr int kPrepareParts = 4;
+constexpr int kPrepareFrames = 5;  // frames per block: 120 threads
+
+// Frame preparation with 6 kPrepareParts threads per frame (frame_prepare_column); the partial
+// columns are summed in part order in shared memory, one thread per frame forms the blocks and the
+// Cholesky factor (frame_prepare_blocks, block_jacobi_condition, cholesky_factor6), and six
+// threads per frame compute the preconditioner's columns (frame_prepare_finish's arithmetic).
 template <class R>
 __global__ void k_frame_prepare(ModelView<R> m, FrameView<R> f, const R* F, bool fused, double inv_h2, R* geo,
                                 R* inertia_world, R* minv, double* diag, double k_scale, const double* load_rot,
                                 bool precondition) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < m.frames)
-    frame_prepare(m, f, F, fused, inv_h2, i, geo, inertia_world, minv, diag, k_scale, load_rot, precondition);
+  __shared__ double cols[kPrepareFrames][kPrepareParts][6][9];  // column c: K entries 0..5, Kr 6..8
+  __shared__ double factor[kPrepareFrames][36], pivots[kPrepareFrames][6], largest[kPrepareFrames];
+  __shared__ bool factored[kPrepareFrames];
+  const int per_frame = 6 * kPrepareParts;
+  const int t = static_cast<int>(threadIdx.x), local = t / per_frame;
+  const int i = static_cast<int>(blockIdx.x) * kPrepareFrames + local;
+  const int c = (t % per_frame) % 6, part = (t % per_frame) / 6;
+  const bool active = local < kPrepareFrames && i < m.frames;
+  if (active) {
+    double* col = cols[local][part][c];
+    frame_prepare_column(m, f, F, fused, i, c, part, kPrepareParts, col, col + 6);
+  }
+  __syncthreads();
+  if (active && c == 0 && part == 0) {
+    double K[36];
+    Mat3 Kr = zero3();
+    for (int cc = 0; cc < 6; ++cc)
+      for (int r = 0; r < 6; ++r) {
+        double sum = 0;
+        for (int pp = 0; pp < kPrepareParts; ++pp) sum += cols[local][pp][cc][r];
+        K[6 * r + cc] = sum;
+      }
+    for (int cc = 3; cc < 6; ++cc)
+      for (int r = 0; r < 3; ++r) {
+        double sum = 0;
+        for (int pp = 0; pp < kPrepareParts; ++pp) sum += cols[local][pp][cc][6 + r];
+        Kr.m[r][cc - 3] = sum;
+      }
+    frame_prepare_blocks(m, f, i, K, Kr, inv_h2, geo, inertia_world, diag, k_scale, load_rot, precondition);
+    if (precondition) {
+      largest[local] = block_jacobi_condition(m.fixed + 6 * i, K);
+      factored[local] = cholesky_factor6(K, factor[local]);
+      for (int k = 0; k < 6; ++k) pivots[local][k] = K[7 * k];
+    }
+  }
+  __syncthreads();
+  // The inverse's columns, one thread each (block_jacobi_inverse's arithmetic).
+  if (active && part == 0) {
+    double col[6];
+    if (!precondition)
+      for (int r = 0; r < 6; ++r) col[r] = r == c && !m.fixed[6 * i + c] ? 1.0 : 0.0;
+    else if (factored[local])
+      cholesky_inverse_column6(factor[local], c, col);
+    else
+      for (int r = 0; r < 6; ++r) col[r] = r == c ? block_jacobi_diagonal(pivots[local][r], largest[local]) : 0.0;
+    for (int r = 0; r < 6; ++r) {
+      if (precondition && (m.fixed[6 * i + r] || m.fixed[6 * i + c])) col[r] = 0.0;
+      minv[36 * static_cast<size_t>(i) + 6 * r + c] = static_cast<R>(col[r]);
+    }
+  }
 }
 
 template <class R>
@@ -546,13 +729,13 @@ __device__ inline double grid_sum(double v, double* partials, cooperative_groups
 // p = z + beta p_old formed on the fly; (2) frame pass: writes p, Ap = H p and reduces p.Ap -> alpha;
 // (3) x += alpha p, r -= alpha Ap, z = M^-1 r, reduces r.z -> beta and the stopping test. Every
 // block computes the scalars from the same partials, so all take the same branches. Same
-// arithmetic as the launch-per-phase PCG (k_records_tangent, k_lanes_tangent or k_staged_tangent, k_frame_rows,
+// arithmetic as the launch-per-phase PCG (the sample pass's kernel, k_frame_rows,
 // k_update_rows); the frame phases run one thread per frame row in chunks of blockDim.x / 6
 // frames. `partials` holds 2 gridDim.x doubles. Starts from k_pcg_init's scalars.
 template <class R>
 __global__ void __launch_bounds__(kLaneThreadsMax)
-    k_pcg_persistent(ModelView<R> m, FrameView<R> f, const R* F, const R* cache, int lanes, SamplePass pass, const R* geo,
-                     const R* inertia_world, FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, R* Ap,
+    k_pcg_persistent(ModelView<R> m, FrameView<R> f, const R* F, const R* cache, int lanes, SamplePass pass,
+                     const R* geo, const R* inertia_world, FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, R* Ap,
                      R* slot_partials, double* partials, Scalars* scalars, int max_iterations, double tolerance) {
   cooperative_groups::grid_group grid = cooperative_groups::this_grid();
   extern __shared__ unsigned char shared_raw[];
@@ -596,6 +779,128 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
     if (!(rz_new > 0)) done = 1;
   }
   if (tid == 0) {
+    scalars->rz = rz;
+    scalars->beta = beta;
+    scalars->iterations = it;
+    scalars->done = done;
+  }
+}
+
+// ---- persistent PCG with two grid barriers per iteration (coalesced pass) ----
+
+// Frame terms of p . A p for one chunk of frame rows (chunks as frame_rows_chunk): p_k (D p)_k with
+// p = z + beta p_old formed as next_direction and D p = frame_row_of without sample terms (the
+// rotational geometric and load blocks, inertia; 0 on fixed DOFs). Every thread must call it.
+template <class R>
+__device__ double frame_quadratic_chunk(const ModelView<R>& m, const R* geo, const R* inertia_world,
+                                        const FrameTermsFlags& flags, const R* z, const R* p_old, double beta,
+                                        int chunk) {
+  __shared__ double dir[kLaneThreadsMax];
+  const int fpc = static_cast<int>(blockDim.x) / 6;
+  const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
+  const bool active = t < 6 * fpc && i < m.frames;
+  if (active) dir[t] = static_cast<double>(next_direction(z, p_old, beta, 6 * i + k));
+  __syncthreads();
+  double q = 0;
+  if (active)
+    q = dir[t] *
+        frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, dir + (t - k), i, k, 0.0, flags.k_scale);
+  __syncthreads();
+  return q;
+}
+
+// Frame phase of the two-barrier PCG, one thread per frame row (chunks as frame_rows_chunk): p =
+// z + beta p stored, Ap = H p (frame_rows_chunk's arithmetic), then x += alpha p, r -= alpha Ap,
+// z = M^-1 r (update_rows_chunk's arithmetic). Returns this thread's r_k z_k. Every thread of the
+// block must call it.
+template <class R>
+__device__ double frame_update_chunk(const ModelView<R>& m, const R* slot_partials, const R* geo,
+                                     const R* inertia_world, const FrameTermsFlags& flags, const R* minv, R* x, R* r,
+                                     R* z, R* p, R* Ap, double beta, double alpha, int chunk) {
+  __shared__ double dir[kLaneThreadsMax];
+  __shared__ double res[kLaneThreadsMax];
+  const int fpc = static_cast<int>(blockDim.x) / 6;
+  const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
+  const bool active = t < 6 * fpc && i < m.frames;
+  const int j = 6 * i + k;
+  if (active) dir[t] = static_cast<double>(next_direction(z, p, beta, j));
+  __syncthreads();
+  if (active) {
+    p[j] = static_cast<R>(dir[t]);
+    double acc = 0;
+    for (int q = m.frame_slot_offsets[i]; q < m.frame_slot_offsets[i + 1]; ++q)
+      acc += static_cast<double>(slot_partials[6 * m.frame_slots[q] + k]);
+    const R apj = static_cast<R>(
+        frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, dir + (t - k), i, k, acc, flags.k_scale));
+    Ap[j] = apj;
+    x[j] = static_cast<R>(static_cast<double>(x[j]) + alpha * dir[t]);
+    const R rj = static_cast<R>(static_cast<double>(r[j]) - alpha * static_cast<double>(apj));
+    r[j] = rj;
+    res[t] = static_cast<double>(rj);
+  }
+  __syncthreads();
+  double dot = 0;
+  if (active) {
+    double acc = 0;
+    for (int c = 0; c < 6; ++c) acc += static_cast<double>(minv[36 * i + 6 * k + c]) * res[t - k + c];
+    const R zk = static_cast<R>(acc);
+    z[j] = zk;
+    dot = res[t] * static_cast<double>(zk);
+  }
+  __syncthreads();
+  return dot;
+}
+
+// The PCG loop of the coalesced pass in one cooperative launch with two grid barriers per
+// iteration instead of k_pcg_persistent's three. p . A p is summed in the sample phase, as
+// k_scale sum_s v dF : dP (the coalesced pass returns it per sample) plus the frame terms
+// frame_quadratic_chunk: equal to p . (A p) in exact arithmetic, since A p = k_scale sum_s v B_s^T dP_s
+// plus the frame terms, and p is zero on fixed DOFs (z is, and p starts as z). So alpha is known
+// after the barrier that ends the sample phase, and the frame phase applies the update at once:
+//   (1) samples on p = z + beta p_old formed on the fly, slot partials; p . A p  -> barrier
+//   (2) frames: p stored, A p, x += alpha p, r -= alpha A p, z = M^-1 r; r . z   -> barrier
+// Every block sums the per-block partials in block order itself (grid_sum), so all blocks hold the
+// same scalars and take the same branches; results are deterministic. `partials` holds 2
+// gridDim.x doubles. Starts from k_pcg_init's scalars.
+template <class R, int Keep>
+__global__ void __launch_bounds__(kLaneThreadsMax)
+    k_pcg_two_barrier(ModelView<R> m, FrameView<R> f, int lanes, int slot_lanes, const R* geo, const R* inertia_world,
+                      FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, R* Ap, R* slot_partials,
+                      double* partials, Scalars* scalars, int max_iterations, double tolerance) {
+  cooperative_groups::grid_group grid = cooperative_groups::this_grid();
+  extern __shared__ unsigned char shared_raw[];
+  R* local = reinterpret_cast<R*>(shared_raw);
+  const double rz0 = scalars->rz0;
+  double rz = scalars->rz, beta = 0;
+  int done = scalars->done, it = 0;
+  const int fpc = static_cast<int>(blockDim.x) / 6, chunks = (m.frames + fpc - 1) / fpc;
+  while (done == 0 && it < max_iterations) {
+    // (1) samples and the frame terms of p . A p.
+    double part = 0;
+    for (int b = blockIdx.x; b < m.blocks; b += gridDim.x) {
+      part += flags.k_scale * ell_tangent_block<R, Keep>(m, f, z, p, beta, b, lanes, slot_lanes, local, slot_partials);
+      __syncthreads();
+    }
+    for (int c = blockIdx.x; c < chunks; c += gridDim.x)
+      part += frame_quadratic_chunk(m, geo, inertia_world, flags, z, p, beta, c);
+    const double pAp = grid_sum(part, partials, grid);
+    if (!(pAp > 0 && pAp < HUGE_VAL)) {
+      done = 2;
+      break;
+    }
+    const double alpha = rz / pAp;
+    // (2) frames: direction, A p, update, preconditioner.
+    double dot = 0;
+    for (int c = blockIdx.x; c < chunks; c += gridDim.x)
+      dot += frame_update_chunk(m, slot_partials, geo, inertia_world, flags, minv, x, r, z, p, Ap, beta, alpha, c);
+    const double rz_new = grid_sum(dot, partials + gridDim.x, grid);
+    beta = rz > 0 ? rz_new / rz : 0;
+    rz = rz_new;
+    ++it;
+    if (tolerance > 0 && rz_new <= tolerance * tolerance * rz0) done = 1;
+    if (!(rz_new > 0)) done = 1;
+  }
+  if (blockIdx.x == 0 && threadIdx.x == 0) {
     scalars->rz = rz;
     scalars->beta = beta;
     scalars->iterations = it;

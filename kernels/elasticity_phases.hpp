@@ -91,6 +91,8 @@ struct ModelView {
   const unsigned short* ell_slot = nullptr; // [E] block-local slot of the entry's pair
   const R* ell_data = nullptr;              // [4][E]: w, then the gradient's x, y, z (1/m); component-major
   const int* slot_ell = nullptr;            // [P] as slot_pairs, block-local ELL entries
+  const int* ell_frame = nullptr;           // [E] frame of the entry's pair (coalesced pass; 0 on padding)
+  const unsigned short* ell_pos = nullptr;  // [E] slot-major position in the block (coalesced pass)
   // Record tangent pass: packed records (kPairRecord, kSampleRecord values each).
   const R* pair_records = nullptr;          // [P][4]: g (1/m), w
   const R* sample_records = nullptr;        // [S][4]: p_s - origin (m), v (m^3)
@@ -102,13 +104,26 @@ struct FrameView {
   const R* rotations = nullptr;  // [N][9]
   const R* positions = nullptr;  // [N][3]
   const R* records = nullptr;    // [N][kFrameRecord] (record tangent pass)
+  const R* levers = nullptr;     // [N][kLeverRecord] (coalesced tangent pass)
+  // Coalesced tangent pass: the samples' state of the Newton iteration, [kSampleState][S].
+  const R* sample_state = nullptr;
 };
 
-// Component j of the CG direction p_new = z + beta p_old, rounded to the storage precision. One
-// function (explicit fma) so that every kernel that forms it gets the same bits.
+FASCIA_HD double fused_multiply_add(double a, double b, double c) { return fma(a, b, c); }
+FASCIA_HD float fused_multiply_add(float a, float b, float c) { return fmaf(a, b, c); }
+
+// One value of the CG direction p_new = z + beta p_old in the storage precision R (beta rounded
+// to R: no double arithmetic in the single-precision passes). One function (explicit fma) so that
+// every kernel that forms it gets the same bits.
+template <class R>
+FASCIA_HD R direction_value(R z, R p_old, double beta) {
+  return fused_multiply_add(static_cast<R>(beta), p_old, z);
+}
+
+// Component j of the CG direction (direction_value).
 template <class R>
 FASCIA_HD R next_direction(const R* z, const R* p_old, double beta, int j) {
-  return static_cast<R>(fma(beta, static_cast<double>(p_old[j]), static_cast<double>(z[j])));
+  return direction_value(z[j], p_old[j], beta);
 }
 
 // ---- frames: kinematics ------------------------------------------------------------------------
@@ -479,7 +494,8 @@ FASCIA_HD RecordPair record_pair(const ModelView<R>& m, const R* frame_records, 
   if (p_old) {
     double po[6];
     load_six(p_old, q.i, po);
-    for (int k = 0; k < 6; ++k) di[k] = static_cast<double>(static_cast<R>(fma(beta, po[k], di[k])));
+    for (int k = 0; k < 6; ++k)
+      di[k] = static_cast<double>(direction_value(static_cast<R>(di[k]), static_cast<R>(po[k]), beta));
   }
   Mat3 Ri;
   for (int r = 0; r < 3; ++r)
@@ -518,6 +534,238 @@ FASCIA_HD void record_slot_sum(const ModelView<R>& m, const R* outs, int stride,
     for (int c = 0; c < 6; ++c) acc[c] += static_cast<double>(outs[c * stride + j]);
   }
   for (int c = 0; c < 6; ++c) partials[6 * q + c] = static_cast<R>(acc[c]);
+}
+
+// ---- coalesced tangent pass (fused design) -----------------------------------------------------
+// The tangent product's sample pass with every per-sample and per-pair load coalesced and all
+// arithmetic in the storage precision R (float in single precision: twice the FP32 rate of FP64
+// and half the bytes):
+//  - pairs in the block's ELL order (sample_layout.hpp): pair j of block-local sample t sits at
+//    entry e = e0 + j ns + t with its frame (ell_frame), w and g (ell_data [4][E]), so threads t
+//    and t + 1 read neighbouring words;
+//  - the samples' state of the Newton iteration component-major, [kSampleState][S]: p_s - origin,
+//    v, H = F - I and the material cache (pack_sample_state, after the force pass);
+//  - each pair's frame as one 16-byte-aligned lever record [R_i (9), x̄_i - origin (3)] read with
+//    vector loads (write_lever_record, with the kinematics), the direction d_i with 8-byte loads.
+// With the pair's lever M = a g^T + w R_i (pair_lever), dF_p = dx g^T + [dr]x M and
+// B_p^T dP = [dP g, axial(M dP^T)] (frame_sample.hpp). Pair outputs go to shared memory
+// [6][P_b] in the block's slot-major order (ell_pos), so that each slot's pairs are contiguous
+// and a group of lanes sums a slot (elasticity_kernels.cuh, warp_slot_sums) without gathering
+// positions, in the storage precision.
+constexpr int kLeverRecord = 12;  // [R_i row-major (9), x̄_i - origin (3) m]
+// [p_s - origin (3) m, v (1) m^3, H = F - I (9), material cache a (9), c (1)]. The displacement
+// gradient H rather than F: the StVK stress is rebuilt from it as E = sym(H) + H^T H / 2 without
+// the cancellation of F^T F - I, so float keeps the digits of small strains, and the StVK pass reads
+// 13 values per sample instead of 23 (neo-Hookean: all 23).
+constexpr int kSampleState = 23;
+
+// n values (a multiple of 4 floats or 2 doubles) from a 16-byte-aligned address: vector loads
+// through the read-only cache on the device, plain loads on the host.
+template <int n>
+FASCIA_HD void load_record(const double* src, double* dst) {
+#ifdef __CUDA_ARCH__
+  const double2* v = reinterpret_cast<const double2*>(src);
+#pragma unroll
+  for (int k = 0; k < n / 2; ++k) {
+    const double2 t = __ldg(v + k);
+    dst[2 * k] = t.x;
+    dst[2 * k + 1] = t.y;
+  }
+#else
+  for (int k = 0; k < n; ++k) dst[k] = src[k];
+#endif
+}
+template <int n>
+FASCIA_HD void load_record(const float* src, float* dst) {
+#ifdef __CUDA_ARCH__
+  const float4* v = reinterpret_cast<const float4*>(src);
+#pragma unroll
+  for (int k = 0; k < n / 4; ++k) {
+    const float4 t = __ldg(v + k);
+    dst[4 * k] = t.x;
+    dst[4 * k + 1] = t.y;
+    dst[4 * k + 2] = t.z;
+    dst[4 * k + 3] = t.w;
+  }
+#else
+  for (int k = 0; k < n; ++k) dst[k] = src[k];
+#endif
+}
+
+// Frame i's 6 direction values in the storage precision (16-byte loads for double, 8-byte for
+// float: [N][6] floats are 8-byte aligned).
+FASCIA_HD void load_direction(const double* src, int i, double* dst) { load_record<6>(src + 6 * i, dst); }
+FASCIA_HD void load_direction(const float* src, int i, float* dst) {
+#ifdef __CUDA_ARCH__
+  const float2* v = reinterpret_cast<const float2*>(src + 6 * i);
+#pragma unroll
+  for (int k = 0; k < 3; ++k) {
+    const float2 t = __ldg(v + k);
+    dst[2 * k] = t.x;
+    dst[2 * k + 1] = t.y;
+  }
+#else
+  for (int k = 0; k < 6; ++k) dst[k] = src[6 * i + k];
+#endif
+}
+
+// Frame i's lever record from its kinematics (rot: R_i row-major).
+template <class R>
+FASCIA_HD void write_lever_record(const double* rot, const R* frame_rest, int i, R* levers) {
+  R* rec = levers + kLeverRecord * i;
+  for (int k = 0; k < 9; ++k) rec[k] = static_cast<R>(rot[k]);
+  for (int k = 0; k < 3; ++k) rec[9 + k] = frame_rest[3 * i + k];
+}
+
+// Sample s's state [kSampleState][S] from the force pass's F [S][9] and cache [S][10] (H = F - I
+// formed in double from the stored F: no rounding beyond F's own).
+template <class R>
+FASCIA_HD void pack_sample_state(const ModelView<R>& m, const R* F, const R* cache, int s, R* state) {
+  const size_t S = static_cast<size_t>(m.samples);
+  for (int k = 0; k < 3; ++k) state[k * S + s] = m.sample_rest[3 * static_cast<size_t>(s) + k];
+  state[3 * S + s] = m.volumes[s];
+  for (int k = 0; k < 9; ++k)
+    state[(4 + k) * S + s] =
+        static_cast<R>(static_cast<double>(F[9 * static_cast<size_t>(s) + k]) - (k % 4 == 0 ? 1.0 : 0.0));
+  for (int k = 0; k < 10; ++k) state[(13 + k) * S + s] = cache[10 * static_cast<size_t>(s) + k];
+}
+
+// Component k of sample s's state.
+template <class R>
+FASCIA_HD R sample_value(const R* state, int samples, int k, int s) {
+  return state[static_cast<size_t>(k) * static_cast<size_t>(samples) + static_cast<size_t>(s)];
+}
+
+// One ELL entry: the pair's frame, w and g (1/m), read once per tangent product and kept in
+// registers for both halves of the pass.
+template <class R>
+struct EllEntry {
+  int i;    // frame
+  int pos;  // slot-major position in the block (ell_pos)
+  R w;
+  Vec3T<R> g;
+};
+
+template <class R>
+FASCIA_HD EllEntry<R> ell_entry(const ModelView<R>& m, int e) {
+  const size_t E = static_cast<size_t>(m.ell_entries);
+  return EllEntry<R>{m.ell_frame[e], static_cast<int>(m.ell_pos[e]), m.ell_data[e],
+                     Vec3T<R>{m.ell_data[E + e], m.ell_data[2 * E + e], m.ell_data[3 * E + e]}};
+}
+
+// One pair of the coalesced pass: its frame, gradient and lever.
+template <class R>
+struct EllPair {
+  Mat3T<R> M;   // lever a g^T + w R_i
+  Vec3T<R> g;   // 1/m
+  int i;        // frame
+};
+
+// The pair of an ELL entry for the sample at ps (p_s - origin): the frame's lever record gathered,
+// a = R_i (p_s - x̄_i) and the lever formed.
+template <class R>
+FASCIA_HD EllPair<R> ell_pair_of(const EllEntry<R>& en, const R* levers, const Vec3T<R>& ps) {
+  EllPair<R> q;
+  q.i = en.i;
+  R rec[kLeverRecord];
+  load_record<kLeverRecord>(levers + kLeverRecord * static_cast<size_t>(q.i), rec);
+  Mat3T<R> Ri;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) Ri.m[r][c] = rec[3 * r + c];
+  const Vec3T<R> a = Ri * (ps - Vec3T<R>{rec[9], rec[10], rec[11]});
+  q.g = en.g;
+  q.M = pair_lever(a, q.g, en.w, Ri);
+  return q;
+}
+
+// The pair at ELL entry e.
+template <class R>
+FASCIA_HD EllPair<R> ell_pair(const ModelView<R>& m, const R* levers, const Vec3T<R>& ps, int e) {
+  return ell_pair_of(ell_entry(m, e), levers, ps);
+}
+
+// Adds the pair's dF_p = dx g^T + [dr]x M (eq. 11) for the direction d_i, formed as
+// z_i + beta p_old_i with next_direction's rounding when p_old is set.
+template <class R>
+FASCIA_HD void ell_pair_dF(const EllPair<R>& q, const R* d, const R* p_old, double beta, Mat3T<R>& dF) {
+  R di[6];
+  load_direction(d, q.i, di);
+  if (p_old) {
+    R po[6];
+    load_direction(p_old, q.i, po);
+    for (int k = 0; k < 6; ++k) di[k] = direction_value(di[k], po[k], beta);
+  }
+  dF += pair_lever_differential(Vec3T<R>{di[0], di[1], di[2]}, Vec3T<R>{di[3], di[4], di[5]}, q.g, q.M);
+}
+
+// dP = C[dF] (eq. 22-24) of sample s from its stored H = F - I: StVK rebuilds S from H (eq. 5,
+// 19: E = sym(H) + H^T H / 2), neo-Hookean reads its material cache.
+template <class R>
+FASCIA_HD Mat3T<R> ell_sample_dP(const ModelView<R>& m, const R* state, int s, const Mat3T<R>& dF) {
+  Mat3T<R> H;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) H.m[r][k] = sample_value(state, m.samples, 4 + 3 * r + k, s);
+  const Mat3T<R> F = identity3<R>() + H;
+  const Material mat = m.materials[m.sample_materials[s]];
+  MaterialCacheT<R> c;
+  if (mat.law == MaterialLaw::stvk) {
+    const Mat3T<R> E = symmetric_part(H) + R(0.5) * (transpose(H) * H);
+    c.a = stvk_stress_from_strain<R>(static_cast<R>(mat.lambda), static_cast<R>(mat.mu), E);
+    c.c = 0;
+  } else {
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k) c.a.m[r][k] = sample_value(state, m.samples, 13 + 3 * r + k, s);
+    c.c = sample_value(state, m.samples, 22, s);
+  }
+  return pk1_differential(mat, F, c, dF);
+}
+
+// The pair's v B_p^T dP (eq. 21, 23, 25-26) into outs[k stride + pos] (pos its slot-major
+// position, stride the block's pair count).
+template <class R>
+FASCIA_HD void ell_pair_output(const EllPair<R>& q, const Mat3T<R>& dP, R v, int pos, int stride, R* outs) {
+  R out[6];
+  pair_lever_virtual_work(dP, q.g, q.M, out);
+  for (int k = 0; k < 6; ++k) outs[k * stride + pos] = v * out[k];
+}
+
+// The coalesced pass of one sample with one lane (host emulation and the reference for the
+// lane-parallel block in elasticity_kernels.cuh): dF from every pair, dP, outputs [6][stride].
+template <class R>
+FASCIA_HD void ell_sample(const ModelView<R>& m, const FrameView<R>& f, const R* d, int s, int t, int ns, int e0,
+                          int stride, R* outs) {
+  const int count = m.offsets[s + 1] - m.offsets[s];
+  const Vec3T<R> ps{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
+                    sample_value(f.sample_state, m.samples, 2, s)};
+  Mat3T<R> dF = zero3<R>();
+  for (int j = 0; j < count; ++j)
+    ell_pair_dF(ell_pair(m, f.levers, ps, e0 + j * ns + t), d, static_cast<const R*>(nullptr), 0.0, dF);
+  const Mat3T<R> dP = ell_sample_dP(m, f.sample_state, s, dF);
+  const R v = sample_value(f.sample_state, m.samples, 3, s);
+  for (int j = 0; j < count; ++j) {
+    const EllEntry<R> en = ell_entry(m, e0 + j * ns + t);
+    ell_pair_output(ell_pair_of(en, f.levers, ps), dP, v, en.pos, stride, outs);
+  }
+}
+
+// Component c of the sum of one slot's outputs at slot-major positions [a, e) of outs [6][stride],
+// in the order of `lanes` lanes (elasticity_kernels.cuh, warp_slot_sums): lane l adds positions
+// a + l, a + l + lanes, ... in turn, then the lanes' sums are combined by an xor butterfly
+// (distance lanes/2, ..., 1). On the host this emulates the lanes value for value, so its bits are
+// the device's.
+template <class R>
+FASCIA_HD R slot_tree_sum(const R* outs, int stride, int a, int e, int c, int lanes) {
+  R sums[32];
+  for (int l = 0; l < lanes; ++l) {
+    sums[l] = R(0);
+    for (int k = a + l; k < e; k += lanes) sums[l] += outs[c * stride + k];
+  }
+  for (int o = lanes / 2; o > 0; o >>= 1) {
+    R next[32];
+    for (int l = 0; l < lanes; ++l) next[l] = sums[l] + sums[l ^ o];
+    for (int l = 0; l < lanes; ++l) sums[l] = next[l];
+  }
+  return sums[0];
 }
 
 // ---- frames: the rest of the operator ------------------------------------------------------------
@@ -561,10 +809,9 @@ FASCIA_HD double frame_row(const ModelView<R>& m, const R* geo, const R* inertia
   return frame_row_of(m, geo, inertia_world, inv_h2, project, d + 6 * i, i, k, acc, k_scale);
 }
 
-// In-place inverse of a symmetric 6x6 matrix by Cholesky factorisation; false if it is not
-// positive definite (a non-positive pivot).
-FASCIA_HD bool cholesky_inverse6(const double* a, double* inv) {
-  double L[36];
+// Cholesky factor L (row-major, lower triangle; the upper is zeroed) of a symmetric 6x6 matrix;
+// false if it is not positive definite (a non-positive pivot).
+FASCIA_HD bool cholesky_factor6(const double* a, double* L) {
   for (int k = 0; k < 36; ++k) L[k] = 0;
   for (int j = 0; j < 6; ++j) {
     double d = a[6 * j + j];
@@ -577,19 +824,34 @@ FASCIA_HD bool cholesky_inverse6(const double* a, double* inv) {
       L[6 * r + j] = v / L[6 * j + j];
     }
   }
-  // inv = L^-T L^-1, column by column.
+  return true;
+}
+
+// Column c of a^-1 = L^-T L^-1 from a's Cholesky factor: forward then back substitution on the
+// unit vector e_c; col [6] receives the rows.
+FASCIA_HD void cholesky_inverse_column6(const double* L, int c, double* col) {
+  double y[6];
+  for (int r = 0; r < 6; ++r) {
+    double v = r == c ? 1.0 : 0.0;
+    for (int k = 0; k < r; ++k) v -= L[6 * r + k] * y[k];
+    y[r] = v / L[6 * r + r];
+  }
+  for (int r = 5; r >= 0; --r) {
+    double v = y[r];
+    for (int k = r + 1; k < 6; ++k) v -= L[6 * k + r] * col[k];
+    col[r] = v / L[6 * r + r];
+  }
+}
+
+// In-place inverse of a symmetric 6x6 matrix by Cholesky factorisation; false if it is not
+// positive definite (a non-positive pivot).
+FASCIA_HD bool cholesky_inverse6(const double* a, double* inv) {
+  double L[36];
+  if (!cholesky_factor6(a, L)) return false;
   for (int c = 0; c < 6; ++c) {
-    double y[6];
-    for (int r = 0; r < 6; ++r) {
-      double v = r == c ? 1.0 : 0.0;
-      for (int k = 0; k < r; ++k) v -= L[6 * r + k] * y[k];
-      y[r] = v / L[6 * r + r];
-    }
-    for (int r = 5; r >= 0; --r) {
-      double v = y[r];
-      for (int k = r + 1; k < 6; ++k) v -= L[6 * k + r] * inv[6 * k + c];
-      inv[6 * r + c] = v / L[6 * r + r];
-    }
+    double col[6];
+    cholesky_inverse_column6(L, c, col);
+    for (int r = 0; r < 6; ++r) inv[6 * r + c] = col[r];
   }
   return true;
 }
@@ -599,38 +861,47 @@ FASCIA_HD bool cholesky_inverse6(const double* a, double* inv) {
 // absolute diagonal entry on the diagonal; the inverse by Cholesky, or, where the block is not
 // positive definite, the inverse of its absolute diagonal (floored at 1e-12 of the largest).
 // Fixed rows of the inverse are set to 0 (the CPU projects z there). In place: `K` is modified.
-FASCIA_HD void block_jacobi_inverse(const unsigned char* fixed, double* K, double* inv) {
+// Its pieces: block_jacobi_condition (fixed DOFs; returns the largest absolute diagonal entry),
+// the Cholesky inverse, block_jacobi_diagonal (the fallback's diagonal entry), and fixed rows
+// and columns set to 0 (the device computes the columns in parallel, k_frame_prepare).
+FASCIA_HD double block_jacobi_condition(const unsigned char* fixed, double* K) {
   double largest = 0;
   for (int k = 0; k < 6; ++k) largest = std::fmax(largest, std::fabs(K[6 * k + k]));
   if (largest == 0) largest = 1;
   for (int k = 0; k < 6; ++k)
     if (fixed[k])
       for (int j = 0; j < 6; ++j) K[6 * k + j] = K[6 * j + k] = (j == k ? largest : 0.0);
-  if (!cholesky_inverse6(K, inv)) {
-    for (int k = 0; k < 36; ++k) inv[k] = 0;
-    for (int k = 0; k < 6; ++k) inv[7 * k] = 1.0 / std::fmax(std::fabs(K[7 * k]), 1e-12 * largest);
-  }
+  return largest;
+}
+FASCIA_HD double block_jacobi_diagonal(double pivot, double largest) {
+  return 1.0 / std::fmax(std::fabs(pivot), 1e-12 * largest);
+}
+
+FASCIA_HD void block_jacobi_inverse(const unsigned char* fixed, double* K, double* inv) {
+  const double largest = block_jacobi_condition(fixed, K);
+  if (!cholesky_inverse6(K, inv))
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) inv[6 * r + c] = r == c ? block_jacobi_diagonal(K[7 * r], largest) : 0.0;
   for (int k = 0; k < 6; ++k)
     if (fixed[k])
       for (int j = 0; j < 6; ++j) inv[6 * k + j] = inv[6 * j + k] = 0.0;
 }
 
-// Per-frame preparation of a Newton iteration, from F [S][9] of the gradient pass: the
-// rotational geometric block (frame_sample.hpp), the rotated inertia R I_0 R^T, the 6x6 diagonal
-// block K_ii (material + geometric, = Elasticity::tangent_diagonal_blocks) and the block-Jacobi
-// preconditioner of H_ii = k_scale K_ii + inv_h2 M_i + [0 0; 0 load_i] (block_jacobi_inverse;
-// with `precondition` false: the identity on free DOFs, plain CG). `load_rot` [N][9] (nullable)
-// is the load potential's rotational block; geo_out receives k_scale Kr + load_i.
-// `fused` selects a = R (p_s - x_i) (fused design) or a = R l from the table (paper design).
+// Column c (0..5) of frame i's 6x6 diagonal block K_ii (material + geometric, the sample terms) and,
+// for c >= 3, column c - 3 of the rotational geometric block Kr (frame_sample.hpp), summed over the
+// frame's reverse pairs rev_offsets[i] + part, + part + parts, ... in order, from F [S][9] of the
+// gradient pass. `fused` selects a = R (p_s - x_i) (fused design) or a = R l from the table (paper
+// design). col [6] receives the column, kr [3] (c >= 3) the Kr column.
 template <class R>
-FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, double inv_h2, int i,
-                             R* geo_out, R* inertia_out, R* minv_out, double* diag_out, double k_scale = 1.0,
-                             const double* load_rot = nullptr, bool precondition = true) {
+FASCIA_HD void frame_prepare_column(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, int i, int c,
+                                    int part, int parts, double* col, double* kr) {
   const Mat3 Ri = ldm(f.rotations + 9 * i);
-  Mat3 Kr = zero3();
-  double K[36];
-  for (int k = 0; k < 36; ++k) K[k] = 0;
-  for (int q = m.rev_offsets[i]; q < m.rev_offsets[i + 1]; ++q) {
+  for (int r = 0; r < 6; ++r) col[r] = 0;
+  for (int r = 0; r < 3; ++r) kr[r] = 0;
+  Vec3 dx{0, 0, 0}, dr{0, 0, 0};
+  Vec3& e = c < 3 ? dx : dr;
+  e = Vec3{c % 3 == 0 ? 1.0 : 0.0, c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0};
+  for (int q = m.rev_offsets[i] + part; q < m.rev_offsets[i + 1]; q += parts) {
     const int p = m.rev_pairs[q];
     const int s = m.pair_samples[p];
     const Vec3 l = fused ? ld3(m.sample_rest + 3 * s) - ld3(m.frame_rest + 3 * i) : ld3(m.rest_offsets + 3 * p);
@@ -642,17 +913,30 @@ FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const
     const Mat3 Fs = ldm(F + 9 * s);
     MaterialCache cache;
     const Mat3 P = first_piola(mat, Fs, cache);
-    Kr += pair_rotational_geometric_block(P, a, g, w, Ri, v);
-    for (int c = 0; c < 6; ++c) {
-      Vec3 dx{0, 0, 0}, dr{0, 0, 0};
-      Vec3& e = c < 3 ? dx : dr;
-      e = Vec3{c % 3 == 0 ? 1.0 : 0.0, c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0};
-      const Mat3 dP = pk1_differential(mat, Fs, cache, pair_deformation_differential(dx, dr, a, g, w, Ri));
-      double col[6];
-      pair_virtual_work(dP, a, g, w, Ri, v, col);
-      for (int r = 0; r < 6; ++r) K[6 * r + c] += col[r];
+    if (c >= 3) {
+      const Mat3 K = pair_rotational_geometric_block(P, a, g, w, Ri, v);
+      for (int r = 0; r < 3; ++r) kr[r] += K.m[r][c - 3];
     }
+    const Mat3 dP = pk1_differential(mat, Fs, cache, pair_deformation_differential(dx, dr, a, g, w, Ri));
+    double out[6];
+    pair_virtual_work(dP, a, g, w, Ri, v, out);
+    for (int r = 0; r < 6; ++r) col[r] += out[r];
   }
+}
+
+// The rest of a frame's preparation from its sums: K [36] row-major (the sample terms of K_ii,
+// modified in place) and Kr. Writes the rotational geometric block (times k_scale, plus the load
+// potential's rotational block `load_rot` [N][9], nullable) to geo_out, the rotated inertia
+// R I_0 R^T to inertia_out, K_ii (= Elasticity::tangent_diagonal_blocks) to diag_out (nullable), and
+// the block-Jacobi preconditioner of H_ii = k_scale K_ii + inv_h2 M_i + [0 0; 0 load_i]
+// (block_jacobi_inverse; with `precondition` false: the identity on free DOFs, plain CG) to minv_out.
+// frame_prepare_finish up to the inverse: with `precondition`, K becomes H_ii (before the fixed
+// DOFs' treatment of block_jacobi_inverse).
+template <class R>
+FASCIA_HD void frame_prepare_blocks(const ModelView<R>& m, const FrameView<R>& f, int i, double* K, const Mat3& Kr,
+                                    double inv_h2, R* geo_out, R* inertia_out, double* diag_out, double k_scale,
+                                    const double* load_rot, bool precondition) {
+  const Mat3 Ri = ldm(f.rotations + 9 * i);
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) K[6 * (3 + r) + 3 + c] += Kr.m[r][c];
   const Mat3 J = Ri * ldm(m.inertias + 9 * i) * transpose(Ri);
@@ -662,7 +946,6 @@ FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const
   stm(inertia_out + 9 * i, J);
   if (diag_out)
     for (int k = 0; k < 36; ++k) diag_out[36 * i + k] = K[k];
-  double inv[36];
   if (precondition) {
     for (int k = 0; k < 36; ++k) K[k] *= k_scale;
     const double mass = static_cast<double>(m.masses[i]);
@@ -673,12 +956,41 @@ FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const
         if (load_rot) K[6 * (3 + r) + 3 + c] += load_rot[9 * i + 3 * r + c];
       }
     }
+  }
+}
+
+template <class R>
+FASCIA_HD void frame_prepare_finish(const ModelView<R>& m, const FrameView<R>& f, int i, double* K, const Mat3& Kr,
+                                    double inv_h2, R* geo_out, R* inertia_out, R* minv_out, double* diag_out,
+                                    double k_scale, const double* load_rot, bool precondition) {
+  frame_prepare_blocks(m, f, i, K, Kr, inv_h2, geo_out, inertia_out, diag_out, k_scale, load_rot, precondition);
+  double inv[36];
+  if (precondition) {
     block_jacobi_inverse(m.fixed + 6 * i, K, inv);
   } else {
     for (int k = 0; k < 36; ++k) inv[k] = 0;
     for (int k = 0; k < 6; ++k) inv[7 * k] = m.fixed[6 * i + k] ? 0.0 : 1.0;
   }
   for (int k = 0; k < 36; ++k) minv_out[36 * i + k] = static_cast<R>(inv[k]);
+}
+
+// Per-frame preparation of a Newton iteration by one thread (frame_prepare_column for every
+// column, then frame_prepare_finish); the device spreads the columns and pairs over threads
+// (elasticity_kernels.cuh, k_frame_prepare).
+template <class R>
+FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, double inv_h2, int i,
+                             R* geo_out, R* inertia_out, R* minv_out, double* diag_out, double k_scale = 1.0,
+                             const double* load_rot = nullptr, bool precondition = true) {
+  double K[36];
+  Mat3 Kr = zero3();
+  for (int c = 0; c < 6; ++c) {
+    double col[6], kr[3];
+    frame_prepare_column(m, f, F, fused, i, c, 0, 1, col, kr);
+    for (int r = 0; r < 6; ++r) K[6 * r + c] = col[r];
+    if (c >= 3)
+      for (int r = 0; r < 3; ++r) Kr.m[r][c - 3] = kr[r];
+  }
+  frame_prepare_finish(m, f, i, K, Kr, inv_h2, geo_out, inertia_out, minv_out, diag_out, k_scale, load_rot, precondition);
 }
 
 }  // namespace fascia::gpu

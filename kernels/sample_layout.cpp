@@ -153,13 +153,16 @@ void build_ell_order(const Model& model, BlockLayout& L) {
     L.ell_offsets.push_back(e0 + width * ns);
   }
   L.ell_slot.assign(L.ell_count(), 0);
+  L.ell_pos.assign(L.ell_count(), 0);
   L.slot_ell.assign(L.slot_pairs.size(), 0);
   for (int b = 0; b < blocks; ++b) {
     const int p0 = nb.offsets[L.block_samples[b]], e0 = L.ell_offsets[b], q0 = L.block_slots[b];
+    const int k0 = L.slot_pair_offsets[q0];
     for (int q = q0; q < L.block_slots[b + 1]; ++q)
       for (int k = L.slot_pair_offsets[q]; k < L.slot_pair_offsets[q + 1]; ++k) {
         const int e = L.pair_ell[p0 + L.slot_pairs[k]];
         L.ell_slot[e] = q - q0;
+        L.ell_pos[e] = k - k0;
         L.slot_ell[k] = e - e0;
       }
   }

@@ -45,6 +45,10 @@ struct BlockLayout {
   std::vector<int> pair_ell;            // [P] ELL entry of each pair (global)
   std::vector<int> ell_slot;            // [E] slot of the entry's pair minus the block's first slot (0 on padding)
   std::vector<int> slot_ell;            // [P] as slot_pairs, the ELL entry minus the block's first entry
+  // [E] the entry's position in the block's slot-major pair order (slot_pairs' index minus the
+  // block's first; 0 on padding): the coalesced pass writes its outputs there, so each slot's
+  // pairs are contiguous for its sum.
+  std::vector<int> ell_pos;
   int ell_count() const { return ell_offsets.empty() ? 0 : ell_offsets.back(); }
   int block_count() const { return static_cast<int>(block_samples.size()) - 1; }
   int slot_count() const { return static_cast<int>(slot_frames.size()); }

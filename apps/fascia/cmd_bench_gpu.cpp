@@ -46,11 +46,13 @@ struct Case {
   bool persistent;
   int lanes = 0;
   int lane_threads = 128;
-  gpu::SamplePass pass = gpu::SamplePass::records;
+  gpu::SamplePass pass = gpu::SamplePass::coalesced;
   int block_samples = 128;
   int persistent_blocks_per_sm = 4;
   int record_keep = 2;
   int row_frames = 42;
+  int keep = 0;
+  int slot_lanes = 1;
 };
 
 // The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) on the device.
@@ -62,6 +64,8 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   options.lane_threads = c.lane_threads;
   options.sample_pass = c.pass;
   options.record_keep = c.record_keep;
+  options.coalesced_keep = c.keep;
+  options.slot_lanes = c.slot_lanes;
   options.row_frames = c.row_frames;
   options.block_samples = c.block_samples;
   options.persistent_blocks_per_sm = c.persistent_blocks_per_sm;
@@ -83,10 +87,15 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   if (dev.design() == gpu::Design::fused && dev.sample_pass() == gpu::SamplePass::staged)
     row.design += "/staged";
   else if (dev.design() == gpu::Design::fused)
-    row.design += std::string("/") + (dev.sample_pass() == gpu::SamplePass::records ? "R" : "L") +
+    row.design += std::string("/") +
+                  (dev.sample_pass() == gpu::SamplePass::records     ? "R"
+                   : dev.sample_pass() == gpu::SamplePass::coalesced ? "C"
+                                                                     : "L") +
                   std::to_string(dev.lanes()) + "x" + std::to_string(c.lane_threads) + "b" +
                   std::to_string(c.block_samples) +
                   (dev.sample_pass() == gpu::SamplePass::records ? "k" + std::to_string(c.record_keep) : "") +
+                  (dev.sample_pass() == gpu::SamplePass::coalesced && c.keep > 0 ? "k" + std::to_string(c.keep) : "") +
+                  (dev.sample_pass() == gpu::SamplePass::coalesced ? "s" + std::to_string(c.slot_lanes) : "") +
                   (c.row_frames != 42 ? "r" + std::to_string(c.row_frames) : "");
   row.linear = to_string(c.linear);
   row.cg_kernel = report.persistent ? "persistent" : "launches";
@@ -146,9 +155,10 @@ std::vector<Case> cases(const BenchGpuOptions& o) {
             continue;
           }
           for (const std::string& name : o.sample_pass) {
-            const gpu::SamplePass pass = name == "staged"  ? gpu::SamplePass::staged
-                                         : name == "lanes" ? gpu::SamplePass::lanes
-                                                           : gpu::SamplePass::records;
+            const gpu::SamplePass pass = name == "staged"      ? gpu::SamplePass::staged
+                                         : name == "lanes"     ? gpu::SamplePass::lanes
+                                         : name == "coalesced" ? gpu::SamplePass::coalesced
+                                                               : gpu::SamplePass::records;
             if (pass == gpu::SamplePass::staged) {
               out.push_back(Case{pr, de, lm, persistent, 1, o.lane_threads, pass, o.block_samples,
                                  o.persistent_blocks_per_sm});
@@ -157,9 +167,12 @@ std::vector<Case> cases(const BenchGpuOptions& o) {
             for (int lanes : o.lanes)
               for (int keep : o.record_keep)
                 for (int rows : o.row_frames)
-                  if (pass == gpu::SamplePass::records || keep == o.record_keep.front())
-                    out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, pass, o.block_samples,
-                                       o.persistent_blocks_per_sm, keep, rows});
+                  for (int held : o.keep)
+                    for (int sl : o.slot_lanes)
+                      if ((pass == gpu::SamplePass::records || keep == o.record_keep.front()) &&
+                          (pass == gpu::SamplePass::coalesced || (held == o.keep.front() && sl == o.slot_lanes.front())))
+                        out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, pass, o.block_samples,
+                                           o.persistent_blocks_per_sm, keep, rows, held, sl});
           }
         }
       }
@@ -247,14 +260,21 @@ void add_bench_gpu_command(CLI::App& bench, Action& action) {
   cmd->add_option("--max-samples", options->max_samples, "largest scaling case (8 neighbours), 0: none");
   cmd->add_option("--repeats", options->repeats, "timed repeats per case");
   cmd->add_option("--sample-pass", options->sample_pass,
-                  "fused design's tangent sample passes: lanes (F and material cache per sample; default) | records "
-                  "(packed records, F rebuilt) | staged (shared-memory staging)")
-      ->check(CLI::IsMember({"records", "lanes", "staged"}));
+                  "fused design's tangent sample passes: coalesced (ELL pairs, component-major samples, arithmetic "
+                  "in the storage precision) | lanes (F and material cache per sample) | records (packed records, F "
+                  "rebuilt) | staged (shared-memory staging)")
+      ->check(CLI::IsMember({"coalesced", "records", "lanes", "staged"}));
   cmd->add_option("--lanes", options->lanes, "fused design, records and lanes passes: threads per sample, 0: auto");
   cmd->add_option("--lane-threads", options->lane_threads, "fused design: most threads per tangent block (32..512)");
   cmd->add_option("--record-keep", options->record_keep,
                   "records pass: pairs per lane kept in registers (1 | 2), several to compare")
       ->check(CLI::Range(1, 2));
+  cmd->add_option("--keep", options->keep,
+                  "coalesced pass: ELL entries per lane held in registers (0: auto | 2 | 4 | 8), several to compare")
+      ->check(CLI::IsMember({0, 2, 4, 8}));
+  cmd->add_option("--slot-lanes", options->slot_lanes,
+                  "coalesced pass: lanes per slot sum (1 | 2 | 4 | 8 | 16 | 32), several to compare")
+      ->check(CLI::IsMember({1, 2, 4, 8, 16, 32}));
   cmd->add_option("--row-frames", options->row_frames,
                   "frames per block of the launched frame-row passes (1..85), several to compare")
       ->check(CLI::Range(1, 85));

@@ -22,12 +22,14 @@ struct BenchGpuOptions {
   bool tangent = false;              // time the tangent product alone at Table 3 sizes too
   long long max_samples = 4200000;   // largest scaling case (8 neighbours), 0: none
   int repeats = 10;
-  std::vector<std::string> sample_pass = {"lanes"};  // fused design's tangent sample passes: records | lanes | staged
+  std::vector<std::string> sample_pass = {"coalesced"};  // fused design's tangent sample passes: coalesced | records | lanes | staged
   std::vector<int> lanes = {0};  // fused design, records and lanes passes: threads per sample (0: auto)
   int lane_threads = 128;            // fused design: most threads per tangent block
   int block_samples = 128;           // fused design: samples per block
   std::vector<int> record_keep = {2};  // records pass: pairs per lane kept in registers
   std::vector<int> row_frames = {42};  // frames per block of the launched frame-row passes
+  std::vector<int> keep = {0};       // coalesced pass: ELL entries per lane held in registers (0: auto)
+  std::vector<int> slot_lanes = {1};  // coalesced pass: lanes per slot sum
   int persistent_blocks_per_sm = 4;  // persistent PCG while the model needs at most this many blocks per SM
 };
 

@@ -58,7 +58,7 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
                           Case{Precision::single_precision, Design::fused, CellType::hexahedron, MaterialLaw::neo_hookean},
                           Case{Precision::single_precision, Design::paper, CellType::hexahedron, MaterialLaw::stvk});
   // Fused design: every sample pass of the tangent product.
-  const SamplePass pass = GENERATE(SamplePass::records, SamplePass::lanes, SamplePass::staged);
+  const SamplePass pass = GENERATE(SamplePass::records, SamplePass::lanes, SamplePass::staged, SamplePass::coalesced);
   const Model model = kernels_test_model(c.type, c.law);
   const State state = kernels_test_state(model, 21);
   const int dofs = model.dof_count(), n = model.frame_count();
@@ -99,10 +99,14 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
   CHECK(e_blocks < tol);
 }
 
-TEST_CASE("record pass equals the CPU reference with every lane count", "[gpu]") {
-  // 8 neighbours per sample: with 1 and 2 lanes each lane keeps kKeep = 2 pairs and reads the
-  // others again for the outputs; with 4 and 8 lanes every pair is kept.
+TEST_CASE("record and coalesced passes equal the CPU reference with every lane count", "[gpu]") {
+  // 8 neighbours per sample. Records pass: each lane keeps `keep` pairs in registers and reads the
+  // others again for the outputs (1 lane, keep 1: 7 pairs read again); with 8 lanes every pair is
+  // kept. The coalesced pass sizes its register-held entries itself (keep does not apply).
+  const SamplePass pass = GENERATE(SamplePass::records, SamplePass::coalesced);
   const int lanes = GENERATE(1, 2, 4, 8);
+  const int keep = GENERATE(1, 2);
+  const int slot_lanes = GENERATE(1, 8, 32);  // coalesced pass: lanes per slot sum
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::neo_hookean);
   const State state = kernels_test_state(model, 13);
@@ -115,16 +119,19 @@ TEST_CASE("record pass equals the CPU reference with every lane count", "[gpu]")
   DeviceOptions options;
   options.precision = precision;
   options.block_samples = 32;
-  options.sample_pass = SamplePass::records;
+  options.sample_pass = pass;
   options.lanes = lanes;
+  options.record_keep = keep;
+  options.slot_lanes = slot_lanes;
   DeviceElasticity dev(model, options);
-  REQUIRE(dev.sample_pass() == SamplePass::records);
+  REQUIRE(dev.sample_pass() == pass);
   REQUIRE(dev.lanes() == lanes);
   dev.set_state(state);
   dev.prepare();
   dev.apply_tangent(d.data(), dKd.data());
   const double e = relative_difference(dKd, Kd);
-  std::printf("[gpu] records %s lanes %d: tangent %.2e\n", to_string(precision), lanes, e);
+  std::printf("[gpu] %s %s lanes %d keep %d slot lanes %d: tangent %.2e\n", to_string(pass), to_string(precision), lanes,
+              keep, slot_lanes, e);
   CHECK(e < bound(precision, false));
 }
 
@@ -135,7 +142,7 @@ TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]")
                           Case{Precision::single_precision, Design::fused, CellType::tetrahedron, MaterialLaw::stvk});
   const bool graphs = GENERATE(true, false);
   const bool persistent = GENERATE(true, false);
-  const SamplePass pass = GENERATE(SamplePass::records, SamplePass::lanes, SamplePass::staged);
+  const SamplePass pass = GENERATE(SamplePass::records, SamplePass::lanes, SamplePass::staged, SamplePass::coalesced);
   const Model model = kernels_test_model(c.type, c.law);
   const State state = kernels_test_state(model, 33);
   const double h = 0.01;
@@ -258,7 +265,7 @@ TEST_CASE("device PCG with a tolerance stops early and checks without per-iterat
 TEST_CASE("repeated device runs are bitwise identical", "[gpu]") {
   const Design design = GENERATE(Design::fused, Design::paper);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
-  const SamplePass pass = GENERATE(SamplePass::records, SamplePass::lanes, SamplePass::staged);
+  const SamplePass pass = GENERATE(SamplePass::records, SamplePass::lanes, SamplePass::staged, SamplePass::coalesced);
   const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::neo_hookean, 6, 5, 4);
   const State state = kernels_test_state(model, 8);
   const std::vector<double> d = random_vector(model.dof_count(), 6);

@@ -119,6 +119,43 @@ struct HostDevice {
     return out;
   }
 
+  // The coalesced tangent pass as ell_tangent_block runs it with one lane: lever records from the
+  // kinematics, the samples' state packed component-major from the force pass's F and cache,
+  // outputs [6][E_b] in ELL order, slot sums; then the frame gather.
+  std::vector<double> coalesced(const std::vector<double>& d, const std::vector<double>& F,
+                                const std::vector<double>& cache, int slot_lanes) {
+    const int n = model.frame_count(), S = model.sample_count();
+    std::vector<double> levers(kLeverRecord * static_cast<size_t>(n), std::nan(""));
+    for (int i = 0; i < n; ++i) write_lever_record(&rot[9 * i], frame_rest.data(), i, levers.data());
+    std::vector<double> state(kSampleState * static_cast<size_t>(S), std::nan(""));
+    for (int s = 0; s < S; ++s) pack_sample_state(view, F.data(), cache.data(), s, state.data());
+    std::vector<int> ell_frame(layout.ell_count(), -1);
+    for (int p = 0; p < model.pair_count(); ++p) ell_frame[layout.pair_ell[p]] = model.neighbours.frames[p];
+    const std::vector<unsigned short> ell_pos(layout.ell_pos.begin(), layout.ell_pos.end());
+    ModelView<double> cv = view;
+    cv.ell_frame = ell_frame.data();
+    cv.ell_pos = ell_pos.data();
+    FrameView<double> cf = frames;
+    cf.levers = levers.data();
+    cf.sample_state = state.data();
+    std::vector<double> partials(6 * static_cast<size_t>(layout.slot_count()));
+    for (int b = 0; b < layout.block_count(); ++b) {
+      const int s0 = layout.block_samples[b], ns = layout.block_samples[b + 1] - s0;
+      const int e0 = layout.ell_offsets[b];
+      const int stride = model.neighbours.offsets[s0 + ns] - model.neighbours.offsets[s0];
+      std::vector<double> outs(6 * static_cast<size_t>(stride), std::nan(""));
+      for (int t = 0; t < ns; ++t) ell_sample(cv, cf, d.data(), s0 + t, t, ns, e0, stride, outs.data());
+      const int q0 = layout.block_slots[b], base = layout.slot_pair_offsets[q0];
+      for (int q = q0; q < layout.block_slots[b + 1]; ++q)
+        for (int c = 0; c < 6; ++c)
+          partials[6 * q + c] = slot_tree_sum(outs.data(), stride, layout.slot_pair_offsets[q] - base,
+                                              layout.slot_pair_offsets[q + 1] - base, c, slot_lanes);
+    }
+    std::vector<double> out(model.dof_count());
+    for (int i = 0; i < n; ++i) fused_gather(view, partials.data(), i, &out[6 * i]);
+    return out;
+  }
+
   // The record tangent pass as records_tangent_block runs it with one lane: frame records from
   // the kinematics, F and dF per sample from its pairs, dP with the cache rebuilt from F, outputs
   // [6][pairs of the block], slot sums; then the frame gather. No F or cache from the force pass.
@@ -231,7 +268,7 @@ TEST_CASE("block layout lists every pair once, per frame, in increasing order", 
     }
 }
 
-TEST_CASE("ELL order holds every pair of a block once, with its block slot", "[kernels][layout]") {
+TEST_CASE("ELL order holds every pair of a block once, with its block slot and slot-major position", "[kernels][layout]") {
   const Model model = kernels_test_model(CellType::tetrahedron, MaterialLaw::stvk, 4, 3, 3);
   const int block_samples = GENERATE(32, 128);
   BlockLayout L = build_block_layout(model, block_samples, 1024);
@@ -252,9 +289,12 @@ TEST_CASE("ELL order holds every pair of a block once, with its block slot", "[k
         owner[e] = p;
         REQUIRE(L.slot_frames[L.block_slots[b] + L.ell_slot[e]] == nb.frames[p]);
       }
-    const int p0 = nb.offsets[s0];
-    for (int k = L.slot_pair_offsets[L.block_slots[b]]; k < L.slot_pair_offsets[L.block_slots[b + 1]]; ++k)
+    const int p0 = nb.offsets[s0], k0 = L.slot_pair_offsets[L.block_slots[b]];
+    for (int k = k0; k < L.slot_pair_offsets[L.block_slots[b + 1]]; ++k) {
       REQUIRE(L.slot_ell[k] == L.pair_ell[p0 + L.slot_pairs[k]] - e0);
+      // The slot-major position of the entry is its index in the block's slot list.
+      REQUIRE(L.ell_pos[L.pair_ell[p0 + L.slot_pairs[k]]] == k - k0);
+    }
   }
   // Tetrahedral cells give samples 4 neighbours each: no padding.
   REQUIRE(std::count(owner.begin(), owner.end(), -1) == 0);
@@ -305,6 +345,15 @@ TEST_CASE("kernel bodies stepped on the host reproduce the CPU reference", "[ker
       for (int k = 0; k < 6; ++k)
         sk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, sk[6 * i + k]);
     CHECK(relative_difference(sk, Kd) < 1e-12);
+
+    // Coalesced tangent pass, from the same F and material cache, with every slot-sum width.
+    for (int slot_lanes : {1, 4, 8, 32}) {
+      std::vector<double> ck = dev.coalesced(d, sF, cache, slot_lanes);
+      for (int i = 0; i < n; ++i)
+        for (int k = 0; k < 6; ++k)
+          ck[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, ck[6 * i + k]);
+      CHECK(relative_difference(ck, Kd) < 1e-12);
+    }
   }
 
   // Fused design, record tangent pass (F and the material cache rebuilt from the frames).
