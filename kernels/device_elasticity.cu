@@ -105,6 +105,7 @@ class System final : public DeviceElasticity::Impl {
     m_s = model.sample_count();
     m_p = model.pair_count();
     m_locked = model.rotations_locked;
+    m_max_neighbours = model.max_neighbours();
     m_row_frames = opts.row_frames;
 
     // Origin: centre of the rest bounding box of the frames.
@@ -432,7 +433,8 @@ class System final : public DeviceElasticity::Impl {
                           reinterpret_cast<const void*>(&k_ell_tangent<R, 8>),
                           reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>),
                           reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>),
-                          reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>)})
+                          reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>),
+                          resident_kernel(4), resident_kernel(8)})
       FASCIA_CUDA(cudaFuncSetAttribute(k, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
     return true;
   }
@@ -523,6 +525,7 @@ class System final : public DeviceElasticity::Impl {
     const Scalars sc = read_scalars();
     StepReport report;
     report.persistent = use_persistent();
+    report.resident = use_persistent() && m_resident;
     report.cg_iterations = sc.iterations;
     report.cg_relative_residual = sc.rz0 > 0 ? std::sqrt(std::max(0.0, sc.rz) / sc.rz0) : 0.0;
     report.energy = sc.energy;
@@ -743,6 +746,13 @@ class System final : public DeviceElasticity::Impl {
     Scalars* scalars = m_scalars.data();
     int iterations = m_step.max_cg_iterations;
     double tolerance = m_step.cg_tolerance;
+    if (m_resident) {
+      void* args[] = {&view, &frames, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
+                      &slots, &partials, &scalars, &iterations, &tolerance};
+      FASCIA_CUDA(cudaLaunchCooperativeKernel(persistent_kernel(), dim3(m_persistent_grid), dim3(m_lane_threads), args,
+                                              persistent_shared_bytes(), m_stream));
+      return;
+    }
     if (pass == SamplePass::coalesced) {
       int slot_lanes = options.slot_lanes;
       void* args[] = {&view, &frames, &lanes, &slot_lanes, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
@@ -762,9 +772,18 @@ class System final : public DeviceElasticity::Impl {
     return staged ? m_staged_bytes : pass == SamplePass::coalesced ? m_ell_bytes : m_shared_bytes;
   }
 
-  // The persistent PCG kernel of the sample pass in use: two grid barriers per iteration for the
-  // coalesced pass (k_pcg_two_barrier), three otherwise (k_pcg_persistent).
+  // k_pcg_resident for samples of at most `pairs` (4 or 8) pairs; levers held in registers in
+  // single precision (in double they would not leave room for three blocks per multiprocessor).
+  static const void* resident_kernel(int pairs) {
+    constexpr bool levers = sizeof(R) == sizeof(float);
+    return pairs <= 4 ? reinterpret_cast<const void*>(&k_pcg_resident<R, 4, levers>)
+                      : reinterpret_cast<const void*>(&k_pcg_resident<R, 8, levers>);
+  }
+
+  // The persistent PCG kernel of the sample pass in use: k_pcg_resident or k_pcg_two_barrier
+  // (two grid barriers per iteration) for the coalesced pass, k_pcg_persistent (three) otherwise.
   const void* persistent_kernel() const {
+    if (m_resident) return resident_kernel(m_max_neighbours);
     if (pass != SamplePass::coalesced) return reinterpret_cast<const void*>(&k_pcg_persistent<R>);
     if (m_keep == 2) return reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>);
     if (m_keep == 4) return reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>);
@@ -774,12 +793,27 @@ class System final : public DeviceElasticity::Impl {
   // Grid of the persistent PCG: every block resident (cooperative launch), no more blocks than
   // sample blocks or frame blocks need. 0 where it cannot run (paper design, no cooperative launch).
   int persistent_grid() {
+    m_resident = false;
     if (design != Design::fused) return 0;
     int dev = 0, coop = 0, sms = 0, per_sm = 0;
     FASCIA_CUDA(cudaGetDevice(&dev));
     FASCIA_CUDA(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, dev));
     FASCIA_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
     if (!coop) return 0;
+    // Resident: one block per sample block and per frame chunk, all co-resident.
+    // Single precision only: in double the invariants spill to local memory (1.2 KB of stack per
+    // thread, 170 registers) and the kernel was measured slower than k_pcg_two_barrier on an H100
+    // (docs/benchmarks.md).
+    if (pass == SamplePass::coalesced && options.resident && sizeof(R) == sizeof(float) && m_lanes == 1 &&
+        m_max_neighbours <= 8 &&
+        m_lane_threads == kResidentThreads) {
+      const int wanted = std::max(m_blocks, grid_for(m_n, m_lane_threads / 6));
+      m_resident = true;
+      FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), m_lane_threads,
+                                                                persistent_shared_bytes()));
+      if (per_sm > 0 && wanted <= per_sm * sms && wanted <= options.persistent_blocks_per_sm * sms) return wanted;
+      m_resident = false;
+    }
     FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
                                      static_cast<int>(persistent_shared_bytes())));
     FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), m_lane_threads,
@@ -841,7 +875,8 @@ class System final : public DeviceElasticity::Impl {
   int m_row_frames = 42;
   int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0, m_lanes = 1, m_lane_threads = 128;
   bool m_locked = false;
-  int m_ell_entries = 0, m_keep = 2;
+  int m_ell_entries = 0, m_keep = 2, m_max_neighbours = 0;
+  bool m_resident = false;  // the persistent PCG is k_pcg_resident
   size_t m_shared_bytes = 0, m_staged_bytes = 0, m_ell_bytes = 0;
   Origin m_origin{};
   cudaStream_t m_stream = nullptr;

@@ -88,6 +88,12 @@ struct DeviceOptions {
   // (docs/benchmarks.md): at 34,848 samples (273 blocks) 25.3 us per CG iteration persistent
   // against 28.8 us with launches.
   int persistent_blocks_per_sm = 4;
+  // Persistent PCG of the coalesced pass with the loop invariants held in registers
+  // (k_pcg_resident), where every block holds at most one sample block and one chunk of frame
+  // rows, blocks have 128 threads, lanes is 1, samples have at most 8 pairs and the precision is
+  // single (in double the invariants spill from registers); else two grid barriers per iteration
+  // without them (k_pcg_two_barrier).
+  bool resident = true;
 };
 
 class DeviceBackwardEuler;
@@ -162,6 +168,7 @@ struct StepOptions {
 
 struct StepReport {
   bool persistent = false;          // the PCG ran as one cooperative kernel
+  bool resident = false;            // ... with the loop invariants in registers (DeviceOptions::resident)
   int cg_iterations = 0;
   double cg_relative_residual = 0;  // sqrt(r.z / r0.z0) at the end
   double energy = 0;                // elastic energy at the start of the step, J

@@ -613,9 +613,14 @@ __global__ void k_frame_prepare(ModelView<R> m, FrameView<R> f, const R* F, bool
   const int i = static_cast<int>(blockIdx.x) * kPrepareFrames + local;
   const int c = (t % per_frame) % 6, part = (t % per_frame) / 6;
   const bool active = local < kPrepareFrames && i < m.frames;
+  // Plain CG without the diagonal blocks needs Kr alone (the rotational columns' geometric part).
+  const bool with_K = precondition || diag != nullptr;
   if (active) {
     double* col = cols[local][part][c];
-    frame_prepare_column(m, f, F, fused, i, c, part, kPrepareParts, col, col + 6);
+    if (with_K || c >= 3)
+      frame_prepare_column(m, f, F, fused, i, c, part, kPrepareParts, col, col + 6, with_K);
+    else
+      for (int r = 0; r < 9; ++r) col[r] = 0;
   }
   __syncthreads();
   if (active && c == 0 && part == 0) {
@@ -788,6 +793,10 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
 
 // ---- persistent PCG with two grid barriers per iteration (coalesced pass) ----
 
+// a b rounded once, never contracted with a following addition into a fused multiply-add, so
+// that every kernel summing the same products gets the same bits.
+__device__ inline double product_rn(double a, double b) { return __dmul_rn(a, b); }
+
 // Frame terms of p . A p for one chunk of frame rows (chunks as frame_rows_chunk): p_k (D p)_k with
 // p = z + beta p_old formed as next_direction and D p = frame_row_of without sample terms (the
 // rotational geometric and load blocks, inertia; 0 on fixed DOFs). Every thread must call it.
@@ -803,8 +812,8 @@ __device__ double frame_quadratic_chunk(const ModelView<R>& m, const R* geo, con
   __syncthreads();
   double q = 0;
   if (active)
-    q = dir[t] *
-        frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, dir + (t - k), i, k, 0.0, flags.k_scale);
+    q = product_rn(dir[t], frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, dir + (t - k), i, k, 0.0,
+                                        flags.k_scale));
   __syncthreads();
   return q;
 }
@@ -901,6 +910,186 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
     if (!(rz_new > 0)) done = 1;
   }
   if (blockIdx.x == 0 && threadIdx.x == 0) {
+    scalars->rz = rz;
+    scalars->beta = beta;
+    scalars->iterations = it;
+    scalars->done = done;
+  }
+}
+
+// ---- persistent PCG with the loop invariants in registers (coalesced pass, small models) ----
+
+// Threads per block of k_pcg_resident (the fused design's 128-sample blocks, one lane), and the
+// blocks per multiprocessor its registers must allow: 34,848 samples need 336 blocks, 3 per SM on
+// a 132-SM device (at most 170 registers per thread).
+constexpr int kResidentThreads = 128;
+constexpr int kResidentBlocksPerSM = 3;
+constexpr int kResidentSlots = 8;      // slots per frame held in registers (more are read each iteration)
+
+// k_pcg_two_barrier's iteration where every block holds at most one sample block (one sample per
+// thread) and one chunk of frame rows, so that what does not change during the PCG is read once
+// into registers: per sample H = F - I, the material cache, v and its pairs' frames, slot-major
+// positions, gradients and (CacheLevers) levers M = a g^T + w R; per frame row its slots, its
+// row of the preconditioner, of the frame block and inertia, and its values of x and r. Each
+// iteration then reads only the directions z, p of the sample's frames and the slot partials of
+// the row's frame, and writes p, z and the slot partials. The same arithmetic as
+// k_pcg_two_barrier with slot_lanes = 1, so the same results. Requires lanes = 1, at most
+// MaxPairs pairs per sample and grid = max(sample blocks, frame chunks).
+template <class R, int MaxPairs, bool CacheLevers>
+__global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
+    k_pcg_resident(ModelView<R> m, FrameView<R> f, const R* geo, const R* inertia_world, FrameTermsFlags flags,
+                   const R* minv, R* x, R* r, R* z, R* p, R* Ap, R* slot_partials, double* partials,
+                   Scalars* scalars, int max_iterations, double tolerance) {
+  cooperative_groups::grid_group grid = cooperative_groups::this_grid();
+  extern __shared__ unsigned char shared_raw[];
+  R* local = reinterpret_cast<R*>(shared_raw);
+  __shared__ double dir[kResidentThreads];
+  __shared__ double res[kResidentThreads];
+  const int b = static_cast<int>(blockIdx.x), tid = static_cast<int>(threadIdx.x);
+
+  // Sample block b, sample tid.
+  const bool has_block = b < m.blocks;
+  int s0 = 0, ns = 0, stride = 0, q0 = 0, q1 = 0, base = 0, e0 = 0;
+  if (has_block) {
+    s0 = m.block_samples[b];
+    ns = m.block_samples[b + 1] - s0;
+    stride = m.offsets[s0 + ns] - m.offsets[s0];
+    q0 = m.block_slots[b];
+    q1 = m.block_slots[b + 1];
+    base = m.slot_pair_offsets[q0];
+    e0 = m.ell_offsets[b];
+  }
+  const bool has_sample = has_block && tid < ns;
+  const int s = s0 + tid;
+  int count = 0;
+  R v = 0;
+  Mat3T<R> F = zero3<R>();
+  MaterialCacheT<R> cache{zero3<R>(), R(0)};
+  Material mat{};
+  Vec3T<R> ps{0, 0, 0};
+  EllEntry<R> entry[MaxPairs] = {};
+  Mat3T<R> lever[CacheLevers ? MaxPairs : 1] = {};
+  if (has_sample) {
+    count = m.offsets[s + 1] - m.offsets[s];
+    ps = Vec3T<R>{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
+                  sample_value(f.sample_state, m.samples, 2, s)};
+    v = sample_value(f.sample_state, m.samples, 3, s);
+    mat = m.materials[m.sample_materials[s]];
+    ell_sample_material(m, f.sample_state, s, F, cache);
+#pragma unroll
+    for (int j = 0; j < MaxPairs; ++j)
+      if (j < count) {
+        entry[j] = ell_entry(m, e0 + j * ns + tid);
+        if constexpr (CacheLevers) lever[j] = ell_pair_of(entry[j], f.levers, ps).M;
+      }
+  }
+
+  // Frame rows of chunk b.
+  const int fpc = static_cast<int>(blockDim.x) / 6, chunks = (m.frames + fpc - 1) / fpc;
+  const int i = b * fpc + tid / 6, k = tid - 6 * (tid / 6);
+  const bool row = b < chunks && tid < 6 * fpc && i < m.frames;
+  const int jrow = 6 * i + k;
+  R xj = 0, rj = 0, zj = 0, pj = 0;
+  double mrow[6] = {0, 0, 0, 0, 0, 0};
+  FrameRowTerms terms;
+  int slot[kResidentSlots] = {};
+  int slot_begin = 0, slot_end = 0;
+  if (row) {
+    xj = x[jrow];
+    rj = r[jrow];
+    zj = z[jrow];
+    pj = p[jrow];
+    for (int c = 0; c < 6; ++c) mrow[c] = static_cast<double>(minv[36 * static_cast<size_t>(i) + 6 * k + c]);
+    terms = frame_row_terms(m, geo, inertia_world, i, k);
+    slot_begin = m.frame_slot_offsets[i];
+    slot_end = m.frame_slot_offsets[i + 1];
+#pragma unroll
+    for (int n = 0; n < kResidentSlots; ++n)
+      if (slot_begin + n < slot_end) slot[n] = m.frame_slots[slot_begin + n];
+  }
+
+  const double rz0 = scalars->rz0;
+  double rz = scalars->rz, beta = 0;
+  int done = scalars->done, it = 0;
+  while (done == 0 && it < max_iterations) {
+    // (1) samples on p = z + beta p_old, slot sums; p . A p.
+    double part = 0;
+    if (has_sample) {
+      Mat3T<R> dF = zero3<R>();
+      EllPair<R> q[MaxPairs] = {};
+#pragma unroll
+      for (int j = 0; j < MaxPairs; ++j)
+        if (j < count) {
+          if constexpr (CacheLevers)
+            q[j] = EllPair<R>{lever[j], entry[j].g, entry[j].i};
+          else
+            q[j] = ell_pair_of(entry[j], f.levers, ps);
+          ell_pair_dF(q[j], z, p, beta, dF);
+        }
+      const Mat3T<R> dP = pk1_differential(mat, F, cache, dF);
+      part = flags.k_scale * (static_cast<double>(v) * static_cast<double>(ddot(dF, dP)));
+#pragma unroll
+      for (int j = 0; j < MaxPairs; ++j)
+        if (j < count) ell_pair_output(q[j], dP, v, entry[j].pos, stride, local);
+    }
+    __syncthreads();
+    for (int qq = q0 + tid; qq < q1; qq += static_cast<int>(blockDim.x)) {
+      const int a = m.slot_pair_offsets[qq] - base, e = m.slot_pair_offsets[qq + 1] - base;
+      R acc[6] = {0, 0, 0, 0, 0, 0};
+      for (int kk = a; kk < e; ++kk)
+#pragma unroll
+        for (int c = 0; c < 6; ++c) acc[c] += local[c * stride + kk];
+      for (int c = 0; c < 6; ++c) slot_partials[6 * static_cast<size_t>(qq) + c] = acc[c];
+    }
+    if (row) dir[tid] = static_cast<double>(direction_value(zj, pj, beta));
+    __syncthreads();
+    if (row)
+      part += product_rn(dir[tid],
+                         apply_frame_row(terms, flags.inv_h2, flags.project, dir + (tid - k), k, 0.0, flags.k_scale));
+    const double pAp = grid_sum(part, partials, grid);
+    if (!(pAp > 0 && pAp < HUGE_VAL)) {
+      done = 2;
+      break;
+    }
+    const double alpha = rz / pAp;
+    // (2) frames: p stored, A p, update, preconditioner (frame_update_chunk's arithmetic).
+    double dot = 0;
+    if (row) {
+      pj = direction_value(zj, pj, beta);
+      p[jrow] = pj;
+      double acc = 0;
+#pragma unroll
+      for (int n = 0; n < kResidentSlots; ++n)
+        if (slot_begin + n < slot_end) acc += static_cast<double>(slot_partials[6 * static_cast<size_t>(slot[n]) + k]);
+      for (int n = slot_begin + kResidentSlots; n < slot_end; ++n)
+        acc += static_cast<double>(slot_partials[6 * static_cast<size_t>(m.frame_slots[n]) + k]);
+      const R apj = static_cast<R>(apply_frame_row(terms, flags.inv_h2, flags.project, dir + (tid - k), k, acc,
+                                                   flags.k_scale));
+      Ap[jrow] = apj;
+      xj = static_cast<R>(static_cast<double>(xj) + alpha * static_cast<double>(pj));
+      rj = static_cast<R>(static_cast<double>(rj) - alpha * static_cast<double>(apj));
+      res[tid] = static_cast<double>(rj);
+    }
+    __syncthreads();
+    if (row) {
+      double acc = 0;
+      for (int c = 0; c < 6; ++c) acc += mrow[c] * res[tid - k + c];
+      zj = static_cast<R>(acc);
+      z[jrow] = zj;
+      dot = static_cast<double>(rj) * static_cast<double>(zj);
+    }
+    const double rz_new = grid_sum(dot, partials + gridDim.x, grid);
+    beta = rz > 0 ? rz_new / rz : 0;
+    rz = rz_new;
+    ++it;
+    if (tolerance > 0 && rz_new <= tolerance * tolerance * rz0) done = 1;
+    if (!(rz_new > 0)) done = 1;
+  }
+  if (row) {
+    x[jrow] = xj;
+    r[jrow] = rj;
+  }
+  if (b == 0 && tid == 0) {
     scalars->rz = rz;
     scalars->beta = beta;
     scalars->iterations = it;

@@ -698,16 +698,15 @@ FASCIA_HD void ell_pair_dF(const EllPair<R>& q, const R* d, const R* p_old, doub
   dF += pair_lever_differential(Vec3T<R>{di[0], di[1], di[2]}, Vec3T<R>{di[3], di[4], di[5]}, q.g, q.M);
 }
 
-// dP = C[dF] (eq. 22-24) of sample s from its stored H = F - I: StVK rebuilds S from H (eq. 5,
-// 19: E = sym(H) + H^T H / 2), neo-Hookean reads its material cache.
+// F and the material cache of sample s from its stored H = F - I: StVK rebuilds S from H (eq. 5,
+// 19: E = sym(H) + H^T H / 2), neo-Hookean reads its cache.
 template <class R>
-FASCIA_HD Mat3T<R> ell_sample_dP(const ModelView<R>& m, const R* state, int s, const Mat3T<R>& dF) {
+FASCIA_HD void ell_sample_material(const ModelView<R>& m, const R* state, int s, Mat3T<R>& F, MaterialCacheT<R>& c) {
   Mat3T<R> H;
   for (int r = 0; r < 3; ++r)
     for (int k = 0; k < 3; ++k) H.m[r][k] = sample_value(state, m.samples, 4 + 3 * r + k, s);
-  const Mat3T<R> F = identity3<R>() + H;
+  F = identity3<R>() + H;
   const Material mat = m.materials[m.sample_materials[s]];
-  MaterialCacheT<R> c;
   if (mat.law == MaterialLaw::stvk) {
     const Mat3T<R> E = symmetric_part(H) + R(0.5) * (transpose(H) * H);
     c.a = stvk_stress_from_strain<R>(static_cast<R>(mat.lambda), static_cast<R>(mat.mu), E);
@@ -717,7 +716,15 @@ FASCIA_HD Mat3T<R> ell_sample_dP(const ModelView<R>& m, const R* state, int s, c
       for (int k = 0; k < 3; ++k) c.a.m[r][k] = sample_value(state, m.samples, 13 + 3 * r + k, s);
     c.c = sample_value(state, m.samples, 22, s);
   }
-  return pk1_differential(mat, F, c, dF);
+}
+
+// dP = C[dF] (eq. 22-24) of sample s (ell_sample_material).
+template <class R>
+FASCIA_HD Mat3T<R> ell_sample_dP(const ModelView<R>& m, const R* state, int s, const Mat3T<R>& dF) {
+  Mat3T<R> F;
+  MaterialCacheT<R> c;
+  ell_sample_material(m, state, s, F, c);
+  return pk1_differential(m.materials[m.sample_materials[s]], F, c, dF);
 }
 
 // The pair's v B_p^T dP (eq. 21, 23, 25-26) into outs[k stride + pos] (pos its slot-major
@@ -778,29 +785,56 @@ FASCIA_HD R slot_tree_sum(const R* outs, int stride, int a, int e, int c, int la
 // `inertia_world` [N][9]; gyroscopic terms neglected, as engine/integrate/step_potential.hpp), and,
 // when `project` is set, the projection of fixed DOFs (they leave the unknowns: row set to 0).
 // frame_row_of takes the frame's 6 direction values di (d + 6 i, or a copy of them).
+// The per-frame values row k of frame_row_of needs (loaded once by the resident PCG).
+struct FrameRowTerms {
+  bool fixed = false;
+  bool has_geo = false;
+  double geo[3] = {0, 0, 0};      // row k - 3 of the frame block (k >= 3)
+  double inertia[3] = {0, 0, 0};  // row k - 3 of R I_0 R^T (k >= 3)
+  double mass = 0;                // k < 3
+};
+
+template <class R>
+FASCIA_HD FrameRowTerms frame_row_terms(const ModelView<R>& m, const R* geo, const R* inertia_world, int i, int k) {
+  FrameRowTerms t;
+  t.fixed = m.fixed[6 * i + k] != 0;
+  if (k >= 3) {
+    t.has_geo = geo != nullptr;
+    for (int c = 0; c < 3; ++c) {
+      if (geo) t.geo[c] = static_cast<double>(geo[9 * i + 3 * (k - 3) + c]);
+      if (inertia_world) t.inertia[c] = static_cast<double>(inertia_world[9 * i + 3 * (k - 3) + c]);
+    }
+  } else {
+    t.mass = static_cast<double>(m.masses[i]);
+  }
+  return t;
+}
+
+// frame_row_of's arithmetic from loaded terms.
+template <class D>
+FASCIA_HD double apply_frame_row(const FrameRowTerms& t, double inv_h2, bool project, const D* di, int k, double acc,
+                                 double k_scale) {
+  if (project && t.fixed) return 0.0;
+  acc *= k_scale;
+  if (k >= 3) {
+    const D* dr = di + 3;
+    if (t.has_geo)
+      acc += t.geo[0] * static_cast<double>(dr[0]) + t.geo[1] * static_cast<double>(dr[1]) +
+             t.geo[2] * static_cast<double>(dr[2]);
+    if (inv_h2 != 0)
+      acc += inv_h2 * (t.inertia[0] * static_cast<double>(dr[0]) + t.inertia[1] * static_cast<double>(dr[1]) +
+                       t.inertia[2] * static_cast<double>(dr[2]));
+  } else if (inv_h2 != 0) {
+    acc += inv_h2 * t.mass * static_cast<double>(di[k]);
+  }
+  return acc;
+}
+
 template <class R, class D>
 FASCIA_HD double frame_row_of(const ModelView<R>& m, const R* geo, const R* inertia_world, double inv_h2, bool project,
                               const D* di, int i, int k, double acc, double k_scale = 1.0) {
   if (project && m.fixed[6 * i + k]) return 0.0;
-  acc *= k_scale;
-  if (k >= 3) {
-    const D* dr = di + 3;
-    if (geo) {
-      const R* row = geo + 9 * i + 3 * (k - 3);
-      acc += static_cast<double>(row[0]) * static_cast<double>(dr[0]) +
-             static_cast<double>(row[1]) * static_cast<double>(dr[1]) +
-             static_cast<double>(row[2]) * static_cast<double>(dr[2]);
-    }
-    if (inv_h2 != 0) {
-      const R* jr = inertia_world + 9 * i + 3 * (k - 3);
-      acc += inv_h2 * (static_cast<double>(jr[0]) * static_cast<double>(dr[0]) +
-                       static_cast<double>(jr[1]) * static_cast<double>(dr[1]) +
-                       static_cast<double>(jr[2]) * static_cast<double>(dr[2]));
-    }
-  } else if (inv_h2 != 0) {
-    acc += inv_h2 * static_cast<double>(m.masses[i]) * static_cast<double>(di[k]);
-  }
-  return acc;
+  return apply_frame_row(frame_row_terms(m, geo, inertia_world, i, k), inv_h2, project, di, k, acc, k_scale);
 }
 
 template <class R>
@@ -891,13 +925,15 @@ FASCIA_HD void block_jacobi_inverse(const unsigned char* fixed, double* K, doubl
 // for c >= 3, column c - 3 of the rotational geometric block Kr (frame_sample.hpp), summed over the
 // frame's reverse pairs rev_offsets[i] + part, + part + parts, ... in order, from F [S][9] of the
 // gradient pass. `fused` selects a = R (p_s - x_i) (fused design) or a = R l from the table (paper
-// design). col [6] receives the column, kr [3] (c >= 3) the Kr column.
+// design). col [6] receives the column (0 without `with_K`: plain CG without the diagonal blocks
+// needs only Kr), kr [3] (c >= 3) the Kr column.
 template <class R>
 FASCIA_HD void frame_prepare_column(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, int i, int c,
-                                    int part, int parts, double* col, double* kr) {
+                                    int part, int parts, double* col, double* kr, bool with_K = true) {
   const Mat3 Ri = ldm(f.rotations + 9 * i);
-  for (int r = 0; r < 6; ++r) col[r] = 0;
-  for (int r = 0; r < 3; ++r) kr[r] = 0;
+  // Sums in registers (col and kr may point to shared memory: stores there would order every
+  // following load).
+  double sum[6] = {0, 0, 0, 0, 0, 0}, sum_kr[3] = {0, 0, 0};
   Vec3 dx{0, 0, 0}, dr{0, 0, 0};
   Vec3& e = c < 3 ? dx : dr;
   e = Vec3{c % 3 == 0 ? 1.0 : 0.0, c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0};
@@ -915,13 +951,16 @@ FASCIA_HD void frame_prepare_column(const ModelView<R>& m, const FrameView<R>& f
     const Mat3 P = first_piola(mat, Fs, cache);
     if (c >= 3) {
       const Mat3 K = pair_rotational_geometric_block(P, a, g, w, Ri, v);
-      for (int r = 0; r < 3; ++r) kr[r] += K.m[r][c - 3];
+      for (int r = 0; r < 3; ++r) sum_kr[r] += K.m[r][c - 3];
     }
+    if (!with_K) continue;
     const Mat3 dP = pk1_differential(mat, Fs, cache, pair_deformation_differential(dx, dr, a, g, w, Ri));
     double out[6];
     pair_virtual_work(dP, a, g, w, Ri, v, out);
-    for (int r = 0; r < 6; ++r) col[r] += out[r];
+    for (int r = 0; r < 6; ++r) sum[r] += out[r];
   }
+  for (int r = 0; r < 6; ++r) col[r] = sum[r];
+  for (int r = 0; r < 3; ++r) kr[r] = sum_kr[r];
 }
 
 // The rest of a frame's preparation from its sums: K [36] row-major (the sample terms of K_ii,

@@ -53,6 +53,7 @@ struct Case {
   int row_frames = 42;
   int keep = 0;
   int slot_lanes = 1;
+  bool resident = true;
 };
 
 // The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) on the device.
@@ -66,6 +67,7 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   options.record_keep = c.record_keep;
   options.coalesced_keep = c.keep;
   options.slot_lanes = c.slot_lanes;
+  options.resident = c.resident;
   options.row_frames = c.row_frames;
   options.block_samples = c.block_samples;
   options.persistent_blocks_per_sm = c.persistent_blocks_per_sm;
@@ -98,7 +100,7 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
                   (dev.sample_pass() == gpu::SamplePass::coalesced ? "s" + std::to_string(c.slot_lanes) : "") +
                   (c.row_frames != 42 ? "r" + std::to_string(c.row_frames) : "");
   row.linear = to_string(c.linear);
-  row.cg_kernel = report.persistent ? "persistent" : "launches";
+  row.cg_kernel = report.resident ? "resident" : report.persistent ? "persistent" : "launches";
   row.ms_per_step = stepper.time_step_ms(repeats);
   row.ms_per_cg_iteration = stepper.time_cg_iteration_ms(std::max(1, repeats / 2));
   if (tangent) {
@@ -169,10 +171,12 @@ std::vector<Case> cases(const BenchGpuOptions& o) {
                 for (int rows : o.row_frames)
                   for (int held : o.keep)
                     for (int sl : o.slot_lanes)
-                      if ((pass == gpu::SamplePass::records || keep == o.record_keep.front()) &&
-                          (pass == gpu::SamplePass::coalesced || (held == o.keep.front() && sl == o.slot_lanes.front())))
-                        out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, pass, o.block_samples,
-                                           o.persistent_blocks_per_sm, keep, rows, held, sl});
+                      for (int res : o.resident)
+                        if ((pass == gpu::SamplePass::records || keep == o.record_keep.front()) &&
+                            (pass == gpu::SamplePass::coalesced ||
+                             (held == o.keep.front() && sl == o.slot_lanes.front() && res == o.resident.front())))
+                          out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, pass, o.block_samples,
+                                             o.persistent_blocks_per_sm, keep, rows, held, sl, res != 0});
           }
         }
       }
@@ -275,6 +279,9 @@ void add_bench_gpu_command(CLI::App& bench, Action& action) {
   cmd->add_option("--slot-lanes", options->slot_lanes,
                   "coalesced pass: lanes per slot sum (1 | 2 | 4 | 8 | 16 | 32), several to compare")
       ->check(CLI::IsMember({1, 2, 4, 8, 16, 32}));
+  cmd->add_option("--resident", options->resident,
+                  "coalesced pass, persistent PCG: loop invariants in registers (1) or not (0), several to compare")
+      ->check(CLI::IsMember({0, 1}));
   cmd->add_option("--row-frames", options->row_frames,
                   "frames per block of the launched frame-row passes (1..85), several to compare")
       ->check(CLI::Range(1, 85));

@@ -190,6 +190,46 @@ TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]")
   CHECK(e_vel < tol);
 }
 
+TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[gpu]") {
+  // The coalesced pass's persistent PCG with the loop invariants in registers (k_pcg_resident) and
+  // without (k_pcg_two_barrier): the same arithmetic, so the same increment bit for bit, and the
+  // CPU reference's within the bounds above. Tetrahedra (4 pairs) and hexahedra (8 pairs).
+  const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
+  const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
+  const Model model = kernels_test_model(type, type == CellType::hexahedron ? MaterialLaw::neo_hookean : MaterialLaw::stvk);
+  const State state = kernels_test_state(model, 35);
+  const double h = 0.01;
+  const std::vector<double> loads = kernels_test_loads(model);
+  const ReferenceStep ref = reference_step(model, state, h, 60, loads);
+  std::vector<std::vector<double>> deltas;
+  for (bool resident : {true, false}) {
+    DeviceOptions options;
+    options.precision = precision;
+    options.resident = resident;  // 128-sample blocks (the resident kernel's size)
+    DeviceElasticity dev(model, options);
+    REQUIRE(dev.sample_pass() == SamplePass::coalesced);
+    dev.set_state(state);
+    StepOptions so;
+    so.dt = h;
+    so.max_cg_iterations = 60;
+    so.external_forces = loads;
+    DeviceBackwardEuler stepper(dev, so);
+    const StepReport report = stepper.step();
+    CHECK(report.persistent);
+    // The resident kernel runs in single precision only (DeviceOptions::resident).
+    CHECK(report.resident == (resident && precision == Precision::single_precision));
+    CHECK(report.cg_iterations == ref.iterations);
+    std::vector<double> delta(model.dof_count());
+    stepper.last_increment(delta.data());
+    const double e = relative_difference(delta, ref.delta);
+    std::printf("[gpu] %s %s %s: kernel %s, cg %d delta %.2e\n", resident ? "resident" : "two-barrier",
+                to_string(precision), name(type), report.resident ? "resident" : "two-barrier", report.cg_iterations, e);
+    CHECK(e < bound(precision, true));
+    deltas.push_back(delta);
+  }
+  CHECK(std::memcmp(deltas[0].data(), deltas[1].data(), deltas[0].size() * sizeof(double)) == 0);
+}
+
 // The device step against the CPU engine itself: StepPotential (backward Euler with Rayleigh
 // damping, gravity on the samples) minimised by one Newton iteration with 60 fixed CG or PCG
 // iterations, as `fascia bench cpu` times it, then v = Delta / h.
