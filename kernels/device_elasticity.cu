@@ -801,17 +801,19 @@ class System final : public DeviceElasticity::Impl {
     FASCIA_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
     if (!coop) return 0;
     // Resident: one block per sample block and per frame chunk, all co-resident.
-    // Single precision only: in double the invariants spill to local memory (1.2 KB of stack per
-    // thread, 170 registers) and the kernel was measured slower than k_pcg_two_barrier on an H100
-    // (docs/benchmarks.md).
-    if (pass == SamplePass::coalesced && options.resident && sizeof(R) == sizeof(float) && m_lanes == 1 &&
-        m_max_neighbours <= 8 &&
+    if (pass == SamplePass::coalesced && options.resident && m_lanes == 1 && m_max_neighbours <= 8 &&
         m_lane_threads == kResidentThreads) {
       const int wanted = std::max(m_blocks, grid_for(m_n, m_lane_threads / 6));
       m_resident = true;
+      // In double only where the invariants fit in registers: a kernel that spills to local memory
+      // was measured slower than k_pcg_two_barrier on an H100 (docs/benchmarks.md).
+      cudaFuncAttributes attr{};
+      FASCIA_CUDA(cudaFuncGetAttributes(&attr, persistent_kernel()));
       FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), m_lane_threads,
                                                                 persistent_shared_bytes()));
-      if (per_sm > 0 && wanted <= per_sm * sms && wanted <= options.persistent_blocks_per_sm * sms) return wanted;
+      if ((sizeof(R) == sizeof(float) || attr.localSizeBytes == 0) && per_sm > 0 && wanted <= per_sm * sms &&
+          wanted <= options.persistent_blocks_per_sm * sms)
+        return wanted;
       m_resident = false;
     }
     FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,

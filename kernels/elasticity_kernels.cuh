@@ -1015,22 +1015,23 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     // (1) samples on p = z + beta p_old, slot sums; p . A p.
     double part = 0;
     if (has_sample) {
+      // Without CacheLevers each half gathers the lever records again (cache hits), so that no
+      // pair's lever is live across dP.
+      const auto pair = [&](int j) {
+        if constexpr (CacheLevers)
+          return EllPair<R>{lever[j], entry[j].g, entry[j].i};
+        else
+          return ell_pair_of(entry[j], f.levers, ps);
+      };
       Mat3T<R> dF = zero3<R>();
-      EllPair<R> q[MaxPairs] = {};
 #pragma unroll
       for (int j = 0; j < MaxPairs; ++j)
-        if (j < count) {
-          if constexpr (CacheLevers)
-            q[j] = EllPair<R>{lever[j], entry[j].g, entry[j].i};
-          else
-            q[j] = ell_pair_of(entry[j], f.levers, ps);
-          ell_pair_dF(q[j], z, p, beta, dF);
-        }
+        if (j < count) ell_pair_dF(pair(j), z, p, beta, dF);
       const Mat3T<R> dP = pk1_differential(mat, F, cache, dF);
       part = flags.k_scale * (static_cast<double>(v) * static_cast<double>(ddot(dF, dP)));
 #pragma unroll
       for (int j = 0; j < MaxPairs; ++j)
-        if (j < count) ell_pair_output(q[j], dP, v, entry[j].pos, stride, local);
+        if (j < count) ell_pair_output(pair(j), dP, v, entry[j].pos, stride, local);
     }
     __syncthreads();
     for (int qq = q0 + tid; qq < q1; qq += static_cast<int>(blockDim.x)) {
