@@ -772,12 +772,13 @@ class System final : public DeviceElasticity::Impl {
     return staged ? m_staged_bytes : pass == SamplePass::coalesced ? m_ell_bytes : m_shared_bytes;
   }
 
-  // k_pcg_resident for samples of at most `pairs` (4 or 8) pairs; levers held in registers in
-  // single precision (in double they would not leave room for three blocks per multiprocessor).
+  // k_pcg_resident for samples of at most `pairs` (4 or 8) pairs; the invariants in registers in
+  // single precision, partly in shared memory in double (in registers they would not leave room
+  // for three blocks per multiprocessor).
   static const void* resident_kernel(int pairs) {
-    constexpr bool levers = sizeof(R) == sizeof(float);
-    return pairs <= 4 ? reinterpret_cast<const void*>(&k_pcg_resident<R, 4, levers>)
-                      : reinterpret_cast<const void*>(&k_pcg_resident<R, 8, levers>);
+    constexpr bool in_registers = sizeof(R) == sizeof(float);
+    return pairs <= 4 ? reinterpret_cast<const void*>(&k_pcg_resident<R, 4, in_registers>)
+                      : reinterpret_cast<const void*>(&k_pcg_resident<R, 8, in_registers>);
   }
 
   // The persistent PCG kernel of the sample pass in use: k_pcg_resident or k_pcg_two_barrier
@@ -805,10 +806,14 @@ class System final : public DeviceElasticity::Impl {
         m_lane_threads == kResidentThreads) {
       const int wanted = std::max(m_blocks, grid_for(m_n, m_lane_threads / 6));
       m_resident = true;
-      // In double only where the invariants fit in registers: a kernel that spills to local memory
-      // was measured slower than k_pcg_two_barrier on an H100 (docs/benchmarks.md).
+      // In double only where the compiled kernel needs no local memory (4 pairs per sample; with
+      // 8 it spills): one that spilled was measured slower than k_pcg_two_barrier on an H100
+      // (docs/benchmarks.md). Its static shared memory (double) plus the pair outputs can pass
+      // 48 KB, hence the opt-in before the occupancy query.
       cudaFuncAttributes attr{};
       FASCIA_CUDA(cudaFuncGetAttributes(&attr, persistent_kernel()));
+      FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                       static_cast<int>(persistent_shared_bytes())));
       FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), m_lane_threads,
                                                                 persistent_shared_bytes()));
       if ((sizeof(R) == sizeof(float) || attr.localSizeBytes == 0) && per_sm > 0 && wanted <= per_sm * sms &&

@@ -90,9 +90,9 @@ struct DeviceOptions {
   int persistent_blocks_per_sm = 4;
   // Persistent PCG of the coalesced pass with the loop invariants held in registers
   // (k_pcg_resident), where every block holds at most one sample block and one chunk of frame
-  // rows, blocks have 128 threads, lanes is 1, samples have at most 8 pairs and the precision is
-  // single (in double the invariants spill from registers); else two grid barriers per iteration
-  // without them (k_pcg_two_barrier).
+  // rows, blocks have 128 threads, lanes is 1 and samples have at most 8 pairs in single
+  // precision, 4 in double (there it holds part of them in shared memory; with 8 pairs it would
+  // spill to local memory); else two grid barriers per iteration without them (k_pcg_two_barrier).
   bool resident = true;
 };
 

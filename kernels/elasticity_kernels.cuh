@@ -552,17 +552,16 @@ __device__ double update_rows_chunk(int n, const R* minv, const R* p, const R* A
   const bool active = t < 6 * fpc && i < n;
   const int j = 6 * i + k;
   if (active) {
-    x[j] = static_cast<R>(static_cast<double>(x[j]) + alpha * static_cast<double>(p[j]));
-    const R rj = static_cast<R>(static_cast<double>(r[j]) - alpha * static_cast<double>(Ap[j]));
-    r[j] = rj;
-    res[t] = static_cast<double>(rj);
+    const UpdatedRow<R> u = update_row(x[j], r[j], alpha, static_cast<double>(p[j]), static_cast<double>(Ap[j]));
+    x[j] = u.x;
+    r[j] = u.r;
+    res[t] = static_cast<double>(u.r);
   }
   __syncthreads();
   double dot = 0;
   if (active) {
-    double acc = 0;
-    for (int c = 0; c < 6; ++c) acc += static_cast<double>(minv[36 * i + 6 * k + c]) * res[t - k + c];
-    const R zk = static_cast<R>(acc);
+    const R zk = static_cast<R>(preconditioned_row(
+        [&](int c) { return static_cast<double>(minv[36 * static_cast<size_t>(i) + 6 * k + c]); }, res + (t - k)));
     z[j] = zk;
     dot = res[t] * static_cast<double>(zk);
   }
@@ -842,17 +841,16 @@ __device__ double frame_update_chunk(const ModelView<R>& m, const R* slot_partia
     const R apj = static_cast<R>(
         frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, dir + (t - k), i, k, acc, flags.k_scale));
     Ap[j] = apj;
-    x[j] = static_cast<R>(static_cast<double>(x[j]) + alpha * dir[t]);
-    const R rj = static_cast<R>(static_cast<double>(r[j]) - alpha * static_cast<double>(apj));
-    r[j] = rj;
-    res[t] = static_cast<double>(rj);
+    const UpdatedRow<R> u = update_row(x[j], r[j], alpha, dir[t], static_cast<double>(apj));
+    x[j] = u.x;
+    r[j] = u.r;
+    res[t] = static_cast<double>(u.r);
   }
   __syncthreads();
   double dot = 0;
   if (active) {
-    double acc = 0;
-    for (int c = 0; c < 6; ++c) acc += static_cast<double>(minv[36 * i + 6 * k + c]) * res[t - k + c];
-    const R zk = static_cast<R>(acc);
+    const R zk = static_cast<R>(preconditioned_row(
+        [&](int c) { return static_cast<double>(minv[36 * static_cast<size_t>(i) + 6 * k + c]); }, res + (t - k)));
     z[j] = zk;
     dot = res[t] * static_cast<double>(zk);
   }
@@ -927,15 +925,21 @@ constexpr int kResidentBlocksPerSM = 3;
 constexpr int kResidentSlots = 8;      // slots per frame held in registers (more are read each iteration)
 
 // k_pcg_two_barrier's iteration where every block holds at most one sample block (one sample per
-// thread) and one chunk of frame rows, so that what does not change during the PCG is read once
-// into registers: per sample H = F - I, the material cache, v and its pairs' frames, slot-major
-// positions, gradients and (CacheLevers) levers M = a g^T + w R; per frame row its slots, its
+// thread) and one chunk of frame rows, so that what does not change during the PCG is read once:
+// per sample its pairs' frames, slot-major positions, w and g, and v; per frame row its slots, its
 // row of the preconditioner, of the frame block and inertia, and its values of x and r. Each
 // iteration then reads only the directions z, p of the sample's frames and the slot partials of
-// the row's frame, and writes p, z and the slot partials. The same arithmetic as
-// k_pcg_two_barrier with slot_lanes = 1, so the same results. Requires lanes = 1, at most
-// MaxPairs pairs per sample and grid = max(sample blocks, frame chunks).
-template <class R, int MaxPairs, bool CacheLevers>
+// the row's frame, and writes p, z and the slot partials. With InRegisters (single precision)
+// all of it sits in registers, with H = F - I, the material cache and the levers M = a g^T + w R;
+// without (double, where that would spill), w, g and the frame rows' terms sit in shared memory
+// (component-major, one word per thread: no bank conflicts), and the levers and the material are
+// formed again each iteration from the lever records and the samples' state (cache hits), as
+// k_pcg_two_barrier does. The same arithmetic as k_pcg_two_barrier with slot_lanes = 1, so the
+// same results. Requires lanes = 1, at most MaxPairs pairs per sample and grid = max(sample
+// blocks, frame chunks).
+constexpr int kResidentRowTerms = 13;  // [minv row (6), frame block row (3), inertia row (3), mass]
+
+template <class R, int MaxPairs, bool InRegisters>
 __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     k_pcg_resident(ModelView<R> m, FrameView<R> f, const R* geo, const R* inertia_world, FrameTermsFlags flags,
                    const R* minv, R* x, R* r, R* z, R* p, R* Ap, R* slot_partials, double* partials,
@@ -945,6 +949,9 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
   R* local = reinterpret_cast<R*>(shared_raw);
   __shared__ double dir[kResidentThreads];
   __shared__ double res[kResidentThreads];
+  __shared__ double row_held[InRegisters ? 1 : kResidentRowTerms * kResidentThreads];
+  __shared__ R pair_held[InRegisters ? 1 : 4 * MaxPairs * kResidentThreads];  // [w, g (3)] per pair
+  const auto held = [&](auto* a, int c) -> auto& { return a[c * kResidentThreads + static_cast<int>(threadIdx.x)]; };
   const int b = static_cast<int>(blockIdx.x), tid = static_cast<int>(threadIdx.x);
 
   // Sample block b, sample tid.
@@ -968,19 +975,28 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
   Material mat{};
   Vec3T<R> ps{0, 0, 0};
   EllEntry<R> entry[MaxPairs] = {};
-  Mat3T<R> lever[CacheLevers ? MaxPairs : 1] = {};
+  Mat3T<R> lever[InRegisters ? MaxPairs : 1] = {};
   if (has_sample) {
     count = m.offsets[s + 1] - m.offsets[s];
     ps = Vec3T<R>{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
                   sample_value(f.sample_state, m.samples, 2, s)};
     v = sample_value(f.sample_state, m.samples, 3, s);
-    mat = m.materials[m.sample_materials[s]];
-    ell_sample_material(m, f.sample_state, s, F, cache);
+    if constexpr (InRegisters) {
+      mat = m.materials[m.sample_materials[s]];
+      ell_sample_material(m, f.sample_state, s, F, cache);
+    }
 #pragma unroll
     for (int j = 0; j < MaxPairs; ++j)
       if (j < count) {
         entry[j] = ell_entry(m, e0 + j * ns + tid);
-        if constexpr (CacheLevers) lever[j] = ell_pair_of(entry[j], f.levers, ps).M;
+        if constexpr (InRegisters) {
+          lever[j] = ell_pair_of(entry[j], f.levers, ps).M;
+        } else {
+          held(pair_held, 4 * j) = entry[j].w;
+          held(pair_held, 4 * j + 1) = entry[j].g.x;
+          held(pair_held, 4 * j + 2) = entry[j].g.y;
+          held(pair_held, 4 * j + 3) = entry[j].g.z;
+        }
       }
   }
 
@@ -1001,6 +1017,12 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     pj = p[jrow];
     for (int c = 0; c < 6; ++c) mrow[c] = static_cast<double>(minv[36 * static_cast<size_t>(i) + 6 * k + c]);
     terms = frame_row_terms(m, geo, inertia_world, i, k);
+    if constexpr (!InRegisters) {
+      for (int c = 0; c < 6; ++c) held(row_held, c) = mrow[c];
+      for (int c = 0; c < 3; ++c) held(row_held, 6 + c) = terms.geo[c];
+      for (int c = 0; c < 3; ++c) held(row_held, 9 + c) = terms.inertia[c];
+      held(row_held, 12) = terms.mass;
+    }
     slot_begin = m.frame_slot_offsets[i];
     slot_end = m.frame_slot_offsets[i + 1];
 #pragma unroll
@@ -1015,18 +1037,26 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     // (1) samples on p = z + beta p_old, slot sums; p . A p.
     double part = 0;
     if (has_sample) {
-      // Without CacheLevers each half gathers the lever records again (cache hits), so that no
+      // Without InRegisters each half gathers the lever records again (cache hits), so that no
       // pair's lever is live across dP.
       const auto pair = [&](int j) {
-        if constexpr (CacheLevers)
+        if constexpr (InRegisters) {
           return EllPair<R>{lever[j], entry[j].g, entry[j].i};
-        else
-          return ell_pair_of(entry[j], f.levers, ps);
+        } else {
+          EllEntry<R> en = entry[j];
+          en.w = held(pair_held, 4 * j);
+          en.g = Vec3T<R>{held(pair_held, 4 * j + 1), held(pair_held, 4 * j + 2), held(pair_held, 4 * j + 3)};
+          return ell_pair_of(en, f.levers, ps);
+        }
       };
       Mat3T<R> dF = zero3<R>();
 #pragma unroll
       for (int j = 0; j < MaxPairs; ++j)
         if (j < count) ell_pair_dF(pair(j), z, p, beta, dF);
+      if constexpr (!InRegisters) {
+        ell_sample_material(m, f.sample_state, s, F, cache);
+        mat = m.materials[m.sample_materials[s]];
+      }
       const Mat3T<R> dP = pk1_differential(mat, F, cache, dF);
       part = flags.k_scale * (static_cast<double>(v) * static_cast<double>(ddot(dF, dP)));
 #pragma unroll
@@ -1044,6 +1074,13 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     }
     if (row) dir[tid] = static_cast<double>(direction_value(zj, pj, beta));
     __syncthreads();
+    if constexpr (!InRegisters) {
+      if (row) {
+        for (int c = 0; c < 3; ++c) terms.geo[c] = held(row_held, 6 + c);
+        for (int c = 0; c < 3; ++c) terms.inertia[c] = held(row_held, 9 + c);
+        terms.mass = held(row_held, 12);
+      }
+    }
     if (row)
       part += product_rn(dir[tid],
                          apply_frame_row(terms, flags.inv_h2, flags.project, dir + (tid - k), k, 0.0, flags.k_scale));
@@ -1067,15 +1104,15 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
       const R apj = static_cast<R>(apply_frame_row(terms, flags.inv_h2, flags.project, dir + (tid - k), k, acc,
                                                    flags.k_scale));
       Ap[jrow] = apj;
-      xj = static_cast<R>(static_cast<double>(xj) + alpha * static_cast<double>(pj));
-      rj = static_cast<R>(static_cast<double>(rj) - alpha * static_cast<double>(apj));
+      const UpdatedRow<R> u = update_row(xj, rj, alpha, static_cast<double>(pj), static_cast<double>(apj));
+      xj = u.x;
+      rj = u.r;
       res[tid] = static_cast<double>(rj);
     }
     __syncthreads();
     if (row) {
-      double acc = 0;
-      for (int c = 0; c < 6; ++c) acc += mrow[c] * res[tid - k + c];
-      zj = static_cast<R>(acc);
+      zj = static_cast<R>(preconditioned_row(
+          [&](int c) { return InRegisters ? mrow[c] : held(row_held, c); }, res + (tid - k)));
       z[jrow] = zj;
       dot = static_cast<double>(rj) * static_cast<double>(zj);
     }

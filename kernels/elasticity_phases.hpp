@@ -401,64 +401,58 @@ constexpr int kFrameRecord = 16;   // [R_i row-major (9), x_i - origin (3) m, xÌ
 constexpr int kPairRecord = 4;     // [g (3) 1/m, w]
 constexpr int kSampleRecord = 4;   // [p_s - origin (3) m, v m^3]
 
-// n values (n a multiple of 4) from a 16-byte-aligned address into double registers: 16-byte
-// loads through the read-only cache on the device, plain loads on the host.
-template <int n>
-FASCIA_HD void load_aligned(const double* src, double* dst) {
+// n values (a multiple of 4 floats or 2 doubles) from a 16-byte-aligned address into registers
+// of type D (double, or the storage type): 16-byte loads through the read-only cache on the
+// device, plain loads on the host.
+template <int n, class D>
+FASCIA_HD void load_aligned(const double* src, D* dst) {
 #ifdef __CUDA_ARCH__
   const double2* v = reinterpret_cast<const double2*>(src);
 #pragma unroll
   for (int k = 0; k < n / 2; ++k) {
     const double2 t = __ldg(v + k);
-    dst[2 * k] = t.x;
-    dst[2 * k + 1] = t.y;
+    dst[2 * k] = static_cast<D>(t.x);
+    dst[2 * k + 1] = static_cast<D>(t.y);
   }
 #else
-  for (int k = 0; k < n; ++k) dst[k] = src[k];
+  for (int k = 0; k < n; ++k) dst[k] = static_cast<D>(src[k]);
 #endif
 }
-template <int n>
-FASCIA_HD void load_aligned(const float* src, double* dst) {
+template <int n, class D>
+FASCIA_HD void load_aligned(const float* src, D* dst) {
 #ifdef __CUDA_ARCH__
   const float4* v = reinterpret_cast<const float4*>(src);
 #pragma unroll
   for (int k = 0; k < n / 4; ++k) {
     const float4 t = __ldg(v + k);
-    dst[4 * k] = t.x;
-    dst[4 * k + 1] = t.y;
-    dst[4 * k + 2] = t.z;
-    dst[4 * k + 3] = t.w;
+    dst[4 * k] = static_cast<D>(t.x);
+    dst[4 * k + 1] = static_cast<D>(t.y);
+    dst[4 * k + 2] = static_cast<D>(t.z);
+    dst[4 * k + 3] = static_cast<D>(t.w);
   }
 #else
-  for (int k = 0; k < n; ++k) dst[k] = static_cast<double>(src[k]);
+  for (int k = 0; k < n; ++k) dst[k] = static_cast<D>(src[k]);
 #endif
 }
 
-// The 6 direction values of frame i (8- or 16-byte loads: [N][6] floats are 8-byte aligned).
-FASCIA_HD void load_six(const double* src, int i, double* dst) {
-#ifdef __CUDA_ARCH__
-  const double2* v = reinterpret_cast<const double2*>(src + 6 * i);
-#pragma unroll
-  for (int k = 0; k < 3; ++k) {
-    const double2 t = __ldg(v + k);
-    dst[2 * k] = t.x;
-    dst[2 * k + 1] = t.y;
-  }
-#else
-  for (int k = 0; k < 6; ++k) dst[k] = src[6 * i + k];
-#endif
+// The 6 direction values of frame i into registers of type D (16-byte loads for double, 8-byte
+// for float: [N][6] floats are 8-byte aligned).
+template <class D>
+FASCIA_HD void load_six(const double* src, int i, D* dst) {
+  load_aligned<6>(src + 6 * i, dst);
 }
-FASCIA_HD void load_six(const float* src, int i, double* dst) {
+template <class D>
+FASCIA_HD void load_six(const float* src, int i, D* dst) {
 #ifdef __CUDA_ARCH__
   const float2* v = reinterpret_cast<const float2*>(src + 6 * i);
 #pragma unroll
   for (int k = 0; k < 3; ++k) {
     const float2 t = __ldg(v + k);
-    dst[2 * k] = t.x;
-    dst[2 * k + 1] = t.y;
+    dst[2 * k] = static_cast<D>(t.x);
+    dst[2 * k + 1] = static_cast<D>(t.y);
   }
 #else
-  for (int k = 0; k < 6; ++k) dst[k] = static_cast<double>(src[6 * i + k]);
+  for (int k = 0; k < 6; ++k) dst[k] = static_cast<D>(src[6 * i + k]);
 #endif
 }
 
@@ -559,56 +553,6 @@ constexpr int kLeverRecord = 12;  // [R_i row-major (9), xÌ„_i - origin (3) m]
 // 13 values per sample instead of 23 (neo-Hookean: all 23).
 constexpr int kSampleState = 23;
 
-// n values (a multiple of 4 floats or 2 doubles) from a 16-byte-aligned address: vector loads
-// through the read-only cache on the device, plain loads on the host.
-template <int n>
-FASCIA_HD void load_record(const double* src, double* dst) {
-#ifdef __CUDA_ARCH__
-  const double2* v = reinterpret_cast<const double2*>(src);
-#pragma unroll
-  for (int k = 0; k < n / 2; ++k) {
-    const double2 t = __ldg(v + k);
-    dst[2 * k] = t.x;
-    dst[2 * k + 1] = t.y;
-  }
-#else
-  for (int k = 0; k < n; ++k) dst[k] = src[k];
-#endif
-}
-template <int n>
-FASCIA_HD void load_record(const float* src, float* dst) {
-#ifdef __CUDA_ARCH__
-  const float4* v = reinterpret_cast<const float4*>(src);
-#pragma unroll
-  for (int k = 0; k < n / 4; ++k) {
-    const float4 t = __ldg(v + k);
-    dst[4 * k] = t.x;
-    dst[4 * k + 1] = t.y;
-    dst[4 * k + 2] = t.z;
-    dst[4 * k + 3] = t.w;
-  }
-#else
-  for (int k = 0; k < n; ++k) dst[k] = src[k];
-#endif
-}
-
-// Frame i's 6 direction values in the storage precision (16-byte loads for double, 8-byte for
-// float: [N][6] floats are 8-byte aligned).
-FASCIA_HD void load_direction(const double* src, int i, double* dst) { load_record<6>(src + 6 * i, dst); }
-FASCIA_HD void load_direction(const float* src, int i, float* dst) {
-#ifdef __CUDA_ARCH__
-  const float2* v = reinterpret_cast<const float2*>(src + 6 * i);
-#pragma unroll
-  for (int k = 0; k < 3; ++k) {
-    const float2 t = __ldg(v + k);
-    dst[2 * k] = t.x;
-    dst[2 * k + 1] = t.y;
-  }
-#else
-  for (int k = 0; k < 6; ++k) dst[k] = src[6 * i + k];
-#endif
-}
-
 // Frame i's lever record from its kinematics (rot: R_i row-major).
 template <class R>
 FASCIA_HD void write_lever_record(const double* rot, const R* frame_rest, int i, R* levers) {
@@ -668,7 +612,7 @@ FASCIA_HD EllPair<R> ell_pair_of(const EllEntry<R>& en, const R* levers, const V
   EllPair<R> q;
   q.i = en.i;
   R rec[kLeverRecord];
-  load_record<kLeverRecord>(levers + kLeverRecord * static_cast<size_t>(q.i), rec);
+  load_aligned<kLeverRecord>(levers + kLeverRecord * static_cast<size_t>(q.i), rec);
   Mat3T<R> Ri;
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) Ri.m[r][c] = rec[3 * r + c];
@@ -689,10 +633,10 @@ FASCIA_HD EllPair<R> ell_pair(const ModelView<R>& m, const R* levers, const Vec3
 template <class R>
 FASCIA_HD void ell_pair_dF(const EllPair<R>& q, const R* d, const R* p_old, double beta, Mat3T<R>& dF) {
   R di[6];
-  load_direction(d, q.i, di);
+  load_six(d, q.i, di);
   if (p_old) {
     R po[6];
-    load_direction(p_old, q.i, po);
+    load_six(p_old, q.i, po);
     for (int k = 0; k < 6; ++k) di[k] = direction_value(di[k], po[k], beta);
   }
   dF += pair_lever_differential(Vec3T<R>{di[0], di[1], di[2]}, Vec3T<R>{di[3], di[4], di[5]}, q.g, q.M);
@@ -773,6 +717,28 @@ FASCIA_HD R slot_tree_sum(const R* outs, int stride, int a, int e, int c, int la
     for (int l = 0; l < lanes; ++l) sums[l] = next[l];
   }
   return sums[0];
+}
+
+// ---- PCG rows --------------------------------------------------------------------------------------
+// One row j of the PCG update: x_j + alpha p_j and r_j - alpha (A p)_j, in double, rounded to the
+// storage precision R. Every kernel that updates rows calls it, so all give the same bits.
+template <class R>
+struct UpdatedRow {
+  R x, r;
+};
+template <class R>
+FASCIA_HD UpdatedRow<R> update_row(R x, R r, double alpha, double p, double ap) {
+  return UpdatedRow<R>{static_cast<R>(static_cast<double>(x) + alpha * p),
+                       static_cast<R>(static_cast<double>(r) - alpha * ap)};
+}
+
+// Row k of the block-Jacobi preconditioner applied to one frame's residual res [6]:
+// sum_c minv_kc(c) res_c in that order (minv_kc(c): the row's entries as double).
+template <class Row>
+FASCIA_HD double preconditioned_row(const Row& minv_kc, const double* res) {
+  double acc = 0;
+  for (int c = 0; c < 6; ++c) acc += minv_kc(c) * res[c];
+  return acc;
 }
 
 // ---- frames: the rest of the operator ------------------------------------------------------------
