@@ -85,6 +85,7 @@ struct DeviceElasticity::Impl {
   SamplePass pass = SamplePass::records;  // fused design
   bool staged = false;                    // pass == SamplePass::staged
   int lanes = 1;                          // fused design, records and lanes passes
+  bool dense = false;                     // coalesced pass: the dense tangent kernel
 };
 
 namespace {
@@ -179,6 +180,7 @@ class System final : public DeviceElasticity::Impl {
       }
       m_lane_threads = staged ? opts.block_samples
                               : std::max(32, std::min({kLaneThreadsMax, opts.lane_threads, opts.block_samples * m_lanes}));
+      dense = pass == SamplePass::coalesced && opts.dense_tangent && m_lane_threads == kDenseThreads;
       for (const void* k : {reinterpret_cast<const void*>(&k_records_tangent<R, 1, 128>),
                             reinterpret_cast<const void*>(&k_records_tangent<R, 2, 128>),
                             reinterpret_cast<const void*>(&k_records_tangent<R, 2, kLaneThreadsMax>)})
@@ -428,9 +430,12 @@ class System final : public DeviceElasticity::Impl {
     m_ell_pos.upload(std::vector<unsigned short>(L.ell_pos.begin(), L.ell_pos.end()));
     m_levers.resize(kLeverRecord * static_cast<size_t>(m_n));
     m_sample_state.resize(kSampleState * static_cast<size_t>(m_s));
-    for (const void* k : {reinterpret_cast<const void*>(&k_ell_tangent<R, 2>),
-                          reinterpret_cast<const void*>(&k_ell_tangent<R, 4>),
-                          reinterpret_cast<const void*>(&k_ell_tangent<R, 8>),
+    for (const void* k : {reinterpret_cast<const void*>(&k_ell_tangent<R, 2, false>),
+                          reinterpret_cast<const void*>(&k_ell_tangent<R, 4, false>),
+                          reinterpret_cast<const void*>(&k_ell_tangent<R, 8, false>),
+                          reinterpret_cast<const void*>(&k_ell_tangent<R, 2, true>),
+                          reinterpret_cast<const void*>(&k_ell_tangent<R, 4, true>),
+                          reinterpret_cast<const void*>(&k_ell_tangent<R, 8, true>),
                           reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>),
                           reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>),
                           reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>),
@@ -660,15 +665,8 @@ class System final : public DeviceElasticity::Impl {
       if (pass == SamplePass::coalesced) {
         const R* pd = pcg ? z : d;
         const R* pold = pcg ? d : nullptr;
-        if (m_keep == 2)
-          k_ell_tangent<R, 2><<<m_blocks, m_lane_threads, m_ell_bytes, m_stream>>>(
-              m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes, options.slot_lanes);
-        else if (m_keep == 4)
-          k_ell_tangent<R, 4><<<m_blocks, m_lane_threads, m_ell_bytes, m_stream>>>(
-              m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes, options.slot_lanes);
-        else
-          k_ell_tangent<R, 8><<<m_blocks, m_lane_threads, m_ell_bytes, m_stream>>>(
-              m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes, options.slot_lanes);
+        ell_tangent_kernel()<<<m_blocks, m_lane_threads, m_ell_bytes, m_stream>>>(
+            m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes, options.slot_lanes);
       } else if (pass == SamplePass::records) {
         const R* pd = pcg ? z : d;
         const R* pold = pcg ? d : nullptr;
@@ -772,6 +770,14 @@ class System final : public DeviceElasticity::Impl {
     return staged ? m_staged_bytes : pass == SamplePass::coalesced ? m_ell_bytes : m_shared_bytes;
   }
 
+  // The coalesced tangent kernel for m_keep held entries, dense or not (Impl::dense).
+  using EllTangentKernel = void (*)(ModelView<R>, FrameView<R>, const R*, const R*, R*, const Scalars*, int, int);
+  EllTangentKernel ell_tangent_kernel() const {
+    if (dense)
+      return m_keep == 2 ? &k_ell_tangent<R, 2, true> : m_keep == 4 ? &k_ell_tangent<R, 4, true> : &k_ell_tangent<R, 8, true>;
+    return m_keep == 2 ? &k_ell_tangent<R, 2, false> : m_keep == 4 ? &k_ell_tangent<R, 4, false> : &k_ell_tangent<R, 8, false>;
+  }
+
   // k_pcg_resident for samples of at most `pairs` (4 or 8) pairs; the invariants in registers in
   // single precision, partly in shared memory in double (in registers they would not leave room
   // for three blocks per multiprocessor).
@@ -806,8 +812,8 @@ class System final : public DeviceElasticity::Impl {
         m_lane_threads == kResidentThreads) {
       const int wanted = std::max(m_blocks, grid_for(m_n, m_lane_threads / 6));
       m_resident = true;
-      // In double only where the compiled kernel needs no local memory (4 pairs per sample; with
-      // 8 it spills): one that spilled was measured slower than k_pcg_two_barrier on an H100
+      // In double only with DeviceOptions::resident_double and where the compiled kernel needs no
+      // local memory (4 pairs per sample; with 8 it spills): one that spilled was measured slower than k_pcg_two_barrier on an H100
       // (docs/benchmarks.md). Its static shared memory (double) plus the pair outputs can pass
       // 48 KB, hence the opt-in before the occupancy query.
       cudaFuncAttributes attr{};
@@ -816,7 +822,8 @@ class System final : public DeviceElasticity::Impl {
                                        static_cast<int>(persistent_shared_bytes())));
       FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), m_lane_threads,
                                                                 persistent_shared_bytes()));
-      if ((sizeof(R) == sizeof(float) || attr.localSizeBytes == 0) && per_sm > 0 && wanted <= per_sm * sms &&
+      if ((sizeof(R) == sizeof(float) || (options.resident_double && attr.localSizeBytes == 0)) && per_sm > 0 &&
+          wanted <= per_sm * sms &&
           wanted <= options.persistent_blocks_per_sm * sms)
         return wanted;
       m_resident = false;
@@ -948,6 +955,7 @@ void DeviceElasticity::tangent_diagonal_blocks(double* blocks) { m_impl->diagona
 Design DeviceElasticity::design() const { return m_impl->design; }
 SamplePass DeviceElasticity::sample_pass() const { return m_impl->pass; }
 int DeviceElasticity::lanes() const { return m_impl->lanes; }
+bool DeviceElasticity::dense_tangent() const { return m_impl->dense; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }
 double DeviceElasticity::time_tangent_ms(int repeats) { return m_impl->time_tangent_ms(std::max(1, repeats)); }

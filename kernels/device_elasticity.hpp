@@ -77,6 +77,11 @@ struct DeviceOptions {
   // one thread per slot). Measured on an H100 (docs/benchmarks.md): 1 is the fastest at 34,848
   // samples, 4 at 4.18 M within 3 %.
   int slot_lanes = 1;
+  // Coalesced pass, launched tangent product: with 128-thread blocks, the kernel compiled for the
+  // most blocks per multiprocessor its registers allow without local memory
+  // (elasticity_kernels.cuh, dense_blocks_per_sm); false: compiled for blocks of up to 512 threads.
+  // Off by default: docs/gpu.md gives its status.
+  bool dense_tangent = false;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16
@@ -90,10 +95,13 @@ struct DeviceOptions {
   int persistent_blocks_per_sm = 4;
   // Persistent PCG of the coalesced pass with the loop invariants held in registers
   // (k_pcg_resident), where every block holds at most one sample block and one chunk of frame
-  // rows, blocks have 128 threads, lanes is 1 and samples have at most 8 pairs in single
-  // precision, 4 in double (there it holds part of them in shared memory; with 8 pairs it would
-  // spill to local memory); else two grid barriers per iteration without them (k_pcg_two_barrier).
+  // rows, blocks have 128 threads, lanes is 1 and samples have at most 8 pairs (single precision);
+  // else two grid barriers per iteration without them (k_pcg_two_barrier).
   bool resident = true;
+  // The same in double precision where `resident_double` is set as well and samples have at most
+  // 4 pairs: the kernel holds part of the invariants in shared memory (with 8 pairs it would spill
+  // to local memory). Off by default: docs/gpu.md gives its status.
+  bool resident_double = false;
 };
 
 class DeviceBackwardEuler;
@@ -126,6 +134,9 @@ class DeviceElasticity {
   SamplePass sample_pass() const;
   // Fused design: threads per sample of the records or lanes pass in use.
   int lanes() const;
+  // Coalesced pass: whether the launched tangent product uses the dense kernel
+  // (DeviceOptions::dense_tangent with 128-thread blocks).
+  bool dense_tangent() const;
   Precision precision() const;
   const DeviceOptions& options() const;
 

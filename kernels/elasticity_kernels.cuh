@@ -406,11 +406,23 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
 
 constexpr int kLaneThreadsMax = 512;
 
-// Coalesced tangent pass, one block per sample block (as k_lanes_tangent).
-template <class R, int Keep>
-__global__ void __launch_bounds__(kLaneThreadsMax) k_ell_tangent(ModelView<R> m, FrameView<R> f, const R* d,
-                                                                 const R* p_old, R* slot_partials, const Scalars* sc,
-                                                                 int lanes, int slot_lanes) {
+// Threads per block of the dense coalesced tangent kernels, and their blocks per multiprocessor:
+// the most whose register budget (65,536 / (128 blocks)) the pass fits without local memory, as
+// ptxas -v reports for sm_90 (float: 64, 79 and 128 registers for 2, 4 and 8 held entries; double:
+// 128, 156 and 200). More resident warps keep more loads in flight in this memory-bound pass.
+constexpr int kDenseThreads = 128;
+template <class R>
+constexpr int dense_blocks_per_sm(int keep) {
+  return sizeof(R) == sizeof(float) ? (keep == 2 ? 8 : keep == 4 ? 6 : 4) : (keep == 2 ? 4 : keep == 4 ? 3 : 1);
+}
+
+// Coalesced tangent pass, one block per sample block (as k_lanes_tangent). Dense: compiled for
+// kDenseThreads threads per block and dense_blocks_per_sm blocks per multiprocessor; otherwise for
+// up to kLaneThreadsMax threads.
+template <class R, int Keep, bool Dense>
+__global__ void __launch_bounds__(Dense ? kDenseThreads : kLaneThreadsMax, Dense ? dense_blocks_per_sm<R>(Keep) : 1)
+    k_ell_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
+                  int lanes, int slot_lanes) {
   extern __shared__ unsigned char shared_raw[];
   R* local = reinterpret_cast<R*>(shared_raw);
   if (finished(sc)) return;

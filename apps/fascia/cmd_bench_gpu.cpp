@@ -54,6 +54,8 @@ struct Case {
   int keep = 0;
   int slot_lanes = 1;
   bool resident = true;
+  bool resident_double = false;
+  bool dense = false;
 };
 
 // The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) on the device.
@@ -68,6 +70,8 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   options.coalesced_keep = c.keep;
   options.slot_lanes = c.slot_lanes;
   options.resident = c.resident;
+  options.resident_double = c.resident_double;
+  options.dense_tangent = c.dense;
   options.row_frames = c.row_frames;
   options.block_samples = c.block_samples;
   options.persistent_blocks_per_sm = c.persistent_blocks_per_sm;
@@ -98,6 +102,7 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
                   (dev.sample_pass() == gpu::SamplePass::records ? "k" + std::to_string(c.record_keep) : "") +
                   (dev.sample_pass() == gpu::SamplePass::coalesced && c.keep > 0 ? "k" + std::to_string(c.keep) : "") +
                   (dev.sample_pass() == gpu::SamplePass::coalesced ? "s" + std::to_string(c.slot_lanes) : "") +
+                  (dev.dense_tangent() ? "d" : "") +
                   (c.row_frames != 42 ? "r" + std::to_string(c.row_frames) : "");
   row.linear = to_string(c.linear);
   row.cg_kernel = report.resident ? "resident" : report.persistent ? "persistent" : "launches";
@@ -172,11 +177,14 @@ std::vector<Case> cases(const BenchGpuOptions& o) {
                   for (int held : o.keep)
                     for (int sl : o.slot_lanes)
                       for (int res : o.resident)
-                        if ((pass == gpu::SamplePass::records || keep == o.record_keep.front()) &&
-                            (pass == gpu::SamplePass::coalesced ||
-                             (held == o.keep.front() && sl == o.slot_lanes.front() && res == o.resident.front())))
-                          out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, pass, o.block_samples,
-                                             o.persistent_blocks_per_sm, keep, rows, held, sl, res != 0});
+                        for (int dense : o.dense)
+                          if ((pass == gpu::SamplePass::records || keep == o.record_keep.front()) &&
+                              (pass == gpu::SamplePass::coalesced ||
+                               (held == o.keep.front() && sl == o.slot_lanes.front() && res == o.resident.front() &&
+                                dense == o.dense.front())))
+                            out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, pass, o.block_samples,
+                                               o.persistent_blocks_per_sm, keep, rows, held, sl, res != 0,
+                                               res == 2, dense != 0});
           }
         }
       }
@@ -280,7 +288,12 @@ void add_bench_gpu_command(CLI::App& bench, Action& action) {
                   "coalesced pass: lanes per slot sum (1 | 2 | 4 | 8 | 16 | 32), several to compare")
       ->check(CLI::IsMember({1, 2, 4, 8, 16, 32}));
   cmd->add_option("--resident", options->resident,
-                  "coalesced pass, persistent PCG: loop invariants in registers (1) or not (0), several to compare")
+                  "coalesced pass, persistent PCG: loop invariants held in the kernel in single precision (1), in "
+                  "both precisions (2) or not (0), several to compare")
+      ->check(CLI::IsMember({0, 1, 2}));
+  cmd->add_option("--dense-tangent", options->dense,
+                  "coalesced pass, launched tangent product: kernel compiled for the most blocks per multiprocessor "
+                  "without local memory (1) or for blocks of up to 512 threads (0), several to compare")
       ->check(CLI::IsMember({0, 1}));
   cmd->add_option("--row-frames", options->row_frames,
                   "frames per block of the launched frame-row passes (1..85), several to compare")

@@ -208,6 +208,7 @@ TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[g
     DeviceOptions options;
     options.precision = precision;
     options.resident = resident;  // 128-sample blocks (the resident kernel's size)
+    options.resident_double = resident;
     DeviceElasticity dev(model, options);
     REQUIRE(dev.sample_pass() == SamplePass::coalesced);
     dev.set_state(state);
