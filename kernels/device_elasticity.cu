@@ -2,10 +2,12 @@
 #include "device_elasticity.hpp"
 #include "elasticity_kernels.cuh"
 #include "sample_layout.hpp"
+#include "shape_classes.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 
 namespace fascia::gpu {
 
@@ -86,6 +88,7 @@ struct DeviceElasticity::Impl {
   bool staged = false;                    // pass == SamplePass::staged
   int lanes = 1;                          // fused design, records and lanes passes
   bool dense = false;                     // coalesced pass: the dense tangent kernel
+  bool mapped = false;                    // coalesced pass: w and g from shape classes
 };
 
 namespace {
@@ -232,6 +235,10 @@ class System final : public DeviceElasticity::Impl {
     m_view.slot_ell = m_slot_ell.data();
     m_view.ell_frame = m_ell_frame.data();
     m_view.ell_pos = m_ell_pos.data();
+    m_view.shape_class = m_shape_class.data();
+    m_view.shape_maps = m_shape_maps.data();
+    m_view.class_offsets = m_class_offsets.data();
+    m_view.class_pairs = m_class_pairs.data();
     m_view.pair_records = m_pair_records.data();
     m_view.sample_records = m_sample_records.data();
 
@@ -373,9 +380,11 @@ class System final : public DeviceElasticity::Impl {
       // ELL entries (frame, w, g), per-sample state and offsets and materials, lever records
       // (instead of rotation and position), slot tables, slot partials out and in.
       // StVK reads 13 state values per sample (elasticity_phases.hpp, kSampleState).
+      // Mapped: w and g from the class table (cache-resident, counted once) and A_s per sample.
       const double Q = m_slots, E = m_ell_entries;
-      return E * (4 * r + 4 + 2) + S * (13 * r + 4 + 4) + N * (kLeverRecord * r - 12 * r) + Q * 4 + N * 4 +
-             m_blocks * 12 + Q * 6 * r * 2 + frames;
+      const double entries = mapped ? E * (4 + 2) + S * (9 * r + 4) + m_class_pairs.size() * r : E * (4 * r + 4 + 2);
+      return entries + S * (13 * r + 4 + 4) + N * (kLeverRecord * r - 12 * r) + Q * 4 + N * 4 + m_blocks * 12 +
+             Q * 6 * r * 2 + frames;
     }
     if (design == Design::fused && staged) {
       const double Q = m_slots, E = m_ell_entries;
@@ -430,17 +439,37 @@ class System final : public DeviceElasticity::Impl {
     m_ell_pos.upload(std::vector<unsigned short>(L.ell_pos.begin(), L.ell_pos.end()));
     m_levers.resize(kLeverRecord * static_cast<size_t>(m_n));
     m_sample_state.resize(kSampleState * static_cast<size_t>(m_s));
-    for (const void* k : {reinterpret_cast<const void*>(&k_ell_tangent<R, 2, false>),
-                          reinterpret_cast<const void*>(&k_ell_tangent<R, 4, false>),
-                          reinterpret_cast<const void*>(&k_ell_tangent<R, 8, false>),
-                          reinterpret_cast<const void*>(&k_ell_tangent<R, 2, true>),
-                          reinterpret_cast<const void*>(&k_ell_tangent<R, 4, true>),
-                          reinterpret_cast<const void*>(&k_ell_tangent<R, 8, true>),
-                          reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>),
+    mapped = options.shape_classes && upload_shape_classes(model);
+    for (int keep : {2, 4, 8})
+      for (bool dense_kernel : {false, true})
+        for (bool mapped_kernel : {false, true})
+          FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep, dense_kernel, mapped_kernel)),
+                                           cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
+    for (const void* k : {reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>),
                           reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>),
                           reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>),
                           resident_kernel(4), resident_kernel(8)})
       FASCIA_CUDA(cudaFuncSetAttribute(k, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
+    return true;
+  }
+
+  // The samples' shape classes (shape_classes.hpp) for the mapped coalesced pass: per sample its
+  // class and map A_s ([9][S]), per class its reference pairs. False, with nothing uploaded, where
+  // the model has none, or so many that they would not save memory traffic (more than one class per
+  // kShapeClassSamples samples).
+  static constexpr int kMaxShapeClasses = 4096;
+  static constexpr int kShapeClassSamples = 4;
+  bool upload_shape_classes(const Model& model) {
+    const std::optional<ShapeClasses> c = find_shape_classes(model.neighbours, kMaxShapeClasses);
+    if (!c || static_cast<long long>(c->class_count()) * kShapeClassSamples > m_s) return false;
+    const size_t S = static_cast<size_t>(m_s);
+    std::vector<double> maps(9 * S);
+    for (size_t t = 0; t < S; ++t)
+      for (size_t k = 0; k < 9; ++k) maps[k * S + t] = c->sample_maps[9 * t + k];
+    m_shape_class.upload(c->sample_class);
+    m_shape_maps.upload(maps);
+    m_class_offsets.upload(c->class_offsets);
+    m_class_pairs.upload(c->class_pairs);
     return true;
   }
 
@@ -770,13 +799,20 @@ class System final : public DeviceElasticity::Impl {
     return staged ? m_staged_bytes : pass == SamplePass::coalesced ? m_ell_bytes : m_shared_bytes;
   }
 
-  // The coalesced tangent kernel for m_keep held entries, dense or not (Impl::dense).
+  // The coalesced tangent kernel for `keep` held entries (2, 4, else 8), dense or not, mapped or
+  // not; without arguments the one in use (m_keep, Impl::dense, Impl::mapped).
   using EllTangentKernel = void (*)(ModelView<R>, FrameView<R>, const R*, const R*, R*, const Scalars*, int, int);
-  EllTangentKernel ell_tangent_kernel() const {
-    if (dense)
-      return m_keep == 2 ? &k_ell_tangent<R, 2, true> : m_keep == 4 ? &k_ell_tangent<R, 4, true> : &k_ell_tangent<R, 8, true>;
-    return m_keep == 2 ? &k_ell_tangent<R, 2, false> : m_keep == 4 ? &k_ell_tangent<R, 4, false> : &k_ell_tangent<R, 8, false>;
+  template <bool Dense, bool Mapped>
+  static EllTangentKernel ell_tangent_kernel(int keep) {
+    return keep == 2   ? &k_ell_tangent<R, 2, Dense, Mapped>
+           : keep == 4 ? &k_ell_tangent<R, 4, Dense, Mapped>
+                       : &k_ell_tangent<R, 8, Dense, Mapped>;
   }
+  static EllTangentKernel ell_tangent_kernel(int keep, bool dense_kernel, bool mapped_kernel) {
+    if (dense_kernel) return mapped_kernel ? ell_tangent_kernel<true, true>(keep) : ell_tangent_kernel<true, false>(keep);
+    return mapped_kernel ? ell_tangent_kernel<false, true>(keep) : ell_tangent_kernel<false, false>(keep);
+  }
+  EllTangentKernel ell_tangent_kernel() const { return ell_tangent_kernel(m_keep, dense, mapped); }
 
   // k_pcg_resident for samples of at most `pairs` (4 or 8) pairs; the invariants in registers in
   // single precision, partly in shared memory in double (in registers they would not leave room
@@ -910,6 +946,8 @@ class System final : public DeviceElasticity::Impl {
       m_frame_slot_offsets, m_frame_slots, m_ell_offsets, m_slot_ell, m_ell_frame;
   DeviceBuffer<unsigned short> m_ell_slot, m_ell_pos;
   DeviceBuffer<R> m_ell_data, m_pair_records, m_sample_records, m_records, m_levers, m_sample_state;
+  DeviceBuffer<int> m_shape_class, m_class_offsets;
+  DeviceBuffer<R> m_shape_maps, m_class_pairs;
   // State (double) and per-iteration data (R).
   DeviceBuffer<double> m_positions, m_orientations, m_velocities, m_external, m_load_rot, m_diag;
   DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_a, m_partials, m_geo, m_inertia_world, m_minv;
@@ -956,6 +994,7 @@ Design DeviceElasticity::design() const { return m_impl->design; }
 SamplePass DeviceElasticity::sample_pass() const { return m_impl->pass; }
 int DeviceElasticity::lanes() const { return m_impl->lanes; }
 bool DeviceElasticity::dense_tangent() const { return m_impl->dense; }
+bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }
 double DeviceElasticity::time_tangent_ms(int repeats) { return m_impl->time_tangent_ms(std::max(1, repeats)); }

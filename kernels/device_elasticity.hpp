@@ -82,6 +82,10 @@ struct DeviceOptions {
   // (elasticity_kernels.cuh, dense_blocks_per_sm); false: compiled for blocks of up to 512 threads.
   // Off by default: docs/gpu.md gives its status.
   bool dense_tangent = false;
+  // Coalesced pass, launched tangent product: where the samples fall into few shape classes
+  // (kernels/shape_classes.hpp; mesh-based models), w and g of every pair formed from its sample's
+  // class and map A_s instead of read per pair. Off by default: docs/gpu.md gives its status.
+  bool shape_classes = false;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16
@@ -137,6 +141,9 @@ class DeviceElasticity {
   // Coalesced pass: whether the launched tangent product uses the dense kernel
   // (DeviceOptions::dense_tangent with 128-thread blocks).
   bool dense_tangent() const;
+  // Coalesced pass: whether the launched tangent product takes w and g from the samples' shape
+  // classes (DeviceOptions::shape_classes, where the model has them).
+  bool shape_classes() const;
   Precision precision() const;
   const DeviceOptions& options() const;
 

@@ -350,8 +350,9 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
 // holds the same bits and forms the same dP); outputs [6][P_b] in slot-major order in `local`,
 // then `slot_lanes` lanes per slot sum it (warp_slot_sums). All arithmetic in R. Every thread of the block
 // must call it. Returns this thread's share of v dF : dP over its samples (lane 0 of each sample), the
-// sample terms of p . K p for the persistent PCG.
-template <class R, int Keep>
+// sample terms of p . K p for the persistent PCG. Mapped: each sample reads its shape map once and
+// its pairs' w and g come from its class (ell_entry_mapped) instead of ell_data.
+template <class R, int Keep, bool Mapped = false>
 __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
                                     double beta, int b, int lanes, int slot_lanes, R* local, R* slot_partials) {
   const int s0 = m.block_samples[b], ns = m.block_samples[b + 1] - s0;
@@ -367,20 +368,23 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
     Vec3T<R> ps{0, 0, 0};
     Mat3T<R> dF = zero3<R>();
     EllEntry<R> kept[Keep] = {};
+    ShapeMap<R> held;
+    const ShapeMap<R>* map = Mapped ? &held : nullptr;
     if (active) {
       count = m.offsets[s + 1] - m.offsets[s];
       ps = Vec3T<R>{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
                     sample_value(f.sample_state, m.samples, 2, s)};
+      if constexpr (Mapped) held = shape_map(m, s);
 #pragma unroll
       for (int k = 0; k < Keep; ++k) {
         const int j = lane + k * lanes;
-        if (j < count) kept[k] = ell_entry(m, e0 + j * ns + t);
+        if (j < count) kept[k] = ell_entry_at(m, e0 + j * ns + t, map, j);
       }
 #pragma unroll
       for (int k = 0; k < Keep; ++k)
         if (lane + k * lanes < count) ell_pair_dF(ell_pair_of(kept[k], f.levers, ps), d, p_old, beta, dF);
       for (int j = lane + Keep * lanes; j < count; j += lanes)
-        ell_pair_dF(ell_pair(m, f.levers, ps, e0 + j * ns + t), d, p_old, beta, dF);
+        ell_pair_dF(ell_pair(m, f.levers, ps, e0 + j * ns + t, map, j), d, p_old, beta, dF);
     }
     for (int o = 1; o < lanes; o <<= 1)
       for (int r = 0; r < 3; ++r)
@@ -394,7 +398,7 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
         if (lane + k * lanes < count)
           ell_pair_output(ell_pair_of(kept[k], f.levers, ps), dP, v, kept[k].pos, stride, local);
       for (int j = lane + Keep * lanes; j < count; j += lanes) {
-        const EllEntry<R> en = ell_entry(m, e0 + j * ns + t);
+        const EllEntry<R> en = ell_entry_at(m, e0 + j * ns + t, map, j);
         ell_pair_output(ell_pair_of(en, f.levers, ps), dP, v, en.pos, stride, local);
       }
     }
@@ -408,27 +412,29 @@ constexpr int kLaneThreadsMax = 512;
 
 // Threads per block of the dense coalesced tangent kernels, and their blocks per multiprocessor:
 // the most whose register budget (65,536 / (128 blocks)) the pass fits without local memory, as
-// ptxas -v reports for sm_90 (float: 64, 79 and 128 registers for 2, 4 and 8 held entries; double:
-// 128, 156 and 200). More resident warps keep more loads in flight in this memory-bound pass.
+// ptxas -v reports for sm_90. Registers used for 2, 4 and 8 held entries: float 64, 79, 128
+// (mapped: 80, 96, 126), double 128, 156, 200 (mapped: 154, 166, 216). More resident warps keep
+// more loads in flight in this memory-bound pass.
 constexpr int kDenseThreads = 128;
 template <class R>
-constexpr int dense_blocks_per_sm(int keep) {
-  return sizeof(R) == sizeof(float) ? (keep == 2 ? 8 : keep == 4 ? 6 : 4) : (keep == 2 ? 4 : keep == 4 ? 3 : 1);
+constexpr int dense_blocks_per_sm(int keep, bool mapped) {
+  if (sizeof(R) == sizeof(float)) return keep == 2 ? (mapped ? 6 : 8) : keep == 4 ? (mapped ? 5 : 6) : 4;
+  return keep == 2 ? (mapped ? 3 : 4) : keep == 4 ? 3 : 2;
 }
 
 // Coalesced tangent pass, one block per sample block (as k_lanes_tangent). Dense: compiled for
 // kDenseThreads threads per block and dense_blocks_per_sm blocks per multiprocessor; otherwise for
-// up to kLaneThreadsMax threads.
-template <class R, int Keep, bool Dense>
-__global__ void __launch_bounds__(Dense ? kDenseThreads : kLaneThreadsMax, Dense ? dense_blocks_per_sm<R>(Keep) : 1)
+// up to kLaneThreadsMax threads. Mapped: w and g from the samples' shape classes.
+template <class R, int Keep, bool Dense, bool Mapped>
+__global__ void __launch_bounds__(Dense ? kDenseThreads : kLaneThreadsMax, Dense ? dense_blocks_per_sm<R>(Keep, Mapped) : 1)
     k_ell_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
                   int lanes, int slot_lanes) {
   extern __shared__ unsigned char shared_raw[];
   R* local = reinterpret_cast<R*>(shared_raw);
   if (finished(sc)) return;
   const double beta = p_old ? sc->beta : 0.0;
-  ell_tangent_block<R, Keep>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), lanes, slot_lanes, local,
-                             slot_partials);
+  ell_tangent_block<R, Keep, Mapped>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), lanes, slot_lanes, local,
+                                     slot_partials);
 }
 
 // Tangent sample pass of the fused design, one block per sample block. In the PCG (p_old set) the

@@ -93,6 +93,11 @@ struct ModelView {
   const int* slot_ell = nullptr;            // [P] as slot_pairs, block-local ELL entries
   const int* ell_frame = nullptr;           // [E] frame of the entry's pair (coalesced pass; 0 on padding)
   const unsigned short* ell_pos = nullptr;  // [E] slot-major position in the block (coalesced pass)
+  // Mapped coalesced pass (shape_classes.hpp): w and g from the sample's shape class and map.
+  const int* shape_class = nullptr;         // [S] class of each sample
+  const R* shape_maps = nullptr;            // [9][S] A_s row-major, component-major over samples
+  const int* class_offsets = nullptr;       // [C+1] first reference pair of each class
+  const R* class_pairs = nullptr;           // [Pc][4] w, r (1/m); 16-byte aligned
   // Record tangent pass: packed records (kPairRecord, kSampleRecord values each).
   const R* pair_records = nullptr;          // [P][4]: g (1/m), w
   const R* sample_records = nullptr;        // [S][4]: p_s - origin (m), v (m^3)
@@ -597,6 +602,38 @@ FASCIA_HD EllEntry<R> ell_entry(const ModelView<R>& m, int e) {
                      Vec3T<R>{m.ell_data[E + e], m.ell_data[2 * E + e], m.ell_data[3 * E + e]}};
 }
 
+// The mapped coalesced pass (ModelView::shape_class set): sample s's map A_s and its class's
+// first reference pair, read once per sample; its pairs' w and g = A_s r_a (shape_classes.hpp)
+// then come from the class table (a few kilobytes, cache-resident) instead of ell_data.
+template <class R>
+struct ShapeMap {
+  Mat3T<R> A = zero3<R>();
+  int first = 0;
+};
+
+template <class R>
+FASCIA_HD ShapeMap<R> shape_map(const ModelView<R>& m, int s) {
+  ShapeMap<R> map;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) map.A.m[r][c] = sample_value(m.shape_maps, m.samples, 3 * r + c, s);
+  map.first = m.class_offsets[m.shape_class[s]];
+  return map;
+}
+
+// ELL entry e, pair j of its sample, with w and g = A_s r_j from the sample's class.
+template <class R>
+FASCIA_HD EllEntry<R> ell_entry_mapped(const ModelView<R>& m, int e, const ShapeMap<R>& map, int j) {
+  R ref[4];
+  load_aligned<4>(m.class_pairs + 4 * static_cast<size_t>(map.first + j), ref);
+  return EllEntry<R>{m.ell_frame[e], static_cast<int>(m.ell_pos[e]), ref[0], map.A * Vec3T<R>{ref[1], ref[2], ref[3]}};
+}
+
+// ELL entry e, pair j of its sample: from the class table when `map` is set, else from ell_data.
+template <class R>
+FASCIA_HD EllEntry<R> ell_entry_at(const ModelView<R>& m, int e, const ShapeMap<R>* map, int j) {
+  return map ? ell_entry_mapped(m, e, *map, j) : ell_entry(m, e);
+}
+
 // One pair of the coalesced pass: its frame, gradient and lever.
 template <class R>
 struct EllPair {
@@ -622,10 +659,11 @@ FASCIA_HD EllPair<R> ell_pair_of(const EllEntry<R>& en, const R* levers, const V
   return q;
 }
 
-// The pair at ELL entry e.
+// The pair at ELL entry e (pair j of its sample; `map` as ell_entry_at).
 template <class R>
-FASCIA_HD EllPair<R> ell_pair(const ModelView<R>& m, const R* levers, const Vec3T<R>& ps, int e) {
-  return ell_pair_of(ell_entry(m, e), levers, ps);
+FASCIA_HD EllPair<R> ell_pair(const ModelView<R>& m, const R* levers, const Vec3T<R>& ps, int e,
+                              const ShapeMap<R>* map = nullptr, int j = 0) {
+  return ell_pair_of(ell_entry_at(m, e, map, j), levers, ps);
 }
 
 // Adds the pair's dF_p = dx g^T + [dr]x M (eq. 11) for the direction d_i, formed as
@@ -682,19 +720,23 @@ FASCIA_HD void ell_pair_output(const EllPair<R>& q, const Mat3T<R>& dP, R v, int
 
 // The coalesced pass of one sample with one lane (host emulation and the reference for the
 // lane-parallel block in elasticity_kernels.cuh): dF from every pair, dP, outputs [6][stride].
+// With `mapped`, the pairs' w and g come from the sample's shape class (m.shape_class set).
 template <class R>
 FASCIA_HD void ell_sample(const ModelView<R>& m, const FrameView<R>& f, const R* d, int s, int t, int ns, int e0,
-                          int stride, R* outs) {
+                          int stride, R* outs, bool mapped = false) {
   const int count = m.offsets[s + 1] - m.offsets[s];
   const Vec3T<R> ps{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
                     sample_value(f.sample_state, m.samples, 2, s)};
+  ShapeMap<R> held;
+  if (mapped) held = shape_map(m, s);
+  const ShapeMap<R>* map = mapped ? &held : nullptr;
   Mat3T<R> dF = zero3<R>();
   for (int j = 0; j < count; ++j)
-    ell_pair_dF(ell_pair(m, f.levers, ps, e0 + j * ns + t), d, static_cast<const R*>(nullptr), 0.0, dF);
+    ell_pair_dF(ell_pair(m, f.levers, ps, e0 + j * ns + t, map, j), d, static_cast<const R*>(nullptr), 0.0, dF);
   const Mat3T<R> dP = ell_sample_dP(m, f.sample_state, s, dF);
   const R v = sample_value(f.sample_state, m.samples, 3, s);
   for (int j = 0; j < count; ++j) {
-    const EllEntry<R> en = ell_entry(m, e0 + j * ns + t);
+    const EllEntry<R> en = ell_entry_at(m, e0 + j * ns + t, map, j);
     ell_pair_output(ell_pair_of(en, f.levers, ps), dP, v, en.pos, stride, outs);
   }
 }

@@ -56,6 +56,7 @@ struct Case {
   bool resident = true;
   bool resident_double = false;
   bool dense = false;
+  bool shape_classes = false;
 };
 
 // The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) on the device.
@@ -72,6 +73,7 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   options.resident = c.resident;
   options.resident_double = c.resident_double;
   options.dense_tangent = c.dense;
+  options.shape_classes = c.shape_classes;
   options.row_frames = c.row_frames;
   options.block_samples = c.block_samples;
   options.persistent_blocks_per_sm = c.persistent_blocks_per_sm;
@@ -102,7 +104,7 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
                   (dev.sample_pass() == gpu::SamplePass::records ? "k" + std::to_string(c.record_keep) : "") +
                   (dev.sample_pass() == gpu::SamplePass::coalesced && c.keep > 0 ? "k" + std::to_string(c.keep) : "") +
                   (dev.sample_pass() == gpu::SamplePass::coalesced ? "s" + std::to_string(c.slot_lanes) : "") +
-                  (dev.dense_tangent() ? "d" : "") +
+                  (dev.dense_tangent() ? "d" : "") + (dev.shape_classes() ? "m" : "") +
                   (c.row_frames != 42 ? "r" + std::to_string(c.row_frames) : "");
   row.linear = to_string(c.linear);
   row.cg_kernel = report.resident ? "resident" : report.persistent ? "persistent" : "launches";
@@ -178,13 +180,15 @@ std::vector<Case> cases(const BenchGpuOptions& o) {
                     for (int sl : o.slot_lanes)
                       for (int res : o.resident)
                         for (int dense : o.dense)
-                          if ((pass == gpu::SamplePass::records || keep == o.record_keep.front()) &&
-                              (pass == gpu::SamplePass::coalesced ||
-                               (held == o.keep.front() && sl == o.slot_lanes.front() && res == o.resident.front() &&
-                                dense == o.dense.front())))
-                            out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, pass, o.block_samples,
-                                               o.persistent_blocks_per_sm, keep, rows, held, sl, res != 0,
-                                               res == 2, dense != 0});
+                          for (int mapped : o.shape_classes)
+                            if ((pass == gpu::SamplePass::records || keep == o.record_keep.front()) &&
+                                (pass == gpu::SamplePass::coalesced ||
+                                 (held == o.keep.front() && sl == o.slot_lanes.front() &&
+                                  res == o.resident.front() && dense == o.dense.front() &&
+                                  mapped == o.shape_classes.front())))
+                              out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, pass, o.block_samples,
+                                                 o.persistent_blocks_per_sm, keep, rows, held, sl, res != 0,
+                                                 res == 2, dense != 0, mapped != 0});
           }
         }
       }
@@ -294,6 +298,10 @@ void add_bench_gpu_command(CLI::App& bench, Action& action) {
   cmd->add_option("--dense-tangent", options->dense,
                   "coalesced pass, launched tangent product: kernel compiled for the most blocks per multiprocessor "
                   "without local memory (1) or for blocks of up to 512 threads (0), several to compare")
+      ->check(CLI::IsMember({0, 1}));
+  cmd->add_option("--shape-classes", options->shape_classes,
+                  "coalesced pass, launched tangent product: w and g from the samples' shape classes where the model "
+                  "has them (1) or read per pair (0), several to compare")
       ->check(CLI::IsMember({0, 1}));
   cmd->add_option("--row-frames", options->row_frames,
                   "frames per block of the launched frame-row passes (1..85), several to compare")

@@ -32,6 +32,7 @@ struct BenchGpuOptions {
   std::vector<int> slot_lanes = {1};  // coalesced pass: lanes per slot sum
   std::vector<int> resident = {1};    // coalesced pass: persistent PCG holding its invariants (2: double too)
   std::vector<int> dense = {0};       // coalesced pass: dense launched tangent kernel (DeviceOptions::dense_tangent)
+  std::vector<int> shape_classes = {0};  // coalesced pass: w and g from shape classes (DeviceOptions::shape_classes)
   int persistent_blocks_per_sm = 4;  // persistent PCG while the model needs at most this many blocks per SM
 };
 

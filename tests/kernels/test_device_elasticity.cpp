@@ -135,6 +135,41 @@ TEST_CASE("record and coalesced passes equal the CPU reference with every lane c
   CHECK(e < bound(precision, false));
 }
 
+TEST_CASE("dense and mapped coalesced tangent kernels equal the CPU reference", "[gpu]") {
+  // 128-sample blocks with one lane (128 threads: the dense kernels' block size); every count of
+  // held entries; w and g per pair or from the shape classes (kernels/shape_classes.hpp).
+  const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
+  const bool dense = GENERATE(false, true);
+  const bool mapped = GENERATE(false, true);
+  const int keep = GENERATE(2, 4, 8);
+  const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
+  const Model model = kernels_test_model(type, MaterialLaw::neo_hookean);
+  const State state = kernels_test_state(model, 17);
+  const int dofs = model.dof_count();
+  Elasticity cpu(model, 1);
+  cpu.prepare(state);
+  const std::vector<double> d = random_vector(dofs, 7);
+  std::vector<double> Kd(dofs), dKd(dofs);
+  cpu.apply_tangent(d.data(), Kd.data());
+  DeviceOptions options;
+  options.precision = precision;
+  options.lanes = 1;
+  options.coalesced_keep = keep;
+  options.dense_tangent = dense;
+  options.shape_classes = mapped;
+  DeviceElasticity dev(model, options);
+  REQUIRE(dev.sample_pass() == SamplePass::coalesced);
+  CHECK(dev.dense_tangent() == dense);
+  CHECK(dev.shape_classes() == mapped);
+  dev.set_state(state);
+  dev.prepare();
+  dev.apply_tangent(d.data(), dKd.data());
+  const double e = relative_difference(dKd, Kd);
+  std::printf("[gpu] coalesced %s %s keep %d dense %d mapped %d: tangent %.2e\n", name(type), to_string(precision),
+              keep, dense ? 1 : 0, mapped ? 1 : 0, e);
+  CHECK(e < bound(precision, false));
+}
+
 TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]") {
   const Case c = GENERATE(Case{Precision::double_precision, Design::fused, CellType::tetrahedron, MaterialLaw::stvk},
                           Case{Precision::double_precision, Design::fused, CellType::hexahedron, MaterialLaw::neo_hookean},

@@ -2,10 +2,12 @@
 // (elasticity_phases.hpp) stepped through on the CPU in the device's order: no GPU needed.
 #include "reference_step.hpp"
 #include "sample_layout.hpp"
+#include "shape_classes.hpp"
 
 #include <catch2/catch.hpp>
 
 #include <numeric>
+#include <optional>
 
 using namespace fascia;
 using namespace fascia::gpu;
@@ -122,8 +124,9 @@ struct HostDevice {
   // The coalesced tangent pass as ell_tangent_block runs it with one lane: lever records from the
   // kinematics, the samples' state packed component-major from the force pass's F and cache,
   // outputs [6][E_b] in ELL order, slot sums; then the frame gather.
+  // With `mapped`, w and g come from the samples' shape classes (shape_classes.hpp).
   std::vector<double> coalesced(const std::vector<double>& d, const std::vector<double>& F,
-                                const std::vector<double>& cache, int slot_lanes) {
+                                const std::vector<double>& cache, int slot_lanes, bool mapped = false) {
     const int n = model.frame_count(), S = model.sample_count();
     std::vector<double> levers(kLeverRecord * static_cast<size_t>(n), std::nan(""));
     for (int i = 0; i < n; ++i) write_lever_record(&rot[9 * i], frame_rest.data(), i, levers.data());
@@ -135,6 +138,20 @@ struct HostDevice {
     ModelView<double> cv = view;
     cv.ell_frame = ell_frame.data();
     cv.ell_pos = ell_pos.data();
+    std::optional<ShapeClasses> classes;
+    std::vector<double> maps;  // [9][S]
+    if (mapped) {
+      classes = find_shape_classes(model.neighbours, 4096);
+      REQUIRE(classes.has_value());
+      maps.resize(9 * static_cast<size_t>(S));
+      for (int s = 0; s < S; ++s)
+        for (int k = 0; k < 9; ++k) maps[static_cast<size_t>(k) * S + s] = classes->sample_maps[9 * static_cast<size_t>(s) + k];
+      cv.shape_class = classes->sample_class.data();
+      cv.shape_maps = maps.data();
+      cv.class_offsets = classes->class_offsets.data();
+      cv.class_pairs = classes->class_pairs.data();
+      cv.ell_data = nullptr;  // the mapped pass must not read w and g per pair
+    }
     FrameView<double> cf = frames;
     cf.levers = levers.data();
     cf.sample_state = state.data();
@@ -144,7 +161,7 @@ struct HostDevice {
       const int e0 = layout.ell_offsets[b];
       const int stride = model.neighbours.offsets[s0 + ns] - model.neighbours.offsets[s0];
       std::vector<double> outs(6 * static_cast<size_t>(stride), std::nan(""));
-      for (int t = 0; t < ns; ++t) ell_sample(cv, cf, d.data(), s0 + t, t, ns, e0, stride, outs.data());
+      for (int t = 0; t < ns; ++t) ell_sample(cv, cf, d.data(), s0 + t, t, ns, e0, stride, outs.data(), mapped);
       const int q0 = layout.block_slots[b], base = layout.slot_pair_offsets[q0];
       for (int q = q0; q < layout.block_slots[b + 1]; ++q)
         for (int c = 0; c < 6; ++c)
@@ -354,6 +371,13 @@ TEST_CASE("kernel bodies stepped on the host reproduce the CPU reference", "[ker
           ck[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, ck[6 * i + k]);
       CHECK(relative_difference(ck, Kd) < 1e-12);
     }
+
+    // Coalesced pass with w and g from the shape classes (maps rounded, so not the same bits).
+    std::vector<double> mk = dev.coalesced(d, sF, cache, 1, true);
+    for (int i = 0; i < n; ++i)
+      for (int k = 0; k < 6; ++k)
+        mk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, mk[6 * i + k]);
+    CHECK(relative_difference(mk, Kd) < 1e-12);
   }
 
   // Fused design, record tangent pass (F and the material cache rebuilt from the frames).
