@@ -235,6 +235,7 @@ class System final : public DeviceElasticity::Impl {
     m_view.slot_ell = m_slot_ell.data();
     m_view.ell_frame = m_ell_frame.data();
     m_view.ell_pos = m_ell_pos.data();
+    m_view.ell_slot_rank = m_ell_slot_rank.data();
     m_view.shape_class = m_shape_class.data();
     m_view.shape_maps = m_shape_maps.data();
     m_view.class_offsets = m_class_offsets.data();
@@ -380,9 +381,11 @@ class System final : public DeviceElasticity::Impl {
       // ELL entries (frame, w, g), per-sample state and offsets and materials, lever records
       // (instead of rotation and position), slot tables, slot partials out and in.
       // StVK reads 13 state values per sample (elasticity_phases.hpp, kSampleState).
-      // Mapped: w and g from the class table (cache-resident, counted once) and A_s per sample.
+      // Mapped: per entry its packed slot and rank, per sample A_s and its class, per slot its
+      // table entry, and the class table (cache-resident, counted once).
       const double Q = m_slots, E = m_ell_entries;
-      const double entries = mapped ? E * (4 + 2) + S * (9 * r + 4) + m_class_pairs.size() * r : E * (4 * r + 4 + 2);
+      const double entries =
+          mapped ? E * 2 + S * (9 * r + 4) + Q * 8 + m_class_pairs.size() * r : E * (4 * r + 4 + 2);
       return entries + S * (13 * r + 4 + 4) + N * (kLeverRecord * r - 12 * r) + Q * 4 + N * 4 + m_blocks * 12 +
              Q * 6 * r * 2 + frames;
     }
@@ -439,7 +442,7 @@ class System final : public DeviceElasticity::Impl {
     m_ell_pos.upload(std::vector<unsigned short>(L.ell_pos.begin(), L.ell_pos.end()));
     m_levers.resize(kLeverRecord * static_cast<size_t>(m_n));
     m_sample_state.resize(kSampleState * static_cast<size_t>(m_s));
-    mapped = options.shape_classes && upload_shape_classes(model);
+    mapped = options.shape_classes && upload_shape_classes(model, L);
     for (int keep : {2, 4, 8})
       for (bool dense_kernel : {false, true})
         for (bool mapped_kernel : {false, true})
@@ -454,14 +457,26 @@ class System final : public DeviceElasticity::Impl {
   }
 
   // The samples' shape classes (shape_classes.hpp) for the mapped coalesced pass: per sample its
-  // class and map A_s ([9][S]), per class its reference pairs. False, with nothing uploaded, where
-  // the model has none, or so many that they would not save memory traffic (more than one class per
-  // kShapeClassSamples samples).
+  // class and map A_s ([9][S]), per class its reference pairs, per ELL entry its block-local slot
+  // and rank in the slot (1 byte each). False, with nothing uploaded, where the model has none, or
+  // so many that they would not save memory traffic (more than one class per kShapeClassSamples
+  // samples), or a block has more than kMappedSlots slots or a slot 256 pairs or more.
   static constexpr int kMaxShapeClasses = 4096;
   static constexpr int kShapeClassSamples = 4;
-  bool upload_shape_classes(const Model& model) {
+  bool upload_shape_classes(const Model& model, const BlockLayout& L) {
+    std::vector<unsigned short> slot_rank(static_cast<size_t>(L.ell_count()), 0);
+    for (int b = 0; b < L.block_count(); ++b) {
+      const int q0 = L.block_slots[b], base = L.slot_pair_offsets[q0];
+      if (L.block_slots[b + 1] - q0 > kMappedSlots) return false;
+      for (int e = L.ell_offsets[b]; e < L.ell_offsets[b + 1]; ++e) {
+        const int q = L.ell_slot[e], rank = L.ell_pos[e] - (L.slot_pair_offsets[q0 + q] - base);
+        if (rank < 0 || rank > 255) return false;
+        slot_rank[e] = static_cast<unsigned short>(q | rank << 8);
+      }
+    }
     const std::optional<ShapeClasses> c = find_shape_classes(model.neighbours, kMaxShapeClasses);
     if (!c || static_cast<long long>(c->class_count()) * kShapeClassSamples > m_s) return false;
+    m_ell_slot_rank.upload(slot_rank);
     const size_t S = static_cast<size_t>(m_s);
     std::vector<double> maps(9 * S);
     for (size_t t = 0; t < S; ++t)
@@ -944,7 +959,7 @@ class System final : public DeviceElasticity::Impl {
   DeviceBuffer<unsigned char> m_fixed;
   DeviceBuffer<int> m_block_samples, m_block_slots, m_slot_frames, m_slot_pair_offsets, m_slot_pairs,
       m_frame_slot_offsets, m_frame_slots, m_ell_offsets, m_slot_ell, m_ell_frame;
-  DeviceBuffer<unsigned short> m_ell_slot, m_ell_pos;
+  DeviceBuffer<unsigned short> m_ell_slot, m_ell_pos, m_ell_slot_rank;
   DeviceBuffer<R> m_ell_data, m_pair_records, m_sample_records, m_records, m_levers, m_sample_state;
   DeviceBuffer<int> m_shape_class, m_class_offsets;
   DeviceBuffer<R> m_shape_maps, m_class_pairs;

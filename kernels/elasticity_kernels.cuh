@@ -360,6 +360,14 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
   const int stride = m.offsets[s0 + ns] - m.offsets[s0];  // the block's pairs
   const int lane = static_cast<int>(threadIdx.x) & (lanes - 1);
   const int group = static_cast<int>(threadIdx.x) / lanes, groups = static_cast<int>(blockDim.x) / lanes;
+  // Mapped: the block's slot table (frames, first positions), kMappedSlots entries at most.
+  __shared__ int slot_table[Mapped ? 2 * kMappedSlots : 1];
+  if constexpr (Mapped) {
+    const int nq = m.block_slots[b + 1] - m.block_slots[b];
+    for (int k = static_cast<int>(threadIdx.x); k < nq; k += static_cast<int>(blockDim.x))
+      mapped_slot_table(m, b, k, &slot_table[k], &slot_table[kMappedSlots + k]);
+    __syncthreads();
+  }
   double work = 0;
   for (int base = 0; base < ns; base += groups) {  // the same trip count in every thread
     const int t = base + group, s = s0 + t;
@@ -374,7 +382,7 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
       count = m.offsets[s + 1] - m.offsets[s];
       ps = Vec3T<R>{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
                     sample_value(f.sample_state, m.samples, 2, s)};
-      if constexpr (Mapped) held = shape_map(m, s);
+      if constexpr (Mapped) held = shape_map(m, s, slot_table, slot_table + kMappedSlots);
 #pragma unroll
       for (int k = 0; k < Keep; ++k) {
         const int j = lane + k * lanes;
@@ -413,7 +421,7 @@ constexpr int kLaneThreadsMax = 512;
 // Threads per block of the dense coalesced tangent kernels, and their blocks per multiprocessor:
 // the most whose register budget (65,536 / (128 blocks)) the pass fits without local memory, as
 // ptxas -v reports for sm_90. Registers used for 2, 4 and 8 held entries: float 64, 79, 128
-// (mapped: 80, 96, 126), double 128, 156, 200 (mapped: 154, 166, 216). More resident warps keep
+// (mapped: 80, 96, 128), double 128, 156, 200 (mapped: 152, 166, 216). More resident warps keep
 // more loads in flight in this memory-bound pass.
 constexpr int kDenseThreads = 128;
 template <class R>

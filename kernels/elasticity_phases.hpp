@@ -93,7 +93,10 @@ struct ModelView {
   const int* slot_ell = nullptr;            // [P] as slot_pairs, block-local ELL entries
   const int* ell_frame = nullptr;           // [E] frame of the entry's pair (coalesced pass; 0 on padding)
   const unsigned short* ell_pos = nullptr;  // [E] slot-major position in the block (coalesced pass)
-  // Mapped coalesced pass (shape_classes.hpp): w and g from the sample's shape class and map.
+  // Mapped coalesced pass (shape_classes.hpp): w and g from the sample's shape class and map, the
+  // frame and slot-major position from the entry's block-local slot and its rank in the slot
+  // (ell_slot_rank: slot | rank << 8, both < 256) and the block's slot table.
+  const unsigned short* ell_slot_rank = nullptr;  // [E]
   const int* shape_class = nullptr;         // [S] class of each sample
   const R* shape_maps = nullptr;            // [9][S] A_s row-major, component-major over samples
   const int* class_offsets = nullptr;       // [C+1] first reference pair of each class
@@ -604,20 +607,38 @@ FASCIA_HD EllEntry<R> ell_entry(const ModelView<R>& m, int e) {
 
 // The mapped coalesced pass (ModelView::shape_class set): sample s's map A_s and its class's
 // first reference pair, read once per sample; its pairs' w and g = A_s r_a (shape_classes.hpp)
-// then come from the class table (a few kilobytes, cache-resident) instead of ell_data.
+// then come from the class table (a few kilobytes, cache-resident) instead of ell_data, and their
+// frames and positions from 2 bytes per pair and the block's slot table: `slot_frames` and
+// `slot_starts` (the slot's first slot-major position in the block), indexed by block-local slot
+// (in shared memory on the device, mapped_slot_table).
+constexpr int kMappedSlots = 256;  // slots per block at most (1-byte slot index)
+
 template <class R>
 struct ShapeMap {
   Mat3T<R> A = zero3<R>();
   int first = 0;
+  const int* slot_frames = nullptr;
+  const int* slot_starts = nullptr;
 };
 
 template <class R>
-FASCIA_HD ShapeMap<R> shape_map(const ModelView<R>& m, int s) {
+FASCIA_HD ShapeMap<R> shape_map(const ModelView<R>& m, int s, const int* slot_frames, const int* slot_starts) {
   ShapeMap<R> map;
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) map.A.m[r][c] = sample_value(m.shape_maps, m.samples, 3 * r + c, s);
   map.first = m.class_offsets[m.shape_class[s]];
+  map.slot_frames = slot_frames;
+  map.slot_starts = slot_starts;
   return map;
+}
+
+// Entry k (block-local slot q0 + k) of block b's slot table: its frame and its first slot-major
+// position.
+template <class R>
+FASCIA_HD void mapped_slot_table(const ModelView<R>& m, int b, int k, int* frame, int* start) {
+  const int q0 = m.block_slots[b];
+  *frame = m.slot_frames[q0 + k];
+  *start = m.slot_pair_offsets[q0 + k] - m.slot_pair_offsets[q0];
 }
 
 // ELL entry e, pair j of its sample, with w and g = A_s r_j from the sample's class.
@@ -625,7 +646,9 @@ template <class R>
 FASCIA_HD EllEntry<R> ell_entry_mapped(const ModelView<R>& m, int e, const ShapeMap<R>& map, int j) {
   R ref[4];
   load_aligned<4>(m.class_pairs + 4 * static_cast<size_t>(map.first + j), ref);
-  return EllEntry<R>{m.ell_frame[e], static_cast<int>(m.ell_pos[e]), ref[0], map.A * Vec3T<R>{ref[1], ref[2], ref[3]}};
+  const int packed = m.ell_slot_rank[e], q = packed & 0xff;
+  return EllEntry<R>{map.slot_frames[q], map.slot_starts[q] + (packed >> 8), ref[0],
+                     map.A * Vec3T<R>{ref[1], ref[2], ref[3]}};
 }
 
 // ELL entry e, pair j of its sample: from the class table when `map` is set, else from ell_data.
@@ -720,16 +743,17 @@ FASCIA_HD void ell_pair_output(const EllPair<R>& q, const Mat3T<R>& dP, R v, int
 
 // The coalesced pass of one sample with one lane (host emulation and the reference for the
 // lane-parallel block in elasticity_kernels.cuh): dF from every pair, dP, outputs [6][stride].
-// With `mapped`, the pairs' w and g come from the sample's shape class (m.shape_class set).
+// With the block's slot table (mapped_slot_table) given, the pass is mapped: the pairs' w and g
+// come from the sample's shape class (m.shape_class set), frames and positions from ell_slot_rank.
 template <class R>
 FASCIA_HD void ell_sample(const ModelView<R>& m, const FrameView<R>& f, const R* d, int s, int t, int ns, int e0,
-                          int stride, R* outs, bool mapped = false) {
+                          int stride, R* outs, const int* slot_frames = nullptr, const int* slot_starts = nullptr) {
   const int count = m.offsets[s + 1] - m.offsets[s];
   const Vec3T<R> ps{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
                     sample_value(f.sample_state, m.samples, 2, s)};
   ShapeMap<R> held;
-  if (mapped) held = shape_map(m, s);
-  const ShapeMap<R>* map = mapped ? &held : nullptr;
+  if (slot_frames) held = shape_map(m, s, slot_frames, slot_starts);
+  const ShapeMap<R>* map = slot_frames ? &held : nullptr;
   Mat3T<R> dF = zero3<R>();
   for (int j = 0; j < count; ++j)
     ell_pair_dF(ell_pair(m, f.levers, ps, e0 + j * ns + t, map, j), d, static_cast<const R*>(nullptr), 0.0, dF);

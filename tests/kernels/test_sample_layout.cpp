@@ -140,6 +140,7 @@ struct HostDevice {
     cv.ell_pos = ell_pos.data();
     std::optional<ShapeClasses> classes;
     std::vector<double> maps;  // [9][S]
+    std::vector<unsigned short> slot_rank;
     if (mapped) {
       classes = find_shape_classes(model.neighbours, 4096);
       REQUIRE(classes.has_value());
@@ -150,7 +151,21 @@ struct HostDevice {
       cv.shape_maps = maps.data();
       cv.class_offsets = classes->class_offsets.data();
       cv.class_pairs = classes->class_pairs.data();
-      cv.ell_data = nullptr;  // the mapped pass must not read w and g per pair
+      slot_rank.resize(layout.ell_count());
+      for (int b = 0; b < layout.block_count(); ++b) {
+        const int q0 = layout.block_slots[b], base = layout.slot_pair_offsets[q0];
+        for (int e = layout.ell_offsets[b]; e < layout.ell_offsets[b + 1]; ++e) {
+          const int q = layout.ell_slot[e];
+          const int rank = layout.ell_pos[e] - (layout.slot_pair_offsets[q0 + q] - base);
+          REQUIRE((q < 256 && rank >= 0 && rank < 256));
+          slot_rank[e] = static_cast<unsigned short>(q | rank << 8);
+        }
+      }
+      cv.ell_slot_rank = slot_rank.data();
+      // The mapped pass must not read w, g, frames or positions per pair.
+      cv.ell_data = nullptr;
+      cv.ell_frame = nullptr;
+      cv.ell_pos = nullptr;
     }
     FrameView<double> cf = frames;
     cf.levers = levers.data();
@@ -161,7 +176,16 @@ struct HostDevice {
       const int e0 = layout.ell_offsets[b];
       const int stride = model.neighbours.offsets[s0 + ns] - model.neighbours.offsets[s0];
       std::vector<double> outs(6 * static_cast<size_t>(stride), std::nan(""));
-      for (int t = 0; t < ns; ++t) ell_sample(cv, cf, d.data(), s0 + t, t, ns, e0, stride, outs.data(), mapped);
+      std::vector<int> slot_frames, slot_starts;  // the block's slot table (mapped pass)
+      if (mapped)
+        for (int k = 0; k < layout.block_slots[b + 1] - layout.block_slots[b]; ++k) {
+          slot_frames.push_back(0);
+          slot_starts.push_back(0);
+          mapped_slot_table(cv, b, k, &slot_frames.back(), &slot_starts.back());
+        }
+      for (int t = 0; t < ns; ++t)
+        ell_sample(cv, cf, d.data(), s0 + t, t, ns, e0, stride, outs.data(), mapped ? slot_frames.data() : nullptr,
+                   mapped ? slot_starts.data() : nullptr);
       const int q0 = layout.block_slots[b], base = layout.slot_pair_offsets[q0];
       for (int q = q0; q < layout.block_slots[b + 1]; ++q)
         for (int c = 0; c < 6; ++c)
