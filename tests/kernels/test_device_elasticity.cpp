@@ -99,6 +99,31 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
   CHECK(e_blocks < tol);
 }
 
+namespace {
+
+// The device tangent product's relative difference from the CPU engine's on `model` in a random
+// state (kernels_test_state(state_seed)) for a random direction (random_vector(direction_seed));
+// `inspect` sees the device object before the product.
+template <class Inspect>
+double tangent_difference(const Model& model, unsigned state_seed, unsigned direction_seed, const DeviceOptions& options,
+                          Inspect inspect) {
+  const State state = kernels_test_state(model, state_seed);
+  const int dofs = model.dof_count();
+  Elasticity cpu(model, 1);
+  cpu.prepare(state);
+  const std::vector<double> d = random_vector(dofs, direction_seed);
+  std::vector<double> Kd(dofs), dKd(dofs);
+  cpu.apply_tangent(d.data(), Kd.data());
+  DeviceElasticity dev(model, options);
+  inspect(static_cast<const DeviceElasticity&>(dev));
+  dev.set_state(state);
+  dev.prepare();
+  dev.apply_tangent(d.data(), dKd.data());
+  return relative_difference(dKd, Kd);
+}
+
+}  // namespace
+
 TEST_CASE("record and coalesced passes equal the CPU reference with every lane count", "[gpu]") {
   // 8 neighbours per sample. Records pass: each lane keeps `keep` pairs in registers and reads the
   // others again for the outputs (1 lane, keep 1: 7 pairs read again); with 8 lanes every pair is
@@ -109,13 +134,6 @@ TEST_CASE("record and coalesced passes equal the CPU reference with every lane c
   const int slot_lanes = GENERATE(1, 8, 32);  // coalesced pass: lanes per slot sum
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::neo_hookean);
-  const State state = kernels_test_state(model, 13);
-  const int dofs = model.dof_count();
-  Elasticity cpu(model, 1);
-  cpu.prepare(state);
-  const std::vector<double> d = random_vector(dofs, 5);
-  std::vector<double> Kd(dofs), dKd(dofs);
-  cpu.apply_tangent(d.data(), Kd.data());
   DeviceOptions options;
   options.precision = precision;
   options.block_samples = 32;
@@ -123,13 +141,10 @@ TEST_CASE("record and coalesced passes equal the CPU reference with every lane c
   options.lanes = lanes;
   options.record_keep = keep;
   options.slot_lanes = slot_lanes;
-  DeviceElasticity dev(model, options);
-  REQUIRE(dev.sample_pass() == pass);
-  REQUIRE(dev.lanes() == lanes);
-  dev.set_state(state);
-  dev.prepare();
-  dev.apply_tangent(d.data(), dKd.data());
-  const double e = relative_difference(dKd, Kd);
+  const double e = tangent_difference(model, 13, 5, options, [&](const DeviceElasticity& dev) {
+    REQUIRE(dev.sample_pass() == pass);
+    REQUIRE(dev.lanes() == lanes);
+  });
   std::printf("[gpu] %s %s lanes %d keep %d slot lanes %d: tangent %.2e\n", to_string(pass), to_string(precision), lanes,
               keep, slot_lanes, e);
   CHECK(e < bound(precision, false));
@@ -144,27 +159,17 @@ TEST_CASE("dense and mapped coalesced tangent kernels equal the CPU reference", 
   const int keep = GENERATE(2, 4, 8);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const Model model = kernels_test_model(type, MaterialLaw::neo_hookean);
-  const State state = kernels_test_state(model, 17);
-  const int dofs = model.dof_count();
-  Elasticity cpu(model, 1);
-  cpu.prepare(state);
-  const std::vector<double> d = random_vector(dofs, 7);
-  std::vector<double> Kd(dofs), dKd(dofs);
-  cpu.apply_tangent(d.data(), Kd.data());
   DeviceOptions options;
   options.precision = precision;
   options.lanes = 1;
   options.coalesced_keep = keep;
   options.dense_tangent = dense;
   options.shape_classes = mapped;
-  DeviceElasticity dev(model, options);
-  REQUIRE(dev.sample_pass() == SamplePass::coalesced);
-  CHECK(dev.dense_tangent() == dense);
-  CHECK(dev.shape_classes() == mapped);
-  dev.set_state(state);
-  dev.prepare();
-  dev.apply_tangent(d.data(), dKd.data());
-  const double e = relative_difference(dKd, Kd);
+  const double e = tangent_difference(model, 17, 7, options, [&](const DeviceElasticity& dev) {
+    REQUIRE(dev.sample_pass() == SamplePass::coalesced);
+    CHECK(dev.dense_tangent() == dense);
+    CHECK(dev.shape_classes() == mapped);
+  });
   std::printf("[gpu] coalesced %s %s keep %d dense %d mapped %d: tangent %.2e\n", name(type), to_string(precision),
               keep, dense ? 1 : 0, mapped ? 1 : 0, e);
   CHECK(e < bound(precision, false));
