@@ -230,6 +230,42 @@ TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]")
   CHECK(e_vel < tol);
 }
 
+TEST_CASE("launched PCG with the dense and mapped tangent kernels equals the CPU reference", "[gpu]") {
+  // The launched tangent product is the only user of these kernels in a step (the persistent
+  // kernels read the per-pair table), so the step runs without the persistent PCG.
+  const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
+  const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
+  const Model model = kernels_test_model(type, MaterialLaw::stvk);
+  const State state = kernels_test_state(model, 37);
+  const double h = 0.01;
+  const std::vector<double> loads = kernels_test_loads(model);
+  const ReferenceStep ref = reference_step(model, state, h, 60, loads);
+  DeviceOptions options;
+  options.precision = precision;
+  options.lanes = 1;
+  options.dense_tangent = true;
+  options.shape_classes = true;
+  DeviceElasticity dev(model, options);
+  REQUIRE(dev.dense_tangent());
+  REQUIRE(dev.shape_classes());
+  dev.set_state(state);
+  StepOptions so;
+  so.dt = h;
+  so.max_cg_iterations = 60;
+  so.persistent = false;
+  so.external_forces = loads;
+  DeviceBackwardEuler stepper(dev, so);
+  const StepReport report = stepper.step();
+  CHECK_FALSE(report.persistent);
+  CHECK(report.cg_iterations == ref.iterations);
+  std::vector<double> delta(model.dof_count());
+  stepper.last_increment(delta.data());
+  const double e = relative_difference(delta, ref.delta);
+  std::printf("[gpu] launched dense mapped %s %s: cg %d delta %.2e\n", to_string(precision), name(type),
+              report.cg_iterations, e);
+  CHECK(e < bound(precision, true));
+}
+
 TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[gpu]") {
   // The coalesced pass's persistent PCG with the loop invariants in registers (k_pcg_resident) and
   // without (k_pcg_two_barrier): the same arithmetic, so the same increment bit for bit, and the
