@@ -75,6 +75,7 @@ struct DeviceElasticity::Impl {
   virtual void diagonal_blocks(double* blocks) = 0;
   virtual double time_tangent_ms(int repeats) = 0;
   virtual double tangent_bytes() const = 0;
+  virtual KernelResources tangent_kernel_resources() const = 0;
   // Stepper.
   virtual void configure_step(const StepOptions& options) = 0;
   virtual StepReport step() = 0;
@@ -700,6 +701,25 @@ class System final : public DeviceElasticity::Impl {
     return FrameTermsFlags{(1.0 + m_step.rayleigh_mass * h) / (h * h), true, 1.0 + m_step.rayleigh_stiffness / h};
   }
 
+  // The launched tangent product's sample kernel in use (enqueue_tangent's choice).
+  const void* tangent_sample_kernel() const {
+    if (design != Design::fused) return reinterpret_cast<const void*>(&k_paper_tangent<R>);
+    if (pass == SamplePass::coalesced) return reinterpret_cast<const void*>(ell_tangent_kernel());
+    if (pass == SamplePass::records) {
+      if (m_lane_threads > 128) return reinterpret_cast<const void*>(&k_records_tangent<R, 2, kLaneThreadsMax>);
+      if (options.record_keep == 1) return reinterpret_cast<const void*>(&k_records_tangent<R, 1, 128>);
+      return reinterpret_cast<const void*>(&k_records_tangent<R, 2, 128>);
+    }
+    if (staged) return reinterpret_cast<const void*>(&k_staged_tangent<R>);
+    return reinterpret_cast<const void*>(&k_lanes_tangent<R>);
+  }
+
+  KernelResources tangent_kernel_resources() const override {
+    cudaFuncAttributes attr{};
+    FASCIA_CUDA(cudaFuncGetAttributes(&attr, tangent_sample_kernel()));
+    return KernelResources{attr.numRegs, static_cast<long long>(attr.localSizeBytes)};
+  }
+
   // out = (K + M/h^2) d with the given flags; in the PCG (`pcg`) also alpha = rz / d.out.
   // Fused design in the PCG: d is the direction p, first set to z + beta p (z = m_cz).
   void enqueue_tangent(R* d, R* out, FrameTermsFlags flags, bool pcg) {
@@ -1014,6 +1034,7 @@ Precision DeviceElasticity::precision() const { return m_impl->options.precision
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }
 double DeviceElasticity::time_tangent_ms(int repeats) { return m_impl->time_tangent_ms(std::max(1, repeats)); }
 double DeviceElasticity::tangent_bytes() const { return m_impl->tangent_bytes(); }
+KernelResources DeviceElasticity::tangent_kernel_resources() const { return m_impl->tangent_kernel_resources(); }
 
 struct DeviceBackwardEuler::Impl {
   DeviceElasticity::Impl* system;

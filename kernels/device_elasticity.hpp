@@ -110,6 +110,12 @@ struct DeviceOptions {
 
 class DeviceBackwardEuler;
 
+// Per-thread resources of a compiled kernel (cudaFuncGetAttributes).
+struct KernelResources {
+  int registers = 0;
+  long long local_bytes = 0;  // local memory: register spills and stack
+};
+
 // The model uploaded once to the device; the state is uploaded with set_state and stays there.
 class DeviceElasticity {
  public:
@@ -153,6 +159,9 @@ class DeviceElasticity {
   // output written once; frame data counted once), for the achieved-bandwidth figure.
   double time_tangent_ms(int repeats);
   double tangent_bytes() const;
+  // Benchmark support: registers per thread and local memory (spills, stack) per thread of the
+  // launched tangent product's sample kernel in use, as the CUDA runtime reports them.
+  KernelResources tangent_kernel_resources() const;
 
   struct Impl;
 

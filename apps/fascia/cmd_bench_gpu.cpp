@@ -36,6 +36,8 @@ struct Row {
   int samples = 0, frames = 0, neighbours = 0;
   std::string precision, design, linear, cg_kernel;
   double ms_per_step = 0, ms_per_cg_iteration = 0, tangent_ms = 0, tangent_gbs = 0, peak_gbs = 0;
+  int tangent_registers = 0;            // the launched tangent sample kernel's registers per thread
+  long long tangent_local_bytes = 0;    // ... and local memory per thread (spills)
   double paper_ms = NAN, paper_cpu_ms = NAN;
 };
 
@@ -114,6 +116,9 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
     dev.prepare();
     row.tangent_ms = dev.time_tangent_ms(std::max(10, 5 * repeats));
     row.tangent_gbs = dev.tangent_bytes() / (row.tangent_ms * 1e-3) / 1e9;
+    const gpu::KernelResources k = dev.tangent_kernel_resources();
+    row.tangent_registers = k.registers;
+    row.tangent_local_bytes = k.local_bytes;
   }
   row.peak_gbs = info.peak_bandwidth_gbs;
   return row;
@@ -133,6 +138,8 @@ void print(const Row& r, bool json) {
                         {"ms_per_cg_iteration", r.ms_per_cg_iteration},
                         {"tangent_ms", r.tangent_ms},
                         {"tangent_gbs", r.tangent_gbs},
+                        {"tangent_registers", r.tangent_registers},
+                        {"tangent_local_bytes", r.tangent_local_bytes},
                         {"peak_gbs", r.peak_gbs}};
     j["paper_ms"] = std::isnan(r.paper_ms) ? nlohmann::json(nullptr) : nlohmann::json(r.paper_ms);
     j["paper_cpu_ms"] = std::isnan(r.paper_cpu_ms) ? nlohmann::json(nullptr) : nlohmann::json(r.paper_cpu_ms);
