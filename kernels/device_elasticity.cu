@@ -447,8 +447,9 @@ class System final : public DeviceElasticity::Impl {
     for (int keep : {2, 4, 8})
       for (bool dense_kernel : {false, true})
         for (bool mapped_kernel : {false, true})
-          FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep, dense_kernel, mapped_kernel)),
-                                           cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
+          FASCIA_CUDA(cudaFuncSetAttribute(
+              reinterpret_cast<const void*>(ell_tangent_kernel(keep, dense_kernel, mapped_kernel)),
+              cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
     for (const void* k : {reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>),
                           reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>),
                           reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>),
@@ -844,7 +845,8 @@ class System final : public DeviceElasticity::Impl {
                        : &k_ell_tangent<R, 8, Dense, Mapped>;
   }
   static EllTangentKernel ell_tangent_kernel(int keep, bool dense_kernel, bool mapped_kernel) {
-    if (dense_kernel) return mapped_kernel ? ell_tangent_kernel<true, true>(keep) : ell_tangent_kernel<true, false>(keep);
+    if (dense_kernel)
+      return mapped_kernel ? ell_tangent_kernel<true, true>(keep) : ell_tangent_kernel<true, false>(keep);
     return mapped_kernel ? ell_tangent_kernel<false, true>(keep) : ell_tangent_kernel<false, false>(keep);
   }
   EllTangentKernel ell_tangent_kernel() const { return ell_tangent_kernel(m_keep, dense, mapped); }
@@ -884,9 +886,9 @@ class System final : public DeviceElasticity::Impl {
       const int wanted = std::max(m_blocks, grid_for(m_n, m_lane_threads / 6));
       m_resident = true;
       // In double only with DeviceOptions::resident_double and where the compiled kernel needs no
-      // local memory (4 pairs per sample; with 8 it spills): one that spilled was measured slower than k_pcg_two_barrier on an H100
-      // (docs/benchmarks.md). Its static shared memory (double) plus the pair outputs can pass
-      // 48 KB, hence the opt-in before the occupancy query.
+      // local memory (4 pairs per sample; with 8 it spills): one that spilled was measured slower
+      // than k_pcg_two_barrier on an H100 (docs/benchmarks.md). Its static shared memory (double)
+      // plus the pair outputs can pass 48 KB, hence the opt-in before the occupancy query.
       cudaFuncAttributes attr{};
       FASCIA_CUDA(cudaFuncGetAttributes(&attr, persistent_kernel()));
       FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,

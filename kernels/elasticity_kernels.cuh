@@ -434,7 +434,8 @@ constexpr int dense_blocks_per_sm(int keep, bool mapped) {
 // kDenseThreads threads per block and dense_blocks_per_sm blocks per multiprocessor; otherwise for
 // up to kLaneThreadsMax threads. Mapped: w and g from the samples' shape classes.
 template <class R, int Keep, bool Dense, bool Mapped>
-__global__ void __launch_bounds__(Dense ? kDenseThreads : kLaneThreadsMax, Dense ? dense_blocks_per_sm<R>(Keep, Mapped) : 1)
+__global__ void __launch_bounds__(Dense ? kDenseThreads : kLaneThreadsMax,
+                                  Dense ? dense_blocks_per_sm<R>(Keep, Mapped) : 1)
     k_ell_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
                   int lanes, int slot_lanes) {
   extern __shared__ unsigned char shared_raw[];

@@ -105,8 +105,8 @@ namespace {
 // state (kernels_test_state(state_seed)) for a random direction (random_vector(direction_seed));
 // `inspect` sees the device object before the product.
 template <class Inspect>
-double tangent_difference(const Model& model, unsigned state_seed, unsigned direction_seed, const DeviceOptions& options,
-                          Inspect inspect) {
+double tangent_difference(const Model& model, unsigned state_seed, unsigned direction_seed,
+                          const DeviceOptions& options, Inspect inspect) {
   const State state = kernels_test_state(model, state_seed);
   const int dofs = model.dof_count();
   Elasticity cpu(model, 1);
@@ -304,7 +304,8 @@ TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[g
     stepper.last_increment(delta.data());
     const double e = relative_difference(delta, ref.delta);
     std::printf("[gpu] %s %s %s %s: kernel %s, cg %d delta %.2e\n", resident ? "resident" : "two-barrier",
-                to_string(precision), name(type), to_string(law), report.resident ? "resident" : "two-barrier", report.cg_iterations, e);
+                to_string(precision), name(type), to_string(law), report.resident ? "resident" : "two-barrier",
+                report.cg_iterations, e);
     CHECK(e < bound(precision, true));
     deltas.push_back(delta);
   }

@@ -146,7 +146,8 @@ struct HostDevice {
       REQUIRE(classes.has_value());
       maps.resize(9 * static_cast<size_t>(S));
       for (int s = 0; s < S; ++s)
-        for (int k = 0; k < 9; ++k) maps[static_cast<size_t>(k) * S + s] = classes->sample_maps[9 * static_cast<size_t>(s) + k];
+        for (int k = 0; k < 9; ++k)
+          maps[static_cast<size_t>(k) * S + s] = classes->sample_maps[9 * static_cast<size_t>(s) + k];
       cv.shape_class = classes->sample_class.data();
       cv.shape_maps = maps.data();
       cv.class_offsets = classes->class_offsets.data();
