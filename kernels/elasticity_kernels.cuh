@@ -568,18 +568,15 @@ __device__ double frame_rows_chunk(const ModelView<R>& m, const R* slot_partials
   return dot;
 }
 
-// PCG update with one thread per frame row (chunks as frame_rows_chunk): x += alpha p,
-// r -= alpha Ap, z = M^-1 r (block_jacobi's order); returns this thread's r_k z_k.
+// The end of a chunk's PCG row update (update_rows_chunk, frame_update_chunk): row j = 6 i + k
+// (thread t of the chunk) stores its updated x_j and r_j, then z_j = (M^-1 r)_j from the chunk's
+// residuals `res` (shared memory, one per thread). Returns r_j z_j. Every thread of the block must
+// call it.
 template <class R>
-__device__ double update_rows_chunk(int n, const R* minv, const R* p, const R* Ap, R* x, R* r, R* z, double alpha,
-                                    int chunk) {
-  __shared__ double res[kLaneThreadsMax];
-  const int fpc = static_cast<int>(blockDim.x) / 6;
-  const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
-  const bool active = t < 6 * fpc && i < n;
+__device__ double store_and_precondition_row(bool active, const UpdatedRow<R>& u, const R* minv, int i, int k, int t,
+                                             R* x, R* r, R* z, double* res) {
   const int j = 6 * i + k;
   if (active) {
-    const UpdatedRow<R> u = update_row(x[j], r[j], alpha, static_cast<double>(p[j]), static_cast<double>(Ap[j]));
     x[j] = u.x;
     r[j] = u.r;
     res[t] = static_cast<double>(u.r);
@@ -594,6 +591,21 @@ __device__ double update_rows_chunk(int n, const R* minv, const R* p, const R* A
   }
   __syncthreads();
   return dot;
+}
+
+// PCG update with one thread per frame row (chunks as frame_rows_chunk): x += alpha p,
+// r -= alpha Ap, z = M^-1 r (block_jacobi's order); returns this thread's r_k z_k.
+template <class R>
+__device__ double update_rows_chunk(int n, const R* minv, const R* p, const R* Ap, R* x, R* r, R* z, double alpha,
+                                    int chunk) {
+  __shared__ double res[kLaneThreadsMax];
+  const int fpc = static_cast<int>(blockDim.x) / 6;
+  const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
+  const bool active = t < 6 * fpc && i < n;
+  const int j = 6 * i + k;
+  UpdatedRow<R> u{};
+  if (active) u = update_row(x[j], r[j], alpha, static_cast<double>(p[j]), static_cast<double>(Ap[j]));
+  return store_and_precondition_row(active, u, minv, i, k, t, x, r, z, res);
 }
 
 // Launch-per-phase forms of the two row passes (one chunk per block); with `pcg`, the dot
@@ -860,6 +872,7 @@ __device__ double frame_update_chunk(const ModelView<R>& m, const R* slot_partia
   const int j = 6 * i + k;
   if (active) dir[t] = static_cast<double>(next_direction(z, p, beta, j));
   __syncthreads();
+  UpdatedRow<R> u{};
   if (active) {
     p[j] = static_cast<R>(dir[t]);
     double acc = 0;
@@ -868,21 +881,9 @@ __device__ double frame_update_chunk(const ModelView<R>& m, const R* slot_partia
     const R apj = static_cast<R>(
         frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, dir + (t - k), i, k, acc, flags.k_scale));
     Ap[j] = apj;
-    const UpdatedRow<R> u = update_row(x[j], r[j], alpha, dir[t], static_cast<double>(apj));
-    x[j] = u.x;
-    r[j] = u.r;
-    res[t] = static_cast<double>(u.r);
+    u = update_row(x[j], r[j], alpha, dir[t], static_cast<double>(apj));
   }
-  __syncthreads();
-  double dot = 0;
-  if (active) {
-    const R zk = static_cast<R>(preconditioned_row(
-        [&](int c) { return static_cast<double>(minv[36 * static_cast<size_t>(i) + 6 * k + c]); }, res + (t - k)));
-    z[j] = zk;
-    dot = res[t] * static_cast<double>(zk);
-  }
-  __syncthreads();
-  return dot;
+  return store_and_precondition_row(active, u, minv, i, k, t, x, r, z, res);
 }
 
 // The PCG loop of the coalesced pass in one cooperative launch with two grid barriers per
