@@ -46,6 +46,25 @@ __device__ inline double block_sum(double v) {
   return total;
 }
 
+// The end of a PCG iteration from its r.z (rz_new): beta = rz_new / rz, rz, the iteration count,
+// and done = 1 at the tolerance (r.z <= tolerance^2 r0.z0) or where r.z is not positive.
+__device__ inline void end_iteration(double rz_new, double rz0, double tolerance, double& rz, double& beta, int& it,
+                                     int& done) {
+  beta = rz > 0 ? rz_new / rz : 0;
+  rz = rz_new;
+  ++it;
+  if (tolerance > 0 && rz_new <= tolerance * tolerance * rz0) done = 1;
+  if (!(rz_new > 0)) done = 1;
+}
+
+// A persistent PCG's scalars at its end, for the host and a following launch.
+__device__ inline void store_progress(Scalars* scalars, double rz, double beta, int it, int done) {
+  scalars->rz = rz;
+  scalars->beta = beta;
+  scalars->iterations = it;
+  scalars->done = done;
+}
+
 // Writes the block's value (thread 0's v) and, in the last block, sums all partials in block order
 // and applies `finish` to the scalars.
 __device__ inline void reduce_and_finish(double v, const Reduction& red, Finish finish, double tolerance) {
@@ -83,11 +102,7 @@ __device__ inline void reduce_and_finish(double v, const Reduction& red, Finish 
       }
       break;
     case Finish::beta:
-      sc.beta = sc.rz > 0 ? total / sc.rz : 0;
-      sc.rz = total;
-      sc.iterations += 1;
-      if (tolerance > 0 && total <= tolerance * tolerance * sc.rz0) sc.done = 1;
-      if (!(total > 0)) sc.done = 1;
+      end_iteration(total, sc.rz0, tolerance, sc.rz, sc.beta, sc.iterations, sc.done);
       break;
   }
 }
@@ -815,18 +830,9 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
     for (int c = blockIdx.x; c < chunks; c += gridDim.x)
       dot += update_rows_chunk(m.frames, minv, p, Ap, x, r, z, alpha, c);
     const double rz_new = grid_sum(dot, partials + gridDim.x, grid);
-    beta = rz > 0 ? rz_new / rz : 0;
-    rz = rz_new;
-    ++it;
-    if (tolerance > 0 && rz_new <= tolerance * tolerance * rz0) done = 1;
-    if (!(rz_new > 0)) done = 1;
+    end_iteration(rz_new, rz0, tolerance, rz, beta, it, done);
   }
-  if (tid == 0) {
-    scalars->rz = rz;
-    scalars->beta = beta;
-    scalars->iterations = it;
-    scalars->done = done;
-  }
+  if (tid == 0) store_progress(scalars, rz, beta, it, done);
 }
 
 // ---- persistent PCG with two grid barriers per iteration (coalesced pass) ----
@@ -929,18 +935,9 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
     for (int c = blockIdx.x; c < chunks; c += gridDim.x)
       dot += frame_update_chunk(m, slot_partials, geo, inertia_world, flags, minv, x, r, z, p, Ap, beta, alpha, c);
     const double rz_new = grid_sum(dot, partials + gridDim.x, grid);
-    beta = rz > 0 ? rz_new / rz : 0;
-    rz = rz_new;
-    ++it;
-    if (tolerance > 0 && rz_new <= tolerance * tolerance * rz0) done = 1;
-    if (!(rz_new > 0)) done = 1;
+    end_iteration(rz_new, rz0, tolerance, rz, beta, it, done);
   }
-  if (blockIdx.x == 0 && threadIdx.x == 0) {
-    scalars->rz = rz;
-    scalars->beta = beta;
-    scalars->iterations = it;
-    scalars->done = done;
-  }
+  if (blockIdx.x == 0 && threadIdx.x == 0) store_progress(scalars, rz, beta, it, done);
 }
 
 // ---- persistent PCG with the loop invariants in registers (coalesced pass, small models) ----
@@ -1145,22 +1142,13 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
       dot = static_cast<double>(rj) * static_cast<double>(zj);
     }
     const double rz_new = grid_sum(dot, partials + gridDim.x, grid);
-    beta = rz > 0 ? rz_new / rz : 0;
-    rz = rz_new;
-    ++it;
-    if (tolerance > 0 && rz_new <= tolerance * tolerance * rz0) done = 1;
-    if (!(rz_new > 0)) done = 1;
+    end_iteration(rz_new, rz0, tolerance, rz, beta, it, done);
   }
   if (row) {
     x[jrow] = xj;
     r[jrow] = rj;
   }
-  if (b == 0 && tid == 0) {
-    scalars->rz = rz;
-    scalars->beta = beta;
-    scalars->iterations = it;
-    scalars->done = done;
-  }
+  if (b == 0 && tid == 0) store_progress(scalars, rz, beta, it, done);
 }
 
 // x <- x (+) delta, v <- delta / h (DESIGN.md: retract with world-axis rotation increments).
