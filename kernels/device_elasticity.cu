@@ -90,6 +90,7 @@ struct DeviceElasticity::Impl {
   int lanes = 1;                          // fused design, records and lanes passes
   bool dense = false;                     // coalesced pass: the dense tangent kernel
   bool mapped = false;                    // coalesced pass: w and g from shape classes
+  std::string mapped_refusal;             // why not, where DeviceOptions::shape_classes asked for them
 };
 
 namespace {
@@ -148,7 +149,9 @@ class System final : public DeviceElasticity::Impl {
     m_fixed.upload(model.fixed_dofs);
 
     if (design == Design::fused) {
-      BlockLayout L = build_block_layout(model, opts.block_samples, kMaxBlockPairs);
+      // At most kMappedSlots frames per block, so that the mapped pass's 1-byte block-local slot
+      // index fits (rarely binding: 128 hexahedron samples touch about 50 frames).
+      BlockLayout L = build_block_layout(model, opts.block_samples, kMaxBlockPairs, kMappedSlots);
       m_blocks = L.block_count();
       m_slots = L.slot_count();
       m_shared_bytes = static_cast<size_t>(L.max_block_pairs) * 6 * sizeof(R);
@@ -469,15 +472,30 @@ class System final : public DeviceElasticity::Impl {
     std::vector<unsigned short> slot_rank(static_cast<size_t>(L.ell_count()), 0);
     for (int b = 0; b < L.block_count(); ++b) {
       const int q0 = L.block_slots[b], base = L.slot_pair_offsets[q0];
-      if (L.block_slots[b + 1] - q0 > kMappedSlots) return false;
+      if (L.block_slots[b + 1] - q0 > kMappedSlots) {
+        mapped_refusal = "a thread block touches more than " + std::to_string(kMappedSlots) + " frames";
+        return false;
+      }
       for (int e = L.ell_offsets[b]; e < L.ell_offsets[b + 1]; ++e) {
         const int q = L.ell_slot[e], rank = L.ell_pos[e] - (L.slot_pair_offsets[q0 + q] - base);
-        if (rank < 0 || rank > 255) return false;
+        if (rank < 0 || rank > 255) {
+          mapped_refusal = "a frame has 256 or more pairs in one thread block";
+          return false;
+        }
         slot_rank[e] = static_cast<unsigned short>(q | rank << 8);
       }
     }
     const std::optional<ShapeClasses> c = find_shape_classes(model.neighbours, kMaxShapeClasses);
-    if (!c || static_cast<long long>(c->class_count()) * kShapeClassSamples > m_s) return false;
+    if (!c) {
+      mapped_refusal = "the samples' weights and gradients fit no " + std::to_string(kMaxShapeClasses) +
+                       " shape classes (as with meshless shape functions)";
+      return false;
+    }
+    if (static_cast<long long>(c->class_count()) * kShapeClassSamples > m_s) {
+      mapped_refusal = std::to_string(c->class_count()) + " shape classes for " + std::to_string(m_s) +
+                       " samples: more than one per " + std::to_string(kShapeClassSamples);
+      return false;
+    }
     m_ell_slot_rank.upload(slot_rank);
     const size_t S = static_cast<size_t>(m_s);
     std::vector<double> maps(9 * S);
@@ -1031,6 +1049,7 @@ Design DeviceElasticity::design() const { return m_impl->design; }
 SamplePass DeviceElasticity::sample_pass() const { return m_impl->pass; }
 int DeviceElasticity::lanes() const { return m_impl->lanes; }
 bool DeviceElasticity::dense_tangent() const { return m_impl->dense; }
+const std::string& DeviceElasticity::shape_classes_refusal() const { return m_impl->mapped_refusal; }
 bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }

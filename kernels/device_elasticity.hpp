@@ -150,6 +150,9 @@ class DeviceElasticity {
   // Coalesced pass: whether the launched tangent product takes w and g from the samples' shape
   // classes (DeviceOptions::shape_classes, where the model has them).
   bool shape_classes() const;
+  // Why the model does not use shape classes where DeviceOptions::shape_classes asked for them
+  // (empty otherwise).
+  const std::string& shape_classes_refusal() const;
   Precision precision() const;
   const DeviceOptions& options() const;
 

@@ -94,17 +94,29 @@ bool offsets_are_rest_differences(const Model& model, double rel_tol) {
   return true;
 }
 
-BlockLayout build_block_layout(const Model& model, int max_samples, int max_pairs) {
+BlockLayout build_block_layout(const Model& model, int max_samples, int max_pairs, int max_slots) {
   BlockLayout L;
   const NeighbourTable& nb = model.neighbours;
   const int s_count = model.sample_count();
   const int n = model.frame_count();
   L.block_samples.push_back(0);
+  std::vector<int> stamp(n, -1);  // the last block that counted the frame among its slots
   for (int s = 0; s < s_count;) {
-    const int first = s;
+    const int first = s, block = L.block_count();
+    int slots = 0;
     while (s < s_count && s - first < max_samples &&
-           (s == first || nb.offsets[s + 1] - nb.offsets[first] <= max_pairs))
+           (s == first || nb.offsets[s + 1] - nb.offsets[first] <= max_pairs)) {
+      int added = 0;  // the sample's frames new to the block (stamped even where it ends the block:
+                      // the next block, which starts with this sample, stamps them again)
+      for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p)
+        if (stamp[nb.frames[p]] != block) {
+          stamp[nb.frames[p]] = block;
+          ++added;
+        }
+      if (s > first && slots + added > max_slots) break;
+      slots += added;
       ++s;
+    }
     L.block_samples.push_back(s);
     L.max_block_pairs = std::max(L.max_block_pairs, nb.offsets[s] - nb.offsets[first]);
   }

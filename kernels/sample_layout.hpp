@@ -54,9 +54,10 @@ struct BlockLayout {
   int slot_count() const { return static_cast<int>(slot_frames.size()); }
 };
 
-// Blocks of at most max_samples consecutive samples and at most max_pairs pairs (a sample with
-// more pairs than that gets a block of its own: there is no cap on neighbours).
-BlockLayout build_block_layout(const Model& model, int max_samples, int max_pairs);
+// Blocks of at most max_samples consecutive samples, max_pairs pairs and max_slots distinct frames
+// (a sample with more pairs or frames than that gets a block of its own: there is no cap on
+// neighbours).
+BlockLayout build_block_layout(const Model& model, int max_samples, int max_pairs, int max_slots);
 
 // Fills the ELL tables of the staged tangent pass into a layout of build_block_layout: pair j of
 // a block's local sample t at entry j * ns + t.

@@ -80,6 +80,8 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   options.block_samples = c.block_samples;
   options.persistent_blocks_per_sm = c.persistent_blocks_per_sm;
   gpu::DeviceElasticity dev(model, options);
+  if (!dev.shape_classes_refusal().empty())
+    std::fprintf(stderr, "shape classes not used: %s\n", dev.shape_classes_refusal().c_str());
   const State start = rest_state(model);
   dev.set_state(start);
   gpu::StepOptions so = gpu::make_step_options(model, bench_step_loads(), start, kBenchStepDt, 0, 0,
@@ -212,6 +214,8 @@ double time_cuda_step(const Model& model, LinearMethod linear, int cg_iterations
   options.precision = precision == "single" ? gpu::Precision::single_precision : gpu::Precision::double_precision;
   options.design = design == "paper" ? gpu::Design::paper : gpu::Design::fused;
   gpu::DeviceElasticity dev(model, options);
+  if (!dev.shape_classes_refusal().empty())
+    std::fprintf(stderr, "shape classes not used: %s\n", dev.shape_classes_refusal().c_str());
   const State start = rest_state(model);
   dev.set_state(start);
   gpu::DeviceBackwardEuler stepper(dev, gpu::make_step_options(model, bench_step_loads(), start, kBenchStepDt, 0, 0,

@@ -6,6 +6,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <numeric>
 #include <optional>
 
@@ -26,7 +27,7 @@ struct HostDevice {
 
   HostDevice(const Model& input, const State& state, int block_samples, int block_pairs)
       : model(reorder_samples(input, spatial_sample_order(input))),
-        layout(build_block_layout(model, block_samples, block_pairs)) {
+        layout(build_block_layout(model, block_samples, block_pairs, kMappedSlots)) {
     build_ell_order(model, layout);
     sample_rest = model.samples.rest_positions;
     frame_rest = model.frame_rest_positions;
@@ -283,7 +284,10 @@ TEST_CASE("block layout lists every pair once, per frame, in increasing order", 
   const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::stvk, 5, 4, 3);
   const int block_samples = GENERATE(32, 128);
   const int block_pairs = GENERATE(8, 1024);  // 8: a block per sample (8 neighbours each)
-  const BlockLayout L = build_block_layout(model, block_samples, block_pairs);
+  // 12: binding (a 2x2x2 cell group touches 27 frames); 6: below one sample's 8 frames, so every
+  // sample gets a block of its own.
+  const int block_slots = GENERATE(6, 12, kMappedSlots);
+  const BlockLayout L = build_block_layout(model, block_samples, block_pairs, block_slots);
   REQUIRE(L.block_samples.front() == 0);
   REQUIRE(L.block_samples.back() == model.sample_count());
   std::vector<int> seen(model.pair_count(), 0);
@@ -293,6 +297,15 @@ TEST_CASE("block layout lists every pair once, per frame, in increasing order", 
     REQUIRE(s1 - s0 <= block_samples);
     const int p0 = model.neighbours.offsets[s0];
     REQUIRE((s1 - s0 == 1 || model.neighbours.offsets[s1] - p0 <= block_pairs));
+    REQUIRE((s1 - s0 == 1 || L.block_slots[b + 1] - L.block_slots[b] <= block_slots));
+    // Blocks end only at a cap: the next sample would have passed one of them.
+    if (s1 < model.sample_count() && s1 - s0 < block_samples &&
+        model.neighbours.offsets[s1 + 1] - p0 <= block_pairs) {
+      std::vector<int> frames(model.neighbours.frames.begin() + p0,
+                              model.neighbours.frames.begin() + model.neighbours.offsets[s1 + 1]);
+      std::sort(frames.begin(), frames.end());
+      REQUIRE(std::unique(frames.begin(), frames.end()) - frames.begin() > block_slots);
+    }
     for (int q = L.block_slots[b]; q < L.block_slots[b + 1]; ++q) {
       if (q > L.block_slots[b]) REQUIRE(L.slot_frames[q] > L.slot_frames[q - 1]);
       for (int k = L.slot_pair_offsets[q]; k < L.slot_pair_offsets[q + 1]; ++k) {
@@ -313,7 +326,7 @@ TEST_CASE("block layout lists every pair once, per frame, in increasing order", 
 TEST_CASE("ELL order holds every pair of a block once, with its block slot and slot-major position", "[kernels][layout]") {
   const Model model = kernels_test_model(CellType::tetrahedron, MaterialLaw::stvk, 4, 3, 3);
   const int block_samples = GENERATE(32, 128);
-  BlockLayout L = build_block_layout(model, block_samples, 1024);
+  BlockLayout L = build_block_layout(model, block_samples, 1024, kMappedSlots);
   build_ell_order(model, L);
   const NeighbourTable& nb = model.neighbours;
   std::vector<int> owner(L.ell_count(), -1);
