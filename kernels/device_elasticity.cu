@@ -178,12 +178,15 @@ class System final : public DeviceElasticity::Impl {
       }
       lanes = m_lanes;
       if (pass == SamplePass::records) upload_records(model, sample_rest);
-      // Coalesced pass: ELL entries kept per lane, the smallest instantiated count (2, 4, 8) that
-      // holds the largest sample's pairs (more are read again).
+      // Coalesced pass: ELL entries kept per lane (more are read again): 2 in double, where 4
+      // spills and was measured slower (DeviceOptions::coalesced_keep); in single the smaller of
+      // 2 and 4 that holds the largest sample's pairs.
       m_keep = opts.record_keep;
       if (pass == SamplePass::coalesced) {
         const int per_lane = (model.max_neighbours() + m_lanes - 1) / m_lanes;
-        m_keep = opts.coalesced_keep > 0 ? opts.coalesced_keep : per_lane <= 2 ? 2 : 4;
+        m_keep = opts.coalesced_keep > 0                      ? opts.coalesced_keep
+                 : per_lane <= 2 || std::is_same_v<R, double> ? 2
+                                                              : 4;
       }
       m_lane_threads = staged ? opts.block_samples
                               : std::max(32, std::min({kLaneThreadsMax, opts.lane_threads, opts.block_samples * m_lanes}));

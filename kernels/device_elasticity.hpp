@@ -71,7 +71,10 @@ struct DeviceOptions {
   // again for the outputs). The coalesced pass sizes its register-held pairs itself.
   int record_keep = 2;
   // Coalesced pass: ELL entries per lane held in registers between its two halves (2, 4 or 8;
-  // further ones are read again); 0 = 2 where a lane has at most 2 pairs, else 4.
+  // further ones are read again); 0 = 2 in double or where a lane has at most 2 pairs, else 4.
+  // Measured on an H100 (docs/benchmarks.md, seventh round), launched PCG in double: 2 against 4
+  // took 34,848 samples x 4 from 1.60 to 1.51 ms per step and 4.18 M x 8 from 1.89 to 1.85 ms per
+  // CG iteration (with 4 the kernel spills 16 bytes); in single 4 is the faster at 8 pairs.
   int coalesced_keep = 0;
   // Coalesced pass: lanes that sum one slot of a block's pair outputs (a power of two, 1..32; 1:
   // one thread per slot). Measured on an H100 (docs/benchmarks.md): 1 is the fastest at 34,848
@@ -80,11 +83,14 @@ struct DeviceOptions {
   // Coalesced pass, launched tangent product: with 128-thread blocks, the kernel compiled for the
   // most blocks per multiprocessor its registers allow without local memory
   // (elasticity_kernels.cuh, dense_blocks_per_sm); false: compiled for blocks of up to 512 threads.
-  // Off by default: docs/gpu.md gives its status.
-  bool dense_tangent = false;
+  // Measured on an H100 (docs/benchmarks.md, seventh round): 4.18 M x 8 in single from 1.18 to
+  // 1.02 ms per CG iteration; in double with 2 held entries both kernels have the same bounds.
+  bool dense_tangent = true;
   // Coalesced pass, launched tangent product: where the samples fall into few shape classes
   // (kernels/shape_classes.hpp; mesh-based models), w and g of every pair formed from its sample's
-  // class and map A_s instead of read per pair. Off by default: docs/gpu.md gives its status.
+  // class and map A_s instead of read per pair. Off by default: measured slower on an H100
+  // (docs/benchmarks.md, seventh round; 4.18 M x 8 single, tangent product 0.85 -> 1.01 ms) though
+  // it moves half the bytes: the pass is bound by latency, not bandwidth.
   bool shape_classes = false;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
@@ -104,8 +110,9 @@ struct DeviceOptions {
   bool resident = true;
   // The same in double precision where `resident_double` is set as well and samples have at most
   // 4 pairs: the kernel holds part of the invariants in shared memory (with 8 pairs it would spill
-  // to local memory). Off by default: docs/gpu.md gives its status.
-  bool resident_double = false;
+  // to local memory). Measured on an H100 (docs/benchmarks.md, seventh round): 34,848 samples in
+  // double from 1.41 to 1.25 ms per step (21.8 to 18.9 us per CG iteration).
+  bool resident_double = true;
 };
 
 class DeviceBackwardEuler;

@@ -56,8 +56,8 @@ struct Case {
   int keep = 0;
   int slot_lanes = 1;
   bool resident = true;
-  bool resident_double = false;
-  bool dense = false;
+  bool resident_double = true;
+  bool dense = true;
   bool shape_classes = false;
 };
 
@@ -304,15 +304,15 @@ void add_bench_gpu_command(CLI::App& bench, Action& action) {
       ->check(CLI::IsMember({1, 2, 4, 8, 16, 32}));
   cmd->add_option("--resident", options->resident,
                   "coalesced pass, persistent PCG: loop invariants held in the kernel in single precision (1), in "
-                  "both precisions (2) or not (0), several to compare")
+                  "both precisions (2, the default) or not (0), several to compare")
       ->check(CLI::IsMember({0, 1, 2}));
   cmd->add_option("--dense-tangent", options->dense,
                   "coalesced pass, launched tangent product: kernel compiled for the most blocks per multiprocessor "
-                  "without local memory (1) or for blocks of up to 512 threads (0), several to compare")
+                  "without local memory (1, the default) or for blocks of up to 512 threads (0), several to compare")
       ->check(CLI::IsMember({0, 1}));
   cmd->add_option("--shape-classes", options->shape_classes,
                   "coalesced pass, launched tangent product: w and g from the samples' shape classes where the model "
-                  "has them (1) or read per pair (0), several to compare")
+                  "has them (1) or read per pair (0, the default), several to compare")
       ->check(CLI::IsMember({0, 1}));
   cmd->add_option("--row-frames", options->row_frames,
                   "frames per block of the launched frame-row passes (1..85), several to compare")

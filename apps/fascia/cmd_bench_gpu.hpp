@@ -30,8 +30,8 @@ struct BenchGpuOptions {
   std::vector<int> row_frames = {42};  // frames per block of the launched frame-row passes
   std::vector<int> keep = {0};       // coalesced pass: ELL entries per lane held in registers (0: auto)
   std::vector<int> slot_lanes = {1};  // coalesced pass: lanes per slot sum
-  std::vector<int> resident = {1};    // coalesced pass: persistent PCG holding its invariants (2: double too)
-  std::vector<int> dense = {0};       // coalesced pass: dense launched tangent kernel (DeviceOptions::dense_tangent)
+  std::vector<int> resident = {2};    // coalesced pass: persistent PCG holding its invariants (2: double too)
+  std::vector<int> dense = {1};       // coalesced pass: dense launched tangent kernel (DeviceOptions::dense_tangent)
   std::vector<int> shape_classes = {0};  // coalesced pass: w and g from shape classes (DeviceOptions::shape_classes)
   int persistent_blocks_per_sm = 4;  // persistent PCG while the model needs at most this many blocks per SM
 };
