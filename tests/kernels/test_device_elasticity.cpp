@@ -418,7 +418,7 @@ void check_bitwise_repeats(const Model& model, unsigned state_seed, unsigned dir
 
 }  // namespace
 
-TEST_CASE("repeated device runs with the options that are off by default are bitwise identical", "[gpu]") {
+TEST_CASE("repeated device runs with the dense and mapped tangent kernels and the double resident PCG are bitwise identical", "[gpu]") {
   // Dense and mapped tangent kernels (in the tangent product and a launched PCG) and the resident
   // PCG in double (tetrahedra: 4 pairs per sample).
   const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
