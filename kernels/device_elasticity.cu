@@ -90,6 +90,7 @@ struct DeviceElasticity::Impl {
   int lanes = 1;                          // fused design, records and lanes passes
   bool dense = false;                     // coalesced pass: the dense tangent kernel
   bool mapped = false;                    // coalesced pass: w and g from shape classes
+  bool slot_frames = false;               // coalesced pass: the block's frames staged in shared memory
   std::string mapped_refusal;             // why not, where DeviceOptions::shape_classes asked for them
 };
 
@@ -191,6 +192,8 @@ class System final : public DeviceElasticity::Impl {
       m_lane_threads = staged ? opts.block_samples
                               : std::max(32, std::min({kLaneThreadsMax, opts.lane_threads, opts.block_samples * m_lanes}));
       dense = pass == SamplePass::coalesced && opts.dense_tangent && m_lane_threads == kDenseThreads;
+      slot_frames = dense && !mapped && opts.slot_frames && m_slot_frame_bytes > 0;
+      m_ell_tangent_bytes = slot_frames ? m_slot_frame_bytes : m_ell_bytes;
       for (const void* k : {reinterpret_cast<const void*>(&k_records_tangent<R, 1, 128>),
                             reinterpret_cast<const void*>(&k_records_tangent<R, 2, 128>),
                             reinterpret_cast<const void*>(&k_records_tangent<R, 2, kLaneThreadsMax>)})
@@ -450,6 +453,18 @@ class System final : public DeviceElasticity::Impl {
     m_levers.resize(kLeverRecord * static_cast<size_t>(m_n));
     m_sample_state.resize(kSampleState * static_cast<size_t>(m_s));
     mapped = options.shape_classes && upload_shape_classes(model, L);
+    // Slot frames: the slot records after the pair outputs (0 where they would not fit).
+    int max_slots = 0;
+    for (int b = 0; b < L.block_count(); ++b) max_slots = std::max(max_slots, L.block_slots[b + 1] - L.block_slots[b]);
+    const size_t slot_bytes = (static_cast<size_t>(slot_records_offset(static_cast<int>(pairs))) +
+                               kSlotFrameRecord * static_cast<size_t>(max_slots)) *
+                              sizeof(R);
+    m_slot_frame_bytes = slot_bytes <= static_cast<size_t>(shared_limit) ? slot_bytes : 0;
+    if (m_slot_frame_bytes > 0)
+      for (int keep : {2, 4, 8})
+        FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep, true, false, true)),
+                                         cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                         static_cast<int>(m_slot_frame_bytes)));
     for (int keep : {2, 4, 8})
       for (bool dense_kernel : {false, true})
         for (bool mapped_kernel : {false, true})
@@ -751,7 +766,7 @@ class System final : public DeviceElasticity::Impl {
       if (pass == SamplePass::coalesced) {
         const R* pd = pcg ? z : d;
         const R* pold = pcg ? d : nullptr;
-        ell_tangent_kernel()<<<m_blocks, m_lane_threads, m_ell_bytes, m_stream>>>(
+        ell_tangent_kernel()<<<m_blocks, m_lane_threads, m_ell_tangent_bytes, m_stream>>>(
             m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes, options.slot_lanes);
       } else if (pass == SamplePass::records) {
         const R* pd = pcg ? z : d;
@@ -865,12 +880,17 @@ class System final : public DeviceElasticity::Impl {
            : keep == 4 ? &k_ell_tangent<R, 4, Dense, Mapped>
                        : &k_ell_tangent<R, 8, Dense, Mapped>;
   }
-  static EllTangentKernel ell_tangent_kernel(int keep, bool dense_kernel, bool mapped_kernel) {
+  static EllTangentKernel ell_tangent_kernel(int keep, bool dense_kernel, bool mapped_kernel,
+                                             bool slot_frames_kernel = false) {
+    if (slot_frames_kernel)
+      return keep == 2   ? &k_ell_tangent<R, 2, true, false, true>
+             : keep == 4 ? &k_ell_tangent<R, 4, true, false, true>
+                         : &k_ell_tangent<R, 8, true, false, true>;
     if (dense_kernel)
       return mapped_kernel ? ell_tangent_kernel<true, true>(keep) : ell_tangent_kernel<true, false>(keep);
     return mapped_kernel ? ell_tangent_kernel<false, true>(keep) : ell_tangent_kernel<false, false>(keep);
   }
-  EllTangentKernel ell_tangent_kernel() const { return ell_tangent_kernel(m_keep, dense, mapped); }
+  EllTangentKernel ell_tangent_kernel() const { return ell_tangent_kernel(m_keep, dense, mapped, slot_frames); }
 
   // k_pcg_resident for samples of at most `pairs` (4 or 8) pairs; the invariants in registers in
   // single precision, partly in shared memory in double (in registers they would not leave room
@@ -986,6 +1006,8 @@ class System final : public DeviceElasticity::Impl {
   int m_ell_entries = 0, m_keep = 2, m_max_neighbours = 0;
   bool m_resident = false;  // the persistent PCG is k_pcg_resident
   size_t m_shared_bytes = 0, m_staged_bytes = 0, m_ell_bytes = 0;
+  size_t m_slot_frame_bytes = 0;   // the slot-frames kernel's: pair outputs and slot records
+  size_t m_ell_tangent_bytes = 0;  // the launched coalesced tangent kernel's
   Origin m_origin{};
   cudaStream_t m_stream = nullptr;
   cudaEvent_t m_start = nullptr, m_stop = nullptr;
@@ -1053,6 +1075,7 @@ SamplePass DeviceElasticity::sample_pass() const { return m_impl->pass; }
 int DeviceElasticity::lanes() const { return m_impl->lanes; }
 bool DeviceElasticity::dense_tangent() const { return m_impl->dense; }
 const std::string& DeviceElasticity::shape_classes_refusal() const { return m_impl->mapped_refusal; }
+bool DeviceElasticity::slot_frames() const { return m_impl->slot_frames; }
 bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }

@@ -92,6 +92,11 @@ struct DeviceOptions {
   // (docs/benchmarks.md, seventh round; 4.18 M x 8 single, tangent product 0.85 -> 1.01 ms) though
   // it moves half the bytes: the pass is bound by latency, not bandwidth.
   bool shape_classes = false;
+  // Coalesced pass, launched dense tangent kernel without shape classes: each block stages its
+  // frames' lever records and directions in shared memory once (kSlotFrameRecord values per slot)
+  // and its pairs read them there, instead of gathering 18 values per pair through the L1, which
+  // bounds the 4.18 M pass (docs/benchmarks.md, seventh round). The same bits.
+  bool slot_frames = false;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16
@@ -160,6 +165,9 @@ class DeviceElasticity {
   // Why the model does not use shape classes where DeviceOptions::shape_classes asked for them
   // (empty otherwise).
   const std::string& shape_classes_refusal() const;
+  // Coalesced pass: whether the launched tangent kernel reads the frames from shared memory
+  // (DeviceOptions::slot_frames with the dense kernel and no shape classes).
+  bool slot_frames() const;
   Precision precision() const;
   const DeviceOptions& options() const;
 

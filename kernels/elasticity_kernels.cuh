@@ -366,10 +366,13 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
 // then `slot_lanes` lanes per slot sum it (warp_slot_sums). All arithmetic in R. Every thread of the block
 // must call it. Returns this thread's share of v dF : dP over its samples (lane 0 of each sample), the
 // sample terms of p . K p for the persistent PCG. Mapped: each sample reads its shape map once and
-// its pairs' w and g come from its class (ell_entry_mapped) instead of ell_data.
-template <class R, int Keep, bool Mapped = false>
+// its pairs' w and g come from its class (ell_entry_mapped) instead of ell_data. SlotFrames: the
+// block's frames (lever records and directions) are staged in shared memory after the pair outputs
+// (stage_slot_frame_value) and read there by slot, with the same bits.
+template <class R, int Keep, bool Mapped = false, bool SlotFrames = false>
 __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
                                     double beta, int b, int lanes, int slot_lanes, R* local, R* slot_partials) {
+  static_assert(!(Mapped && SlotFrames), "the mapped pass reads frames by its own slot table");
   const int s0 = m.block_samples[b], ns = m.block_samples[b + 1] - s0;
   const int e0 = m.ell_offsets[b];
   const int stride = m.offsets[s0 + ns] - m.offsets[s0];  // the block's pairs
@@ -383,6 +386,13 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
       mapped_slot_table(m, b, k, &slot_table[k], &slot_table[kMappedSlots + k]);
     __syncthreads();
   }
+  R* records = local + slot_records_offset(stride);
+  if constexpr (SlotFrames) {
+    const int values = kSlotFrameValues * (m.block_slots[b + 1] - m.block_slots[b]);
+    for (int idx = static_cast<int>(threadIdx.x); idx < values; idx += static_cast<int>(blockDim.x))
+      stage_slot_frame_value(m, f, d, p_old, beta, b, idx, records);
+    __syncthreads();
+  }
   double work = 0;
   for (int base = 0; base < ns; base += groups) {  // the same trip count in every thread
     const int t = base + group, s = s0 + t;
@@ -393,6 +403,19 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
     EllEntry<R> kept[Keep] = {};
     ShapeMap<R> held;
     const ShapeMap<R>* map = Mapped ? &held : nullptr;
+    // The entry, its pair and its dF term, from the slot records or gathered per pair.
+    const auto entry = [&](int e, int j) {
+      if constexpr (SlotFrames) return ell_entry_slot(m, e);
+      else return ell_entry_at(m, e, map, j);
+    };
+    const auto pair_of = [&](const EllEntry<R>& en) {
+      if constexpr (SlotFrames) return ell_pair_in_slot(en, records, ps);
+      else return ell_pair_of(en, f.levers, ps);
+    };
+    const auto add_dF = [&](const EllPair<R>& q) {
+      if constexpr (SlotFrames) ell_pair_dF_in_slot(q, records, dF);
+      else ell_pair_dF(q, d, p_old, beta, dF);
+    };
     if (active) {
       count = m.offsets[s + 1] - m.offsets[s];
       ps = Vec3T<R>{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
@@ -401,13 +424,12 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
 #pragma unroll
       for (int k = 0; k < Keep; ++k) {
         const int j = lane + k * lanes;
-        if (j < count) kept[k] = ell_entry_at(m, e0 + j * ns + t, map, j);
+        if (j < count) kept[k] = entry(e0 + j * ns + t, j);
       }
 #pragma unroll
       for (int k = 0; k < Keep; ++k)
-        if (lane + k * lanes < count) ell_pair_dF(ell_pair_of(kept[k], f.levers, ps), d, p_old, beta, dF);
-      for (int j = lane + Keep * lanes; j < count; j += lanes)
-        ell_pair_dF(ell_pair(m, f.levers, ps, e0 + j * ns + t, map, j), d, p_old, beta, dF);
+        if (lane + k * lanes < count) add_dF(pair_of(kept[k]));
+      for (int j = lane + Keep * lanes; j < count; j += lanes) add_dF(pair_of(entry(e0 + j * ns + t, j)));
     }
     for (int o = 1; o < lanes; o <<= 1)
       for (int r = 0; r < 3; ++r)
@@ -418,11 +440,10 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
       if (lane == 0) work += static_cast<double>(v) * static_cast<double>(ddot(dF, dP));
 #pragma unroll
       for (int k = 0; k < Keep; ++k)
-        if (lane + k * lanes < count)
-          ell_pair_output(ell_pair_of(kept[k], f.levers, ps), dP, v, kept[k].pos, stride, local);
+        if (lane + k * lanes < count) ell_pair_output(pair_of(kept[k]), dP, v, kept[k].pos, stride, local);
       for (int j = lane + Keep * lanes; j < count; j += lanes) {
-        const EllEntry<R> en = ell_entry_at(m, e0 + j * ns + t, map, j);
-        ell_pair_output(ell_pair_of(en, f.levers, ps), dP, v, en.pos, stride, local);
+        const EllEntry<R> en = entry(e0 + j * ns + t, j);
+        ell_pair_output(pair_of(en), dP, v, en.pos, stride, local);
       }
     }
   }
@@ -448,7 +469,7 @@ constexpr int dense_blocks_per_sm(int keep, bool mapped) {
 // Coalesced tangent pass, one block per sample block (as k_lanes_tangent). Dense: compiled for
 // kDenseThreads threads per block and dense_blocks_per_sm blocks per multiprocessor; otherwise for
 // up to kLaneThreadsMax threads. Mapped: w and g from the samples' shape classes.
-template <class R, int Keep, bool Dense, bool Mapped>
+template <class R, int Keep, bool Dense, bool Mapped, bool SlotFrames = false>
 __global__ void __launch_bounds__(Dense ? kDenseThreads : kLaneThreadsMax,
                                   Dense ? dense_blocks_per_sm<R>(Keep, Mapped) : 1)
     k_ell_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
@@ -457,8 +478,8 @@ __global__ void __launch_bounds__(Dense ? kDenseThreads : kLaneThreadsMax,
   R* local = reinterpret_cast<R*>(shared_raw);
   if (finished(sc)) return;
   const double beta = p_old ? sc->beta : 0.0;
-  ell_tangent_block<R, Keep, Mapped>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), lanes, slot_lanes, local,
-                                     slot_partials);
+  ell_tangent_block<R, Keep, Mapped, SlotFrames>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), lanes,
+                                                 slot_lanes, local, slot_partials);
 }
 
 // Tangent sample pass of the fused design, one block per sample block. In the PCG (p_old set) the

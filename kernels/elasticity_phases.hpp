@@ -26,6 +26,8 @@
 #include "material/material.hpp"
 #include "mechanics/frame_sample.hpp"
 
+#include <type_traits>
+
 namespace fascia::gpu {
 
 template <class R>
@@ -665,14 +667,12 @@ struct EllPair {
   int i;        // frame
 };
 
-// The pair of an ELL entry for the sample at ps (p_s - origin): the frame's lever record gathered,
-// a = R_i (p_s - x̄_i) and the lever formed.
+// The pair of an ELL entry for the sample at ps (p_s - origin) from its frame's lever record rec
+// [R_i, x̄_i - origin]: a = R_i (p_s - x̄_i) and the lever formed.
 template <class R>
-FASCIA_HD EllPair<R> ell_pair_of(const EllEntry<R>& en, const R* levers, const Vec3T<R>& ps) {
+FASCIA_HD EllPair<R> ell_pair_from_record(const EllEntry<R>& en, const R* rec, const Vec3T<R>& ps) {
   EllPair<R> q;
   q.i = en.i;
-  R rec[kLeverRecord];
-  load_aligned<kLeverRecord>(levers + kLeverRecord * static_cast<size_t>(q.i), rec);
   Mat3T<R> Ri;
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) Ri.m[r][c] = rec[3 * r + c];
@@ -680,6 +680,14 @@ FASCIA_HD EllPair<R> ell_pair_of(const EllEntry<R>& en, const R* levers, const V
   q.g = en.g;
   q.M = pair_lever(a, q.g, en.w, Ri);
   return q;
+}
+
+// The pair of an ELL entry, the frame's lever record gathered from levers [N][kLeverRecord].
+template <class R>
+FASCIA_HD EllPair<R> ell_pair_of(const EllEntry<R>& en, const R* levers, const Vec3T<R>& ps) {
+  R rec[kLeverRecord];
+  load_aligned<kLeverRecord>(levers + kLeverRecord * static_cast<size_t>(en.i), rec);
+  return ell_pair_from_record(en, rec, ps);
 }
 
 // The pair at ELL entry e (pair j of its sample; `map` as ell_entry_at).
@@ -700,6 +708,87 @@ FASCIA_HD void ell_pair_dF(const EllPair<R>& q, const R* d, const R* p_old, doub
     load_six(p_old, q.i, po);
     for (int k = 0; k < 6; ++k) di[k] = direction_value(di[k], po[k], beta);
   }
+  dF += pair_lever_differential(Vec3T<R>{di[0], di[1], di[2]}, Vec3T<R>{di[3], di[4], di[5]}, q.g, q.M);
+}
+
+// ---- slot frames (coalesced pass, DeviceOptions::slot_frames) ----------------------------------
+// Each block stages its slots' frames once in shared memory, [R_i (9), x̄_i - origin (3), p_i (6),
+// 2 unused] per slot (p_i the direction, formed as z_i + beta p_old_i with next_direction's
+// rounding), and its pairs read them there by block-local slot (ell_slot) instead of gathering
+// 18 values per pair from global memory: a block of 128 hexahedron samples has 1024 pairs on about
+// 50 frames. The values, and so the results, are the same bits as the gathered ones.
+constexpr int kSlotFrameRecord = 20;  // a multiple of 16 bytes in float and in double
+constexpr int kSlotFrameValues = kLeverRecord + 6;
+
+// The first element of the slot records in a block's shared memory after its pair outputs
+// [6][pairs], rounded up to 16 bytes.
+FASCIA_HD int slot_records_offset(int pairs) { return (6 * pairs + 3) / 4 * 4; }
+
+// Value k of slot j's record of block b (idx = kSlotFrameValues j + k; one thread per value).
+template <class R>
+FASCIA_HD void stage_slot_frame_value(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
+                                      double beta, int b, int idx, R* records) {
+  const int j = idx / kSlotFrameValues, k = idx - kSlotFrameValues * j;
+  const size_t i = static_cast<size_t>(m.slot_frames[m.block_slots[b] + j]);
+  R v;
+  if (k < kLeverRecord)
+    v = f.levers[kLeverRecord * i + k];
+  else
+    v = p_old ? next_direction(d, p_old, beta, static_cast<int>(6 * i) + k - kLeverRecord) : d[6 * i + k - kLeverRecord];
+  records[kSlotFrameRecord * j + k] = v;
+}
+
+// n values of a 16-byte-aligned record in shared memory (plain vector loads: __ldg is for global
+// memory only).
+template <int n, class R>
+FASCIA_HD void load_shared(const R* src, R* dst) {
+#ifdef __CUDA_ARCH__
+  if constexpr (sizeof(R) == sizeof(float) && n % 4 == 0) {
+    const float4* v = reinterpret_cast<const float4*>(src);
+#pragma unroll
+    for (int k = 0; k < n / 4; ++k) {
+      const float4 t = v[k];
+      dst[4 * k] = t.x;
+      dst[4 * k + 1] = t.y;
+      dst[4 * k + 2] = t.z;
+      dst[4 * k + 3] = t.w;
+    }
+  } else {
+    using Pair = std::conditional_t<sizeof(R) == sizeof(float), float2, double2>;
+    const Pair* v = reinterpret_cast<const Pair*>(src);
+#pragma unroll
+    for (int k = 0; k < n / 2; ++k) {
+      const Pair t = v[k];
+      dst[2 * k] = t.x;
+      dst[2 * k + 1] = t.y;
+    }
+  }
+#else
+  for (int k = 0; k < n; ++k) dst[k] = src[k];
+#endif
+}
+
+// ELL entry e with its block-local slot in place of the frame (EllEntry::i).
+template <class R>
+FASCIA_HD EllEntry<R> ell_entry_slot(const ModelView<R>& m, int e) {
+  const size_t E = static_cast<size_t>(m.ell_entries);
+  return EllEntry<R>{static_cast<int>(m.ell_slot[e]), static_cast<int>(m.ell_pos[e]), m.ell_data[e],
+                     Vec3T<R>{m.ell_data[E + e], m.ell_data[2 * E + e], m.ell_data[3 * E + e]}};
+}
+
+// The pair of an ELL entry of ell_entry_slot, from its slot's staged record.
+template <class R>
+FASCIA_HD EllPair<R> ell_pair_in_slot(const EllEntry<R>& en, const R* records, const Vec3T<R>& ps) {
+  R rec[kLeverRecord];
+  load_shared<kLeverRecord>(records + kSlotFrameRecord * en.i, rec);
+  return ell_pair_from_record(en, rec, ps);
+}
+
+// ell_pair_dF with the direction from the pair's slot record.
+template <class R>
+FASCIA_HD void ell_pair_dF_in_slot(const EllPair<R>& q, const R* records, Mat3T<R>& dF) {
+  R di[6];
+  load_shared<6>(records + kSlotFrameRecord * q.i + kLeverRecord, di);
   dF += pair_lever_differential(Vec3T<R>{di[0], di[1], di[2]}, Vec3T<R>{di[3], di[4], di[5]}, q.g, q.M);
 }
 

@@ -33,6 +33,7 @@ struct BenchGpuOptions {
   std::vector<int> resident = {2};    // coalesced pass: persistent PCG holding its invariants (2: double too)
   std::vector<int> dense = {1};       // coalesced pass: dense launched tangent kernel (DeviceOptions::dense_tangent)
   std::vector<int> shape_classes = {0};  // coalesced pass: w and g from shape classes (DeviceOptions::shape_classes)
+  std::vector<int> slot_frames = {0};    // coalesced pass: frames staged per block (DeviceOptions::slot_frames)
   int persistent_blocks_per_sm = 4;  // persistent PCG while the model needs at most this many blocks per SM
 };
 
