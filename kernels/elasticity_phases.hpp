@@ -739,29 +739,19 @@ FASCIA_HD void stage_slot_frame_value(const ModelView<R>& m, const FrameView<R>&
 }
 
 // n values of a 16-byte-aligned record in shared memory (plain vector loads: __ldg is for global
-// memory only).
+// memory only): 16-byte vectors where n fills them, else 2-value ones.
 template <int n, class R>
 FASCIA_HD void load_shared(const R* src, R* dst) {
 #ifdef __CUDA_ARCH__
-  if constexpr (sizeof(R) == sizeof(float) && n % 4 == 0) {
-    const float4* v = reinterpret_cast<const float4*>(src);
+  using Vec = std::conditional_t<sizeof(R) == sizeof(double), double2, std::conditional_t<n % 4 == 0, float4, float2>>;
+  constexpr int width = sizeof(Vec) / sizeof(R);
+  const Vec* v = reinterpret_cast<const Vec*>(src);
 #pragma unroll
-    for (int k = 0; k < n / 4; ++k) {
-      const float4 t = v[k];
-      dst[4 * k] = t.x;
-      dst[4 * k + 1] = t.y;
-      dst[4 * k + 2] = t.z;
-      dst[4 * k + 3] = t.w;
-    }
-  } else {
-    using Pair = std::conditional_t<sizeof(R) == sizeof(float), float2, double2>;
-    const Pair* v = reinterpret_cast<const Pair*>(src);
+  for (int k = 0; k < n / width; ++k) {
+    const Vec t = v[k];
+    const R* c = reinterpret_cast<const R*>(&t);
 #pragma unroll
-    for (int k = 0; k < n / 2; ++k) {
-      const Pair t = v[k];
-      dst[2 * k] = t.x;
-      dst[2 * k + 1] = t.y;
-    }
+    for (int l = 0; l < width; ++l) dst[width * k + l] = c[l];
   }
 #else
   for (int k = 0; k < n; ++k) dst[k] = src[k];

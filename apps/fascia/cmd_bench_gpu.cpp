@@ -217,8 +217,6 @@ double time_cuda_step(const Model& model, LinearMethod linear, int cg_iterations
   options.precision = precision == "single" ? gpu::Precision::single_precision : gpu::Precision::double_precision;
   options.design = design == "paper" ? gpu::Design::paper : gpu::Design::fused;
   gpu::DeviceElasticity dev(model, options);
-  if (!dev.shape_classes_refusal().empty())
-    std::fprintf(stderr, "shape classes not used: %s\n", dev.shape_classes_refusal().c_str());
   const State start = rest_state(model);
   dev.set_state(start);
   gpu::DeviceBackwardEuler stepper(dev, gpu::make_step_options(model, bench_step_loads(), start, kBenchStepDt, 0, 0,
