@@ -91,6 +91,7 @@ struct DeviceElasticity::Impl {
   bool dense = false;                     // coalesced pass: the dense tangent kernel
   bool mapped = false;                    // coalesced pass: w and g from shape classes
   bool slot_frames = false;               // coalesced pass: the block's frames staged in shared memory
+  bool direction_pass = false;            // coalesced pass, launched PCG: p formed by k_pcg_direction
   std::string mapped_refusal;             // why not, where DeviceOptions::shape_classes asked for them
 };
 
@@ -194,6 +195,7 @@ class System final : public DeviceElasticity::Impl {
       dense = pass == SamplePass::coalesced && opts.dense_tangent && m_lane_threads == kDenseThreads;
       slot_frames = dense && !mapped && opts.slot_frames && m_slot_frame_bytes > 0;
       m_ell_tangent_bytes = slot_frames ? m_slot_frame_bytes : m_ell_bytes;
+      direction_pass = pass == SamplePass::coalesced && opts.direction_pass;
       for (const void* k : {reinterpret_cast<const void*>(&k_records_tangent<R, 1, 128>),
                             reinterpret_cast<const void*>(&k_records_tangent<R, 2, 128>),
                             reinterpret_cast<const void*>(&k_records_tangent<R, 2, kLaneThreadsMax>)})
@@ -762,10 +764,11 @@ class System final : public DeviceElasticity::Impl {
   void enqueue_tangent(R* d, R* out, FrameTermsFlags flags, bool pcg) {
     const Scalars* sc = pcg ? m_scalars.data() : nullptr;
     if (design == Design::fused) {
-      const R* z = pcg ? m_cz.data() : nullptr;
+      // With the direction pass p is already formed: the passes read it instead of z and p.
+      const R* z = pcg && !direction_pass ? m_cz.data() : nullptr;
       if (pass == SamplePass::coalesced) {
-        const R* pd = pcg ? z : d;
-        const R* pold = pcg ? d : nullptr;
+        const R* pd = z ? z : d;
+        const R* pold = z ? d : nullptr;
         ell_tangent_kernel()<<<m_blocks, m_lane_threads, m_ell_tangent_bytes, m_stream>>>(
             m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes, options.slot_lanes);
       } else if (pass == SamplePass::records) {
@@ -820,7 +823,7 @@ class System final : public DeviceElasticity::Impl {
         m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
         m_step.cg_tolerance);
     check_launch();
-    if (design != Design::fused) {  // the fused passes form p = z + beta p themselves
+    if (design != Design::fused || direction_pass) {  // else the fused passes form p = z + beta p themselves
       k_pcg_direction<R><<<grid_for(6LL * m_n, kThreads), kThreads, 0, m_stream>>>(6 * m_n, m_cz.data(), m_cp.data(),
                                                                                     m_scalars.data());
       check_launch();
@@ -1076,6 +1079,7 @@ int DeviceElasticity::lanes() const { return m_impl->lanes; }
 bool DeviceElasticity::dense_tangent() const { return m_impl->dense; }
 const std::string& DeviceElasticity::shape_classes_refusal() const { return m_impl->mapped_refusal; }
 bool DeviceElasticity::slot_frames() const { return m_impl->slot_frames; }
+bool DeviceElasticity::direction_pass() const { return m_impl->direction_pass; }
 bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }

@@ -97,6 +97,11 @@ struct DeviceOptions {
   // and its pairs read them there, instead of gathering 18 values per pair through the L1, which
   // bounds the 4.18 M pass (docs/benchmarks.md, seventh round). The same bits.
   bool slot_frames = false;
+  // Coalesced pass, launched PCG: the direction p = z + beta p formed once per iteration by its own
+  // pass after the update (k_pcg_direction, as the paper design does), so the tangent pass gathers
+  // the 6 values of p per pair instead of the 12 of z and the previous p, and the frame pass reads
+  // p instead of forming it. The same bits (the same rounding, next_direction).
+  bool direction_pass = false;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16
@@ -168,6 +173,9 @@ class DeviceElasticity {
   // Coalesced pass: whether the launched tangent kernel reads the frames from shared memory
   // (DeviceOptions::slot_frames with the dense kernel and no shape classes).
   bool slot_frames() const;
+  // Coalesced pass: whether the launched PCG forms the direction in its own pass
+  // (DeviceOptions::direction_pass).
+  bool direction_pass() const;
   Precision precision() const;
   const DeviceOptions& options() const;
 

@@ -314,12 +314,35 @@ __device__ void records_tangent_block(const ModelView<R>& m, const FrameView<R>&
     record_slot_sum(m, local, stride, q, slot_partials);
 }
 
+// Stores the slot sums held by a warp whose groups of `slot_lanes` lanes hold the sums of the
+// consecutive slots first, first + 1, ... (every lane of a group holds its slot's six sums): their
+// 6-vectors are one contiguous range of slot_partials, so lane l stores values l, l + 32, ... of it,
+// each fetched from its slot's group by __shfl_sync; one fully used sector per 8 values instead of
+// six stores at a stride of six words. Slots from `end` on are not stored. Every lane of the warp
+// must call it.
+template <class R>
+__device__ void store_warp_slot_sums(const R (&acc)[6], int first, int end, int slot_lanes, R* slot_partials) {
+  const int lane = static_cast<int>(threadIdx.x) & 31;
+  const int slots = 32 / slot_lanes;
+  for (int v0 = 0; v0 < 6 * slots; v0 += 32) {  // the same trip count in every lane
+    const int v = v0 + lane, slot = v / 6, c = v - 6 * slot;
+    const int source = (slot < slots ? slot : slots - 1) * slot_lanes;
+    R value = 0;
+#pragma unroll
+    for (int cc = 0; cc < 6; ++cc) {
+      const R t = __shfl_sync(0xffffffffu, acc[cc], source);
+      if (cc == c) value = t;
+    }
+    if (slot < slots && first + slot < end) slot_partials[6 * static_cast<size_t>(first) + v] = value;
+  }
+}
+
 // The slot sums of block b's outputs [6][stride] in slot-major order (the coalesced pass):
 // `slot_lanes` lanes per slot (a power of two <= 32; 1: a thread per slot), lane l of a slot's
 // group adds its positions l, l + slot_lanes, ... per component, an xor butterfly within the
 // group combines the lanes (slot_tree_sum's order, so the host emulation has the same bits), and
-// the group's lanes 0..5 write the six components (lane 0 all six when slot_lanes < 6). Every
-// thread of the block must call it (blockDim.x a multiple of 32).
+// each warp stores its slots' sums as one contiguous range (store_warp_slot_sums). Every thread of
+// the block must call it (blockDim.x a multiple of 32).
 template <class R>
 __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride, int b, int slot_lanes,
                                R* slot_partials) {
@@ -339,20 +362,8 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
     for (int o = slot_lanes / 2; o > 0; o >>= 1)
 #pragma unroll
       for (int c = 0; c < 6; ++c) acc[c] += __shfl_xor_sync(0xffffffffu, acc[c], o);
-    if (q < q1) {
-      R* dst = slot_partials + 6 * static_cast<size_t>(q);
-      if (slot_lanes < 6) {
-        if (lane == 0)
-#pragma unroll
-          for (int c = 0; c < 6; ++c) dst[c] = acc[c];
-      } else {
-        R mine = 0;
-#pragma unroll
-        for (int c = 0; c < 6; ++c)
-          if (lane == c) mine = acc[c];
-        if (lane < 6) dst[lane] = mine;
-      }
-    }
+    const int warp_first = first + (static_cast<int>(threadIdx.x) >> 5) * (32 / slot_lanes);
+    if (warp_first < q1) store_warp_slot_sums(acc, warp_first, q1, slot_lanes, slot_partials);
   }
 }
 
@@ -1110,13 +1121,16 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
         if (j < count) ell_pair_output(pair(j), dP, v, entry[j].pos, stride, local);
     }
     __syncthreads();
-    for (int qq = q0 + tid; qq < q1; qq += static_cast<int>(blockDim.x)) {
-      const int a = m.slot_pair_offsets[qq] - base, e = m.slot_pair_offsets[qq + 1] - base;
+    for (int first = q0; first < q1; first += static_cast<int>(blockDim.x)) {  // the same trip count in every thread
+      const int qq = first + tid, warp_first = first + (tid & ~31);
       R acc[6] = {0, 0, 0, 0, 0, 0};
-      for (int kk = a; kk < e; ++kk)
+      if (qq < q1) {
+        const int a = m.slot_pair_offsets[qq] - base, e = m.slot_pair_offsets[qq + 1] - base;
+        for (int kk = a; kk < e; ++kk)
 #pragma unroll
-        for (int c = 0; c < 6; ++c) acc[c] += local[c * stride + kk];
-      for (int c = 0; c < 6; ++c) slot_partials[6 * static_cast<size_t>(qq) + c] = acc[c];
+          for (int c = 0; c < 6; ++c) acc[c] += local[c * stride + kk];
+      }
+      if (warp_first < q1) store_warp_slot_sums(acc, warp_first, q1, 1, slot_partials);
     }
     if (row) dir[tid] = static_cast<double>(direction_value(zj, pj, beta));
     __syncthreads();

@@ -34,6 +34,7 @@ struct BenchGpuOptions {
   std::vector<int> dense = {1};       // coalesced pass: dense launched tangent kernel (DeviceOptions::dense_tangent)
   std::vector<int> shape_classes = {0};  // coalesced pass: w and g from shape classes (DeviceOptions::shape_classes)
   std::vector<int> slot_frames = {0};    // coalesced pass: frames staged per block (DeviceOptions::slot_frames)
+  std::vector<int> direction_pass = {0};  // coalesced pass: p formed in its own pass (DeviceOptions::direction_pass)
   int persistent_blocks_per_sm = 4;  // persistent PCG while the model needs at most this many blocks per SM
 };
 

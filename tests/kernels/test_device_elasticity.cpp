@@ -276,11 +276,12 @@ struct LaunchedRun {
   std::vector<double> Kd, delta;
 };
 double length(const std::vector<double>& a) { return std::sqrt(std::inner_product(a.begin(), a.end(), a.begin(), 0.0)); }
-LaunchedRun launched_run(const Model& model, const DeviceOptions& options, bool slot_frames) {
+LaunchedRun launched_run(const Model& model, const DeviceOptions& options) {
   const State state = kernels_test_state(model, 41);
   LaunchedRun out{std::vector<double>(model.dof_count()), std::vector<double>(model.dof_count())};
   DeviceElasticity dev(model, options);
-  REQUIRE(dev.slot_frames() == slot_frames);
+  REQUIRE(dev.slot_frames() == options.slot_frames);
+  REQUIRE(dev.direction_pass() == options.direction_pass);
   dev.set_state(state);
   dev.prepare();
   const std::vector<double> d = random_vector(model.dof_count(), 11);
@@ -312,15 +313,38 @@ TEST_CASE("slot-frames tangent kernel gives the bits of the gathering kernel", "
   options.lanes = 1;
   options.coalesced_keep = keep;
   options.dense_tangent = true;
-  const LaunchedRun gathered = launched_run(model, options, false);
+  const LaunchedRun gathered = launched_run(model, options);
   options.slot_frames = true;
-  const LaunchedRun staged = launched_run(model, options, true);
+  const LaunchedRun staged = launched_run(model, options);
   std::printf("[gpu] slot frames %s %s keep %d: |Kd| %.3e, |delta| %.3e\n", name(type), to_string(precision), keep,
               length(gathered.Kd), length(gathered.delta));
   REQUIRE(length(gathered.Kd) > 0);
   REQUIRE(length(gathered.delta) > 0);
   CHECK(std::memcmp(staged.Kd.data(), gathered.Kd.data(), sizeof(double) * gathered.Kd.size()) == 0);
   CHECK(std::memcmp(staged.delta.data(), gathered.delta.data(), sizeof(double) * gathered.delta.size()) == 0);
+}
+
+TEST_CASE("direction pass gives the bits of the direction formed in the tangent pass", "[gpu]") {
+  // k_pcg_direction forms p = z + beta p with the rounding the tangent and frame passes use
+  // (next_direction), and every sum keeps its order, so a launched PCG step agrees bit for bit,
+  // with frames gathered per pair and staged per block; the CPU comparison of the launched PCG
+  // (above) then covers both.
+  const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
+  const bool slot_frames = GENERATE(false, true);
+  const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
+  const Model model = kernels_test_model(type, MaterialLaw::stvk, 6, 5, 4);
+  DeviceOptions options;
+  options.precision = precision;
+  options.lanes = 1;
+  options.slot_frames = slot_frames;
+  const LaunchedRun formed = launched_run(model, options);
+  options.direction_pass = true;
+  const LaunchedRun passed = launched_run(model, options);
+  std::printf("[gpu] direction pass %s %s slot frames %d: |delta| %.3e\n", name(type), to_string(precision),
+              slot_frames ? 1 : 0, length(formed.delta));
+  REQUIRE(length(formed.delta) > 0);
+  CHECK(std::memcmp(passed.Kd.data(), formed.Kd.data(), sizeof(double) * formed.Kd.size()) == 0);
+  CHECK(std::memcmp(passed.delta.data(), formed.delta.data(), sizeof(double) * formed.delta.size()) == 0);
 }
 
 TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[gpu]") {
