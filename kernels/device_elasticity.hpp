@@ -102,6 +102,11 @@ struct DeviceOptions {
   // the 6 values of p per pair instead of the 12 of z and the previous p, and the frame pass reads
   // p instead of forming it. The same bits (the same rounding, next_direction).
   bool direction_pass = false;
+  // Coalesced pass, launched dense tangent kernel gathering its frames (no shape classes or slot
+  // frames), 2 or 4 held entries: the held entries' pairs (levers M = a g^T + w R, g, frame) stay in
+  // registers from the dF half to the output half, which then gathers no lever record for them.
+  // The same bits; more registers, so fewer blocks per multiprocessor (dense_blocks_per_sm).
+  bool hold_pairs = false;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16
@@ -176,6 +181,9 @@ class DeviceElasticity {
   // Coalesced pass: whether the launched PCG forms the direction in its own pass
   // (DeviceOptions::direction_pass).
   bool direction_pass() const;
+  // Coalesced pass: whether the launched tangent kernel holds its kept pairs' levers
+  // (DeviceOptions::hold_pairs with the dense gathering kernel and 2 or 4 held entries).
+  bool hold_pairs() const;
   Precision precision() const;
   const DeviceOptions& options() const;
 

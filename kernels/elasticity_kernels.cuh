@@ -314,35 +314,14 @@ __device__ void records_tangent_block(const ModelView<R>& m, const FrameView<R>&
     record_slot_sum(m, local, stride, q, slot_partials);
 }
 
-// Stores the slot sums held by a warp whose groups of `slot_lanes` lanes hold the sums of the
-// consecutive slots first, first + 1, ... (every lane of a group holds its slot's six sums): their
-// 6-vectors are one contiguous range of slot_partials, so lane l stores values l, l + 32, ... of it,
-// each fetched from its slot's group by __shfl_sync; one fully used sector per 8 values instead of
-// six stores at a stride of six words. Slots from `end` on are not stored. Every lane of the warp
-// must call it.
-template <class R>
-__device__ void store_warp_slot_sums(const R (&acc)[6], int first, int end, int slot_lanes, R* slot_partials) {
-  const int lane = static_cast<int>(threadIdx.x) & 31;
-  const int slots = 32 / slot_lanes;
-  for (int v0 = 0; v0 < 6 * slots; v0 += 32) {  // the same trip count in every lane
-    const int v = v0 + lane, slot = v / 6, c = v - 6 * slot;
-    const int source = (slot < slots ? slot : slots - 1) * slot_lanes;
-    R value = 0;
-#pragma unroll
-    for (int cc = 0; cc < 6; ++cc) {
-      const R t = __shfl_sync(0xffffffffu, acc[cc], source);
-      if (cc == c) value = t;
-    }
-    if (slot < slots && first + slot < end) slot_partials[6 * static_cast<size_t>(first) + v] = value;
-  }
-}
-
 // The slot sums of block b's outputs [6][stride] in slot-major order (the coalesced pass):
 // `slot_lanes` lanes per slot (a power of two <= 32; 1: a thread per slot), lane l of a slot's
 // group adds its positions l, l + slot_lanes, ... per component, an xor butterfly within the
 // group combines the lanes (slot_tree_sum's order, so the host emulation has the same bits), and
-// each warp stores its slots' sums as one contiguous range (store_warp_slot_sums). Every thread of
-// the block must call it (blockDim.x a multiple of 32).
+// the group's lanes 0..5 write the six components (lane 0 all six when slot_lanes < 6). Every
+// thread of the block must call it (blockDim.x a multiple of 32). (Storing each warp's slots as one
+// contiguous range through warp shuffles instead was measured slower on an H100: docs/benchmarks.md,
+// eighth round.)
 template <class R>
 __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride, int b, int slot_lanes,
                                R* slot_partials) {
@@ -362,8 +341,20 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
     for (int o = slot_lanes / 2; o > 0; o >>= 1)
 #pragma unroll
       for (int c = 0; c < 6; ++c) acc[c] += __shfl_xor_sync(0xffffffffu, acc[c], o);
-    const int warp_first = first + (static_cast<int>(threadIdx.x) >> 5) * (32 / slot_lanes);
-    if (warp_first < q1) store_warp_slot_sums(acc, warp_first, q1, slot_lanes, slot_partials);
+    if (q < q1) {
+      R* dst = slot_partials + 6 * static_cast<size_t>(q);
+      if (slot_lanes < 6) {
+        if (lane == 0)
+#pragma unroll
+          for (int c = 0; c < 6; ++c) dst[c] = acc[c];
+      } else {
+        R mine = 0;
+#pragma unroll
+        for (int c = 0; c < 6; ++c)
+          if (lane == c) mine = acc[c];
+        if (lane < 6) dst[lane] = mine;
+      }
+    }
   }
 }
 
@@ -379,11 +370,14 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
 // sample terms of p . K p for the persistent PCG. Mapped: each sample reads its shape map once and
 // its pairs' w and g come from its class (ell_entry_mapped) instead of ell_data. SlotFrames: the
 // block's frames (lever records and directions) are staged in shared memory after the pair outputs
-// (stage_slot_frame_value) and read there by slot, with the same bits.
-template <class R, int Keep, bool Mapped = false, bool SlotFrames = false>
+// (stage_slot_frame_value) and read there by slot, with the same bits. HoldPairs: the held entries'
+// pairs (levers M, g, frame) are kept in registers from the dF half to the output half, which then
+// gathers no lever record for them (the same bits; more registers).
+template <class R, int Keep, bool Mapped = false, bool SlotFrames = false, bool HoldPairs = false>
 __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
                                     double beta, int b, int lanes, int slot_lanes, R* local, R* slot_partials) {
   static_assert(!(Mapped && SlotFrames), "the mapped pass reads frames by its own slot table");
+  static_assert(!(HoldPairs && (Mapped || SlotFrames)), "held pairs are for the gathering pass");
   const int s0 = m.block_samples[b], ns = m.block_samples[b + 1] - s0;
   const int e0 = m.ell_offsets[b];
   const int stride = m.offsets[s0 + ns] - m.offsets[s0];  // the block's pairs
@@ -412,6 +406,7 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
     Vec3T<R> ps{0, 0, 0};
     Mat3T<R> dF = zero3<R>();
     EllEntry<R> kept[Keep] = {};
+    EllPair<R> kept_pairs[HoldPairs ? Keep : 1];
     ShapeMap<R> held;
     const ShapeMap<R>* map = Mapped ? &held : nullptr;
     // The entry, its pair and its dF term, from the slot records or gathered per pair.
@@ -439,7 +434,14 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
       }
 #pragma unroll
       for (int k = 0; k < Keep; ++k)
-        if (lane + k * lanes < count) add_dF(pair_of(kept[k]));
+        if (lane + k * lanes < count) {
+          if constexpr (HoldPairs) {
+            kept_pairs[k] = pair_of(kept[k]);
+            add_dF(kept_pairs[k]);
+          } else {
+            add_dF(pair_of(kept[k]));
+          }
+        }
       for (int j = lane + Keep * lanes; j < count; j += lanes) add_dF(pair_of(entry(e0 + j * ns + t, j)));
     }
     for (int o = 1; o < lanes; o <<= 1)
@@ -451,7 +453,10 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
       if (lane == 0) work += static_cast<double>(v) * static_cast<double>(ddot(dF, dP));
 #pragma unroll
       for (int k = 0; k < Keep; ++k)
-        if (lane + k * lanes < count) ell_pair_output(pair_of(kept[k]), dP, v, kept[k].pos, stride, local);
+        if (lane + k * lanes < count) {
+          if constexpr (HoldPairs) ell_pair_output(kept_pairs[k], dP, v, kept[k].pos, stride, local);
+          else ell_pair_output(pair_of(kept[k]), dP, v, kept[k].pos, stride, local);
+        }
       for (int j = lane + Keep * lanes; j < count; j += lanes) {
         const EllEntry<R> en = entry(e0 + j * ns + t, j);
         ell_pair_output(pair_of(en), dP, v, en.pos, stride, local);
@@ -471,8 +476,10 @@ constexpr int kLaneThreadsMax = 512;
 // (mapped: 80, 96, 128), double 128, 156, 200 (mapped: 152, 166, 216). More resident warps keep
 // more loads in flight in this memory-bound pass.
 constexpr int kDenseThreads = 128;
+// Held pairs (HoldPairs; keep 2 and 4 only): float 80 and 128 registers, double 166 and 218.
 template <class R>
-constexpr int dense_blocks_per_sm(int keep, bool mapped) {
+constexpr int dense_blocks_per_sm(int keep, bool mapped, bool hold_pairs = false) {
+  if (hold_pairs) return sizeof(R) == sizeof(float) ? (keep == 2 ? 6 : 4) : (keep == 2 ? 3 : 2);
   if (sizeof(R) == sizeof(float)) return keep == 2 ? (mapped ? 6 : 8) : keep == 4 ? (mapped ? 5 : 6) : 4;
   return keep == 2 ? (mapped ? 3 : 4) : keep == 4 ? 3 : 2;
 }
@@ -480,17 +487,17 @@ constexpr int dense_blocks_per_sm(int keep, bool mapped) {
 // Coalesced tangent pass, one block per sample block (as k_lanes_tangent). Dense: compiled for
 // kDenseThreads threads per block and dense_blocks_per_sm blocks per multiprocessor; otherwise for
 // up to kLaneThreadsMax threads. Mapped: w and g from the samples' shape classes.
-template <class R, int Keep, bool Dense, bool Mapped, bool SlotFrames = false>
+template <class R, int Keep, bool Dense, bool Mapped, bool SlotFrames = false, bool HoldPairs = false>
 __global__ void __launch_bounds__(Dense ? kDenseThreads : kLaneThreadsMax,
-                                  Dense ? dense_blocks_per_sm<R>(Keep, Mapped) : 1)
+                                  Dense ? dense_blocks_per_sm<R>(Keep, Mapped, HoldPairs) : 1)
     k_ell_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
                   int lanes, int slot_lanes) {
   extern __shared__ unsigned char shared_raw[];
   R* local = reinterpret_cast<R*>(shared_raw);
   if (finished(sc)) return;
   const double beta = p_old ? sc->beta : 0.0;
-  ell_tangent_block<R, Keep, Mapped, SlotFrames>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), lanes,
-                                                 slot_lanes, local, slot_partials);
+  ell_tangent_block<R, Keep, Mapped, SlotFrames, HoldPairs>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x),
+                                                            lanes, slot_lanes, local, slot_partials);
 }
 
 // Tangent sample pass of the fused design, one block per sample block. In the PCG (p_old set) the
@@ -1121,16 +1128,13 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
         if (j < count) ell_pair_output(pair(j), dP, v, entry[j].pos, stride, local);
     }
     __syncthreads();
-    for (int first = q0; first < q1; first += static_cast<int>(blockDim.x)) {  // the same trip count in every thread
-      const int qq = first + tid, warp_first = first + (tid & ~31);
+    for (int qq = q0 + tid; qq < q1; qq += static_cast<int>(blockDim.x)) {
+      const int a = m.slot_pair_offsets[qq] - base, e = m.slot_pair_offsets[qq + 1] - base;
       R acc[6] = {0, 0, 0, 0, 0, 0};
-      if (qq < q1) {
-        const int a = m.slot_pair_offsets[qq] - base, e = m.slot_pair_offsets[qq + 1] - base;
-        for (int kk = a; kk < e; ++kk)
+      for (int kk = a; kk < e; ++kk)
 #pragma unroll
-          for (int c = 0; c < 6; ++c) acc[c] += local[c * stride + kk];
-      }
-      if (warp_first < q1) store_warp_slot_sums(acc, warp_first, q1, 1, slot_partials);
+        for (int c = 0; c < 6; ++c) acc[c] += local[c * stride + kk];
+      for (int c = 0; c < 6; ++c) slot_partials[6 * static_cast<size_t>(qq) + c] = acc[c];
     }
     if (row) dir[tid] = static_cast<double>(direction_value(zj, pj, beta));
     __syncthreads();
