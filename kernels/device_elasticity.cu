@@ -93,6 +93,7 @@ struct DeviceElasticity::Impl {
   bool slot_frames = false;               // coalesced pass: the block's frames staged in shared memory
   bool direction_pass = false;            // coalesced pass, launched PCG: p formed by k_pcg_direction
   bool hold_pairs = false;                // coalesced pass: the dense kernel holds its kept pairs' levers
+  bool resident_levers_used = false;      // the persistent PCG is the resident kernel with staged levers
   std::string mapped_refusal;             // why not, where DeviceOptions::shape_classes asked for them
 };
 
@@ -464,6 +465,11 @@ class System final : public DeviceElasticity::Impl {
                                kSlotFrameRecord * static_cast<size_t>(max_slots)) *
                               sizeof(R);
     m_slot_frame_bytes = slot_bytes <= static_cast<size_t>(shared_limit) ? slot_bytes : 0;
+    // The resident kernel's staged lever records (DeviceOptions::resident_levers), after the outputs.
+    const size_t lever_bytes = (static_cast<size_t>(slot_records_offset(static_cast<int>(pairs))) +
+                                kLeverRecord * static_cast<size_t>(max_slots)) *
+                               sizeof(R);
+    m_resident_levers_bytes = lever_bytes <= static_cast<size_t>(shared_limit) ? lever_bytes : 0;
     if (m_slot_frame_bytes > 0)
       for (int keep : {2, 4, 8})
         FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep, true, false, true)),
@@ -876,6 +882,7 @@ class System final : public DeviceElasticity::Impl {
 
   bool use_persistent() const { return m_step.persistent && m_persistent_grid > 0; }
   size_t persistent_shared_bytes() const {
+    if (m_resident && resident_staged()) return m_resident_levers_bytes;
     return staged ? m_staged_bytes : pass == SamplePass::coalesced ? m_ell_bytes : m_shared_bytes;
   }
 
@@ -907,16 +914,24 @@ class System final : public DeviceElasticity::Impl {
   // k_pcg_resident for samples of at most `pairs` (4 or 8) pairs; the invariants in registers in
   // single precision, partly in shared memory in double (in registers they would not leave room
   // for three blocks per multiprocessor).
-  static const void* resident_kernel(int pairs) {
+  // Staged: the double kernel for 4 pairs with the slots' lever records in shared memory
+  // (DeviceOptions::resident_levers).
+  static const void* resident_kernel(int pairs, bool staged = false) {
     constexpr bool in_registers = sizeof(R) == sizeof(float);
+    if (staged && !in_registers && pairs <= 4)
+      return reinterpret_cast<const void*>(&k_pcg_resident<R, 4, in_registers, !in_registers>);
     return pairs <= 4 ? reinterpret_cast<const void*>(&k_pcg_resident<R, 4, in_registers>)
                       : reinterpret_cast<const void*>(&k_pcg_resident<R, 8, in_registers>);
+  }
+  bool resident_staged() const {
+    return std::is_same_v<R, double> && options.resident_levers && m_max_neighbours <= 4 &&
+           m_resident_levers_bytes > 0 && m_resident_try_staged;
   }
 
   // The persistent PCG kernel of the sample pass in use: k_pcg_resident or k_pcg_two_barrier
   // (two grid barriers per iteration) for the coalesced pass, k_pcg_persistent (three) otherwise.
   const void* persistent_kernel() const {
-    if (m_resident) return resident_kernel(m_max_neighbours);
+    if (m_resident) return resident_kernel(m_max_neighbours, resident_staged());
     if (pass != SamplePass::coalesced) return reinterpret_cast<const void*>(&k_pcg_persistent<R>);
     if (m_keep == 2) return reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>);
     if (m_keep == 4) return reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>);
@@ -927,6 +942,7 @@ class System final : public DeviceElasticity::Impl {
   // sample blocks or frame blocks need. 0 where it cannot run (paper design, no cooperative launch).
   int persistent_grid() {
     m_resident = false;
+    resident_levers_used = false;
     if (design != Design::fused) return 0;
     int dev = 0, coop = 0, sms = 0, per_sm = 0;
     FASCIA_CUDA(cudaGetDevice(&dev));
@@ -941,18 +957,25 @@ class System final : public DeviceElasticity::Impl {
       // In double only with DeviceOptions::resident_double and where the compiled kernel needs no
       // local memory (4 pairs per sample; with 8 it spills): one that spilled was measured slower
       // than k_pcg_two_barrier on an H100 (docs/benchmarks.md). Its static shared memory (double)
-      // plus the pair outputs can pass 48 KB, hence the opt-in before the occupancy query.
-      cudaFuncAttributes attr{};
-      FASCIA_CUDA(cudaFuncGetAttributes(&attr, persistent_kernel()));
-      FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                       static_cast<int>(persistent_shared_bytes())));
-      FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), m_lane_threads,
-                                                                persistent_shared_bytes()));
-      if ((sizeof(R) == sizeof(float) || (options.resident_double && attr.localSizeBytes == 0)) && per_sm > 0 &&
-          wanted <= per_sm * sms &&
-          wanted <= options.persistent_blocks_per_sm * sms)
-        return wanted;
+      // plus the pair outputs can pass 48 KB, hence the opt-in before the occupancy query. With
+      // staged lever records (DeviceOptions::resident_levers) first, then without, where the
+      // larger shared memory leaves too few blocks per multiprocessor.
+      for (bool try_staged : {true, false}) {
+        m_resident_try_staged = try_staged;
+        cudaFuncAttributes attr{};
+        FASCIA_CUDA(cudaFuncGetAttributes(&attr, persistent_kernel()));
+        FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                         static_cast<int>(persistent_shared_bytes())));
+        FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), m_lane_threads,
+                                                                  persistent_shared_bytes()));
+        if ((sizeof(R) == sizeof(float) || (options.resident_double && attr.localSizeBytes == 0)) && per_sm > 0 &&
+            wanted <= per_sm * sms && wanted <= options.persistent_blocks_per_sm * sms) {
+          resident_levers_used = resident_staged();
+          return wanted;
+        }
+      }
       m_resident = false;
+      resident_levers_used = false;
     }
     FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
                                      static_cast<int>(persistent_shared_bytes())));
@@ -1019,6 +1042,8 @@ class System final : public DeviceElasticity::Impl {
   bool m_resident = false;  // the persistent PCG is k_pcg_resident
   size_t m_shared_bytes = 0, m_staged_bytes = 0, m_ell_bytes = 0;
   size_t m_slot_frame_bytes = 0;   // the slot-frames kernel's: pair outputs and slot records
+  size_t m_resident_levers_bytes = 0;  // the resident double kernel's with staged lever records
+  bool m_resident_try_staged = true;   // persistent_grid: the staged kernel is still a candidate
   size_t m_ell_tangent_bytes = 0;  // the launched coalesced tangent kernel's
   Origin m_origin{};
   cudaStream_t m_stream = nullptr;
@@ -1090,6 +1115,7 @@ const std::string& DeviceElasticity::shape_classes_refusal() const { return m_im
 bool DeviceElasticity::slot_frames() const { return m_impl->slot_frames; }
 bool DeviceElasticity::direction_pass() const { return m_impl->direction_pass; }
 bool DeviceElasticity::hold_pairs() const { return m_impl->hold_pairs; }
+bool DeviceElasticity::resident_levers() const { return m_impl->resident_levers_used; }
 bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }

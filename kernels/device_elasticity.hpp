@@ -128,6 +128,13 @@ struct DeviceOptions {
   // to local memory). Measured on an H100 (docs/benchmarks.md, seventh round): 34,848 samples in
   // double from 1.41 to 1.25 ms per step (21.8 to 18.9 us per CG iteration).
   bool resident_double = true;
+  // The double resident kernel (4 pairs per sample) with the lever records [R_i, x̄_i] of each
+  // block's frames copied once into shared memory, so that its pairs form their levers from there
+  // instead of gathering them from global memory twice per iteration: each grid barrier invalidates
+  // the L1, so those gathers went to the L2 (Nsight Compute, docs/benchmarks.md, eighth round).
+  // The same bits; where the larger shared memory leaves too few blocks per multiprocessor the
+  // kernel without it is used.
+  bool resident_levers = false;
 };
 
 class DeviceBackwardEuler;
@@ -184,6 +191,9 @@ class DeviceElasticity {
   // Coalesced pass: whether the launched tangent kernel holds its kept pairs' levers
   // (DeviceOptions::hold_pairs with the dense gathering kernel and 2 or 4 held entries).
   bool hold_pairs() const;
+  // Whether the last step's persistent PCG was the double resident kernel with staged lever
+  // records (DeviceOptions::resident_levers; false before a step).
+  bool resident_levers() const;
   Precision precision() const;
   const DeviceOptions& options() const;
 

@@ -374,7 +374,8 @@ TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[g
   // The coalesced pass's persistent PCG with the loop invariants in registers (k_pcg_resident) and
   // without (k_pcg_two_barrier): the same arithmetic, so the same increment bit for bit, and the
   // CPU reference's within the bounds above. Tetrahedra (4 pairs) and hexahedra (8 pairs), both
-  // laws (the double kernel forms the material cache again each iteration).
+  // laws (the double kernel forms the material cache again each iteration). The double kernel
+  // with staged lever records (DeviceOptions::resident_levers) too: the same bits again.
   const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
   const MaterialLaw law = GENERATE(MaterialLaw::stvk, MaterialLaw::neo_hookean);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
@@ -384,11 +385,13 @@ TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[g
   const std::vector<double> loads = kernels_test_loads(model);
   const ReferenceStep ref = reference_step(model, state, h, 60, loads);
   std::vector<std::vector<double>> deltas;
-  for (bool resident : {true, false}) {
+  for (int variant : {0, 1, 2}) {  // resident with staged levers, resident, two-barrier
+    const bool resident = variant < 2;
     DeviceOptions options;
     options.precision = precision;
     options.resident = resident;  // 128-sample blocks (the resident kernel's size)
     options.resident_double = resident;
+    options.resident_levers = variant == 0;
     DeviceElasticity dev(model, options);
     REQUIRE(dev.sample_pass() == SamplePass::coalesced);
     dev.set_state(state);
@@ -403,17 +406,21 @@ TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[g
     // the double kernel needs local memory; DeviceOptions::resident).
     CHECK(report.resident ==
           (resident && (precision == Precision::single_precision || type == CellType::tetrahedron)));
+    CHECK(dev.resident_levers() ==
+          (variant == 0 && precision == Precision::double_precision && type == CellType::tetrahedron));
     CHECK(report.cg_iterations == ref.iterations);
     std::vector<double> delta(model.dof_count());
     stepper.last_increment(delta.data());
     const double e = relative_difference(delta, ref.delta);
-    std::printf("[gpu] %s %s %s %s: kernel %s, cg %d delta %.2e\n", resident ? "resident" : "two-barrier",
-                to_string(precision), name(type), to_string(law), report.resident ? "resident" : "two-barrier",
-                report.cg_iterations, e);
+    std::printf("[gpu] %s %s %s %s: kernel %s%s, cg %d delta %.2e\n",
+                variant == 0 ? "resident, staged levers" : resident ? "resident" : "two-barrier", to_string(precision),
+                name(type), to_string(law), report.resident ? "resident" : "two-barrier",
+                dev.resident_levers() ? " (staged levers)" : "", report.cg_iterations, e);
     CHECK(e < bound(precision, true));
     deltas.push_back(delta);
   }
   CHECK(std::memcmp(deltas[0].data(), deltas[1].data(), deltas[0].size() * sizeof(double)) == 0);
+  CHECK(std::memcmp(deltas[0].data(), deltas[2].data(), deltas[0].size() * sizeof(double)) == 0);
 }
 
 // The device step against the CPU engine itself: StepPotential (backward Euler with Rayleigh
