@@ -93,7 +93,7 @@ struct DeviceElasticity::Impl {
   bool slot_frames = false;               // coalesced pass: the block's frames staged in shared memory
   bool direction_pass = false;            // coalesced pass, launched PCG: p formed by k_pcg_direction
   bool hold_pairs = false;                // coalesced pass: the dense kernel holds its kept pairs' levers
-  bool resident_levers_used = false;      // the persistent PCG is the resident kernel with staged levers
+  bool resident_frames_used = false;      // the persistent PCG is the resident kernel with staged levers
   std::string mapped_refusal;             // why not, where DeviceOptions::shape_classes asked for them
 };
 
@@ -465,11 +465,12 @@ class System final : public DeviceElasticity::Impl {
                                kSlotFrameRecord * static_cast<size_t>(max_slots)) *
                               sizeof(R);
     m_slot_frame_bytes = slot_bytes <= static_cast<size_t>(shared_limit) ? slot_bytes : 0;
-    // The resident kernel's staged lever records (DeviceOptions::resident_levers), after the outputs.
+    // The resident kernel's staged frames (DeviceOptions::resident_frames) after the outputs: lever
+    // records and directions.
     const size_t lever_bytes = (static_cast<size_t>(slot_records_offset(static_cast<int>(pairs))) +
-                                kLeverRecord * static_cast<size_t>(max_slots)) *
+                                (kLeverRecord + 6) * static_cast<size_t>(max_slots)) *
                                sizeof(R);
-    m_resident_levers_bytes = lever_bytes <= static_cast<size_t>(shared_limit) ? lever_bytes : 0;
+    m_resident_frames_bytes = lever_bytes <= static_cast<size_t>(shared_limit) ? lever_bytes : 0;
     if (m_slot_frame_bytes > 0)
       for (int keep : {2, 4, 8})
         FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep, true, false, true)),
@@ -882,7 +883,7 @@ class System final : public DeviceElasticity::Impl {
 
   bool use_persistent() const { return m_step.persistent && m_persistent_grid > 0; }
   size_t persistent_shared_bytes() const {
-    if (m_resident && resident_staged()) return m_resident_levers_bytes;
+    if (m_resident && resident_staged()) return m_resident_frames_bytes;
     return staged ? m_staged_bytes : pass == SamplePass::coalesced ? m_ell_bytes : m_shared_bytes;
   }
 
@@ -915,7 +916,7 @@ class System final : public DeviceElasticity::Impl {
   // single precision, partly in shared memory in double (in registers they would not leave room
   // for three blocks per multiprocessor).
   // Staged: the double kernel for 4 pairs with the slots' lever records in shared memory
-  // (DeviceOptions::resident_levers).
+  // (DeviceOptions::resident_frames).
   static const void* resident_kernel(int pairs, bool staged = false) {
     constexpr bool in_registers = sizeof(R) == sizeof(float);
     if (staged && !in_registers && pairs <= 4)
@@ -924,8 +925,8 @@ class System final : public DeviceElasticity::Impl {
                       : reinterpret_cast<const void*>(&k_pcg_resident<R, 8, in_registers>);
   }
   bool resident_staged() const {
-    return std::is_same_v<R, double> && options.resident_levers && m_max_neighbours <= 4 &&
-           m_resident_levers_bytes > 0 && m_resident_try_staged;
+    return std::is_same_v<R, double> && options.resident_frames && m_max_neighbours <= 4 &&
+           m_resident_frames_bytes > 0 && m_resident_try_staged;
   }
 
   // The persistent PCG kernel of the sample pass in use: k_pcg_resident or k_pcg_two_barrier
@@ -942,7 +943,7 @@ class System final : public DeviceElasticity::Impl {
   // sample blocks or frame blocks need. 0 where it cannot run (paper design, no cooperative launch).
   int persistent_grid() {
     m_resident = false;
-    resident_levers_used = false;
+    resident_frames_used = false;
     if (design != Design::fused) return 0;
     int dev = 0, coop = 0, sms = 0, per_sm = 0;
     FASCIA_CUDA(cudaGetDevice(&dev));
@@ -958,7 +959,7 @@ class System final : public DeviceElasticity::Impl {
       // local memory (4 pairs per sample; with 8 it spills): one that spilled was measured slower
       // than k_pcg_two_barrier on an H100 (docs/benchmarks.md). Its static shared memory (double)
       // plus the pair outputs can pass 48 KB, hence the opt-in before the occupancy query. With
-      // staged lever records (DeviceOptions::resident_levers) first, then without, where the
+      // staged lever records (DeviceOptions::resident_frames) first, then without, where the
       // larger shared memory leaves too few blocks per multiprocessor.
       for (bool try_staged : {true, false}) {
         m_resident_try_staged = try_staged;
@@ -970,12 +971,12 @@ class System final : public DeviceElasticity::Impl {
                                                                   persistent_shared_bytes()));
         if ((sizeof(R) == sizeof(float) || (options.resident_double && attr.localSizeBytes == 0)) && per_sm > 0 &&
             wanted <= per_sm * sms && wanted <= options.persistent_blocks_per_sm * sms) {
-          resident_levers_used = resident_staged();
+          resident_frames_used = resident_staged();
           return wanted;
         }
       }
       m_resident = false;
-      resident_levers_used = false;
+      resident_frames_used = false;
     }
     FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
                                      static_cast<int>(persistent_shared_bytes())));
@@ -1042,7 +1043,7 @@ class System final : public DeviceElasticity::Impl {
   bool m_resident = false;  // the persistent PCG is k_pcg_resident
   size_t m_shared_bytes = 0, m_staged_bytes = 0, m_ell_bytes = 0;
   size_t m_slot_frame_bytes = 0;   // the slot-frames kernel's: pair outputs and slot records
-  size_t m_resident_levers_bytes = 0;  // the resident double kernel's with staged lever records
+  size_t m_resident_frames_bytes = 0;  // the resident double kernel's with staged lever records
   bool m_resident_try_staged = true;   // persistent_grid: the staged kernel is still a candidate
   size_t m_ell_tangent_bytes = 0;  // the launched coalesced tangent kernel's
   Origin m_origin{};
@@ -1115,7 +1116,7 @@ const std::string& DeviceElasticity::shape_classes_refusal() const { return m_im
 bool DeviceElasticity::slot_frames() const { return m_impl->slot_frames; }
 bool DeviceElasticity::direction_pass() const { return m_impl->direction_pass; }
 bool DeviceElasticity::hold_pairs() const { return m_impl->hold_pairs; }
-bool DeviceElasticity::resident_levers() const { return m_impl->resident_levers_used; }
+bool DeviceElasticity::resident_frames() const { return m_impl->resident_frames_used; }
 bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }

@@ -998,15 +998,16 @@ constexpr int kResidentSlots = 8;      // slots per frame held in registers (mor
 // without (double, where that would spill), w, g and the frame rows' terms sit in shared memory
 // (component-major, one word per thread: no bank conflicts), and the levers and the material are
 // formed again each iteration from the lever records and the samples' state (cache hits), as
-// k_pcg_two_barrier does. StagedLevers (without InRegisters): the block's frames' lever records
+// k_pcg_two_barrier does. StagedFrames (without InRegisters): the block's frames' lever records
 // are copied once into shared memory after the pair outputs (kLeverRecord values per slot) and the
-// levers formed from there, instead of gathered from global memory twice per pair and iteration
-// (every grid barrier invalidates the L1, so those gathers go to the L2). The same arithmetic as
+// levers formed from there, and at the start of each iteration the block's threads form its
+// slots' directions p_i there together, instead of each pair gathering them from global memory
+// (every grid barrier invalidates the L1, so those gathers go to the L2, one pair after another). The same arithmetic as
 // k_pcg_two_barrier with slot_lanes = 1, so the same results. Requires lanes = 1, at most MaxPairs
 // pairs per sample and grid = max(sample blocks, frame chunks).
 constexpr int kResidentRowTerms = 13;  // [minv row (6), frame block row (3), inertia row (3), mass]
 
-template <class R, int MaxPairs, bool InRegisters, bool StagedLevers = false>
+template <class R, int MaxPairs, bool InRegisters, bool StagedFrames = false>
 __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     k_pcg_resident(ModelView<R> m, FrameView<R> f, const R* geo, const R* inertia_world, FrameTermsFlags flags,
                    const R* minv, R* x, R* r, R* z, R* p, R* Ap, R* slot_partials, double* partials,
@@ -1018,8 +1019,8 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
   __shared__ double res[kResidentThreads];
   __shared__ double row_held[InRegisters ? 1 : kResidentRowTerms * kResidentThreads];
   __shared__ R pair_held[InRegisters ? 1 : 4 * MaxPairs * kResidentThreads];  // [w, g (3)] per pair
-  __shared__ unsigned short slot_held[StagedLevers ? MaxPairs * kResidentThreads : 1];  // block-local slot per pair
-  static_assert(!(InRegisters && StagedLevers), "the levers are held in registers");
+  __shared__ unsigned short slot_held[StagedFrames ? MaxPairs * kResidentThreads : 1];  // block-local slot per pair
+  static_assert(!(InRegisters && StagedFrames), "the levers are held in registers");
   const auto held = [&](auto* a, int c) -> auto& { return a[c * kResidentThreads + static_cast<int>(threadIdx.x)]; };
   const int b = static_cast<int>(blockIdx.x), tid = static_cast<int>(threadIdx.x);
 
@@ -1065,13 +1066,15 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
           held(pair_held, 4 * j + 1) = entry[j].g.x;
           held(pair_held, 4 * j + 2) = entry[j].g.y;
           held(pair_held, 4 * j + 3) = entry[j].g.z;
-          if constexpr (StagedLevers) held(slot_held, j) = m.ell_slot[e0 + j * ns + tid];
+          if constexpr (StagedFrames) held(slot_held, j) = m.ell_slot[e0 + j * ns + tid];
         }
       }
   }
-  // StagedLevers: the lever records [R_i, x̄_i] of the block's slots, after the pair outputs.
+  // StagedFrames: the lever records [R_i, x̄_i] of the block's slots after the pair outputs, then
+  // their directions p_i (6 values per slot, formed at the start of each iteration).
   R* lever_records = local + slot_records_offset(stride);
-  if constexpr (StagedLevers) {
+  R* slot_dirs = lever_records + kLeverRecord * (q1 - q0);
+  if constexpr (StagedFrames) {
     for (int idx = tid; idx < kLeverRecord * (q1 - q0); idx += static_cast<int>(blockDim.x)) {
       const int q = idx / kLeverRecord, c = idx - kLeverRecord * q;
       lever_records[idx] = f.levers[kLeverRecord * static_cast<size_t>(m.slot_frames[q0 + q]) + c];
@@ -1115,6 +1118,13 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
   while (done == 0 && it < max_iterations) {
     // (1) samples on p = z + beta p_old, slot sums; p . A p.
     double part = 0;
+    if constexpr (StagedFrames) {  // p of the block's slots, with next_direction's rounding
+      for (int idx = tid; idx < 6 * (q1 - q0); idx += static_cast<int>(blockDim.x)) {
+        const int q = idx / 6, c = idx - 6 * q;
+        slot_dirs[idx] = next_direction(z, p, beta, 6 * m.slot_frames[q0 + q] + c);
+      }
+      __syncthreads();
+    }
     if (has_sample) {
       // Without InRegisters each half gathers the lever records again (cache hits), so that no
       // pair's lever is live across dP.
@@ -1125,7 +1135,7 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
           EllEntry<R> en = entry[j];
           en.w = held(pair_held, 4 * j);
           en.g = Vec3T<R>{held(pair_held, 4 * j + 1), held(pair_held, 4 * j + 2), held(pair_held, 4 * j + 3)};
-          if constexpr (StagedLevers) {
+          if constexpr (StagedFrames) {
             R rec[kLeverRecord];
             load_shared<kLeverRecord>(lever_records + kLeverRecord * static_cast<int>(held(slot_held, j)), rec);
             return ell_pair_from_record(en, rec, ps);
@@ -1137,7 +1147,16 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
       Mat3T<R> dF = zero3<R>();
 #pragma unroll
       for (int j = 0; j < MaxPairs; ++j)
-        if (j < count) ell_pair_dF(pair(j), z, p, beta, dF);
+        if (j < count) {
+          if constexpr (StagedFrames) {
+            const EllPair<R> q = pair(j);
+            R di[6];
+            load_shared<6>(slot_dirs + 6 * static_cast<int>(held(slot_held, j)), di);
+            dF += pair_lever_differential(Vec3T<R>{di[0], di[1], di[2]}, Vec3T<R>{di[3], di[4], di[5]}, q.g, q.M);
+          } else {
+            ell_pair_dF(pair(j), z, p, beta, dF);
+          }
+        }
       if constexpr (!InRegisters) {
         ell_sample_material(m, f.sample_state, s, F, cache);
         mat = m.materials[m.sample_materials[s]];

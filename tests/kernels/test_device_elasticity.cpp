@@ -375,7 +375,7 @@ TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[g
   // without (k_pcg_two_barrier): the same arithmetic, so the same increment bit for bit, and the
   // CPU reference's within the bounds above. Tetrahedra (4 pairs) and hexahedra (8 pairs), both
   // laws (the double kernel forms the material cache again each iteration). The double kernel
-  // with staged lever records (DeviceOptions::resident_levers) too: the same bits again.
+  // with staged lever records (DeviceOptions::resident_frames) too: the same bits again.
   const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
   const MaterialLaw law = GENERATE(MaterialLaw::stvk, MaterialLaw::neo_hookean);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
@@ -391,7 +391,7 @@ TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[g
     options.precision = precision;
     options.resident = resident;  // 128-sample blocks (the resident kernel's size)
     options.resident_double = resident;
-    options.resident_levers = variant == 0;
+    options.resident_frames = variant == 0;
     DeviceElasticity dev(model, options);
     REQUIRE(dev.sample_pass() == SamplePass::coalesced);
     dev.set_state(state);
@@ -406,7 +406,7 @@ TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[g
     // the double kernel needs local memory; DeviceOptions::resident).
     CHECK(report.resident ==
           (resident && (precision == Precision::single_precision || type == CellType::tetrahedron)));
-    CHECK(dev.resident_levers() ==
+    CHECK(dev.resident_frames() ==
           (variant == 0 && precision == Precision::double_precision && type == CellType::tetrahedron));
     CHECK(report.cg_iterations == ref.iterations);
     std::vector<double> delta(model.dof_count());
@@ -415,7 +415,7 @@ TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[g
     std::printf("[gpu] %s %s %s %s: kernel %s%s, cg %d delta %.2e\n",
                 variant == 0 ? "resident, staged levers" : resident ? "resident" : "two-barrier", to_string(precision),
                 name(type), to_string(law), report.resident ? "resident" : "two-barrier",
-                dev.resident_levers() ? " (staged levers)" : "", report.cg_iterations, e);
+                dev.resident_frames() ? " (staged levers)" : "", report.cg_iterations, e);
     CHECK(e < bound(precision, true));
     deltas.push_back(delta);
   }
