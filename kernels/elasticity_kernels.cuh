@@ -998,10 +998,10 @@ constexpr int kResidentSlots = 8;      // slots per frame held in registers (mor
 // without (double, where that would spill), w, g and the frame rows' terms sit in shared memory
 // (component-major, one word per thread: no bank conflicts), and the levers and the material are
 // formed again each iteration from the lever records and the samples' state (cache hits), as
-// k_pcg_two_barrier does. StagedFrames (without InRegisters): the block's frames' lever records
-// are copied once into shared memory after the pair outputs (kLeverRecord values per slot) and the
-// levers formed from there, and at the start of each iteration the block's threads form its
-// slots' directions p_i there together, instead of each pair gathering them from global memory
+// k_pcg_two_barrier does. StagedFrames: at the start of each iteration the block's threads form
+// its slots' directions p_i together in shared memory after the pair outputs, and without
+// InRegisters the block's frames' lever records are copied there once (kLeverRecord values per
+// slot) and the levers formed from there, instead of each pair gathering them from global memory
 // (every grid barrier invalidates the L1, so those gathers go to the L2, one pair after another). The same arithmetic as
 // k_pcg_two_barrier with slot_lanes = 1, so the same results. Requires lanes = 1, at most MaxPairs
 // pairs per sample and grid = max(sample blocks, frame chunks).
@@ -1020,7 +1020,6 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
   __shared__ double row_held[InRegisters ? 1 : kResidentRowTerms * kResidentThreads];
   __shared__ R pair_held[InRegisters ? 1 : 4 * MaxPairs * kResidentThreads];  // [w, g (3)] per pair
   __shared__ unsigned short slot_held[StagedFrames ? MaxPairs * kResidentThreads : 1];  // block-local slot per pair
-  static_assert(!(InRegisters && StagedFrames), "the levers are held in registers");
   const auto held = [&](auto* a, int c) -> auto& { return a[c * kResidentThreads + static_cast<int>(threadIdx.x)]; };
   const int b = static_cast<int>(blockIdx.x), tid = static_cast<int>(threadIdx.x);
 
@@ -1066,15 +1065,16 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
           held(pair_held, 4 * j + 1) = entry[j].g.x;
           held(pair_held, 4 * j + 2) = entry[j].g.y;
           held(pair_held, 4 * j + 3) = entry[j].g.z;
-          if constexpr (StagedFrames) held(slot_held, j) = m.ell_slot[e0 + j * ns + tid];
         }
+        if constexpr (StagedFrames) held(slot_held, j) = m.ell_slot[e0 + j * ns + tid];
       }
   }
-  // StagedFrames: the lever records [R_i, x̄_i] of the block's slots after the pair outputs, then
-  // their directions p_i (6 values per slot, formed at the start of each iteration).
+  // StagedFrames: the lever records [R_i, x̄_i] of the block's slots after the pair outputs (not
+  // with InRegisters, which holds the levers), then their directions p_i (6 values per slot, formed
+  // at the start of each iteration).
   R* lever_records = local + slot_records_offset(stride);
-  R* slot_dirs = lever_records + kLeverRecord * (q1 - q0);
-  if constexpr (StagedFrames) {
+  R* slot_dirs = lever_records + (InRegisters ? 0 : kLeverRecord * (q1 - q0));
+  if constexpr (StagedFrames && !InRegisters) {
     for (int idx = tid; idx < kLeverRecord * (q1 - q0); idx += static_cast<int>(blockDim.x)) {
       const int q = idx / kLeverRecord, c = idx - kLeverRecord * q;
       lever_records[idx] = f.levers[kLeverRecord * static_cast<size_t>(m.slot_frames[q0 + q]) + c];
