@@ -468,7 +468,7 @@ class System final : public DeviceElasticity::Impl {
     // The resident kernel's staged frames (DeviceOptions::resident_frames) after the outputs: lever
     // records and directions.
     const size_t lever_bytes = (static_cast<size_t>(slot_records_offset(static_cast<int>(pairs))) +
-                                ((std::is_same_v<R, float> ? 0 : kLeverRecord) + 6) * static_cast<size_t>(max_slots)) *
+                                (kLeverRecord + 6) * static_cast<size_t>(max_slots)) *
                                sizeof(R);
     m_resident_frames_bytes = lever_bytes <= static_cast<size_t>(shared_limit) ? lever_bytes : 0;
     if (m_slot_frame_bytes > 0)
@@ -915,16 +915,20 @@ class System final : public DeviceElasticity::Impl {
   // k_pcg_resident for samples of at most `pairs` (4 or 8) pairs; the invariants in registers in
   // single precision, partly in shared memory in double (in registers they would not leave room
   // for three blocks per multiprocessor).
-  // Staged: the kernel for 4 pairs with the slots' directions (and in double lever records) in
-  // shared memory (DeviceOptions::resident_frames).
+  // Staged: the double kernel for 4 pairs with the slots' lever records and directions in shared
+  // memory (DeviceOptions::resident_frames). The single kernel, which holds its levers in
+  // registers, staging the directions alone was measured no faster (docs/benchmarks.md, eighth
+  // round), so single precision does not use it.
   static const void* resident_kernel(int pairs, bool staged = false) {
     constexpr bool in_registers = sizeof(R) == sizeof(float);
-    if (staged && pairs <= 4) return reinterpret_cast<const void*>(&k_pcg_resident<R, 4, in_registers, true>);
+    if (staged && !in_registers && pairs <= 4)
+      return reinterpret_cast<const void*>(&k_pcg_resident<R, 4, in_registers, !in_registers>);
     return pairs <= 4 ? reinterpret_cast<const void*>(&k_pcg_resident<R, 4, in_registers>)
                       : reinterpret_cast<const void*>(&k_pcg_resident<R, 8, in_registers>);
   }
   bool resident_staged() const {
-    return options.resident_frames && m_max_neighbours <= 4 && m_resident_frames_bytes > 0 && m_resident_try_staged;
+    return std::is_same_v<R, double> && options.resident_frames && m_max_neighbours <= 4 &&
+           m_resident_frames_bytes > 0 && m_resident_try_staged;
   }
 
   // The persistent PCG kernel of the sample pass in use: k_pcg_resident or k_pcg_two_barrier

@@ -128,15 +128,15 @@ struct DeviceOptions {
   // to local memory). Measured on an H100 (docs/benchmarks.md, seventh round): 34,848 samples in
   // double from 1.41 to 1.25 ms per step (21.8 to 18.9 us per CG iteration).
   bool resident_double = true;
-  // The resident kernel for 4 pairs per sample with each block's frames staged in shared memory:
-  // their directions p_i at the start of each iteration (formed by the block's threads together)
-  // and, in double, their lever records [R_i, x̄_i] once (single holds the levers in registers),
-  // so that its pairs read them there instead of gathering them from global memory one pair after
-  // another: each grid barrier invalidates the L1, so those gathers went to the L2 (Nsight Compute,
-  // docs/benchmarks.md, eighth round). The same bits; where the larger shared memory leaves too
+  // The double resident kernel for 4 pairs per sample with each block's frames staged in shared
+  // memory: their lever records [R_i, x̄_i] once, their directions p_i at the start of each
+  // iteration (formed by the block's threads together), so that its pairs read them there instead
+  // of gathering them from global memory one pair after another: each grid barrier invalidates
+  // the L1, so those gathers went to the L2 (Nsight Compute, docs/benchmarks.md, eighth round). The same bits; where the larger shared memory leaves too
   // few blocks per multiprocessor the kernel without it is used. Measured on an H100
-  // (docs/benchmarks.md, eighth round), double: 34,848 samples from 1.262 to 1.154 ms per step
-  // (19.0 to 17.2 us per CG iteration).
+  // (docs/benchmarks.md, eighth round): 34,848 samples from 1.259 to 1.161 ms per step (19.0 to
+  // 17.4 us per CG iteration). Single precision (levers in registers) staging its directions alone
+  // was no faster, so it does not.
   bool resident_frames = true;
 };
 
