@@ -821,25 +821,6 @@ __device__ inline double grid_sum(double v, double* partials, cooperative_groups
   return total;
 }
 
-// grid_sum with no block barrier after the grid barrier: every warp forms the sum that grid_sum's
-// second block_sum forms, in the same order (lane l of warp w's part there: partials t, t + B, ...
-// for t = 32 w + l, B = blockDim.x; each warp's shuffle tree; the warps' sums added in order from
-// 0), for every w itself, so every thread holds grid_sum's bits without waiting for the others.
-__device__ inline double grid_sum_warps(double v, double* partials, cooperative_groups::grid_group& grid) {
-  const double block = block_sum(v);
-  if (threadIdx.x == 0) partials[blockIdx.x] = block;
-  grid.sync();
-  const unsigned lane = threadIdx.x & 31u, B = blockDim.x;
-  double total = 0;
-  for (unsigned w = 0; w < B / 32; ++w) {
-    double s = 0;
-    for (unsigned b = 32 * w + lane; b < gridDim.x; b += B) s += __ldcg(partials + b);
-    for (int o = 16; o > 0; o >>= 1) s += __shfl_down_sync(0xffffffffu, s, o);
-    total += __shfl_sync(0xffffffffu, s, 0);
-  }
-  return total;
-}
-
 // The whole PCG loop of a step in one cooperative launch: per iteration three phases separated by
 // grid barriers, no launches and no host round trips. (1) sample pass of the tangent product on
 // p = z + beta p_old formed on the fly; (2) frame pass: writes p, Ap = H p and reduces p.Ap -> alpha;
@@ -1207,7 +1188,7 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     if (row)
       part += product_rn(dir[tid],
                          apply_frame_row(terms, flags.inv_h2, flags.project, dir + (tid - k), k, 0.0, flags.k_scale));
-    const double pAp = grid_sum_warps(part, partials, grid);
+    const double pAp = grid_sum(part, partials, grid);
     if (!(pAp > 0 && pAp < HUGE_VAL)) {
       done = 2;
       break;
@@ -1239,7 +1220,7 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
       z[jrow] = zj;
       dot = static_cast<double>(rj) * static_cast<double>(zj);
     }
-    const double rz_new = grid_sum_warps(dot, partials + gridDim.x, grid);
+    const double rz_new = grid_sum(dot, partials + gridDim.x, grid);
     end_iteration(rz_new, rz0, tolerance, rz, beta, it, done);
   }
   if (row) {
