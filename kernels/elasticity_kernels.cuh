@@ -1001,8 +1001,10 @@ constexpr int kResidentSlots = 8;      // slots per frame held in registers (mor
 // k_pcg_two_barrier does. StagedFrames: at the start of each iteration the block's threads form
 // its slots' directions p_i together in shared memory after the pair outputs, and without
 // InRegisters the block's frames' lever records are copied there once (kLeverRecord values per
-// slot) and the levers formed from there, instead of each pair gathering them from global memory
-// (every grid barrier invalidates the L1, so those gathers go to the L2, one pair after another). The same arithmetic as
+// slot) and the levers formed from there, and its samples' materials (law, lambda, mu, density)
+// are held there too, instead of each pair gathering them from global memory and each sample
+// reading its material through its index (every grid barrier invalidates the L1, so those loads
+// go to the L2, one after another). The same arithmetic as
 // k_pcg_two_barrier with slot_lanes = 1, so the same results. Requires lanes = 1, at most MaxPairs
 // pairs per sample and grid = max(sample blocks, frame chunks).
 constexpr int kResidentRowTerms = 13;  // [minv row (6), frame block row (3), inertia row (3), mass]
@@ -1020,6 +1022,10 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
   __shared__ double row_held[InRegisters ? 1 : kResidentRowTerms * kResidentThreads];
   __shared__ R pair_held[InRegisters ? 1 : 4 * MaxPairs * kResidentThreads];  // [w, g (3)] per pair
   __shared__ unsigned short slot_held[StagedFrames ? MaxPairs * kResidentThreads : 1];  // block-local slot per pair
+  // StagedFrames without InRegisters: the sample's material [lambda, mu, density] and law.
+  constexpr bool kMaterialHeld = StagedFrames && !InRegisters;
+  __shared__ double material_held[kMaterialHeld ? 3 * kResidentThreads : 1];
+  __shared__ MaterialLaw law_held[kMaterialHeld ? kResidentThreads : 1];
   const auto held = [&](auto* a, int c) -> auto& { return a[c * kResidentThreads + static_cast<int>(threadIdx.x)]; };
   const int b = static_cast<int>(blockIdx.x), tid = static_cast<int>(threadIdx.x);
 
@@ -1053,6 +1059,13 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     if constexpr (InRegisters) {
       mat = m.materials[m.sample_materials[s]];
       ell_sample_material(m, f.sample_state, s, F, cache);
+    }
+    if constexpr (kMaterialHeld) {
+      const Material own = m.materials[m.sample_materials[s]];
+      held(law_held, 0) = own.law;
+      held(material_held, 0) = own.lambda;
+      held(material_held, 1) = own.mu;
+      held(material_held, 2) = own.density;
     }
 #pragma unroll
     for (int j = 0; j < MaxPairs; ++j)
@@ -1157,7 +1170,13 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
             ell_pair_dF(pair(j), z, p, beta, dF);
           }
         }
-      if constexpr (!InRegisters) {
+      if constexpr (kMaterialHeld) {
+        mat.law = held(law_held, 0);
+        mat.lambda = held(material_held, 0);
+        mat.mu = held(material_held, 1);
+        mat.density = held(material_held, 2);
+        ell_sample_material(m, f.sample_state, s, mat, F, cache);
+      } else if constexpr (!InRegisters) {
         ell_sample_material(m, f.sample_state, s, F, cache);
         mat = m.materials[m.sample_materials[s]];
       }

@@ -782,15 +782,15 @@ FASCIA_HD void ell_pair_dF_in_slot(const EllPair<R>& q, const R* records, Mat3T<
   dF += pair_lever_differential(Vec3T<R>{di[0], di[1], di[2]}, Vec3T<R>{di[3], di[4], di[5]}, q.g, q.M);
 }
 
-// F and the material cache of sample s from its stored H = F - I: StVK rebuilds S from H (eq. 5,
-// 19: E = sym(H) + H^T H / 2), neo-Hookean reads its cache.
+// F and the material cache of sample s, of material mat, from its stored H = F - I: StVK rebuilds
+// S from H (eq. 5, 19: E = sym(H) + H^T H / 2), neo-Hookean reads its cache.
 template <class R>
-FASCIA_HD void ell_sample_material(const ModelView<R>& m, const R* state, int s, Mat3T<R>& F, MaterialCacheT<R>& c) {
+FASCIA_HD void ell_sample_material(const ModelView<R>& m, const R* state, int s, const Material& mat, Mat3T<R>& F,
+                                   MaterialCacheT<R>& c) {
   Mat3T<R> H;
   for (int r = 0; r < 3; ++r)
     for (int k = 0; k < 3; ++k) H.m[r][k] = sample_value(state, m.samples, 4 + 3 * r + k, s);
   F = identity3<R>() + H;
-  const Material mat = m.materials[m.sample_materials[s]];
   if (mat.law == MaterialLaw::stvk) {
     const Mat3T<R> E = symmetric_part(H) + R(0.5) * (transpose(H) * H);
     c.a = stvk_stress_from_strain<R>(static_cast<R>(mat.lambda), static_cast<R>(mat.mu), E);
@@ -800,6 +800,12 @@ FASCIA_HD void ell_sample_material(const ModelView<R>& m, const R* state, int s,
       for (int k = 0; k < 3; ++k) c.a.m[r][k] = sample_value(state, m.samples, 13 + 3 * r + k, s);
     c.c = sample_value(state, m.samples, 22, s);
   }
+}
+
+// The same with the sample's material read from the model.
+template <class R>
+FASCIA_HD void ell_sample_material(const ModelView<R>& m, const R* state, int s, Mat3T<R>& F, MaterialCacheT<R>& c) {
+  ell_sample_material(m, state, s, m.materials[m.sample_materials[s]], F, c);
 }
 
 // dP = C[dF] (eq. 22-24) of sample s (ell_sample_material).
