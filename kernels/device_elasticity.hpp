@@ -135,7 +135,7 @@ struct DeviceOptions {
   // the L1, so those gathers went to the L2 (Nsight Compute, docs/benchmarks.md, eighth round). The same bits; where the larger shared memory leaves too
   // few blocks per multiprocessor the kernel without it is used. Measured on an H100
   // (docs/benchmarks.md, eighth round): 34,848 samples from 1.259 to 1.161 ms per step (19.0 to
-  // 17.4 us per CG iteration). Single precision (levers in registers) staging its directions alone
+  // 17.4 us per CG iteration), 1.148 ms with the samples' materials held there too. Single precision (levers in registers) staging its directions alone
   // was no faster, so it does not.
   bool resident_frames = true;
 };
