@@ -299,6 +299,25 @@ LaunchedRun launched_run(const Model& model, const DeviceOptions& options) {
   return out;
 }
 
+// A launched run with one option changed against the run without it: the same bits (memcmp of
+// K d and of the PCG increment), both non-zero so that the comparison can fail.
+void check_same_bits(const LaunchedRun& without, const LaunchedRun& with) {
+  REQUIRE(length(without.Kd) > 0);
+  REQUIRE(length(without.delta) > 0);
+  CHECK(std::memcmp(with.Kd.data(), without.Kd.data(), sizeof(double) * without.Kd.size()) == 0);
+  CHECK(std::memcmp(with.delta.data(), without.delta.data(), sizeof(double) * without.delta.size()) == 0);
+}
+
+// The launched dense coalesced tangent kernel with `keep` held entries, one lane per sample.
+DeviceOptions dense_options(Precision precision, int keep) {
+  DeviceOptions options;
+  options.precision = precision;
+  options.lanes = 1;
+  options.coalesced_keep = keep;
+  options.dense_tangent = true;
+  return options;
+}
+
 }  // namespace
 
 TEST_CASE("slot-frames tangent kernel gives the bits of the gathering kernel", "[gpu]") {
@@ -309,20 +328,13 @@ TEST_CASE("slot-frames tangent kernel gives the bits of the gathering kernel", "
   const int keep = GENERATE(2, 4, 8);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const Model model = kernels_test_model(type, MaterialLaw::neo_hookean, 6, 5, 4);
-  DeviceOptions options;
-  options.precision = precision;
-  options.lanes = 1;
-  options.coalesced_keep = keep;
-  options.dense_tangent = true;
+  DeviceOptions options = dense_options(precision, keep);
   const LaunchedRun gathered = launched_run(model, options);
   options.slot_frames = true;
   const LaunchedRun staged = launched_run(model, options);
   std::printf("[gpu] slot frames %s %s keep %d: |Kd| %.3e, |delta| %.3e\n", name(type), to_string(precision), keep,
               length(gathered.Kd), length(gathered.delta));
-  REQUIRE(length(gathered.Kd) > 0);
-  REQUIRE(length(gathered.delta) > 0);
-  CHECK(std::memcmp(staged.Kd.data(), gathered.Kd.data(), sizeof(double) * gathered.Kd.size()) == 0);
-  CHECK(std::memcmp(staged.delta.data(), gathered.delta.data(), sizeof(double) * gathered.delta.size()) == 0);
+  check_same_bits(gathered, staged);
 }
 
 TEST_CASE("held-pairs tangent kernel gives the bits of the gathering kernel", "[gpu]") {
@@ -332,19 +344,13 @@ TEST_CASE("held-pairs tangent kernel gives the bits of the gathering kernel", "[
   const int keep = GENERATE(2, 4);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const Model model = kernels_test_model(type, MaterialLaw::neo_hookean, 6, 5, 4);
-  DeviceOptions options;
-  options.precision = precision;
-  options.lanes = 1;
-  options.coalesced_keep = keep;
-  options.dense_tangent = true;
+  DeviceOptions options = dense_options(precision, keep);
   const LaunchedRun gathered = launched_run(model, options);
   options.hold_pairs = true;
   const LaunchedRun held = launched_run(model, options);
   std::printf("[gpu] held pairs %s %s keep %d: |Kd| %.3e, |delta| %.3e\n", name(type), to_string(precision), keep,
               length(gathered.Kd), length(gathered.delta));
-  REQUIRE(length(gathered.Kd) > 0);
-  CHECK(std::memcmp(held.Kd.data(), gathered.Kd.data(), sizeof(double) * gathered.Kd.size()) == 0);
-  CHECK(std::memcmp(held.delta.data(), gathered.delta.data(), sizeof(double) * gathered.delta.size()) == 0);
+  check_same_bits(gathered, held);
 }
 
 TEST_CASE("direction pass gives the bits of the direction formed in the tangent pass", "[gpu]") {
@@ -365,9 +371,7 @@ TEST_CASE("direction pass gives the bits of the direction formed in the tangent 
   const LaunchedRun passed = launched_run(model, options);
   std::printf("[gpu] direction pass %s %s slot frames %d: |delta| %.3e\n", name(type), to_string(precision),
               slot_frames ? 1 : 0, length(formed.delta));
-  REQUIRE(length(formed.delta) > 0);
-  CHECK(std::memcmp(passed.Kd.data(), formed.Kd.data(), sizeof(double) * formed.Kd.size()) == 0);
-  CHECK(std::memcmp(passed.delta.data(), formed.delta.data(), sizeof(double) * formed.delta.size()) == 0);
+  check_same_bits(formed, passed);
 }
 
 TEST_CASE("resident and two-barrier persistent PCG equal the CPU reference", "[gpu]") {
