@@ -93,6 +93,7 @@ struct DeviceElasticity::Impl {
   bool slot_frames = false;               // coalesced pass: the block's frames staged in shared memory
   bool direction_pass = false;            // coalesced pass, launched PCG: p formed by k_pcg_direction
   bool hold_pairs = false;                // coalesced pass: the dense kernel holds its kept pairs' levers
+  bool prefetch_frames = false;           // coalesced pass: the dense kernel prefetches its next pairs' frames
   bool resident_frames_used = false;      // the persistent PCG is the resident kernel with staged levers
   std::string mapped_refusal;             // why not, where DeviceOptions::shape_classes asked for them
 };
@@ -199,6 +200,7 @@ class System final : public DeviceElasticity::Impl {
       m_ell_tangent_bytes = slot_frames ? m_slot_frame_bytes : m_ell_bytes;
       direction_pass = pass == SamplePass::coalesced && opts.direction_pass;
       hold_pairs = dense && !mapped && !slot_frames && opts.hold_pairs && m_keep <= 4;
+      prefetch_frames = dense && !mapped && !slot_frames && !hold_pairs && opts.prefetch_frames && m_keep <= 4;
       for (const void* k : {reinterpret_cast<const void*>(&k_records_tangent<R, 1, 128>),
                             reinterpret_cast<const void*>(&k_records_tangent<R, 2, 128>),
                             reinterpret_cast<const void*>(&k_records_tangent<R, 2, kLaneThreadsMax>)})
@@ -483,8 +485,10 @@ class System final : public DeviceElasticity::Impl {
               reinterpret_cast<const void*>(ell_tangent_kernel(keep, dense_kernel, mapped_kernel)),
               cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
     for (int keep : {2, 4})
-      FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep, true, false, false, true)),
-                                       cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
+      for (bool prefetch : {false, true})
+        FASCIA_CUDA(cudaFuncSetAttribute(
+            reinterpret_cast<const void*>(ell_tangent_kernel(keep, true, false, false, !prefetch, prefetch)),
+            cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
     for (const void* k : {reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>),
                           reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>),
                           reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>),
@@ -897,9 +901,13 @@ class System final : public DeviceElasticity::Impl {
                        : &k_ell_tangent<R, 8, Dense, Mapped>;
   }
   static EllTangentKernel ell_tangent_kernel(int keep, bool dense_kernel, bool mapped_kernel,
-                                             bool slot_frames_kernel = false, bool hold_pairs_kernel = false) {
+                                             bool slot_frames_kernel = false, bool hold_pairs_kernel = false,
+                                             bool prefetch_frames_kernel = false) {
     if (hold_pairs_kernel)  // keep 2 or 4
       return keep == 2 ? &k_ell_tangent<R, 2, true, false, false, true> : &k_ell_tangent<R, 4, true, false, false, true>;
+    if (prefetch_frames_kernel)  // keep 2 or 4
+      return keep == 2 ? &k_ell_tangent<R, 2, true, false, false, false, true>
+                       : &k_ell_tangent<R, 4, true, false, false, false, true>;
     if (slot_frames_kernel)
       return keep == 2   ? &k_ell_tangent<R, 2, true, false, true>
              : keep == 4 ? &k_ell_tangent<R, 4, true, false, true>
@@ -909,7 +917,7 @@ class System final : public DeviceElasticity::Impl {
     return mapped_kernel ? ell_tangent_kernel<false, true>(keep) : ell_tangent_kernel<false, false>(keep);
   }
   EllTangentKernel ell_tangent_kernel() const {
-    return ell_tangent_kernel(m_keep, dense, mapped, slot_frames, hold_pairs);
+    return ell_tangent_kernel(m_keep, dense, mapped, slot_frames, hold_pairs, prefetch_frames);
   }
 
   // k_pcg_resident for samples of at most `pairs` (4 or 8) pairs; the invariants in registers in
@@ -1118,6 +1126,7 @@ const std::string& DeviceElasticity::shape_classes_refusal() const { return m_im
 bool DeviceElasticity::slot_frames() const { return m_impl->slot_frames; }
 bool DeviceElasticity::direction_pass() const { return m_impl->direction_pass; }
 bool DeviceElasticity::hold_pairs() const { return m_impl->hold_pairs; }
+bool DeviceElasticity::prefetch_frames() const { return m_impl->prefetch_frames; }
 bool DeviceElasticity::resident_frames() const { return m_impl->resident_frames_used; }
 bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }

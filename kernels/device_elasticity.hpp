@@ -107,6 +107,12 @@ struct DeviceOptions {
   // registers from the dF half to the output half, which then gathers no lever record for them.
   // The same bits; more registers, so fewer blocks per multiprocessor (dense_blocks_per_sm).
   bool hold_pairs = false;
+  // Coalesced pass, launched dense tangent kernel gathering its frames, 2 or 4 held entries: the
+  // frames of the next 2 or 4 pairs of each lane are read together with the held entries and kept,
+  // so that those pairs' lever records and directions are gathered without first waiting for
+  // their entries (Nsight Compute: the chain ELL entry -> frame -> lever record dominates the
+  // 4.18 M pass's stalls; docs/benchmarks.md, eighth round). The same bits. Not yet timed.
+  bool prefetch_frames = false;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16
@@ -194,6 +200,9 @@ class DeviceElasticity {
   // Coalesced pass: whether the launched tangent kernel holds its kept pairs' levers
   // (DeviceOptions::hold_pairs with the dense gathering kernel and 2 or 4 held entries).
   bool hold_pairs() const;
+  // Coalesced pass: whether the launched tangent kernel prefetches its next pairs' frames
+  // (DeviceOptions::prefetch_frames with the dense gathering kernel and 2 or 4 held entries).
+  bool prefetch_frames() const;
   // Whether the last step's persistent PCG was the double resident kernel with staged lever
   // records (DeviceOptions::resident_frames; false before a step).
   bool resident_frames() const;

@@ -372,12 +372,17 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
 // block's frames (lever records and directions) are staged in shared memory after the pair outputs
 // (stage_slot_frame_value) and read there by slot, with the same bits. HoldPairs: the held entries'
 // pairs (levers M, g, frame) are kept in registers from the dF half to the output half, which then
-// gathers no lever record for them (the same bits; more registers).
-template <class R, int Keep, bool Mapped = false, bool SlotFrames = false, bool HoldPairs = false>
+// gathers no lever record for them (the same bits; more registers). PrefetchFrames: the frames of
+// the next Keep pairs are read together with the held entries and kept in registers, so that
+// those pairs' lever records and directions are gathered without waiting for their entries first,
+// in both halves (the same bits; Keep more registers).
+template <class R, int Keep, bool Mapped = false, bool SlotFrames = false, bool HoldPairs = false,
+          bool PrefetchFrames = false>
 __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
                                     double beta, int b, int lanes, int slot_lanes, R* local, R* slot_partials) {
   static_assert(!(Mapped && SlotFrames), "the mapped pass reads frames by its own slot table");
   static_assert(!(HoldPairs && (Mapped || SlotFrames)), "held pairs are for the gathering pass");
+  static_assert(!(PrefetchFrames && (Mapped || SlotFrames || HoldPairs)), "prefetched frames: the gathering pass");
   const int s0 = m.block_samples[b], ns = m.block_samples[b + 1] - s0;
   const int e0 = m.ell_offsets[b];
   const int stride = m.offsets[s0 + ns] - m.offsets[s0];  // the block's pairs
@@ -407,6 +412,7 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
     Mat3T<R> dF = zero3<R>();
     EllEntry<R> kept[Keep] = {};
     EllPair<R> kept_pairs[HoldPairs ? Keep : 1];
+    int next_frames[PrefetchFrames ? Keep : 1] = {};  // frames of pairs Keep .. 2 Keep - 1 of the lane
     ShapeMap<R> held;
     const ShapeMap<R>* map = Mapped ? &held : nullptr;
     // The entry, its pair and its dF term, from the slot records or gathered per pair.
@@ -427,6 +433,13 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
       ps = Vec3T<R>{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
                     sample_value(f.sample_state, m.samples, 2, s)};
       if constexpr (Mapped) held = shape_map(m, s, slot_table, slot_table + kMappedSlots);
+      if constexpr (PrefetchFrames) {
+#pragma unroll
+        for (int k = 0; k < Keep; ++k) {
+          const int j = lane + (Keep + k) * lanes;
+          if (j < count) next_frames[k] = m.ell_frame[e0 + j * ns + t];
+        }
+      }
 #pragma unroll
       for (int k = 0; k < Keep; ++k) {
         const int j = lane + k * lanes;
@@ -442,7 +455,16 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
             add_dF(pair_of(kept[k]));
           }
         }
-      for (int j = lane + Keep * lanes; j < count; j += lanes) add_dF(pair_of(entry(e0 + j * ns + t, j)));
+      int rest = lane + Keep * lanes;  // the first pair read in full
+      if constexpr (PrefetchFrames) {
+#pragma unroll
+        for (int k = 0; k < Keep; ++k) {
+          const int j = lane + (Keep + k) * lanes;
+          if (j < count) add_dF(pair_of(ell_entry_with_frame(m, e0 + j * ns + t, next_frames[k])));
+        }
+        rest = lane + 2 * Keep * lanes;
+      }
+      for (int j = rest; j < count; j += lanes) add_dF(pair_of(entry(e0 + j * ns + t, j)));
     }
     for (int o = 1; o < lanes; o <<= 1)
       for (int r = 0; r < 3; ++r)
@@ -457,7 +479,19 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
           if constexpr (HoldPairs) ell_pair_output(kept_pairs[k], dP, v, kept[k].pos, stride, local);
           else ell_pair_output(pair_of(kept[k]), dP, v, kept[k].pos, stride, local);
         }
-      for (int j = lane + Keep * lanes; j < count; j += lanes) {
+      int rest = lane + Keep * lanes;
+      if constexpr (PrefetchFrames) {
+#pragma unroll
+        for (int k = 0; k < Keep; ++k) {
+          const int j = lane + (Keep + k) * lanes;
+          if (j < count) {
+            const EllEntry<R> en = ell_entry_with_frame(m, e0 + j * ns + t, next_frames[k]);
+            ell_pair_output(pair_of(en), dP, v, en.pos, stride, local);
+          }
+        }
+        rest = lane + 2 * Keep * lanes;
+      }
+      for (int j = rest; j < count; j += lanes) {
         const EllEntry<R> en = entry(e0 + j * ns + t, j);
         ell_pair_output(pair_of(en), dP, v, en.pos, stride, local);
       }
@@ -477,9 +511,12 @@ constexpr int kLaneThreadsMax = 512;
 // more loads in flight in this memory-bound pass.
 constexpr int kDenseThreads = 128;
 // Held pairs (HoldPairs; keep 2 and 4 only): float 80 and 128 registers, double 166 and 218.
+// Prefetched frames (keep 2 and 4): as without, except float with 4, which spills 16 bytes at 80
+// registers (6 blocks) and so gets 5 blocks.
 template <class R>
-constexpr int dense_blocks_per_sm(int keep, bool mapped, bool hold_pairs = false) {
+constexpr int dense_blocks_per_sm(int keep, bool mapped, bool hold_pairs = false, bool prefetch = false) {
   if (hold_pairs) return sizeof(R) == sizeof(float) ? (keep == 2 ? 6 : 4) : (keep == 2 ? 3 : 2);
+  if (prefetch && sizeof(R) == sizeof(float) && keep == 4) return 5;
   if (sizeof(R) == sizeof(float)) return keep == 2 ? (mapped ? 6 : 8) : keep == 4 ? (mapped ? 5 : 6) : 4;
   return keep == 2 ? (mapped ? 3 : 4) : keep == 4 ? 3 : 2;
 }
@@ -487,17 +524,18 @@ constexpr int dense_blocks_per_sm(int keep, bool mapped, bool hold_pairs = false
 // Coalesced tangent pass, one block per sample block (as k_lanes_tangent). Dense: compiled for
 // kDenseThreads threads per block and dense_blocks_per_sm blocks per multiprocessor; otherwise for
 // up to kLaneThreadsMax threads. Mapped: w and g from the samples' shape classes.
-template <class R, int Keep, bool Dense, bool Mapped, bool SlotFrames = false, bool HoldPairs = false>
+template <class R, int Keep, bool Dense, bool Mapped, bool SlotFrames = false, bool HoldPairs = false,
+          bool PrefetchFrames = false>
 __global__ void __launch_bounds__(Dense ? kDenseThreads : kLaneThreadsMax,
-                                  Dense ? dense_blocks_per_sm<R>(Keep, Mapped, HoldPairs) : 1)
+                                  Dense ? dense_blocks_per_sm<R>(Keep, Mapped, HoldPairs, PrefetchFrames) : 1)
     k_ell_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
                   int lanes, int slot_lanes) {
   extern __shared__ unsigned char shared_raw[];
   R* local = reinterpret_cast<R*>(shared_raw);
   if (finished(sc)) return;
   const double beta = p_old ? sc->beta : 0.0;
-  ell_tangent_block<R, Keep, Mapped, SlotFrames, HoldPairs>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x),
-                                                            lanes, slot_lanes, local, slot_partials);
+  ell_tangent_block<R, Keep, Mapped, SlotFrames, HoldPairs, PrefetchFrames>(
+      m, f, d, p_old, beta, static_cast<int>(blockIdx.x), lanes, slot_lanes, local, slot_partials);
 }
 
 // Tangent sample pass of the fused design, one block per sample block. In the PCG (p_old set) the

@@ -600,11 +600,17 @@ struct EllEntry {
   Vec3T<R> g;
 };
 
+// ELL entry e whose frame (m.ell_frame[e]) was read before.
+template <class R>
+FASCIA_HD EllEntry<R> ell_entry_with_frame(const ModelView<R>& m, int e, int frame) {
+  const size_t E = static_cast<size_t>(m.ell_entries);
+  return EllEntry<R>{frame, static_cast<int>(m.ell_pos[e]), m.ell_data[e],
+                     Vec3T<R>{m.ell_data[E + e], m.ell_data[2 * E + e], m.ell_data[3 * E + e]}};
+}
+
 template <class R>
 FASCIA_HD EllEntry<R> ell_entry(const ModelView<R>& m, int e) {
-  const size_t E = static_cast<size_t>(m.ell_entries);
-  return EllEntry<R>{m.ell_frame[e], static_cast<int>(m.ell_pos[e]), m.ell_data[e],
-                     Vec3T<R>{m.ell_data[E + e], m.ell_data[2 * E + e], m.ell_data[3 * E + e]}};
+  return ell_entry_with_frame(m, e, m.ell_frame[e]);
 }
 
 // The mapped coalesced pass (ModelView::shape_class set): sample s's map A_s and its class's

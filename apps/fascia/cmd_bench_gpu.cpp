@@ -63,6 +63,7 @@ struct Case {
   bool direction_pass = false;
   bool hold_pairs = false;
   bool resident_frames = true;
+  bool prefetch_frames = false;
 };
 
 // The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) on the device.
@@ -84,6 +85,7 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   options.direction_pass = c.direction_pass;
   options.hold_pairs = c.hold_pairs;
   options.resident_frames = c.resident_frames;
+  options.prefetch_frames = c.prefetch_frames;
   options.row_frames = c.row_frames;
   options.block_samples = c.block_samples;
   options.persistent_blocks_per_sm = c.persistent_blocks_per_sm;
@@ -118,7 +120,7 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
                   (dev.sample_pass() == gpu::SamplePass::coalesced ? "s" + std::to_string(c.slot_lanes) : "") +
                   (dev.dense_tangent() ? "d" : "") + (dev.shape_classes() ? "m" : "") + (dev.slot_frames() ? "f" : "") +
                   (dev.direction_pass() ? "p" : "") + (dev.hold_pairs() ? "h" : "") +
-                  (dev.resident_frames() ? "l" : "") +
+                  (dev.resident_frames() ? "l" : "") + (dev.prefetch_frames() ? "x" : "") +
                   (c.row_frames != 42 ? "r" + std::to_string(c.row_frames) : "");
   row.linear = to_string(c.linear);
   row.cg_kernel = report.resident ? "resident" : report.persistent ? "persistent" : "launches";
@@ -204,17 +206,18 @@ std::vector<Case> cases(const BenchGpuOptions& o) {
                               for (int dp : o.direction_pass)
                                 for (int hp : o.hold_pairs)
                                   for (int rl : o.resident_frames)
-                                    if ((pass == gpu::SamplePass::records || keep == o.record_keep.front()) &&
-                                        (pass == gpu::SamplePass::coalesced ||
-                                         (held == o.keep.front() && sl == o.slot_lanes.front() &&
-                                          res == o.resident.front() && dense == o.dense.front() &&
-                                          mapped == o.shape_classes.front() && sf == o.slot_frames.front() &&
-                                          dp == o.direction_pass.front() && hp == o.hold_pairs.front() &&
-                                          rl == o.resident_frames.front())))
-                                      out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, pass,
-                                                         o.block_samples, o.persistent_blocks_per_sm, keep, rows,
-                                                         held, sl, res != 0, res == 2, dense != 0, mapped != 0,
-                                                         sf != 0, dp != 0, hp != 0, rl != 0});
+                                    for (int pf : o.prefetch_frames)
+                                      if ((pass == gpu::SamplePass::records || keep == o.record_keep.front()) &&
+                                          (pass == gpu::SamplePass::coalesced ||
+                                           (held == o.keep.front() && sl == o.slot_lanes.front() &&
+                                            res == o.resident.front() && dense == o.dense.front() &&
+                                            mapped == o.shape_classes.front() && sf == o.slot_frames.front() &&
+                                            dp == o.direction_pass.front() && hp == o.hold_pairs.front() &&
+                                            rl == o.resident_frames.front() && pf == o.prefetch_frames.front())))
+                                        out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, pass,
+                                                           o.block_samples, o.persistent_blocks_per_sm, keep, rows,
+                                                           held, sl, res != 0, res == 2, dense != 0, mapped != 0,
+                                                           sf != 0, dp != 0, hp != 0, rl != 0, pf != 0});
           }
         }
       }
@@ -344,6 +347,10 @@ void add_bench_gpu_command(CLI::App& bench, Action& action) {
   cmd->add_option("--resident-frames", options->resident_frames,
                   "coalesced pass, resident PCG in double: the blocks' lever records staged in shared memory (1, the "
                   "default) or gathered each iteration (0), several to compare")
+      ->check(CLI::IsMember({0, 1}));
+  cmd->add_option("--prefetch-frames", options->prefetch_frames,
+                  "coalesced pass, launched dense tangent product with 2 or 4 held entries: the next pairs' frames "
+                  "read with the held entries (1) or with their own entries (0, the default), several to compare")
       ->check(CLI::IsMember({0, 1}));
   cmd->add_option("--row-frames", options->row_frames,
                   "frames per block of the launched frame-row passes (1..85), several to compare")

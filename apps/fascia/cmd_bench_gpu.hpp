@@ -36,7 +36,8 @@ struct BenchGpuOptions {
   std::vector<int> slot_frames = {0};    // coalesced pass: frames staged per block (DeviceOptions::slot_frames)
   std::vector<int> direction_pass = {0};  // coalesced pass: p formed in its own pass (DeviceOptions::direction_pass)
   std::vector<int> hold_pairs = {0};      // coalesced pass: kept pairs' levers held (DeviceOptions::hold_pairs)
-  std::vector<int> resident_frames = {1};  // resident PCG in double: lever records staged (DeviceOptions::resident_frames)
+  std::vector<int> resident_frames = {1};
+  std::vector<int> prefetch_frames = {0};  // coalesced pass: next pairs' frames prefetched (DeviceOptions::prefetch_frames)  // resident PCG in double: lever records staged (DeviceOptions::resident_frames)
   int persistent_blocks_per_sm = 4;  // persistent PCG while the model needs at most this many blocks per SM
 };
 
