@@ -375,7 +375,7 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
 // gathers no lever record for them (the same bits; more registers). PrefetchFrames: the frames of
 // the next Keep pairs are read together with the held entries and kept in registers, so that
 // those pairs' lever records and directions are gathered without waiting for their entries first,
-// in both halves (the same bits; Keep more registers).
+// in both halves (the same bits; more registers).
 template <class R, int Keep, bool Mapped = false, bool SlotFrames = false, bool HoldPairs = false,
           bool PrefetchFrames = false>
 __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
@@ -1042,9 +1042,9 @@ constexpr int kResidentSlots = 8;      // slots per frame held in registers (mor
 // slot) and the levers formed from there, and its samples' materials (law, lambda, mu, density)
 // are held there too, instead of each pair gathering them from global memory and each sample
 // reading its material through its index (every grid barrier invalidates the L1, so those loads
-// go to the L2, one after another). The same arithmetic as
-// k_pcg_two_barrier with slot_lanes = 1, so the same results. Requires lanes = 1, at most MaxPairs
-// pairs per sample and grid = max(sample blocks, frame chunks).
+// go to the L2, one after another). The same arithmetic as k_pcg_two_barrier with slot_lanes = 1,
+// so the same results. Requires lanes = 1, at most MaxPairs pairs per sample and grid =
+// max(sample blocks, frame chunks).
 constexpr int kResidentRowTerms = 13;  // [minv row (6), frame block row (3), inertia row (3), mass]
 
 template <class R, int MaxPairs, bool InRegisters, bool StagedFrames = false>
