@@ -42,53 +42,46 @@ struct Row {
 };
 
 struct Case {
-  gpu::Precision precision;
-  gpu::Design design;
   LinearMethod linear;
   bool persistent;
-  int lanes = 0;
-  int lane_threads = 128;
-  gpu::SamplePass pass = gpu::SamplePass::coalesced;
-  int block_samples = 128;
-  int persistent_blocks_per_sm = 4;
-  int record_keep = 2;
-  int row_frames = 42;
-  int keep = 0;
-  int slot_lanes = 1;
-  bool resident = true;
-  bool resident_double = true;
-  bool dense = true;
-  bool shape_classes = false;
-  bool slot_frames = false;
-  bool direction_pass = false;
-  bool hold_pairs = false;
-  bool resident_frames = true;
-  bool prefetch_frames = false;
+  gpu::DeviceOptions device;
+};
+
+// The on/off options of the coalesced pass that the benchmark compares: flag, DeviceOptions
+// member, help (BenchGpuOptions::switches, by member name).
+struct Switch {
+  const char* flag;
+  const char* name;
+  bool gpu::DeviceOptions::*member;
+  const char* help;
+};
+const Switch kSwitches[] = {
+    {"--dense-tangent", "dense_tangent", &gpu::DeviceOptions::dense_tangent,
+     "launched tangent product: kernel compiled for the most blocks per multiprocessor without local memory (1, "
+     "the default) or for blocks of up to 512 threads (0)"},
+    {"--shape-classes", "shape_classes", &gpu::DeviceOptions::shape_classes,
+     "launched tangent product: w and g from the samples' shape classes where the model has them (1) or read per "
+     "pair (0, the default)"},
+    {"--slot-frames", "slot_frames", &gpu::DeviceOptions::slot_frames,
+     "launched dense tangent product: each block's frames staged once in shared memory (1) or gathered per pair "
+     "(0, the default)"},
+    {"--direction-pass", "direction_pass", &gpu::DeviceOptions::direction_pass,
+     "launched PCG: the direction p = z + beta p formed in its own pass (1) or by the tangent and frame passes (0, "
+     "the default)"},
+    {"--hold-pairs", "hold_pairs", &gpu::DeviceOptions::hold_pairs,
+     "launched dense tangent product with 2 or 4 held entries: their pairs' levers held in registers for the "
+     "output half (1) or gathered again (0, the default)"},
+    {"--resident-frames", "resident_frames", &gpu::DeviceOptions::resident_frames,
+     "resident PCG in double: the blocks' lever records, directions and materials staged in shared memory (1, the "
+     "default) or read each iteration (0)"},
+    {"--prefetch-frames", "prefetch_frames", &gpu::DeviceOptions::prefetch_frames,
+     "launched dense tangent product with 2 or 4 held entries: the next pairs' frames read with the held entries "
+     "(1) or with their own entries (0, the default)"},
 };
 
 // The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) on the device.
 Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInfo& info, bool tangent) {
-  gpu::DeviceOptions options;
-  options.precision = c.precision;
-  options.design = c.design;
-  options.lanes = c.lanes;
-  options.lane_threads = c.lane_threads;
-  options.sample_pass = c.pass;
-  options.record_keep = c.record_keep;
-  options.coalesced_keep = c.keep;
-  options.slot_lanes = c.slot_lanes;
-  options.resident = c.resident;
-  options.resident_double = c.resident_double;
-  options.dense_tangent = c.dense;
-  options.shape_classes = c.shape_classes;
-  options.slot_frames = c.slot_frames;
-  options.direction_pass = c.direction_pass;
-  options.hold_pairs = c.hold_pairs;
-  options.resident_frames = c.resident_frames;
-  options.prefetch_frames = c.prefetch_frames;
-  options.row_frames = c.row_frames;
-  options.block_samples = c.block_samples;
-  options.persistent_blocks_per_sm = c.persistent_blocks_per_sm;
+  const gpu::DeviceOptions& options = c.device;
   gpu::DeviceElasticity dev(model, options);
   if (!dev.shape_classes_refusal().empty())
     std::fprintf(stderr, "shape classes not used: %s\n", dev.shape_classes_refusal().c_str());
@@ -104,7 +97,7 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   row.samples = model.sample_count();
   row.frames = model.frame_count();
   row.neighbours = model.max_neighbours();
-  row.precision = gpu::to_string(c.precision);
+  row.precision = gpu::to_string(options.precision);
   row.design = gpu::to_string(dev.design());
   if (dev.design() == gpu::Design::fused && dev.sample_pass() == gpu::SamplePass::staged)
     row.design += "/staged";
@@ -113,15 +106,17 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
                   (dev.sample_pass() == gpu::SamplePass::records     ? "R"
                    : dev.sample_pass() == gpu::SamplePass::coalesced ? "C"
                                                                      : "L") +
-                  std::to_string(dev.lanes()) + "x" + std::to_string(c.lane_threads) + "b" +
-                  std::to_string(c.block_samples) +
-                  (dev.sample_pass() == gpu::SamplePass::records ? "k" + std::to_string(c.record_keep) : "") +
-                  (dev.sample_pass() == gpu::SamplePass::coalesced && c.keep > 0 ? "k" + std::to_string(c.keep) : "") +
-                  (dev.sample_pass() == gpu::SamplePass::coalesced ? "s" + std::to_string(c.slot_lanes) : "") +
+                  std::to_string(dev.lanes()) + "x" + std::to_string(options.lane_threads) + "b" +
+                  std::to_string(options.block_samples) +
+                  (dev.sample_pass() == gpu::SamplePass::records ? "k" + std::to_string(options.record_keep) : "") +
+                  (dev.sample_pass() == gpu::SamplePass::coalesced && options.coalesced_keep > 0
+                       ? "k" + std::to_string(options.coalesced_keep)
+                       : "") +
+                  (dev.sample_pass() == gpu::SamplePass::coalesced ? "s" + std::to_string(options.slot_lanes) : "") +
                   (dev.dense_tangent() ? "d" : "") + (dev.shape_classes() ? "m" : "") + (dev.slot_frames() ? "f" : "") +
                   (dev.direction_pass() ? "p" : "") + (dev.hold_pairs() ? "h" : "") +
                   (dev.resident_frames() ? "l" : "") + (dev.prefetch_frames() ? "x" : "") +
-                  (c.row_frames != 42 ? "r" + std::to_string(c.row_frames) : "");
+                  (options.row_frames != 42 ? "r" + std::to_string(options.row_frames) : "");
   row.linear = to_string(c.linear);
   row.cg_kernel = report.resident ? "resident" : report.persistent ? "persistent" : "launches";
   row.ms_per_step = stepper.time_step_ms(repeats);
@@ -169,6 +164,55 @@ void print(const Row& r, bool json) {
   std::fflush(stdout);
 }
 
+// Every element of `in` with each of `values` set by `set(options, value)`, the new values varying
+// fastest.
+template <class Set>
+std::vector<gpu::DeviceOptions> expand(const std::vector<gpu::DeviceOptions>& in, const std::vector<int>& values,
+                                       Set set) {
+  std::vector<gpu::DeviceOptions> out;
+  for (const gpu::DeviceOptions& d : in)
+    for (int v : values) {
+      gpu::DeviceOptions e = d;
+      set(e, v);
+      out.push_back(e);
+    }
+  return out;
+}
+
+// The device options of one sample pass: the base options with every compared value of the
+// options that apply to it (the others keep their first value, or their default).
+std::vector<gpu::DeviceOptions> pass_options(const BenchGpuOptions& o, gpu::DeviceOptions base, gpu::SamplePass pass) {
+  base.sample_pass = pass;
+  base.lane_threads = o.lane_threads;
+  base.block_samples = o.block_samples;
+  base.persistent_blocks_per_sm = o.persistent_blocks_per_sm;
+  if (pass == gpu::SamplePass::staged) {
+    base.lanes = 1;
+    return {base};
+  }
+  const bool records = pass == gpu::SamplePass::records, coalesced = pass == gpu::SamplePass::coalesced;
+  const auto applying = [](bool applies, const std::vector<int>& values) {
+    return applies ? values : std::vector<int>{values.front()};
+  };
+  std::vector<gpu::DeviceOptions> out = {base};
+  out = expand(out, o.lanes, [](gpu::DeviceOptions& d, int v) { d.lanes = v; });
+  out = expand(out, applying(records, o.record_keep), [](gpu::DeviceOptions& d, int v) { d.record_keep = v; });
+  out = expand(out, o.row_frames, [](gpu::DeviceOptions& d, int v) { d.row_frames = v; });
+  out = expand(out, applying(coalesced, o.keep), [](gpu::DeviceOptions& d, int v) { d.coalesced_keep = v; });
+  out = expand(out, applying(coalesced, o.slot_lanes), [](gpu::DeviceOptions& d, int v) { d.slot_lanes = v; });
+  out = expand(out, applying(coalesced, o.resident), [](gpu::DeviceOptions& d, int v) {
+    d.resident = v != 0;
+    d.resident_double = v == 2;
+  });
+  for (const Switch& sw : kSwitches) {
+    const auto given = o.switches.find(sw.name);
+    if (given == o.switches.end() || given->second.empty()) continue;
+    out = expand(out, applying(coalesced, given->second),
+                 [&sw](gpu::DeviceOptions& d, int v) { d.*sw.member = v != 0; });
+  }
+  return out;
+}
+
 std::vector<Case> cases(const BenchGpuOptions& o) {
   std::vector<Case> out;
   for (gpu::Precision pr : {gpu::Precision::double_precision, gpu::Precision::single_precision}) {
@@ -180,8 +224,11 @@ std::vector<Case> cases(const BenchGpuOptions& o) {
         for (bool persistent : {true, false}) {
           if (de == gpu::Design::paper && persistent) continue;  // launches per phase only
           if (o.cg_kernel != "both" && (o.cg_kernel == "persistent") != persistent) continue;
+          gpu::DeviceOptions base;
+          base.precision = pr;
+          base.design = de;
           if (de == gpu::Design::paper) {
-            out.push_back(Case{pr, de, lm, persistent});
+            out.push_back(Case{lm, persistent, base});
             continue;
           }
           for (const std::string& name : o.sample_pass) {
@@ -189,35 +236,7 @@ std::vector<Case> cases(const BenchGpuOptions& o) {
                                          : name == "lanes"     ? gpu::SamplePass::lanes
                                          : name == "coalesced" ? gpu::SamplePass::coalesced
                                                                : gpu::SamplePass::records;
-            if (pass == gpu::SamplePass::staged) {
-              out.push_back(Case{pr, de, lm, persistent, 1, o.lane_threads, pass, o.block_samples,
-                                 o.persistent_blocks_per_sm});
-              continue;
-            }
-            for (int lanes : o.lanes)
-              for (int keep : o.record_keep)
-                for (int rows : o.row_frames)
-                  for (int held : o.keep)
-                    for (int sl : o.slot_lanes)
-                      for (int res : o.resident)
-                        for (int dense : o.dense)
-                          for (int mapped : o.shape_classes)
-                            for (int sf : o.slot_frames)
-                              for (int dp : o.direction_pass)
-                                for (int hp : o.hold_pairs)
-                                  for (int rl : o.resident_frames)
-                                    for (int pf : o.prefetch_frames)
-                                      if ((pass == gpu::SamplePass::records || keep == o.record_keep.front()) &&
-                                          (pass == gpu::SamplePass::coalesced ||
-                                           (held == o.keep.front() && sl == o.slot_lanes.front() &&
-                                            res == o.resident.front() && dense == o.dense.front() &&
-                                            mapped == o.shape_classes.front() && sf == o.slot_frames.front() &&
-                                            dp == o.direction_pass.front() && hp == o.hold_pairs.front() &&
-                                            rl == o.resident_frames.front() && pf == o.prefetch_frames.front())))
-                                        out.push_back(Case{pr, de, lm, persistent, lanes, o.lane_threads, pass,
-                                                           o.block_samples, o.persistent_blocks_per_sm, keep, rows,
-                                                           held, sl, res != 0, res == 2, dense != 0, mapped != 0,
-                                                           sf != 0, dp != 0, hp != 0, rl != 0, pf != 0});
+            for (const gpu::DeviceOptions& d : pass_options(o, base, pass)) out.push_back(Case{lm, persistent, d});
           }
         }
       }
@@ -324,34 +343,10 @@ void add_bench_gpu_command(CLI::App& bench, Action& action) {
                   "coalesced pass, persistent PCG: loop invariants held in the kernel in single precision (1), in "
                   "both precisions (2, the default) or not (0), several to compare")
       ->check(CLI::IsMember({0, 1, 2}));
-  cmd->add_option("--dense-tangent", options->dense,
-                  "coalesced pass, launched tangent product: kernel compiled for the most blocks per multiprocessor "
-                  "without local memory (1, the default) or for blocks of up to 512 threads (0), several to compare")
-      ->check(CLI::IsMember({0, 1}));
-  cmd->add_option("--shape-classes", options->shape_classes,
-                  "coalesced pass, launched tangent product: w and g from the samples' shape classes where the model "
-                  "has them (1) or read per pair (0, the default), several to compare")
-      ->check(CLI::IsMember({0, 1}));
-  cmd->add_option("--slot-frames", options->slot_frames,
-                  "coalesced pass, launched dense tangent product: each block's frames staged once in shared memory "
-                  "(1) or gathered per pair (0, the default), several to compare")
-      ->check(CLI::IsMember({0, 1}));
-  cmd->add_option("--direction-pass", options->direction_pass,
-                  "coalesced pass, launched PCG: the direction p = z + beta p formed in its own pass (1) or by the "
-                  "tangent and frame passes (0, the default), several to compare")
-      ->check(CLI::IsMember({0, 1}));
-  cmd->add_option("--hold-pairs", options->hold_pairs,
-                  "coalesced pass, launched dense tangent product with 2 or 4 held entries: their pairs' levers held in "
-                  "registers for the output half (1) or gathered again (0, the default), several to compare")
-      ->check(CLI::IsMember({0, 1}));
-  cmd->add_option("--resident-frames", options->resident_frames,
-                  "coalesced pass, resident PCG in double: the blocks' lever records staged in shared memory (1, the "
-                  "default) or gathered each iteration (0), several to compare")
-      ->check(CLI::IsMember({0, 1}));
-  cmd->add_option("--prefetch-frames", options->prefetch_frames,
-                  "coalesced pass, launched dense tangent product with 2 or 4 held entries: the next pairs' frames "
-                  "read with the held entries (1) or with their own entries (0, the default), several to compare")
-      ->check(CLI::IsMember({0, 1}));
+  for (const Switch& sw : kSwitches)
+    cmd->add_option(sw.flag, options->switches[sw.name],
+                    std::string("coalesced pass, ") + sw.help + ", several to compare")
+        ->check(CLI::IsMember({0, 1}));
   cmd->add_option("--row-frames", options->row_frames,
                   "frames per block of the launched frame-row passes (1..85), several to compare")
       ->check(CLI::Range(1, 85));

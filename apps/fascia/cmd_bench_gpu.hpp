@@ -6,6 +6,7 @@
 #include "model/model.hpp"
 #include "solve/linear_solver.hpp"
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -31,13 +32,10 @@ struct BenchGpuOptions {
   std::vector<int> keep = {0};       // coalesced pass: ELL entries per lane held in registers (0: auto)
   std::vector<int> slot_lanes = {1};  // coalesced pass: lanes per slot sum
   std::vector<int> resident = {2};    // coalesced pass: persistent PCG holding its invariants (2: double too)
-  std::vector<int> dense = {1};       // coalesced pass: dense launched tangent kernel (DeviceOptions::dense_tangent)
-  std::vector<int> shape_classes = {0};  // coalesced pass: w and g from shape classes (DeviceOptions::shape_classes)
-  std::vector<int> slot_frames = {0};    // coalesced pass: frames staged per block (DeviceOptions::slot_frames)
-  std::vector<int> direction_pass = {0};  // coalesced pass: p formed in its own pass (DeviceOptions::direction_pass)
-  std::vector<int> hold_pairs = {0};      // coalesced pass: kept pairs' levers held (DeviceOptions::hold_pairs)
-  std::vector<int> resident_frames = {1};
-  std::vector<int> prefetch_frames = {0};  // coalesced pass: next pairs' frames prefetched (DeviceOptions::prefetch_frames)  // resident PCG in double: lever records staged (DeviceOptions::resident_frames)
+  // Coalesced pass: the on/off options of cmd_bench_gpu.cpp's switch table (--dense-tangent,
+  // --shape-classes, ...), by DeviceOptions member name, each with the values to compare; an
+  // option not here keeps its DeviceOptions default.
+  std::map<std::string, std::vector<int>> switches;
   int persistent_blocks_per_sm = 4;  // persistent PCG while the model needs at most this many blocks per SM
 };
 
