@@ -338,37 +338,25 @@ TEST_CASE("slot-frames tangent kernel gives the bits of the gathering kernel", "
   check_same_bits(gathered, staged);
 }
 
-TEST_CASE("held-pairs tangent kernel gives the bits of the gathering kernel", "[gpu]") {
-  // The output half uses the pairs the dF half formed instead of forming them again from the same
-  // gathered values: the same bits, in the tangent product and a launched PCG step.
+TEST_CASE("held-pairs and prefetched-frames tangent kernels give the bits of the gathering kernel", "[gpu]") {
+  // Held pairs: the output half uses the pairs the dF half formed instead of forming them again
+  // from the same gathered values. Prefetched frames: the next pairs' frames are read earlier.
+  // Either way the values and every sum's order are the same: the same bits, in the tangent
+  // product and a launched PCG step. Hexahedra have 8 pairs per sample, so with 2 and 4 held
+  // entries the prefetched and the later pairs are both exercised.
+  const bool hold = GENERATE(true, false);  // else prefetched frames
   const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
   const int keep = GENERATE(2, 4);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const Model model = kernels_test_model(type, MaterialLaw::neo_hookean, 6, 5, 4);
   DeviceOptions options = dense_options(precision, keep);
   const LaunchedRun gathered = launched_run(model, options);
-  options.hold_pairs = true;
-  const LaunchedRun held = launched_run(model, options);
-  std::printf("[gpu] held pairs %s %s keep %d: |Kd| %.3e, |delta| %.3e\n", name(type), to_string(precision), keep,
-              length(gathered.Kd), length(gathered.delta));
-  check_same_bits(gathered, held);
-}
-
-TEST_CASE("prefetched-frames tangent kernel gives the bits of the gathering kernel", "[gpu]") {
-  // The next pairs' frames are read earlier, their values and every sum's order are the same: the
-  // same bits, in the tangent product and a launched PCG step. Hexahedra have 8 pairs per sample,
-  // so with 2 and 4 held entries the prefetched and the later pairs are both exercised.
-  const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
-  const int keep = GENERATE(2, 4);
-  const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
-  const Model model = kernels_test_model(type, MaterialLaw::neo_hookean, 6, 5, 4);
-  DeviceOptions options = dense_options(precision, keep);
-  const LaunchedRun gathered = launched_run(model, options);
-  options.prefetch_frames = true;
-  const LaunchedRun prefetched = launched_run(model, options);
-  std::printf("[gpu] prefetched frames %s %s keep %d: |Kd| %.3e, |delta| %.3e\n", name(type), to_string(precision),
-              keep, length(gathered.Kd), length(gathered.delta));
-  check_same_bits(gathered, prefetched);
+  options.hold_pairs = hold;
+  options.prefetch_frames = !hold;
+  const LaunchedRun variant = launched_run(model, options);
+  std::printf("[gpu] %s %s %s keep %d: |Kd| %.3e, |delta| %.3e\n", hold ? "held pairs" : "prefetched frames",
+              name(type), to_string(precision), keep, length(gathered.Kd), length(gathered.delta));
+  check_same_bits(gathered, variant);
 }
 
 TEST_CASE("direction pass gives the bits of the direction formed in the tangent pass", "[gpu]") {
