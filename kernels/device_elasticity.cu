@@ -80,6 +80,8 @@ struct DeviceElasticity::Impl {
   virtual void configure_step(const StepOptions& options) = 0;
   virtual StepReport step() = 0;
   virtual void last_increment(double* delta) const = 0;
+  // Whether the configured persistent PCG is the resident kernel with staged frames.
+  virtual bool resident_frames() const = 0;
   virtual double time_step_ms(int repeats) = 0;
   virtual double time_cg_iteration_ms(int repeats) = 0;
 
@@ -94,7 +96,6 @@ struct DeviceElasticity::Impl {
   bool direction_pass = false;            // coalesced pass, launched PCG: p formed by k_pcg_direction
   bool hold_pairs = false;                // coalesced pass: the dense kernel holds its kept pairs' levers
   bool prefetch_frames = false;           // coalesced pass: the dense kernel prefetches its next pairs' frames
-  bool resident_frames_used = false;      // the persistent PCG is the resident kernel with staged levers
   std::string mapped_refusal;             // why not, where DeviceOptions::shape_classes asked for them
 };
 
@@ -938,6 +939,7 @@ class System final : public DeviceElasticity::Impl {
     return std::is_same_v<R, double> && options.resident_frames && m_max_neighbours <= 4 &&
            m_resident_frames_bytes > 0 && m_resident_try_staged;
   }
+  bool resident_frames() const override { return use_persistent() && m_resident && resident_staged(); }
 
   // The persistent PCG kernel of the sample pass in use: k_pcg_resident or k_pcg_two_barrier
   // (two grid barriers per iteration) for the coalesced pass, k_pcg_persistent (three) otherwise.
@@ -953,7 +955,6 @@ class System final : public DeviceElasticity::Impl {
   // sample blocks or frame blocks need. 0 where it cannot run (paper design, no cooperative launch).
   int persistent_grid() {
     m_resident = false;
-    resident_frames_used = false;
     if (design != Design::fused) return 0;
     int dev = 0, coop = 0, sms = 0, per_sm = 0;
     FASCIA_CUDA(cudaGetDevice(&dev));
@@ -980,13 +981,10 @@ class System final : public DeviceElasticity::Impl {
         FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), m_lane_threads,
                                                                   persistent_shared_bytes()));
         if ((sizeof(R) == sizeof(float) || (options.resident_double && attr.localSizeBytes == 0)) && per_sm > 0 &&
-            wanted <= per_sm * sms && wanted <= options.persistent_blocks_per_sm * sms) {
-          resident_frames_used = resident_staged();
+            wanted <= per_sm * sms && wanted <= options.persistent_blocks_per_sm * sms)
           return wanted;
-        }
       }
       m_resident = false;
-      resident_frames_used = false;
     }
     FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
                                      static_cast<int>(persistent_shared_bytes())));
@@ -1053,7 +1051,7 @@ class System final : public DeviceElasticity::Impl {
   bool m_resident = false;  // the persistent PCG is k_pcg_resident
   size_t m_shared_bytes = 0, m_staged_bytes = 0, m_ell_bytes = 0;
   size_t m_slot_frame_bytes = 0;   // the slot-frames kernel's: pair outputs and slot records
-  size_t m_resident_frames_bytes = 0;  // the resident double kernel's with staged lever records
+  size_t m_resident_frames_bytes = 0;  // the resident double kernel's with staged frames
   bool m_resident_try_staged = true;   // persistent_grid: the staged kernel is still a candidate
   size_t m_ell_tangent_bytes = 0;  // the launched coalesced tangent kernel's
   Origin m_origin{};
@@ -1127,7 +1125,7 @@ bool DeviceElasticity::slot_frames() const { return m_impl->slot_frames; }
 bool DeviceElasticity::direction_pass() const { return m_impl->direction_pass; }
 bool DeviceElasticity::hold_pairs() const { return m_impl->hold_pairs; }
 bool DeviceElasticity::prefetch_frames() const { return m_impl->prefetch_frames; }
-bool DeviceElasticity::resident_frames() const { return m_impl->resident_frames_used; }
+bool DeviceElasticity::resident_frames() const { return m_impl->resident_frames(); }
 bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }

@@ -203,8 +203,8 @@ class DeviceElasticity {
   // Coalesced pass: whether the launched tangent kernel prefetches its next pairs' frames
   // (DeviceOptions::prefetch_frames with the dense gathering kernel and 2 or 4 held entries).
   bool prefetch_frames() const;
-  // Whether the last step's persistent PCG was the double resident kernel with staged lever
-  // records (DeviceOptions::resident_frames; false before a step).
+  // Whether the configured step's persistent PCG is the double resident kernel with staged frames
+  // (DeviceOptions::resident_frames; false before a step is configured).
   bool resident_frames() const;
   Precision precision() const;
   const DeviceOptions& options() const;
