@@ -272,6 +272,7 @@ class System final : public DeviceElasticity::Impl {
     m_inertia_world.resize(9 * static_cast<size_t>(m_n));
     m_minv.resize(36 * static_cast<size_t>(m_n));
     m_diag.resize(36 * static_cast<size_t>(m_n));
+    m_prepare_sums.resize(kPrepareSums * static_cast<size_t>(m_n));
     for (auto* v : {&m_grad, &m_d, &m_out, &m_cx, &m_cr, &m_cz, &m_cp, &m_cAp}) v->resize(dofs);
     // One partial per block of every kernel that reduces (reduce_and_finish).
     const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(m_n, kThreads), grid_for(m_n, m_row_frames),
@@ -745,9 +746,12 @@ class System final : public DeviceElasticity::Impl {
 
   void enqueue_frame_prepare(double inv_h2, bool diag, double k_scale = 1.0, const double* load_rot = nullptr,
                              bool precondition = true) {
-    k_frame_prepare<R><<<grid_for(m_n, kPrepareFrames), 6 * kPrepareParts * kPrepareFrames, 0, m_stream>>>(
-        m_view, m_frame_view, m_F.data(), design == Design::fused, inv_h2, m_geo.data(), m_inertia_world.data(),
-        m_minv.data(), diag ? m_diag.data() : nullptr, k_scale, load_rot, precondition);
+    k_frame_columns<R><<<grid_for(m_n, kPrepareFrames), 6 * kPrepareParts * kPrepareFrames, 0, m_stream>>>(
+        m_view, m_frame_view, m_F.data(), design == Design::fused, precondition || diag, m_prepare_sums.data());
+    check_launch();
+    k_frame_finish<R><<<grid_for(m_n, kFinishFrames), 6 * kFinishFrames, 0, m_stream>>>(
+        m_view, m_frame_view, m_prepare_sums.data(), inv_h2, m_geo.data(), m_inertia_world.data(), m_minv.data(),
+        diag ? m_diag.data() : nullptr, k_scale, load_rot, precondition);
     check_launch();
   }
 
@@ -1076,6 +1080,7 @@ class System final : public DeviceElasticity::Impl {
   DeviceBuffer<R> m_shape_maps, m_class_pairs;
   // State (double) and per-iteration data (R).
   DeviceBuffer<double> m_positions, m_orientations, m_velocities, m_external, m_load_rot, m_diag;
+  DeviceBuffer<double> m_prepare_sums;  // k_frame_columns -> k_frame_finish: [N][kPrepareSums]
   DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_a, m_partials, m_geo, m_inertia_world, m_minv;
   DeviceBuffer<R> m_grad, m_d, m_out, m_cx, m_cr, m_cz, m_cp, m_cAp;
   // Reductions.

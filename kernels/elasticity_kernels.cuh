@@ -722,30 +722,31 @@ __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* 
 
 // ---- frames: preparation and PCG ----
 
-// Threads per frame of k_frame_prepare: 6 columns times kPrepareParts interleaved subsets of
+// Threads per frame of k_frame_columns: 6 columns times kPrepareParts interleaved subsets of
 // the frame's pairs, so a frame's serial work is a sixth of a column's pairs / kPrepareParts.
 constexpr int kPrepareParts = 4;
 constexpr int kPrepareFrames = 5;  // frames per block: 120 threads
 
-// Frame preparation with 6 kPrepareParts threads per frame (frame_prepare_column); the partial
-// columns are summed in part order in shared memory, one thread per frame forms the blocks and the
-// Cholesky factor (frame_prepare_blocks, block_jacobi_condition, cholesky_factor6), and six
-// threads per frame compute the preconditioner's columns (frame_prepare_finish's arithmetic).
+// Frame preparation in two kernels. k_frame_columns: 6 kPrepareParts threads per frame
+// (frame_prepare_column); the partial columns are summed in part order in shared memory and
+// stored as sums [N][kPrepareSums] (K_ii row-major, then Kr row-major). k_frame_finish: 6 threads
+// per frame; thread c forms the frame's blocks and Cholesky factor itself (the same bits in each)
+// and solves for column c of the preconditioner (frame_prepare_finish's arithmetic, column by
+// column); thread 0 stores the blocks. In one kernel (196 registers, 2 blocks per SM, one thread
+// per frame factorising while its block's other 23 waited) the preparation took 71 us of a
+// 34,848-sample step on an H100 (docs/benchmarks.md).
+constexpr int kPrepareSums = 45;  // [K_ii (36), Kr (9)]
+constexpr int kFinishFrames = 21;  // k_frame_finish: frames per block, 126 threads
+
 template <class R>
-__global__ void k_frame_prepare(ModelView<R> m, FrameView<R> f, const R* F, bool fused, double inv_h2, R* geo,
-                                R* inertia_world, R* minv, double* diag, double k_scale, const double* load_rot,
-                                bool precondition) {
+__global__ void k_frame_columns(ModelView<R> m, FrameView<R> f, const R* F, bool fused, bool with_K, double* sums) {
   __shared__ double cols[kPrepareFrames][kPrepareParts][6][9];  // column c: K entries 0..5, Kr 6..8
-  __shared__ double factor[kPrepareFrames][36], pivots[kPrepareFrames][6], largest[kPrepareFrames];
-  __shared__ bool factored[kPrepareFrames];
   const int per_frame = 6 * kPrepareParts;
   const int t = static_cast<int>(threadIdx.x), local = t / per_frame;
-  const int i = static_cast<int>(blockIdx.x) * kPrepareFrames + local;
+  const int first = static_cast<int>(blockIdx.x) * kPrepareFrames;
+  const int i = first + local;
   const int c = (t % per_frame) % 6, part = (t % per_frame) / 6;
-  const bool active = local < kPrepareFrames && i < m.frames;
-  // Plain CG without the diagonal blocks needs Kr alone (the rotational columns' geometric part).
-  const bool with_K = precondition || diag != nullptr;
-  if (active) {
+  if (local < kPrepareFrames && i < m.frames) {
     double* col = cols[local][part][c];
     if (with_K || c >= 3)
       frame_prepare_column(m, f, F, fused, i, c, part, kPrepareParts, col, col + 6, with_K);
@@ -753,43 +754,49 @@ __global__ void k_frame_prepare(ModelView<R> m, FrameView<R> f, const R* F, bool
       for (int r = 0; r < 9; ++r) col[r] = 0;
   }
   __syncthreads();
-  if (active && c == 0 && part == 0) {
-    double K[36];
-    Mat3 Kr = zero3();
-    for (int cc = 0; cc < 6; ++cc)
-      for (int r = 0; r < 6; ++r) {
-        double sum = 0;
-        for (int pp = 0; pp < kPrepareParts; ++pp) sum += cols[local][pp][cc][r];
-        K[6 * r + cc] = sum;
-      }
-    for (int cc = 3; cc < 6; ++cc)
-      for (int r = 0; r < 3; ++r) {
-        double sum = 0;
-        for (int pp = 0; pp < kPrepareParts; ++pp) sum += cols[local][pp][cc][6 + r];
-        Kr.m[r][cc - 3] = sum;
-      }
-    frame_prepare_blocks(m, f, i, K, Kr, inv_h2, geo, inertia_world, diag, k_scale, load_rot, precondition);
-    if (precondition) {
-      largest[local] = block_jacobi_condition(m.fixed + 6 * i, K);
-      factored[local] = cholesky_factor6(K, factor[local]);
-      for (int k = 0; k < 6; ++k) pivots[local][k] = K[7 * k];
-    }
+  // Entry e of frame first + e / kPrepareSums: K[6 r + cc] (e < 36) or Kr[r][cc - 3].
+  for (int e = t; e < kPrepareFrames * kPrepareSums; e += static_cast<int>(blockDim.x)) {
+    const int fl = e / kPrepareSums, k = e - kPrepareSums * fl;
+    if (first + fl >= m.frames) break;
+    const int r = k < 36 ? k / 6 : (k - 36) / 3, cc = k < 36 ? k % 6 : 3 + (k - 36) % 3, row = k < 36 ? r : 6 + r;
+    double sum = 0;
+    for (int pp = 0; pp < kPrepareParts; ++pp) sum += cols[fl][pp][cc][row];
+    sums[kPrepareSums * static_cast<size_t>(first) + e] = sum;
   }
-  __syncthreads();
-  // The inverse's columns, one thread each (block_jacobi_inverse's arithmetic).
-  if (active && part == 0) {
-    double col[6];
-    if (!precondition)
-      for (int r = 0; r < 6; ++r) col[r] = r == c && !m.fixed[6 * i + c] ? 1.0 : 0.0;
-    else if (factored[local])
-      cholesky_inverse_column6(factor[local], c, col);
+}
+
+template <class R>
+__global__ void k_frame_finish(ModelView<R> m, FrameView<R> f, const double* sums, double inv_h2, R* geo,
+                               R* inertia_world, R* minv, double* diag, double k_scale, const double* load_rot,
+                               bool precondition) {
+  const int t = static_cast<int>(threadIdx.x), c = t % 6;
+  const int i = static_cast<int>(blockIdx.x) * kFinishFrames + t / 6;
+  if (t >= 6 * kFinishFrames || i >= m.frames) return;
+  const double* own = sums + kPrepareSums * static_cast<size_t>(i);
+  double K[36];
+  for (int k = 0; k < 36; ++k) K[k] = own[k];
+  Mat3 Kr;
+  for (int r = 0; r < 3; ++r)
+    for (int cc = 0; cc < 3; ++cc) Kr.m[r][cc] = own[36 + 3 * r + cc];
+  const bool lead = c == 0;
+  frame_prepare_blocks(m, f, i, K, Kr, inv_h2, lead ? geo : nullptr, lead ? inertia_world : nullptr,
+                       lead ? diag : nullptr, k_scale, load_rot, precondition);
+  // Column c of block_jacobi_inverse (with `precondition` false: of the identity on free DOFs).
+  const unsigned char* fixed = m.fixed + 6 * i;
+  double col[6];
+  if (!precondition) {
+    for (int r = 0; r < 6; ++r) col[r] = r == c && !fixed[c] ? 1.0 : 0.0;
+  } else {
+    const double largest = block_jacobi_condition(fixed, K);
+    double L[36];
+    if (cholesky_factor6(K, L))
+      cholesky_inverse_column6(L, c, col);
     else
-      for (int r = 0; r < 6; ++r) col[r] = r == c ? block_jacobi_diagonal(pivots[local][r], largest[local]) : 0.0;
-    for (int r = 0; r < 6; ++r) {
-      if (precondition && (m.fixed[6 * i + r] || m.fixed[6 * i + c])) col[r] = 0.0;
-      minv[36 * static_cast<size_t>(i) + 6 * r + c] = static_cast<R>(col[r]);
-    }
+      for (int r = 0; r < 6; ++r) col[r] = r == c ? block_jacobi_diagonal(K[7 * r], largest) : 0.0;
+    for (int r = 0; r < 6; ++r)
+      if (fixed[r] || fixed[c]) col[r] = 0.0;
   }
+  for (int r = 0; r < 6; ++r) minv[36 * static_cast<size_t>(i) + 6 * r + c] = static_cast<R>(col[r]);
 }
 
 template <class R>
@@ -845,16 +852,48 @@ __global__ void k_pcg_direction(int count, const R* z, R* p, const Scalars* sc) 
 // Sum over the whole grid of every thread's v, returned to every thread of every block. Each
 // block writes its shuffle-tree sum to partials[blockIdx.x]; after the grid barrier every block
 // sums all partials in block order with the same tree, so all blocks hold the same bits and the
-// result does not depend on scheduling.
+// result does not depend on scheduling. That sum is block_sum's over the strided partials (thread
+// t: b = t, t + blockDim.x, ...). In blocks of at most 4 warps (MaxThreads, the kernel's bound)
+// warp 0 forms it alone: lane l takes the place of threads l + 32 w of every warp w, reading one
+// partial for each w per round (the loads of a round are independent), the warps' shuffle trees
+// interleaved, and lane 0 adds the warps' sums in order. The same bits, one block barrier instead
+// of three after the grid barrier, and the other warps go straight to the broadcast.
+template <int MaxThreads>
 __device__ inline double grid_sum(double v, double* partials, cooperative_groups::grid_group& grid) {
+  constexpr int kWarpsMax = MaxThreads / 32;
   __shared__ double total;
   const double block = block_sum(v);
   if (threadIdx.x == 0) partials[blockIdx.x] = block;
   grid.sync();
-  double s = 0;
-  for (unsigned b = threadIdx.x; b < gridDim.x; b += blockDim.x) s += __ldcg(partials + b);
-  const double t = block_sum(s);
-  if (threadIdx.x == 0) total = t;
+  if constexpr (kWarpsMax > 4) {
+    double s = 0;
+    for (unsigned b = threadIdx.x; b < gridDim.x; b += blockDim.x) s += __ldcg(partials + b);
+    const double t = block_sum(s);
+    if (threadIdx.x == 0) total = t;
+  } else if (threadIdx.x < 32) {
+    const unsigned warps = blockDim.x / 32;
+    double s[kWarpsMax];
+#pragma unroll
+    for (int w = 0; w < kWarpsMax; ++w) s[w] = 0;
+    for (unsigned k = threadIdx.x; k < gridDim.x; k += blockDim.x) {
+      double round[kWarpsMax];  // loaded together, then added (+ 0.0 leaves the sums' bits alone)
+#pragma unroll
+      for (int w = 0; w < kWarpsMax; ++w)
+        round[w] = w < warps && k + 32u * w < gridDim.x ? __ldcg(partials + k + 32u * w) : 0.0;
+#pragma unroll
+      for (int w = 0; w < kWarpsMax; ++w) s[w] += round[w];
+    }
+    for (int o = 16; o > 0; o >>= 1)
+#pragma unroll
+      for (int w = 0; w < kWarpsMax; ++w) s[w] += __shfl_down_sync(0xffffffffu, s[w], o);
+    if (threadIdx.x == 0) {
+      double t = 0;
+#pragma unroll
+      for (int w = 0; w < kWarpsMax; ++w)
+        if (w < warps) t += s[w];
+      total = t;
+    }
+  }
   __syncthreads();
   return total;
 }
@@ -896,7 +935,7 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
     double dot = 0;
     for (int c = blockIdx.x; c < chunks; c += gridDim.x)
       dot += frame_rows_chunk(m, slot_partials, geo, inertia_world, flags, p, Ap, z, beta, c);
-    const double pAp = grid_sum(dot, partials, grid);
+    const double pAp = grid_sum<kLaneThreadsMax>(dot, partials, grid);
     if (!(pAp > 0 && pAp < HUGE_VAL)) {
       done = 2;
       break;
@@ -906,7 +945,7 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
     dot = 0;
     for (int c = blockIdx.x; c < chunks; c += gridDim.x)
       dot += update_rows_chunk(m.frames, minv, p, Ap, x, r, z, alpha, c);
-    const double rz_new = grid_sum(dot, partials + gridDim.x, grid);
+    const double rz_new = grid_sum<kLaneThreadsMax>(dot, partials + gridDim.x, grid);
     end_iteration(rz_new, rz0, tolerance, rz, beta, it, done);
   }
   if (tid == 0) store_progress(scalars, rz, beta, it, done);
@@ -1001,7 +1040,7 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
     }
     for (int c = blockIdx.x; c < chunks; c += gridDim.x)
       part += frame_quadratic_chunk(m, geo, inertia_world, flags, z, p, beta, c);
-    const double pAp = grid_sum(part, partials, grid);
+    const double pAp = grid_sum<kLaneThreadsMax>(part, partials, grid);
     if (!(pAp > 0 && pAp < HUGE_VAL)) {
       done = 2;
       break;
@@ -1011,7 +1050,7 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
     double dot = 0;
     for (int c = blockIdx.x; c < chunks; c += gridDim.x)
       dot += frame_update_chunk(m, slot_partials, geo, inertia_world, flags, minv, x, r, z, p, Ap, beta, alpha, c);
-    const double rz_new = grid_sum(dot, partials + gridDim.x, grid);
+    const double rz_new = grid_sum<kLaneThreadsMax>(dot, partials + gridDim.x, grid);
     end_iteration(rz_new, rz0, tolerance, rz, beta, it, done);
   }
   if (blockIdx.x == 0 && threadIdx.x == 0) store_progress(scalars, rz, beta, it, done);
@@ -1245,7 +1284,7 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     if (row)
       part += product_rn(dir[tid],
                          apply_frame_row(terms, flags.inv_h2, flags.project, dir + (tid - k), k, 0.0, flags.k_scale));
-    const double pAp = grid_sum(part, partials, grid);
+    const double pAp = grid_sum<kResidentThreads>(part, partials, grid);
     if (!(pAp > 0 && pAp < HUGE_VAL)) {
       done = 2;
       break;
@@ -1277,7 +1316,7 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
       z[jrow] = zj;
       dot = static_cast<double>(rj) * static_cast<double>(zj);
     }
-    const double rz_new = grid_sum(dot, partials + gridDim.x, grid);
+    const double rz_new = grid_sum<kResidentThreads>(dot, partials + gridDim.x, grid);
     end_iteration(rz_new, rz0, tolerance, rz, beta, it, done);
   }
   if (row) {

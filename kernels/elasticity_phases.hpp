@@ -1020,7 +1020,7 @@ FASCIA_HD bool cholesky_inverse6(const double* a, double* inv) {
 // Fixed rows of the inverse are set to 0 (the CPU projects z there). In place: `K` is modified.
 // Its pieces: block_jacobi_condition (fixed DOFs; returns the largest absolute diagonal entry),
 // the Cholesky inverse, block_jacobi_diagonal (the fallback's diagonal entry), and fixed rows
-// and columns set to 0 (the device computes the columns in parallel, k_frame_prepare).
+// and columns set to 0.
 FASCIA_HD double block_jacobi_condition(const unsigned char* fixed, double* K) {
   double largest = 0;
   for (int k = 0; k < 6; ++k) largest = std::fmax(largest, std::fabs(K[6 * k + k]));
@@ -1057,9 +1057,10 @@ FASCIA_HD void frame_prepare_column(const ModelView<R>& m, const FrameView<R>& f
   // Sums in registers (col and kr may point to shared memory: stores there would order every
   // following load).
   double sum[6] = {0, 0, 0, 0, 0, 0}, sum_kr[3] = {0, 0, 0};
-  Vec3 dx{0, 0, 0}, dr{0, 0, 0};
-  Vec3& e = c < 3 ? dx : dr;
-  e = Vec3{c % 3 == 0 ? 1.0 : 0.0, c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0};
+  // Unit displacement (c < 3) or rotation (c >= 3) along axis c % 3; selected by value, not by a
+  // reference to one of the two (which would put both in local memory).
+  const Vec3 e{c % 3 == 0 ? 1.0 : 0.0, c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0}, none{0, 0, 0};
+  const Vec3 dx = c < 3 ? e : none, dr = c < 3 ? none : e;
   for (int q = m.rev_offsets[i] + part; q < m.rev_offsets[i + 1]; q += parts) {
     const int p = m.rev_pairs[q];
     const int s = m.pair_samples[p];
@@ -1074,7 +1075,7 @@ FASCIA_HD void frame_prepare_column(const ModelView<R>& m, const FrameView<R>& f
     const Mat3 P = first_piola(mat, Fs, cache);
     if (c >= 3) {
       const Mat3 K = pair_rotational_geometric_block(P, a, g, w, Ri, v);
-      for (int r = 0; r < 3; ++r) sum_kr[r] += K.m[r][c - 3];
+      for (int r = 0; r < 3; ++r) sum_kr[r] += c == 3 ? K.m[r][0] : c == 4 ? K.m[r][1] : K.m[r][2];  // no local copy
     }
     if (!with_K) continue;
     const Mat3 dP = pk1_differential(mat, Fs, cache, pair_deformation_differential(dx, dr, a, g, w, Ri));
@@ -1089,7 +1090,8 @@ FASCIA_HD void frame_prepare_column(const ModelView<R>& m, const FrameView<R>& f
 // The rest of a frame's preparation from its sums: K [36] row-major (the sample terms of K_ii,
 // modified in place) and Kr. Writes the rotational geometric block (times k_scale, plus the load
 // potential's rotational block `load_rot` [N][9], nullable) to geo_out, the rotated inertia
-// R I_0 R^T to inertia_out, K_ii (= Elasticity::tangent_diagonal_blocks) to diag_out (nullable), and
+// R I_0 R^T to inertia_out, K_ii (= Elasticity::tangent_diagonal_blocks) to diag_out (the three
+// outputs nullable; frame_prepare_blocks skips the null ones), and
 // the block-Jacobi preconditioner of H_ii = k_scale K_ii + inv_h2 M_i + [0 0; 0 load_i]
 // (block_jacobi_inverse; with `precondition` false: the identity on free DOFs, plain CG) to minv_out.
 // frame_prepare_finish up to the inverse: with `precondition`, K becomes H_ii (before the fixed
@@ -1104,8 +1106,8 @@ FASCIA_HD void frame_prepare_blocks(const ModelView<R>& m, const FrameView<R>& f
   const Mat3 J = Ri * ldm(m.inertias + 9 * i) * transpose(Ri);
   Mat3 frame_block = k_scale * Kr;
   if (load_rot) frame_block += load_mat3(load_rot + 9 * i);
-  stm(geo_out + 9 * i, frame_block);
-  stm(inertia_out + 9 * i, J);
+  if (geo_out) stm(geo_out + 9 * i, frame_block);
+  if (inertia_out) stm(inertia_out + 9 * i, J);
   if (diag_out)
     for (int k = 0; k < 36; ++k) diag_out[36 * i + k] = K[k];
   if (precondition) {
@@ -1138,7 +1140,7 @@ FASCIA_HD void frame_prepare_finish(const ModelView<R>& m, const FrameView<R>& f
 
 // Per-frame preparation of a Newton iteration by one thread (frame_prepare_column for every
 // column, then frame_prepare_finish); the device spreads the columns and pairs over threads
-// (elasticity_kernels.cuh, k_frame_prepare).
+// (elasticity_kernels.cuh, k_frame_columns).
 template <class R>
 FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, double inv_h2, int i,
                              R* geo_out, R* inertia_out, R* minv_out, double* diag_out, double k_scale = 1.0,
