@@ -470,10 +470,11 @@ class System final : public DeviceElasticity::Impl {
                               sizeof(R);
     m_slot_frame_bytes = slot_bytes <= static_cast<size_t>(shared_limit) ? slot_bytes : 0;
     // The resident kernel's staged frames (DeviceOptions::resident_frames) after the outputs: lever
-    // records and directions.
+    // records, directions and frame indices.
     const size_t lever_bytes = (static_cast<size_t>(slot_records_offset(static_cast<int>(pairs))) +
                                 (kLeverRecord + 6) * static_cast<size_t>(max_slots)) *
-                               sizeof(R);
+                                   sizeof(R) +
+                               sizeof(int) * static_cast<size_t>(max_slots);
     m_resident_frames_bytes = lever_bytes <= static_cast<size_t>(shared_limit) ? lever_bytes : 0;
     if (m_slot_frame_bytes > 0)
       for (int keep : {2, 4, 8})
@@ -719,14 +720,11 @@ class System final : public DeviceElasticity::Impl {
     check_launch();
     const FrameTermsFlags none{0.0, false};
     if (design == Design::fused) {
+      // The coalesced pass's sample state is packed by the same kernel.
       k_fused_samples<Pass::gradient, R><<<m_blocks, options.block_samples, m_shared_bytes, m_stream>>>(
-          m_view, m_frame_view, nullptr, m_F.data(), m_cache.data(), m_partials.data(), reduction(), nullptr);
+          m_view, m_frame_view, nullptr, m_F.data(), m_cache.data(), m_partials.data(), reduction(), nullptr,
+          pass == SamplePass::coalesced ? m_sample_state.data() : nullptr);
       check_launch();
-      if (pass == SamplePass::coalesced) {
-        k_pack_samples<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(m_view, m_F.data(), m_cache.data(),
-                                                                              m_sample_state.data());
-        check_launch();
-      }
       if (gather) {
         k_frame_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
             m_view, m_partials.data(), nullptr, nullptr, none, nullptr, m_grad.data(), reduction(), false, nullptr);

@@ -128,13 +128,6 @@ __global__ void k_kinematics(int n, const double* positions, const double* orien
   if (levers) write_lever_record(r, frame_rest, i, levers);
 }
 
-// The samples' state of the coalesced tangent pass, component-major (pack_sample_state).
-template <class R>
-__global__ void k_pack_samples(ModelView<R> m, const R* F, const R* cache, R* state) {
-  const int s = blockIdx.x * blockDim.x + threadIdx.x;
-  if (s < m.samples) pack_sample_state(m, F, cache, s, state);
-}
-
 // ---- paper design ----
 
 template <class R>
@@ -180,10 +173,12 @@ __global__ void k_paper_gather(ModelView<R> m, const R* partials, const R* geo, 
 // ---- fused design ----
 
 // One block of consecutive samples (ModelView::block_samples); dynamic shared memory holds one
-// 6-vector per pair of the block.
+// 6-vector per pair of the block. `state_out` (gradient pass, nullable): each thread also packs
+// its sample's state for the coalesced tangent pass (pack_sample_state, component-major) from the
+// F and cache it has just stored.
 template <Pass pass, class R>
 __global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, const R* d, R* F_out, R* cache_out, R* slot_partials,
-                                Reduction red, const Scalars* sc) {
+                                Reduction red, const Scalars* sc, R* state_out = nullptr) {
   extern __shared__ unsigned char shared_raw[];
   R* local = reinterpret_cast<R*>(shared_raw);
   if (pass == Pass::tangent && finished(sc)) return;
@@ -192,7 +187,10 @@ __global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, const R* d, R* F
   const int pair_base = m.offsets[s0];
   const int s = s0 + static_cast<int>(threadIdx.x);
   double e = 0;
-  if (s < s1) e = fused_sample<pass>(m, f, d, s, pair_base, local, F_out, static_cast<const R*>(nullptr), 0.0, cache_out);
+  if (s < s1) {
+    e = fused_sample<pass>(m, f, d, s, pair_base, local, F_out, static_cast<const R*>(nullptr), 0.0, cache_out);
+    if (pass == Pass::gradient && state_out) pack_sample_state(m, F_out, cache_out, s, state_out);
+  }
   __syncthreads();
   for (int q = m.block_slots[b] + threadIdx.x; q < m.block_slots[b + 1]; q += blockDim.x)
     fused_slot_sum(m, local, q, slot_partials);
@@ -858,7 +856,7 @@ __global__ void k_pcg_direction(int count, const R* z, R* p, const Scalars* sc) 
 // partial for each w per round (the loads of a round are independent), the warps' shuffle trees
 // interleaved, and lane 0 adds the warps' sums in order. The same bits, one block barrier instead
 // of three after the grid barrier, and the other warps go straight to the broadcast.
-template <int MaxThreads>
+template <int MaxThreads, int Rounds = 1>
 __device__ inline double grid_sum(double v, double* partials, cooperative_groups::grid_group& grid) {
   constexpr int kWarpsMax = MaxThreads / 32;
   __shared__ double total;
@@ -875,13 +873,21 @@ __device__ inline double grid_sum(double v, double* partials, cooperative_groups
     double s[kWarpsMax];
 #pragma unroll
     for (int w = 0; w < kWarpsMax; ++w) s[w] = 0;
-    for (unsigned k = threadIdx.x; k < gridDim.x; k += blockDim.x) {
-      double round[kWarpsMax];  // loaded together, then added (+ 0.0 leaves the sums' bits alone)
+    // Rounds rounds of loads issued together, then added in round order (+ 0.0 past the grid
+    // leaves the sums' bits alone): one L2 round trip for grids of up to Rounds blocks per thread.
+    for (unsigned k = threadIdx.x; k < gridDim.x; k += Rounds * blockDim.x) {
+      double round[Rounds][kWarpsMax];
 #pragma unroll
-      for (int w = 0; w < kWarpsMax; ++w)
-        round[w] = w < warps && k + 32u * w < gridDim.x ? __ldcg(partials + k + 32u * w) : 0.0;
+      for (int j = 0; j < Rounds; ++j)
 #pragma unroll
-      for (int w = 0; w < kWarpsMax; ++w) s[w] += round[w];
+        for (int w = 0; w < kWarpsMax; ++w) {
+          const unsigned b = k + j * blockDim.x + 32u * w;
+          round[j][w] = w < warps && b < gridDim.x ? __ldcg(partials + b) : 0.0;
+        }
+#pragma unroll
+      for (int j = 0; j < Rounds; ++j)
+#pragma unroll
+        for (int w = 0; w < kWarpsMax; ++w) s[w] += round[j][w];
     }
     for (int o = 16; o > 0; o >>= 1)
 #pragma unroll
@@ -1105,6 +1111,9 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
   __shared__ MaterialLaw law_held[kMaterialHeld ? kResidentThreads : 1];
   const auto held = [&](auto* a, int c) -> auto& { return a[c * kResidentThreads + static_cast<int>(threadIdx.x)]; };
   const int b = static_cast<int>(blockIdx.x), tid = static_cast<int>(threadIdx.x);
+  // grid_sum's rounds of loads issued together: all of a grid of 3 blocks per SM where registers
+  // allow (with the levers held in registers, more rounds spill).
+  constexpr int kResidentSumRounds = InRegisters ? 1 : 3;
 
   // Sample block b, sample tid.
   const bool has_block = b < m.blocks;
@@ -1161,13 +1170,17 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
   }
   // StagedFrames: the lever records [R_i, x̄_i] of the block's slots after the pair outputs (not
   // with InRegisters, which holds the levers), then their directions p_i (6 values per slot, formed
-  // at the start of each iteration).
+  // at the start of each iteration), then their frames' indices.
   R* lever_records = local + slot_records_offset(stride);
   R* slot_dirs = lever_records + (InRegisters ? 0 : kLeverRecord * (q1 - q0));
-  if constexpr (StagedFrames && !InRegisters) {
-    for (int idx = tid; idx < kLeverRecord * (q1 - q0); idx += static_cast<int>(blockDim.x)) {
-      const int q = idx / kLeverRecord, c = idx - kLeverRecord * q;
-      lever_records[idx] = f.levers[kLeverRecord * static_cast<size_t>(m.slot_frames[q0 + q]) + c];
+  int* slot_frame_held = reinterpret_cast<int*>(slot_dirs + 6 * (q1 - q0));  // the slots' frames
+  if constexpr (StagedFrames) {
+    for (int q = tid; q < q1 - q0; q += static_cast<int>(blockDim.x)) slot_frame_held[q] = m.slot_frames[q0 + q];
+    if constexpr (!InRegisters) {
+      for (int idx = tid; idx < kLeverRecord * (q1 - q0); idx += static_cast<int>(blockDim.x)) {
+        const int q = idx / kLeverRecord, c = idx - kLeverRecord * q;
+        lever_records[idx] = f.levers[kLeverRecord * static_cast<size_t>(m.slot_frames[q0 + q]) + c];
+      }
     }
     __syncthreads();
   }
@@ -1209,9 +1222,25 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     // (1) samples on p = z + beta p_old, slot sums; p . A p.
     double part = 0;
     if constexpr (StagedFrames) {  // p of the block's slots, with next_direction's rounding
-      for (int idx = tid; idx < 6 * (q1 - q0); idx += static_cast<int>(blockDim.x)) {
-        const int q = idx / 6, c = idx - 6 * q;
-        slot_dirs[idx] = next_direction(z, p, beta, 6 * m.slot_frames[q0 + q] + c);
+      // kDirRounds rounds of loads issued together (each round trip to the L2 is a wait: the grid
+      // barrier emptied the L1), the frames' indices from shared memory.
+      constexpr int kDirRounds = 3;
+      for (int idx0 = tid; idx0 < 6 * (q1 - q0); idx0 += kDirRounds * static_cast<int>(blockDim.x)) {
+        R zv[kDirRounds], pv[kDirRounds];
+#pragma unroll
+        for (int j = 0; j < kDirRounds; ++j) {
+          const int idx = idx0 + j * static_cast<int>(blockDim.x), q = idx / 6, c = idx - 6 * q;
+          if (idx < 6 * (q1 - q0)) {
+            const int row = 6 * static_cast<int>(slot_frame_held[q]) + c;
+            zv[j] = z[row];
+            pv[j] = p[row];
+          }
+        }
+#pragma unroll
+        for (int j = 0; j < kDirRounds; ++j) {
+          const int idx = idx0 + j * static_cast<int>(blockDim.x);
+          if (idx < 6 * (q1 - q0)) slot_dirs[idx] = direction_value(zv[j], pv[j], beta);
+        }
       }
       __syncthreads();
     }
@@ -1284,7 +1313,7 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     if (row)
       part += product_rn(dir[tid],
                          apply_frame_row(terms, flags.inv_h2, flags.project, dir + (tid - k), k, 0.0, flags.k_scale));
-    const double pAp = grid_sum<kResidentThreads>(part, partials, grid);
+    const double pAp = grid_sum<kResidentThreads, kResidentSumRounds>(part, partials, grid);
     if (!(pAp > 0 && pAp < HUGE_VAL)) {
       done = 2;
       break;
@@ -1295,10 +1324,16 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     if (row) {
       pj = direction_value(zj, pj, beta);
       p[jrow] = pj;
+      // The held slots' partials loaded together, then summed in slot order (loaded and added one
+      // by one, each would wait for a round trip to the L2).
+      R held_partials[kResidentSlots];
+#pragma unroll
+      for (int n = 0; n < kResidentSlots; ++n)
+        held_partials[n] = slot_begin + n < slot_end ? slot_partials[6 * static_cast<size_t>(slot[n]) + k] : R(0);
       double acc = 0;
 #pragma unroll
       for (int n = 0; n < kResidentSlots; ++n)
-        if (slot_begin + n < slot_end) acc += static_cast<double>(slot_partials[6 * static_cast<size_t>(slot[n]) + k]);
+        if (slot_begin + n < slot_end) acc += static_cast<double>(held_partials[n]);
       for (int n = slot_begin + kResidentSlots; n < slot_end; ++n)
         acc += static_cast<double>(slot_partials[6 * static_cast<size_t>(m.frame_slots[n]) + k]);
       const R apj = static_cast<R>(apply_frame_row(terms, flags.inv_h2, flags.project, dir + (tid - k), k, acc,
@@ -1316,7 +1351,7 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
       z[jrow] = zj;
       dot = static_cast<double>(rj) * static_cast<double>(zj);
     }
-    const double rz_new = grid_sum<kResidentThreads>(dot, partials + gridDim.x, grid);
+    const double rz_new = grid_sum<kResidentThreads, kResidentSumRounds>(dot, partials + gridDim.x, grid);
     end_iteration(rz_new, rz0, tolerance, rz, beta, it, done);
   }
   if (row) {
