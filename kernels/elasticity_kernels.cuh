@@ -889,6 +889,10 @@ __device__ inline double grid_sum(double v, double* partials, cooperative_groups
 #pragma unroll
         for (int w = 0; w < kWarpsMax; ++w) s[w] += round[j][w];
     }
+    // Thread 0 arrives from the grid barrier's spin: without reconverging the warp first, the
+    // shuffles can take their diverged-warp path, measured 2.6 us per iteration slower at some
+    // sizes (docs/benchmarks.md, ninth round).
+    __syncwarp();
     for (int o = 16; o > 0; o >>= 1)
 #pragma unroll
       for (int w = 0; w < kWarpsMax; ++w) s[w] += __shfl_down_sync(0xffffffffu, s[w], o);
