@@ -744,7 +744,7 @@ class System final : public DeviceElasticity::Impl {
 
   void enqueue_frame_prepare(double inv_h2, bool diag, double k_scale = 1.0, const double* load_rot = nullptr,
                              bool precondition = true) {
-    k_frame_columns<R><<<grid_for(m_n, kPrepareFrames), 6 * kPrepareParts * kPrepareFrames, 0, m_stream>>>(
+    k_frame_columns<R><<<grid_for(m_n, kColumnFrames), kColumnParts * kColumnFrames, 0, m_stream>>>(
         m_view, m_frame_view, m_F.data(), design == Design::fused, precondition || diag, m_prepare_sums.data());
     check_launch();
     k_frame_finish<R><<<grid_for(m_n, kFinishFrames), 6 * kFinishFrames, 0, m_stream>>>(

@@ -720,45 +720,38 @@ __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* 
 
 // ---- frames: preparation and PCG ----
 
-// Threads per frame of k_frame_columns: 6 columns times kPrepareParts interleaved subsets of
-// the frame's pairs, so a frame's serial work is a sixth of a column's pairs / kPrepareParts.
-constexpr int kPrepareParts = 4;
-constexpr int kPrepareFrames = 5;  // frames per block: 120 threads
-
-// Frame preparation in two kernels. k_frame_columns: 6 kPrepareParts threads per frame
-// (frame_prepare_column); the partial columns are summed in part order in shared memory and
-// stored as sums [N][kPrepareSums] (K_ii row-major, then Kr row-major). k_frame_finish: 6 threads
-// per frame; thread c forms the frame's blocks and Cholesky factor itself (the same bits in each)
-// and solves for column c of the preconditioner (frame_prepare_finish's arithmetic, column by
-// column); thread 0 stores the blocks. In one kernel (196 registers, 2 blocks per SM, one thread
-// per frame factorising while its block's other 23 waited) the preparation took 71 us of a
-// 34,848-sample step on an H100 (docs/benchmarks.md).
-constexpr int kPrepareSums = 45;  // [K_ii (36), Kr (9)]
+// Frame preparation in two kernels. k_frame_columns: kColumnParts threads per frame, each summing
+// every column of K_ii and Kr over an interleaved subset of the frame's pairs (frame_prepare_pairs:
+// one gather and one first Piola stress per pair for all columns) into its own column of shared
+// memory; the parts are then summed in part order and stored as sums [N][kPrepareSums] (K_ii
+// row-major, then Kr row-major). k_frame_finish: 6 threads per frame; thread c forms the frame's
+// blocks and Cholesky factor itself (the same bits in each) and solves for column c of the
+// preconditioner (frame_prepare_finish's arithmetic, column by column); thread 0 stores the blocks.
+// In one kernel (196 registers, 2 blocks per SM, one thread per frame factorising while its
+// block's other 23 waited) the preparation took 71 us of a 34,848-sample step on an H100
+// (docs/benchmarks.md).
+constexpr int kPrepareSums = 45;   // [K_ii (36), Kr (9)]
+constexpr int kColumnParts = 4;    // k_frame_columns: threads per frame
+constexpr int kColumnFrames = 16;  // k_frame_columns: frames per block, 64 threads (blocks spread evenly)
 constexpr int kFinishFrames = 21;  // k_frame_finish: frames per block, 126 threads
 
 template <class R>
-__global__ void k_frame_columns(ModelView<R> m, FrameView<R> f, const R* F, bool fused, bool with_K, double* sums) {
-  __shared__ double cols[kPrepareFrames][kPrepareParts][6][9];  // column c: K entries 0..5, Kr 6..8
-  const int per_frame = 6 * kPrepareParts;
-  const int t = static_cast<int>(threadIdx.x), local = t / per_frame;
-  const int first = static_cast<int>(blockIdx.x) * kPrepareFrames;
-  const int i = first + local;
-  const int c = (t % per_frame) % 6, part = (t % per_frame) / 6;
-  if (local < kPrepareFrames && i < m.frames) {
-    double* col = cols[local][part][c];
-    if (with_K || c >= 3)
-      frame_prepare_column(m, f, F, fused, i, c, part, kPrepareParts, col, col + 6, with_K);
-    else
-      for (int r = 0; r < 9; ++r) col[r] = 0;
-  }
+__global__ void __launch_bounds__(kColumnParts * kColumnFrames)
+    k_frame_columns(ModelView<R> m, FrameView<R> f, const R* F, bool fused, bool with_K, double* sums) {
+  __shared__ double part_sums[kPrepareSums][kColumnParts * kColumnFrames];  // one column per thread
+  const int t = static_cast<int>(threadIdx.x), part = t % kColumnParts;
+  const int first = static_cast<int>(blockIdx.x) * kColumnFrames, i = first + t / kColumnParts;
+  for (int k = 0; k < kPrepareSums; ++k) part_sums[k][t] = 0;
+  if (i < m.frames)
+    frame_prepare_pairs(m, f, F, fused, i, part, kColumnParts, with_K,
+                        [&](int k, double value) { part_sums[k][t] += value; });
   __syncthreads();
-  // Entry e of frame first + e / kPrepareSums: K[6 r + cc] (e < 36) or Kr[r][cc - 3].
-  for (int e = t; e < kPrepareFrames * kPrepareSums; e += static_cast<int>(blockDim.x)) {
+  // Entry e of frame first + e / kPrepareSums, summed over the frame's parts in part order.
+  for (int e = t; e < kColumnFrames * kPrepareSums; e += static_cast<int>(blockDim.x)) {
     const int fl = e / kPrepareSums, k = e - kPrepareSums * fl;
     if (first + fl >= m.frames) break;
-    const int r = k < 36 ? k / 6 : (k - 36) / 3, cc = k < 36 ? k % 6 : 3 + (k - 36) % 3, row = k < 36 ? r : 6 + r;
     double sum = 0;
-    for (int pp = 0; pp < kPrepareParts; ++pp) sum += cols[fl][pp][cc][row];
+    for (int pp = 0; pp < kColumnParts; ++pp) sum += part_sums[k][kColumnParts * fl + pp];
     sums[kPrepareSums * static_cast<size_t>(first) + e] = sum;
   }
 }

@@ -1044,23 +1044,18 @@ FASCIA_HD void block_jacobi_inverse(const unsigned char* fixed, double* K, doubl
       for (int j = 0; j < 6; ++j) inv[6 * k + j] = inv[6 * j + k] = 0.0;
 }
 
-// Column c (0..5) of frame i's 6x6 diagonal block K_ii (material + geometric, the sample terms) and,
-// for c >= 3, column c - 3 of the rotational geometric block Kr (frame_sample.hpp), summed over the
-// frame's reverse pairs rev_offsets[i] + part, + part + parts, ... in order, from F [S][9] of the
-// gradient pass. `fused` selects a = R (p_s - x_i) (fused design) or a = R l from the table (paper
-// design). col [6] receives the column (0 without `with_K`: plain CG without the diagonal blocks
-// needs only Kr), kr [3] (c >= 3) the Kr column.
-template <class R>
-FASCIA_HD void frame_prepare_column(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, int i, int c,
-                                    int part, int parts, double* col, double* kr, bool with_K = true) {
+// Frame i's 6x6 diagonal block K_ii (material + geometric, the sample terms) and its rotational
+// geometric block Kr (frame_sample.hpp), summed over the frame's reverse pairs rev_offsets[i] +
+// part, + part + parts, ... in order, from F [S][9] of the gradient pass: every column from one
+// gather and one first Piola stress per pair. `fused` selects a = R (p_s - x_i) (fused design) or
+// a = R l from the table (paper design). `add(k, value)` receives each pair's terms in pair order,
+// k < 36 for K_ii[k] (row-major: column c of row r at 6 r + c, the column of the unit displacement
+// (c < 3) or rotation (c >= 3) along axis c % 3), 36 + 3 r + c for Kr[r][c]; without `with_K`
+// (plain CG without the diagonal blocks) only Kr's.
+template <class R, class Add>
+FASCIA_HD void frame_prepare_pairs(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, int i,
+                                   int part, int parts, bool with_K, Add&& add) {
   const Mat3 Ri = ldm(f.rotations + 9 * i);
-  // Sums in registers (col and kr may point to shared memory: stores there would order every
-  // following load).
-  double sum[6] = {0, 0, 0, 0, 0, 0}, sum_kr[3] = {0, 0, 0};
-  // Unit displacement (c < 3) or rotation (c >= 3) along axis c % 3; selected by value, not by a
-  // reference to one of the two (which would put both in local memory).
-  const Vec3 e{c % 3 == 0 ? 1.0 : 0.0, c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0}, none{0, 0, 0};
-  const Vec3 dx = c < 3 ? e : none, dr = c < 3 ? none : e;
   for (int q = m.rev_offsets[i] + part; q < m.rev_offsets[i + 1]; q += parts) {
     const int p = m.rev_pairs[q];
     const int s = m.pair_samples[p];
@@ -1073,18 +1068,19 @@ FASCIA_HD void frame_prepare_column(const ModelView<R>& m, const FrameView<R>& f
     const Mat3 Fs = ldm(F + 9 * s);
     MaterialCache cache;
     const Mat3 P = first_piola(mat, Fs, cache);
-    if (c >= 3) {
-      const Mat3 K = pair_rotational_geometric_block(P, a, g, w, Ri, v);
-      for (int r = 0; r < 3; ++r) sum_kr[r] += c == 3 ? K.m[r][0] : c == 4 ? K.m[r][1] : K.m[r][2];  // no local copy
-    }
+    const Mat3 Kr = pair_rotational_geometric_block(P, a, g, w, Ri, v);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) add(36 + 3 * r + c, Kr.m[r][c]);
     if (!with_K) continue;
-    const Mat3 dP = pk1_differential(mat, Fs, cache, pair_deformation_differential(dx, dr, a, g, w, Ri));
-    double out[6];
-    pair_virtual_work(dP, a, g, w, Ri, v, out);
-    for (int r = 0; r < 6; ++r) sum[r] += out[r];
+    for (int c = 0; c < 6; ++c) {
+      const Vec3 e{c % 3 == 0 ? 1.0 : 0.0, c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0}, none{0, 0, 0};
+      const Mat3 dP = pk1_differential(
+          mat, Fs, cache, pair_deformation_differential(c < 3 ? e : none, c < 3 ? none : e, a, g, w, Ri));
+      double out[6];
+      pair_virtual_work(dP, a, g, w, Ri, v, out);
+      for (int r = 0; r < 6; ++r) add(6 * r + c, out[r]);
+    }
   }
-  for (int r = 0; r < 6; ++r) col[r] = sum[r];
-  for (int r = 0; r < 3; ++r) kr[r] = sum_kr[r];
 }
 
 // The rest of a frame's preparation from its sums: K [36] row-major (the sample terms of K_ii,
@@ -1138,22 +1134,20 @@ FASCIA_HD void frame_prepare_finish(const ModelView<R>& m, const FrameView<R>& f
   for (int k = 0; k < 36; ++k) minv_out[36 * i + k] = static_cast<R>(inv[k]);
 }
 
-// Per-frame preparation of a Newton iteration by one thread (frame_prepare_column for every
-// column, then frame_prepare_finish); the device spreads the columns and pairs over threads
-// (elasticity_kernels.cuh, k_frame_columns).
+// Per-frame preparation of a Newton iteration by one thread (frame_prepare_pairs, then
+// frame_prepare_finish); the device spreads the pairs over threads (elasticity_kernels.cuh,
+// k_frame_columns and k_frame_finish).
 template <class R>
 FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, double inv_h2, int i,
                              R* geo_out, R* inertia_out, R* minv_out, double* diag_out, double k_scale = 1.0,
                              const double* load_rot = nullptr, bool precondition = true) {
+  double sums[45] = {};  // [K_ii (36), Kr (9)]
+  frame_prepare_pairs(m, f, F, fused, i, 0, 1, true, [&](int k, double value) { sums[k] += value; });
   double K[36];
-  Mat3 Kr = zero3();
-  for (int c = 0; c < 6; ++c) {
-    double col[6], kr[3];
-    frame_prepare_column(m, f, F, fused, i, c, 0, 1, col, kr);
-    for (int r = 0; r < 6; ++r) K[6 * r + c] = col[r];
-    if (c >= 3)
-      for (int r = 0; r < 3; ++r) Kr.m[r][c - 3] = kr[r];
-  }
+  for (int k = 0; k < 36; ++k) K[k] = sums[k];
+  Mat3 Kr;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) Kr.m[r][c] = sums[36 + 3 * r + c];
   frame_prepare_finish(m, f, i, K, Kr, inv_h2, geo_out, inertia_out, minv_out, diag_out, k_scale, load_rot, precondition);
 }
 
