@@ -730,7 +730,6 @@ __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* 
 // In one kernel (196 registers, 2 blocks per SM, one thread per frame factorising while its
 // block's other 23 waited) the preparation took 71 us of a 34,848-sample step on an H100
 // (docs/benchmarks.md).
-constexpr int kPrepareSums = 45;   // [K_ii (36), Kr (9)]
 constexpr int kColumnParts = 4;    // k_frame_columns: threads per frame
 constexpr int kColumnFrames = 16;  // k_frame_columns: frames per block, 64 threads (blocks spread evenly)
 constexpr int kFinishFrames = 21;  // k_frame_finish: frames per block, 126 threads

@@ -1052,6 +1052,8 @@ FASCIA_HD void block_jacobi_inverse(const unsigned char* fixed, double* K, doubl
 // k < 36 for K_ii[k] (row-major: column c of row r at 6 r + c, the column of the unit displacement
 // (c < 3) or rotation (c >= 3) along axis c % 3), 36 + 3 r + c for Kr[r][c]; without `with_K`
 // (plain CG without the diagonal blocks) only Kr's.
+constexpr int kPrepareSums = 45;  // a frame's prepared sums: [K_ii (36), Kr (9)]
+
 template <class R, class Add>
 FASCIA_HD void frame_prepare_pairs(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, int i,
                                    int part, int parts, bool with_K, Add&& add) {
@@ -1141,7 +1143,7 @@ template <class R>
 FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, double inv_h2, int i,
                              R* geo_out, R* inertia_out, R* minv_out, double* diag_out, double k_scale = 1.0,
                              const double* load_rot = nullptr, bool precondition = true) {
-  double sums[45] = {};  // [K_ii (36), Kr (9)]
+  double sums[kPrepareSums] = {};
   frame_prepare_pairs(m, f, F, fused, i, 0, 1, true, [&](int k, double value) { sums[k] += value; });
   double K[36];
   for (int k = 0; k < 36; ++k) K[k] = sums[k];
