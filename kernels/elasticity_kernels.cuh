@@ -728,8 +728,8 @@ __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* 
 // blocks and Cholesky factor itself (the same bits in each) and solves for column c of the
 // preconditioner (frame_prepare_finish's arithmetic, column by column); thread 0 stores the blocks.
 // In one kernel (196 registers, 2 blocks per SM, one thread per frame factorising while its
-// block's other 23 waited) the preparation took 71 us of a 34,848-sample step on an H100
-// (docs/benchmarks.md).
+// block's other 23 waited) the preparation took 71 us of a 34,848-sample step on an H100, as
+// these two 21 + 10 us (Nsight Compute, base clocks; docs/benchmarks.md, ninth round).
 constexpr int kColumnParts = 4;    // k_frame_columns: threads per frame
 constexpr int kColumnFrames = 16;  // k_frame_columns: frames per block, 64 threads (blocks spread evenly)
 constexpr int kFinishFrames = 21;  // k_frame_finish: frames per block, 126 threads
