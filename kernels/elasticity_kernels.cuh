@@ -771,22 +771,9 @@ __global__ void k_frame_finish(ModelView<R> m, FrameView<R> f, const double* sum
   const bool lead = c == 0;
   frame_prepare_blocks(m, f, i, K, Kr, inv_h2, lead ? geo : nullptr, lead ? inertia_world : nullptr,
                        lead ? diag : nullptr, k_scale, load_rot, precondition);
-  // Column c of block_jacobi_inverse (with `precondition` false: of the identity on free DOFs).
   const unsigned char* fixed = m.fixed + 6 * i;
-  double col[6];
-  if (!precondition) {
-    for (int r = 0; r < 6; ++r) col[r] = r == c && !fixed[c] ? 1.0 : 0.0;
-  } else {
-    const double largest = block_jacobi_condition(fixed, K);
-    double L[36];
-    if (cholesky_factor6(K, L))
-      cholesky_inverse_column6(L, c, col);
-    else
-      for (int r = 0; r < 6; ++r) col[r] = r == c ? block_jacobi_diagonal(K[7 * r], largest) : 0.0;
-    for (int r = 0; r < 6; ++r)
-      if (fixed[r] || fixed[c]) col[r] = 0.0;
-  }
-  for (int r = 0; r < 6; ++r) minv[36 * static_cast<size_t>(i) + 6 * r + c] = static_cast<R>(col[r]);
+  const BlockJacobiFactor factor = precondition ? block_jacobi_factor(fixed, K) : BlockJacobiFactor{};
+  frame_preconditioner_column(fixed, K, factor, precondition, i, c, minv);
 }
 
 template <class R>
@@ -844,10 +831,12 @@ __global__ void k_pcg_direction(int count, const R* z, R* p, const Scalars* sc) 
 // sums all partials in block order with the same tree, so all blocks hold the same bits and the
 // result does not depend on scheduling. That sum is block_sum's over the strided partials (thread
 // t: b = t, t + blockDim.x, ...). In blocks of at most 4 warps (MaxThreads, the kernel's bound)
-// warp 0 forms it alone: lane l takes the place of threads l + 32 w of every warp w, reading one
-// partial for each w per round (the loads of a round are independent), the warps' shuffle trees
-// interleaved, and lane 0 adds the warps' sums in order. The same bits, one block barrier instead
-// of three after the grid barrier, and the other warps go straight to the broadcast.
+// warp 0 forms it alone: lane l takes the place of threads l + 32 w of every warp w and loads
+// their partials of Rounds strides at once (one round trip to the L2 for grids of up to Rounds
+// blockDim.x blocks), the warps' shuffle trees are interleaved, and lane 0 adds the warps' sums in
+// order. The same bits, one block barrier instead of three after the grid barrier, and the other
+// warps go straight to the broadcast. Larger blocks keep block_sum (the interleaved sums would
+// need a register pair per warp).
 template <int MaxThreads, int Rounds = 1>
 __device__ inline double grid_sum(double v, double* partials, cooperative_groups::grid_group& grid) {
   constexpr int kWarpsMax = MaxThreads / 32;

@@ -1000,27 +1000,15 @@ FASCIA_HD void cholesky_inverse_column6(const double* L, int c, double* col) {
   }
 }
 
-// In-place inverse of a symmetric 6x6 matrix by Cholesky factorisation; false if it is not
-// positive definite (a non-positive pivot).
-FASCIA_HD bool cholesky_inverse6(const double* a, double* inv) {
-  double L[36];
-  if (!cholesky_factor6(a, L)) return false;
-  for (int c = 0; c < 6; ++c) {
-    double col[6];
-    cholesky_inverse_column6(L, c, col);
-    for (int r = 0; r < 6; ++r) inv[6 * r + c] = col[r];
-  }
-  return true;
-}
-
 // The block-Jacobi inverse of one frame's 6x6 block H_ii, as the CPU PCG builds it
 // (engine/solve/linear_solver.cpp): fixed DOFs get their row and column zeroed and the largest
 // absolute diagonal entry on the diagonal; the inverse by Cholesky, or, where the block is not
 // positive definite, the inverse of its absolute diagonal (floored at 1e-12 of the largest).
 // Fixed rows of the inverse are set to 0 (the CPU projects z there). In place: `K` is modified.
-// Its pieces: block_jacobi_condition (fixed DOFs; returns the largest absolute diagonal entry),
-// the Cholesky inverse, block_jacobi_diagonal (the fallback's diagonal entry), and fixed rows
-// and columns set to 0.
+// Its pieces: block_jacobi_factor (block_jacobi_condition for the fixed DOFs, then the Cholesky
+// factor) and block_jacobi_inverse_column (a column of the inverse by the factor, or of the
+// fallback, block_jacobi_diagonal, with fixed rows and columns set to 0), so that the device can
+// form the columns in parallel (k_frame_finish).
 FASCIA_HD double block_jacobi_condition(const unsigned char* fixed, double* K) {
   double largest = 0;
   for (int k = 0; k < 6; ++k) largest = std::fmax(largest, std::fabs(K[6 * k + k]));
@@ -1034,15 +1022,41 @@ FASCIA_HD double block_jacobi_diagonal(double pivot, double largest) {
   return 1.0 / std::fmax(std::fabs(pivot), 1e-12 * largest);
 }
 
-FASCIA_HD void block_jacobi_inverse(const unsigned char* fixed, double* K, double* inv) {
-  const double largest = block_jacobi_condition(fixed, K);
-  if (!cholesky_inverse6(K, inv))
-    for (int r = 0; r < 6; ++r)
-      for (int c = 0; c < 6; ++c) inv[6 * r + c] = r == c ? block_jacobi_diagonal(K[7 * r], largest) : 0.0;
-  for (int k = 0; k < 6; ++k)
-    if (fixed[k])
-      for (int j = 0; j < 6; ++j) inv[6 * k + j] = inv[6 * j + k] = 0.0;
+struct BlockJacobiFactor {
+  double L[36];    // Cholesky factor of the conditioned block, where `factored`
+  double largest;  // the largest absolute diagonal entry (block_jacobi_condition)
+  bool factored;   // false: the block is not positive definite
+};
+
+// Conditions K in place for the fixed DOFs and factors it.
+FASCIA_HD BlockJacobiFactor block_jacobi_factor(const unsigned char* fixed, double* K) {
+  BlockJacobiFactor out{};
+  out.largest = block_jacobi_condition(fixed, K);
+  out.factored = cholesky_factor6(K, out.L);
+  return out;
 }
+
+// Column c of the block-Jacobi inverse from the conditioned K and its factor.
+FASCIA_HD void block_jacobi_inverse_column(const unsigned char* fixed, const double* K, const BlockJacobiFactor& factor,
+                                           int c, double* col) {
+  if (factor.factored)
+    cholesky_inverse_column6(factor.L, c, col);
+  else
+    for (int r = 0; r < 6; ++r) col[r] = r == c ? block_jacobi_diagonal(K[7 * r], factor.largest) : 0.0;
+  for (int r = 0; r < 6; ++r)
+    if (fixed[r] || fixed[c]) col[r] = 0.0;
+}
+
+FASCIA_HD void block_jacobi_inverse(const unsigned char* fixed, double* K, double* inv) {
+  const BlockJacobiFactor factor = block_jacobi_factor(fixed, K);
+  for (int c = 0; c < 6; ++c) {
+    double col[6];
+    block_jacobi_inverse_column(fixed, K, factor, c, col);
+    for (int r = 0; r < 6; ++r) inv[6 * r + c] = col[r];
+  }
+}
+
+constexpr int kPrepareSums = 45;  // a frame's prepared sums: [K_ii (36), Kr (9)]
 
 // Frame i's 6x6 diagonal block K_ii (material + geometric, the sample terms) and its rotational
 // geometric block Kr (frame_sample.hpp), summed over the frame's reverse pairs rev_offsets[i] +
@@ -1052,8 +1066,6 @@ FASCIA_HD void block_jacobi_inverse(const unsigned char* fixed, double* K, doubl
 // k < 36 for K_ii[k] (row-major: column c of row r at 6 r + c, the column of the unit displacement
 // (c < 3) or rotation (c >= 3) along axis c % 3), 36 + 3 r + c for Kr[r][c]; without `with_K`
 // (plain CG without the diagonal blocks) only Kr's.
-constexpr int kPrepareSums = 45;  // a frame's prepared sums: [K_ii (36), Kr (9)]
-
 template <class R, class Add>
 FASCIA_HD void frame_prepare_pairs(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, int i,
                                    int part, int parts, bool with_K, Add&& add) {
@@ -1089,8 +1101,8 @@ FASCIA_HD void frame_prepare_pairs(const ModelView<R>& m, const FrameView<R>& f,
 // modified in place) and Kr. Writes the rotational geometric block (times k_scale, plus the load
 // potential's rotational block `load_rot` [N][9], nullable) to geo_out, the rotated inertia
 // R I_0 R^T to inertia_out, K_ii (= Elasticity::tangent_diagonal_blocks) to diag_out (the three
-// outputs nullable; frame_prepare_blocks skips the null ones), and
-// the block-Jacobi preconditioner of H_ii = k_scale K_ii + inv_h2 M_i + [0 0; 0 load_i]
+// outputs nullable: frame_prepare_blocks skips the null ones), and the block-Jacobi
+// preconditioner of H_ii = k_scale K_ii + inv_h2 M_i + [0 0; 0 load_i]
 // (block_jacobi_inverse; with `precondition` false: the identity on free DOFs, plain CG) to minv_out.
 // frame_prepare_finish up to the inverse: with `precondition`, K becomes H_ii (before the fixed
 // DOFs' treatment of block_jacobi_inverse).
@@ -1121,19 +1133,28 @@ FASCIA_HD void frame_prepare_blocks(const ModelView<R>& m, const FrameView<R>& f
   }
 }
 
+// Column c of frame i's preconditioner into minv_out [N][36] (row-major) from K after
+// frame_prepare_blocks and its block_jacobi_factor: block_jacobi_inverse's column, or with
+// `precondition` false the identity's on free DOFs (plain CG).
+template <class R>
+FASCIA_HD void frame_preconditioner_column(const unsigned char* fixed, const double* K, const BlockJacobiFactor& factor,
+                                           bool precondition, int i, int c, R* minv_out) {
+  double col[6];
+  if (precondition)
+    block_jacobi_inverse_column(fixed, K, factor, c, col);
+  else
+    for (int r = 0; r < 6; ++r) col[r] = r == c && !fixed[c] ? 1.0 : 0.0;
+  for (int r = 0; r < 6; ++r) minv_out[36 * static_cast<size_t>(i) + 6 * r + c] = static_cast<R>(col[r]);
+}
+
 template <class R>
 FASCIA_HD void frame_prepare_finish(const ModelView<R>& m, const FrameView<R>& f, int i, double* K, const Mat3& Kr,
                                     double inv_h2, R* geo_out, R* inertia_out, R* minv_out, double* diag_out,
                                     double k_scale, const double* load_rot, bool precondition) {
   frame_prepare_blocks(m, f, i, K, Kr, inv_h2, geo_out, inertia_out, diag_out, k_scale, load_rot, precondition);
-  double inv[36];
-  if (precondition) {
-    block_jacobi_inverse(m.fixed + 6 * i, K, inv);
-  } else {
-    for (int k = 0; k < 36; ++k) inv[k] = 0;
-    for (int k = 0; k < 6; ++k) inv[7 * k] = m.fixed[6 * i + k] ? 0.0 : 1.0;
-  }
-  for (int k = 0; k < 36; ++k) minv_out[36 * i + k] = static_cast<R>(inv[k]);
+  const unsigned char* fixed = m.fixed + 6 * i;
+  const BlockJacobiFactor factor = precondition ? block_jacobi_factor(fixed, K) : BlockJacobiFactor{};
+  for (int c = 0; c < 6; ++c) frame_preconditioner_column(fixed, K, factor, precondition, i, c, minv_out);
 }
 
 // Per-frame preparation of a Newton iteration by one thread (frame_prepare_pairs, then
