@@ -111,7 +111,9 @@ struct DeviceOptions {
   // frames of the next 2 or 4 pairs of each lane are read together with the held entries and kept,
   // so that those pairs' lever records and directions are gathered without first waiting for
   // their entries (Nsight Compute: the chain ELL entry -> frame -> lever record dominates the
-  // 4.18 M pass's stalls; docs/benchmarks.md, eighth round). The same bits. Not yet timed.
+  // 4.18 M pass's stalls; docs/benchmarks.md, eighth round). The same bits. Measured on an H100 at
+  // 4.18 M (ninth round): no faster than the default (single 1.071 against 1.021 ms per CG
+  // iteration with 4 held entries; double at best 1 % under it), so off.
   bool prefetch_frames = false;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
@@ -136,13 +138,14 @@ struct DeviceOptions {
   bool resident_double = true;
   // The double resident kernel for 4 pairs per sample with each block's frames staged in shared
   // memory: their lever records [R_i, x̄_i] once, their directions p_i at the start of each
-  // iteration (formed by the block's threads together), so that its pairs read them there instead
-  // of gathering them from global memory one pair after another: each grid barrier invalidates
-  // the L1, so those gathers went to the L2 (Nsight Compute, docs/benchmarks.md, eighth round). The same bits; where the larger shared memory leaves too
-  // few blocks per multiprocessor the kernel without it is used. Measured on an H100
-  // (docs/benchmarks.md, eighth round): 34,848 samples from 1.259 to 1.161 ms per step (19.0 to
-  // 17.4 us per CG iteration), 1.148 ms with the samples' materials held there too. Single precision (levers in registers) staging its directions alone
-  // was no faster, so it does not.
+  // iteration (formed by the block's threads together), and the samples' materials, so that its
+  // pairs read them there instead of gathering them from global memory one pair after another
+  // (each grid barrier invalidates the L1, so those gathers went to the L2; Nsight Compute,
+  // docs/benchmarks.md, eighth round). The same bits. Used where the kernel needs no local memory
+  // and the larger shared memory leaves enough blocks per multiprocessor, else the kernel without
+  // it. Measured on an H100 at 34,848 samples: 1.259 to 1.148 ms per step (eighth round); with the
+  // ninth round's batched loads 14.0 against 15.8 us per CG iteration without it. Single precision
+  // (levers in registers) staging its directions alone was no faster, so it does not.
   bool resident_frames = true;
 };
 
