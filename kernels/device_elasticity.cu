@@ -450,7 +450,10 @@ class System final : public DeviceElasticity::Impl {
   // lever records and samples' state, and its shared-memory size (6 values per ELL entry of the
   // largest block); false, with nothing uploaded, where that would not fit in a thread block.
   bool upload_coalesced(const Model& model, BlockLayout& L) {
-    build_ell_order(model, L);
+    // Positions interleaved for the lanes the pass will run (default_lanes: one per sample).
+    int lanes = 1;
+    while (lanes < std::min(std::max(options.lanes, 1), 32)) lanes *= 2;
+    build_ell_order(model, L, lanes);
     const size_t pairs = static_cast<size_t>(L.max_block_pairs);
     int shared_limit = 0, dev = 0;
     FASCIA_CUDA(cudaGetDevice(&dev));

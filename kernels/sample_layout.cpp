@@ -1,9 +1,11 @@
 #include "sample_layout.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <numeric>
+#include <stdexcept>
 
 namespace fascia::gpu {
 namespace {
@@ -17,6 +19,64 @@ std::uint64_t spread_bits(std::uint64_t v) {
   v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
   v = (v | v << 2) & 0x1249249249249249ULL;
   return v;
+}
+
+// Calls visit(e) for the ELL entries that one warp of the coalesced pass stores together, group
+// by group, calling end_group() after each: pass k of 32 / lanes consecutive block-local samples
+// (thread g lanes + l of the warp takes pair j = k lanes + l of its sample).
+template <class Visit, class EndGroup>
+void for_each_store_group(const NeighbourTable& nb, const BlockLayout& L, int b, int lanes, Visit visit,
+                          EndGroup end_group) {
+  const int s0 = L.block_samples[b], ns = L.block_samples[b + 1] - s0, per_warp = 32 / lanes;
+  for (int t0 = 0; t0 < ns; t0 += per_warp) {
+    const int t1 = std::min(ns, t0 + per_warp);
+    int width = 0;
+    for (int t = t0; t < t1; ++t) width = std::max(width, nb.offsets[s0 + t + 1] - nb.offsets[s0 + t]);
+    for (int j0 = 0; j0 < width; j0 += lanes) {
+      for (int t = t0; t < t1; ++t) {
+        const int count = nb.offsets[s0 + t + 1] - nb.offsets[s0 + t];
+        for (int j = j0; j < std::min(count, j0 + lanes); ++j) visit(L.pair_ell[nb.offsets[s0 + t] + j]);
+      }
+      end_group();
+    }
+  }
+}
+
+// Slot-major positions of block b's entries (BlockLayout::ell_pos): every pair of slot q gets a
+// position in the slot's range [a, a + n), and the pairs of one store group (for_each_store_group)
+// take distinct residues modulo 32 (distinct banks) where their slots' free positions allow,
+// greedily in the groups' order: each pair takes the free residue nearest after its slot's next
+// position in sequence, else the free position whose residue the group holds least often.
+void interleave_positions(const NeighbourTable& nb, BlockLayout& L, int b, int lanes) {
+  const int q0 = L.block_slots[b], nq = L.block_slots[b + 1] - q0, k0 = L.slot_pair_offsets[q0];
+  std::vector<std::array<int, 32>> taken(nq);  // per slot and residue: positions given so far
+  std::vector<int> given(nq, 0);               // per slot: positions given so far
+  for (auto& t : taken) t.fill(0);
+  std::array<int, 32> held{};  // per residue: the current group's positions
+  const auto position = [&](int q, int r) {  // the next free position of slot q with residue r, or -1
+    const int a = L.slot_pair_offsets[q0 + q] - k0, e = L.slot_pair_offsets[q0 + q + 1] - k0;
+    const int p = a + ((r - a) % 32 + 32) % 32 + 32 * taken[q][r];
+    return p < e ? p : -1;
+  };
+  for_each_store_group(
+      nb, L, b, lanes,
+      [&](int e) {
+        const int q = L.ell_slot[e];
+        const int a = L.slot_pair_offsets[q0 + q] - k0;
+        const int first = (a + given[q]) % 32;
+        int best = -1;
+        for (int k = 0; k < 32; ++k) {
+          const int r = (first + k) % 32;
+          if (position(q, r) < 0) continue;
+          if (best < 0 || held[r] < held[best]) best = r;
+          if (held[r] == 0) break;
+        }
+        L.ell_pos[e] = position(q, best);
+        ++taken[q][best];
+        ++given[q];
+        ++held[best];
+      },
+      [&] { held.fill(0); });
 }
 
 }  // namespace
@@ -150,7 +210,9 @@ BlockLayout build_block_layout(const Model& model, int max_samples, int max_pair
   return L;
 }
 
-void build_ell_order(const Model& model, BlockLayout& L) {
+void build_ell_order(const Model& model, BlockLayout& L, int lanes) {
+  if (lanes < 1 || lanes > 32 || (lanes & (lanes - 1)) != 0)
+    throw std::invalid_argument("build_ell_order: lanes must be a power of two in [1, 32]");
   const NeighbourTable& nb = model.neighbours;
   const int blocks = L.block_count();
   L.ell_offsets.assign(1, 0);
@@ -169,15 +231,27 @@ void build_ell_order(const Model& model, BlockLayout& L) {
   L.slot_ell.assign(L.slot_pairs.size(), 0);
   for (int b = 0; b < blocks; ++b) {
     const int p0 = nb.offsets[L.block_samples[b]], e0 = L.ell_offsets[b], q0 = L.block_slots[b];
-    const int k0 = L.slot_pair_offsets[q0];
     for (int q = q0; q < L.block_slots[b + 1]; ++q)
       for (int k = L.slot_pair_offsets[q]; k < L.slot_pair_offsets[q + 1]; ++k) {
         const int e = L.pair_ell[p0 + L.slot_pairs[k]];
         L.ell_slot[e] = q - q0;
-        L.ell_pos[e] = k - k0;
         L.slot_ell[k] = e - e0;
       }
+    interleave_positions(nb, L, b, lanes);
   }
+}
+
+long long coalesced_store_wavefronts(const Model& model, const BlockLayout& L, int lanes) {
+  long long wavefronts = 0;
+  std::array<int, 32> held{};
+  for (int b = 0; b < L.block_count(); ++b)
+    for_each_store_group(
+        model.neighbours, L, b, lanes, [&](int e) { ++held[L.ell_pos[e] % 32]; },
+        [&] {
+          wavefronts += *std::max_element(held.begin(), held.end());
+          held.fill(0);
+        });
+  return wavefronts;
 }
 
 }  // namespace fascia::gpu

@@ -45,9 +45,11 @@ struct BlockLayout {
   std::vector<int> pair_ell;            // [P] ELL entry of each pair (global)
   std::vector<int> ell_slot;            // [E] slot of the entry's pair minus the block's first slot (0 on padding)
   std::vector<int> slot_ell;            // [P] as slot_pairs, the ELL entry minus the block's first entry
-  // [E] the entry's position in the block's slot-major pair order (slot_pairs' index minus the
-  // block's first; 0 on padding): the coalesced pass writes its outputs there, so each slot's
-  // pairs are contiguous for its sum.
+  // [E] the entry's position in the block's slot-major pair order (0 on padding): the coalesced
+  // pass writes its outputs there, so each slot's pairs are contiguous for its sum, which adds
+  // them in position order. Within its slot's range [slot_pair_offsets[q], [q + 1]) (minus the
+  // block's first) a pair's position is chosen so that the threads of one warp store to distinct
+  // shared-memory banks (interleave_positions).
   std::vector<int> ell_pos;
   int ell_count() const { return ell_offsets.empty() ? 0 : ell_offsets.back(); }
   int block_count() const { return static_cast<int>(block_samples.size()) - 1; }
@@ -60,7 +62,15 @@ struct BlockLayout {
 BlockLayout build_block_layout(const Model& model, int max_samples, int max_pairs, int max_slots);
 
 // Fills the ELL tables of the staged tangent pass into a layout of build_block_layout: pair j of
-// a block's local sample t at entry j * ns + t.
-void build_ell_order(const Model& model, BlockLayout& layout);
+// a block's local sample t at entry j * ns + t. `lanes` (a power of two <= 32): the coalesced
+// pass's threads per sample, for which the slot-major positions are interleaved.
+void build_ell_order(const Model& model, BlockLayout& layout, int lanes = 1);
+
+// Shared-memory wavefronts of one component of the coalesced pass's pair-output stores over the
+// whole layout, with `lanes` threads per sample: for each warp and pass (the pairs j in
+// [k lanes, (k + 1) lanes) of 32 / lanes consecutive block-local samples), the most threads whose
+// positions fall in one of the 32 four-byte banks (float outputs; a store of only distinct banks
+// takes one wavefront).
+long long coalesced_store_wavefronts(const Model& model, const BlockLayout& layout, int lanes = 1);
 
 }  // namespace fascia::gpu
