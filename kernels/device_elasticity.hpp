@@ -77,9 +77,10 @@ struct DeviceOptions {
   // CG iteration (with 4 the kernel spills 16 bytes); in single 4 is the faster at 8 pairs.
   int coalesced_keep = 0;
   // Coalesced pass: lanes that sum one slot of a block's pair outputs (a power of two, 1..32; 1:
-  // one thread per slot). Measured on an H100 (docs/benchmarks.md): 1 is the fastest at 34,848
-  // samples, 4 at 4.18 M within 3 %.
-  int slot_lanes = 1;
+  // one thread per slot). Measured on an H100 (docs/benchmarks.md, tenth round, interleaved
+  // positions): 4.18 M x 8, ms per CG iteration, 1 -> 2: single 0.970 -> 0.933, double 1.791 ->
+  // 1.738; at 34,848 samples (resident PCG) the two are even (0.676 and 0.898 ms per step).
+  int slot_lanes = 2;
   // Coalesced pass, launched tangent product: with 128-thread blocks, the kernel compiled for the
   // most blocks per multiprocessor its registers allow without local memory
   // (elasticity_kernels.cuh, dense_blocks_per_sm); false: compiled for blocks of up to 512 threads.

@@ -30,7 +30,7 @@ struct BenchGpuOptions {
   std::vector<int> record_keep = {2};  // records pass: pairs per lane kept in registers
   std::vector<int> row_frames = {42};  // frames per block of the launched frame-row passes
   std::vector<int> keep = {0};       // coalesced pass: ELL entries per lane held in registers (0: auto)
-  std::vector<int> slot_lanes = {1};  // coalesced pass: lanes per slot sum
+  std::vector<int> slot_lanes = {2};  // coalesced pass: lanes per slot sum
   std::vector<int> resident = {2};    // coalesced pass: persistent PCG holding its invariants (2: double too)
   // Coalesced pass: the on/off options of cmd_bench_gpu.cpp's switch table (--dense-tangent,
   // --shape-classes, ...), by DeviceOptions member name, each with the values to compare; an

@@ -133,7 +133,7 @@ TEST_CASE("record and coalesced passes equal the CPU reference with every lane c
   const SamplePass pass = GENERATE(SamplePass::records, SamplePass::coalesced);
   const int lanes = GENERATE(1, 2, 4, 8);
   const int keep = GENERATE(1, 2);
-  const int slot_lanes = GENERATE(1, 8, 32);  // coalesced pass: lanes per slot sum
+  const int slot_lanes = GENERATE(1, 2, 8, 32);  // coalesced pass: lanes per slot sum
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::neo_hookean);
   DeviceOptions options;

@@ -391,8 +391,10 @@ TEST_CASE("interleaved slot-major positions spread each warp's output stores ove
   const long long in_order = coalesced_store_wavefronts(model, sorted, lanes);
   INFO("cell " << static_cast<int>(cell) << " lanes " << lanes << ": store groups " << groups << ", wavefronts "
                << in_order << " in pair order, " << interleaved << " interleaved");
-  // One wavefront per store group at least; interleaving never needs more than pair order here
-  // and, where the in-order stores conflict, it needs at most 1.25 per group (measured: ...).
+  // One wavefront per store group at least; interleaving needs fewer than pair order wherever
+  // that conflicts (this model: hexahedra 709 -> 488 and tetrahedra 1060 -> 736 with one lane,
+  // for 240 and 360 store groups; some conflicts stay, where a group's slots offer too few
+  // residues, e.g. two slots of 8 pairs on the same 8 banks).
   REQUIRE(interleaved >= groups);
   REQUIRE(interleaved <= in_order);
   if (in_order > groups) REQUIRE(interleaved < in_order);
@@ -447,7 +449,7 @@ TEST_CASE("kernel bodies stepped on the host reproduce the CPU reference", "[ker
     CHECK(relative_difference(sk, Kd) < 1e-12);
 
     // Coalesced tangent pass, from the same F and material cache, with every slot-sum width.
-    for (int slot_lanes : {1, 4, 8, 32}) {
+    for (int slot_lanes : {1, 2, 4, 8, 32}) {
       std::vector<double> ck = dev.coalesced(d, sF, cache, slot_lanes);
       for (int i = 0; i < n; ++i)
         for (int k = 0; k < 6; ++k)
