@@ -367,7 +367,7 @@ TEST_CASE("interleaved slot-major positions spread each warp's output stores ove
   // slot in each pass) and tetrahedra (4 neighbours).
   const CellType cell = GENERATE(CellType::hexahedron, CellType::tetrahedron);
   const int lanes = GENERATE(1, 2, 4);
-  const Model input = kernels_test_model(cell, MaterialLaw::stvk, 6, 5, 4);
+  const Model input = kernels_test_model(cell, MaterialLaw::stvk, 25, 7, 7);
   const Model model = reorder_samples(input, spatial_sample_order(input));
   BlockLayout L = build_block_layout(model, 128, 1024, kMappedSlots);
   build_ell_order(model, L, lanes);
@@ -392,14 +392,13 @@ TEST_CASE("interleaved slot-major positions spread each warp's output stores ove
   INFO("cell " << static_cast<int>(cell) << " lanes " << lanes << ": store groups " << groups << ", wavefronts "
                << in_order << " in pair order, " << interleaved << " interleaved");
   // One wavefront per store group at least; interleaving needs fewer than pair order wherever
-  // that conflicts (this model: hexahedra 709 -> 488 and tetrahedra 1060 -> 736 with one lane,
-  // for 240 and 360 store groups; some conflicts stay, where a group's slots offer too few
-  // residues, e.g. two slots of 8 pairs on the same 8 banks).
+  // that conflicts. This model (25 x 7 x 7 cells: the Morton cells do not align with the mesh
+  // cells, as in `fascia bench gpu`'s blocks) with one lane: hexahedra 7669 -> 5040 wavefronts for
+  // 2456 store groups, tetrahedra 10902 -> 7505 for 3676. Some conflicts stay, where a group's
+  // slots offer too few free residues. Asserted: at least a quarter fewer than pair order (about
+  // a third fewer in every case here), never below one per group.
   REQUIRE(interleaved >= groups);
-  REQUIRE(interleaved <= in_order);
-  if (in_order > groups) REQUIRE(interleaved < in_order);
-  WARN("cell " << static_cast<int>(cell) << " lanes " << lanes << ": store groups " << groups << ", wavefronts "
-               << in_order << " in pair order, " << interleaved << " interleaved");
+  REQUIRE(4 * interleaved <= 3 * in_order);
 }
 
 TEST_CASE("kernel bodies stepped on the host reproduce the CPU reference", "[kernels][emulation]") {
