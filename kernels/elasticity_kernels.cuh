@@ -350,15 +350,10 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
     const int q = first + group;
     R acc[6] = {0, 0, 0, 0, 0, 0};
     if (q < q1) {
-      const int a = m.slot_pair_offsets[q] - base, n = m.slot_pair_offsets[q + 1] - base - a;
-      int at = lane + slot_rotation(a, n, q - q0, slot_lanes);  // slot_tree_sum's order
-      if (at >= n) at -= n;
-      for (int k = lane; k < n; k += slot_lanes) {
+      const int a = m.slot_pair_offsets[q] - base, e = m.slot_pair_offsets[q + 1] - base;
+      for (int k = a + lane; k < e; k += slot_lanes)
 #pragma unroll
-        for (int c = 0; c < 6; ++c) acc[c] += outs[c * stride + a + at];
-        at += slot_lanes;
-        if (at >= n) at -= n;
-      }
+        for (int c = 0; c < 6; ++c) acc[c] += outs[c * stride + k];
     }
     for (int o = slot_lanes / 2; o > 0; o >>= 1)
 #pragma unroll
@@ -1315,14 +1310,11 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     }
     __syncthreads();
     for (int qq = q0 + tid; qq < q1; qq += static_cast<int>(blockDim.x)) {
-      const int a = m.slot_pair_offsets[qq] - base, n = m.slot_pair_offsets[qq + 1] - base - a;
+      const int a = m.slot_pair_offsets[qq] - base, e = m.slot_pair_offsets[qq + 1] - base;
       R acc[6] = {0, 0, 0, 0, 0, 0};
-      // warp_slot_sums' order with one lane per slot (slot_rotation).
-      for (int kk = 0, at = slot_rotation(a, n, qq - q0, 1); kk < n; ++kk) {
+      for (int kk = a; kk < e; ++kk)
 #pragma unroll
-        for (int c = 0; c < 6; ++c) acc[c] += local[c * stride + a + at];
-        if (++at == n) at = 0;
-      }
+        for (int c = 0; c < 6; ++c) acc[c] += local[c * stride + kk];
       for (int c = 0; c < 6; ++c) slot_partials[6 * static_cast<size_t>(qq) + c] = acc[c];
     }
     if (row) dir[tid] = static_cast<double>(direction_value(zj, pj, beta));

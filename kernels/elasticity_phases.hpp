@@ -856,37 +856,17 @@ FASCIA_HD void ell_sample(const ModelView<R>& m, const FrameView<R>& f, const R*
   }
 }
 
-// The rotation of the reading order of a slot's sum (slot_tree_sum): block-local slot g, with
-// positions [a, a + n) and `lanes` lanes per slot, reads offset (k + rotation) mod n where it would
-// read offset k, so that the lanes of the neighbouring slots a warp sums together start on
-// distinct shared-memory banks: slot g's first read lands on bank lanes (g mod 32 / lanes) where
-// n allows. Slots of equal size (a block's slots are ordered by size) would otherwise start
-// n apart, on one bank when n is a multiple of 32 (of 16 in double).
-FASCIA_HD int slot_rotation(int a, int n, int g, int lanes) {
-  if (n <= 0) return 0;
-  const int target = lanes * (g % (lanes < 32 ? 32 / lanes : 1));
-  return (((target - a) % 32 + 32) % 32) % n;
-}
-
 // Component c of the sum of one slot's outputs at slot-major positions [a, e) of outs [6][stride],
-// in the order of `lanes` lanes (elasticity_kernels.cuh, warp_slot_sums): lane l adds the
-// positions at offsets l, l + lanes, ... < e - a in turn, each offset k read at a + (k + rotation)
-// mod (e - a) (slot_rotation), then the lanes' sums are combined by an xor butterfly (distance
-// lanes/2, ..., 1). On the host this emulates the lanes value for value, so its bits are the
-// device's.
+// in the order of `lanes` lanes (elasticity_kernels.cuh, warp_slot_sums): lane l adds positions
+// a + l, a + l + lanes, ... in turn, then the lanes' sums are combined by an xor butterfly
+// (distance lanes/2, ..., 1). On the host this emulates the lanes value for value, so its bits are
+// the device's.
 template <class R>
-FASCIA_HD R slot_tree_sum(const R* outs, int stride, int a, int e, int c, int lanes, int rotation) {
+FASCIA_HD R slot_tree_sum(const R* outs, int stride, int a, int e, int c, int lanes) {
   R sums[32];
-  const int n = e - a;
   for (int l = 0; l < lanes; ++l) {
     sums[l] = R(0);
-    int at = l + rotation;  // offset k rotated; k < n and rotation < n, so one wrap at most
-    if (at >= n) at -= n;
-    for (int k = l; k < n; k += lanes) {
-      sums[l] += outs[c * stride + a + at];
-      at += lanes;
-      if (at >= n) at -= n;
-    }
+    for (int k = a + l; k < e; k += lanes) sums[l] += outs[c * stride + k];
   }
   for (int o = lanes / 2; o > 0; o >>= 1) {
     R next[32];

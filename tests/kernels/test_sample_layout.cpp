@@ -191,11 +191,8 @@ struct HostDevice {
       const int q0 = layout.block_slots[b], base = layout.slot_pair_offsets[q0];
       for (int q = q0; q < layout.block_slots[b + 1]; ++q)
         for (int c = 0; c < 6; ++c)
-          partials[6 * q + c] =
-              slot_tree_sum(outs.data(), stride, layout.slot_pair_offsets[q] - base,
-                            layout.slot_pair_offsets[q + 1] - base, c, slot_lanes,
-                            slot_rotation(layout.slot_pair_offsets[q] - base,
-                                          layout.slot_pair_offsets[q + 1] - layout.slot_pair_offsets[q], q - q0, slot_lanes));
+          partials[6 * q + c] = slot_tree_sum(outs.data(), stride, layout.slot_pair_offsets[q] - base,
+                                              layout.slot_pair_offsets[q + 1] - base, c, slot_lanes);
     }
     std::vector<double> out(model.dof_count());
     for (int i = 0; i < n; ++i) fused_gather(view, partials.data(), i, &out[6 * i]);
