@@ -184,24 +184,19 @@ BlockLayout build_block_layout(const Model& model, int max_samples, int max_pair
   L.block_slots.push_back(0);
   L.slot_pair_offsets.push_back(0);
   std::vector<std::pair<int, int>> frame_pair;  // (frame, local pair), sorted
-  std::vector<std::pair<int, int>> runs;        // (first index in frame_pair, pairs) per slot
   for (int b = 0; b < blocks; ++b) {
     const int p0 = nb.offsets[L.block_samples[b]], p1 = nb.offsets[L.block_samples[b + 1]];
     frame_pair.clear();
     for (int p = p0; p < p1; ++p) frame_pair.emplace_back(nb.frames[p], p - p0);
     std::sort(frame_pair.begin(), frame_pair.end());
-    // The block's slots (runs of one frame), largest first, then by frame.
-    runs.clear();
-    for (size_t k = 0; k < frame_pair.size(); ++k)
-      if (k == 0 || frame_pair[k].first != frame_pair[k - 1].first) runs.emplace_back(static_cast<int>(k), 0);
-    for (size_t r = 0; r < runs.size(); ++r)
-      runs[r].second = (r + 1 < runs.size() ? runs[r + 1].first : static_cast<int>(frame_pair.size())) - runs[r].first;
-    std::stable_sort(runs.begin(), runs.end(), [](const auto& x, const auto& y) { return x.second > y.second; });
-    for (const auto& [first, size] : runs) {
-      L.slot_frames.push_back(frame_pair[first].first);
-      for (int k = first; k < first + size; ++k) L.slot_pairs.push_back(frame_pair[k].second);
-      L.slot_pair_offsets.push_back(static_cast<int>(L.slot_pairs.size()));
+    for (size_t k = 0; k < frame_pair.size(); ++k) {
+      if (k == 0 || frame_pair[k].first != frame_pair[k - 1].first) {
+        if (k > 0) L.slot_pair_offsets.push_back(static_cast<int>(L.slot_pairs.size()));
+        L.slot_frames.push_back(frame_pair[k].first);
+      }
+      L.slot_pairs.push_back(frame_pair[k].second);
     }
+    if (!frame_pair.empty()) L.slot_pair_offsets.push_back(static_cast<int>(L.slot_pairs.size()));
     L.block_slots.push_back(static_cast<int>(L.slot_frames.size()));
   }
   // Frame -> its slots, in slot (= block) order.

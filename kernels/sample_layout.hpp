@@ -5,10 +5,8 @@
 //    rounding);
 //  - the block tables of the fused design (elasticity_phases.hpp): consecutive samples grouped
 //    into blocks, each block's distinct frames ("slots") with the block-local pairs that touch
-//    them, and per frame the slots that hold its partial sums. A block's slots are ordered by
-//    pair count, largest first (then by frame), so that the threads summing neighbouring slots
-//    run loops of similar length; every other list is in increasing order. The order fixes the
-//    summation order and makes the device results bitwise reproducible;
+//    them, and per frame the slots that hold its partial sums. Every list is in increasing order,
+//    which fixes the summation order and makes the device results bitwise reproducible;
 //  - the staged tangent pass's per-block ELL order of pairs: pair j of the block's sample t sits at
 //    j * ns + t (ns samples in the block, width = the block's largest neighbour count), so that
 //    thread t reading its j-th pair and the warp's threads reading neighbouring words coincide:
@@ -36,7 +34,7 @@ struct BlockLayout {
   int max_block_pairs = 0;
   std::vector<int> block_samples;       // [B+1]
   std::vector<int> block_slots;         // [B+1]
-  std::vector<int> slot_frames;         // [Q] per block: most pairs first, then by frame
+  std::vector<int> slot_frames;         // [Q]
   std::vector<int> slot_pair_offsets;   // [Q+1]
   std::vector<int> slot_pairs;          // [P] pair index minus the block's first pair
   std::vector<int> frame_slot_offsets;  // [N+1]
