@@ -177,11 +177,7 @@ class System final : public DeviceElasticity::Impl {
         pass = SamplePass::lanes;
       if (pass == SamplePass::coalesced && !upload_coalesced(model, L)) pass = SamplePass::lanes;
       staged = pass == SamplePass::staged;
-      m_lanes = 1;
-      if (!staged) {
-        const int wanted = opts.lanes > 0 ? std::min(opts.lanes, 32) : default_lanes(pass, model.max_neighbours());
-        while (m_lanes < wanted) m_lanes *= 2;
-      }
+      m_lanes = staged ? 1 : pass_lanes(pass, opts.lanes, model.max_neighbours());
       lanes = m_lanes;
       if (pass == SamplePass::records) upload_records(model, sample_rest);
       // Coalesced pass: ELL entries kept per lane (more are read again): 2 in double, where 4
@@ -296,6 +292,15 @@ class System final : public DeviceElasticity::Impl {
     if (pass == SamplePass::records) return (neighbours + kKeep - 1) / kKeep;
     if (pass == SamplePass::coalesced) return 1;
     return neighbours > 4 && sizeof(R) == sizeof(double) ? 2 : 1;
+  }
+
+  // Threads per sample of a lane-parallel pass: DeviceOptions::lanes (`requested`) or, where 0,
+  // default_lanes, rounded up to a power of two, at most 32.
+  static int pass_lanes(SamplePass pass, int requested, int neighbours) {
+    const int wanted = requested > 0 ? std::min(requested, 32) : default_lanes(pass, neighbours);
+    int lanes = 1;
+    while (lanes < wanted) lanes *= 2;
+    return lanes;
   }
 
   // The record pass's packed pair and sample records (kPairRecord, kSampleRecord) and the frame
@@ -450,10 +455,8 @@ class System final : public DeviceElasticity::Impl {
   // lever records and samples' state, and its shared-memory size (6 values per ELL entry of the
   // largest block); false, with nothing uploaded, where that would not fit in a thread block.
   bool upload_coalesced(const Model& model, BlockLayout& L) {
-    // Positions interleaved for the lanes the pass will run (default_lanes: one per sample).
-    int lanes = 1;
-    while (lanes < std::min(std::max(options.lanes, 1), 32)) lanes *= 2;
-    build_ell_order(model, L, lanes);
+    // Positions interleaved for the lanes the pass will run.
+    build_ell_order(model, L, pass_lanes(SamplePass::coalesced, options.lanes, model.max_neighbours()));
     const size_t pairs = static_cast<size_t>(L.max_block_pairs);
     int shared_limit = 0, dev = 0;
     FASCIA_CUDA(cudaGetDevice(&dev));
