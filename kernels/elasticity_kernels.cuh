@@ -793,12 +793,9 @@ __global__ void k_frame_finish(ModelView<R> m, FrameView<R> f, const double* sum
   const int t = static_cast<int>(threadIdx.x), c = t % 6;
   const int i = static_cast<int>(blockIdx.x) * kFinishFrames + t / 6;
   if (t >= 6 * kFinishFrames || i >= m.frames) return;
-  const double* own = sums + kPrepareSums * static_cast<size_t>(i);
   double K[36];
-  for (int k = 0; k < 36; ++k) K[k] = own[k];
   Mat3 Kr;
-  for (int r = 0; r < 3; ++r)
-    for (int cc = 0; cc < 3; ++cc) Kr.m[r][cc] = own[36 + 3 * r + cc];
+  unpack_prepare_sums(sums + kPrepareSums * static_cast<size_t>(i), K, Kr);
   const bool lead = c == 0;
   frame_prepare_blocks(m, f, i, K, Kr, inv_h2, lead ? geo : nullptr, lead ? inertia_world : nullptr,
                        lead ? diag : nullptr, k_scale, load_rot, precondition);
@@ -876,9 +873,7 @@ __device__ inline double grid_sum(double v, double* partials, cooperative_groups
   if (threadIdx.x == 0) partials[blockIdx.x] = block;
   grid.sync();
   if constexpr (kWarpsMax > 4) {
-    double s = 0;
-    for (unsigned b = threadIdx.x; b < gridDim.x; b += blockDim.x) s += __ldcg(partials + b);
-    const double t = block_sum(s);
+    const double t = block_sum(strided_partial_sum<Rounds>(partials, gridDim.x));
     if (threadIdx.x == 0) total = t;
   } else if (threadIdx.x < 32) {
     const unsigned warps = blockDim.x / 32;

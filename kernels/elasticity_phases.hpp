@@ -1058,6 +1058,13 @@ FASCIA_HD void block_jacobi_inverse(const unsigned char* fixed, double* K, doubl
 
 constexpr int kPrepareSums = 45;  // a frame's prepared sums: [K_ii (36), Kr (9)]
 
+// K_ii [36] (row-major) and Kr from a frame's prepared sums (frame_prepare_pairs' indices).
+FASCIA_HD void unpack_prepare_sums(const double* sums, double* K, Mat3& Kr) {
+  for (int k = 0; k < 36; ++k) K[k] = sums[k];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) Kr.m[r][c] = sums[36 + 3 * r + c];
+}
+
 // Frame i's 6x6 diagonal block K_ii (material + geometric, the sample terms) and its rotational
 // geometric block Kr (frame_sample.hpp), summed over the frame's reverse pairs rev_offsets[i] +
 // part, + part + parts, ... in order, from F [S][9] of the gradient pass: every column from one
@@ -1167,10 +1174,8 @@ FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const
   double sums[kPrepareSums] = {};
   frame_prepare_pairs(m, f, F, fused, i, 0, 1, true, [&](int k, double value) { sums[k] += value; });
   double K[36];
-  for (int k = 0; k < 36; ++k) K[k] = sums[k];
   Mat3 Kr;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) Kr.m[r][c] = sums[36 + 3 * r + c];
+  unpack_prepare_sums(sums, K, Kr);
   frame_prepare_finish(m, f, i, K, Kr, inv_h2, geo_out, inertia_out, minv_out, diag_out, k_scale, load_rot, precondition);
 }
 
