@@ -116,7 +116,7 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
                   (dev.dense_tangent() ? "d" : "") + (dev.shape_classes() ? "m" : "") + (dev.slot_frames() ? "f" : "") +
                   (dev.direction_pass() ? "p" : "") + (dev.hold_pairs() ? "h" : "") +
                   (dev.resident_frames() ? "l" : "") + (dev.prefetch_frames() ? "x" : "") +
-                  (options.row_frames != 42 ? "r" + std::to_string(options.row_frames) : "");
+                  (options.row_frames != gpu::DeviceOptions{}.row_frames ? "r" + std::to_string(options.row_frames) : "");
   row.linear = to_string(c.linear);
   row.cg_kernel = report.resident ? "resident" : report.persistent ? "persistent" : "launches";
   row.ms_per_step = stepper.time_step_ms(repeats);
@@ -191,15 +191,22 @@ std::vector<gpu::DeviceOptions> pass_options(const BenchGpuOptions& o, gpu::Devi
     return {base};
   }
   const bool records = pass == gpu::SamplePass::records, coalesced = pass == gpu::SamplePass::coalesced;
+  // The values given, or the DeviceOptions default where none were.
+  const auto given_or = [](const std::vector<int>& values, int fallback) {
+    return values.empty() ? std::vector<int>{fallback} : values;
+  };
   const auto applying = [](bool applies, const std::vector<int>& values) {
     return applies ? values : std::vector<int>{values.front()};
   };
   std::vector<gpu::DeviceOptions> out = {base};
-  out = expand(out, o.lanes, [](gpu::DeviceOptions& d, int v) { d.lanes = v; });
-  out = expand(out, applying(records, o.record_keep), [](gpu::DeviceOptions& d, int v) { d.record_keep = v; });
-  out = expand(out, o.row_frames, [](gpu::DeviceOptions& d, int v) { d.row_frames = v; });
-  out = expand(out, applying(coalesced, o.keep), [](gpu::DeviceOptions& d, int v) { d.coalesced_keep = v; });
-  out = expand(out, applying(coalesced, o.slot_lanes), [](gpu::DeviceOptions& d, int v) { d.slot_lanes = v; });
+  out = expand(out, given_or(o.lanes, base.lanes), [](gpu::DeviceOptions& d, int v) { d.lanes = v; });
+  out = expand(out, applying(records, given_or(o.record_keep, base.record_keep)),
+               [](gpu::DeviceOptions& d, int v) { d.record_keep = v; });
+  out = expand(out, given_or(o.row_frames, base.row_frames), [](gpu::DeviceOptions& d, int v) { d.row_frames = v; });
+  out = expand(out, applying(coalesced, given_or(o.keep, base.coalesced_keep)),
+               [](gpu::DeviceOptions& d, int v) { d.coalesced_keep = v; });
+  out = expand(out, applying(coalesced, given_or(o.slot_lanes, base.slot_lanes)),
+               [](gpu::DeviceOptions& d, int v) { d.slot_lanes = v; });
   out = expand(out, applying(coalesced, o.resident), [](gpu::DeviceOptions& d, int v) {
     d.resident = v != 0;
     d.resident_double = v == 2;

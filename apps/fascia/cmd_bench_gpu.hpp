@@ -24,13 +24,14 @@ struct BenchGpuOptions {
   long long max_samples = 4200000;   // largest scaling case (8 neighbours), 0: none
   int repeats = 10;
   std::vector<std::string> sample_pass = {"coalesced"};  // fused design's tangent sample passes: coalesced | records | lanes | staged
-  std::vector<int> lanes = {0};  // fused design, records and lanes passes: threads per sample (0: auto)
+  // The compared values of DeviceOptions members; empty: the member's default.
+  std::vector<int> lanes;            // fused design, records and lanes passes: threads per sample (0: auto)
   int lane_threads = 128;            // fused design: most threads per tangent block
   int block_samples = 128;           // fused design: samples per block
-  std::vector<int> record_keep = {2};  // records pass: pairs per lane kept in registers
-  std::vector<int> row_frames = {42};  // frames per block of the launched frame-row passes
-  std::vector<int> keep = {0};       // coalesced pass: ELL entries per lane held in registers (0: auto)
-  std::vector<int> slot_lanes = {2};  // coalesced pass: lanes per slot sum
+  std::vector<int> record_keep;      // records pass: pairs per lane kept in registers
+  std::vector<int> row_frames;       // frames per block of the launched frame-row passes
+  std::vector<int> keep;             // coalesced pass: ELL entries per lane held in registers (0: auto)
+  std::vector<int> slot_lanes;       // coalesced pass: lanes per slot sum
   std::vector<int> resident = {2};    // coalesced pass: persistent PCG holding its invariants (2: double too)
   // Coalesced pass: the on/off options of cmd_bench_gpu.cpp's switch table (--dense-tangent,
   // --shape-classes, ...), by DeviceOptions member name, each with the values to compare; an
