@@ -1,12 +1,16 @@
 #include "device_buffers.cuh"
 #include "device_elasticity.hpp"
 #include "elasticity_kernels.cuh"
+#include "group_kernels.cuh"
+#include "group_layout.hpp"
 #include "sample_layout.hpp"
 #include "shape_classes.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <numeric>
 #include <optional>
 
 namespace fascia::gpu {
@@ -96,7 +100,9 @@ struct DeviceElasticity::Impl {
   bool direction_pass = false;            // coalesced pass, launched PCG: p formed by k_pcg_direction
   bool hold_pairs = false;                // coalesced pass: the dense kernel holds its kept pairs' levers
   bool prefetch_frames = false;           // coalesced pass: the dense kernel prefetches its next pairs' frames
+  bool grouped = false;                   // coalesced pass: the launched tangent product runs the grouped pass
   std::string mapped_refusal;             // why not, where DeviceOptions::shape_classes asked for them
+  std::string grouped_refusal;            // why not, where DeviceOptions::group_samples asked for it
 };
 
 namespace {
@@ -110,7 +116,21 @@ class System final : public DeviceElasticity::Impl {
     FASCIA_CUDA(cudaEventCreate(&m_start));
     FASCIA_CUDA(cudaEventCreate(&m_stop));
     validate(input);
-    const Model model = opts.reorder_samples ? reorder_samples(input, spatial_sample_order(input)) : input;
+    // The grouped pass needs each group's samples consecutive: group order, from the Morton order.
+    const bool want_groups =
+        opts.group_samples && opts.design == Design::fused && opts.sample_pass == SamplePass::coalesced;
+    if (want_groups) grouped_refusal = group_refusal(input);
+    const bool group_order = want_groups && grouped_refusal.empty();
+    std::vector<int> order;
+    if (opts.reorder_samples) order = spatial_sample_order(input);
+    if (group_order) {
+      if (order.empty()) {
+        order.resize(input.sample_count());
+        std::iota(order.begin(), order.end(), 0);
+      }
+      order = group_sample_order(input, order);
+    }
+    const Model model = order.empty() ? input : reorder_samples(input, order);
     design = opts.design;
     if (design == Design::fused && !offsets_are_rest_differences(model)) design = Design::paper;
     m_n = model.frame_count();
@@ -198,6 +218,12 @@ class System final : public DeviceElasticity::Impl {
       direction_pass = pass == SamplePass::coalesced && opts.direction_pass;
       hold_pairs = dense && !mapped && !slot_frames && opts.hold_pairs && m_keep <= 4;
       prefetch_frames = dense && !mapped && !slot_frames && !hold_pairs && opts.prefetch_frames && m_keep <= 4;
+      if (group_order) {
+        if (pass != SamplePass::coalesced)
+          grouped_refusal = "the coalesced pass is not in use";
+        else
+          grouped = upload_groups(model);
+      }
       for (const void* k : {reinterpret_cast<const void*>(&k_records_tangent<R, 1, 128>),
                             reinterpret_cast<const void*>(&k_records_tangent<R, 2, 128>),
                             reinterpret_cast<const void*>(&k_records_tangent<R, 2, kLaneThreadsMax>)})
@@ -256,6 +282,22 @@ class System final : public DeviceElasticity::Impl {
     m_view.class_pairs = m_class_pairs.data();
     m_view.pair_records = m_pair_records.data();
     m_view.sample_records = m_sample_records.data();
+    if (grouped) {
+      m_group_view = m_view;
+      m_group_view.blocks = m_group_blocks;
+      m_group_view.block_samples = m_group_block_groups.data();
+      m_group_view.block_slots = m_group_block_slots.data();
+      m_group_view.slot_frames = m_group_slot_frames.data();
+      m_group_view.slot_pair_offsets = m_group_slot_pair_offsets.data();
+      m_group_view.slot_pairs = nullptr;
+      m_group_view.frame_slot_offsets = m_group_frame_slot_offsets.data();
+      m_group_view.frame_slots = m_group_frame_slots.data();
+      m_group_view.group_samples = m_group_samples.data();
+      m_group_view.group_frames = m_group_frames.data();
+      m_group_view.group_pos = m_group_pos.data();
+      m_group_view.group_data = m_group_data.data();
+      m_group_view.group_entries = static_cast<long long>(m_group_data.size() / 4);
+    }
 
     const size_t dofs = 6 * static_cast<size_t>(m_n);
     m_positions.resize(3 * static_cast<size_t>(m_n));
@@ -401,6 +443,15 @@ class System final : public DeviceElasticity::Impl {
       return P * (4 * r + 4) + S * (4 * r + 4 + 4) + N * (16 * r - 12 * r) + Q * 4 * 2 + N * 4 + m_blocks * 8 +
              Q * 6 * r * 2 + frames;
     }
+    if (design == Design::fused && grouped) {
+      // Per pair w and g; per group its frames, entry positions and first sample; per sample its
+      // state (StVK: 13 values), material and offset; lever records (instead of rotation and
+      // position), read once per group but counted once; the slot tables of the blocks of groups
+      // and their slot partials out and in.
+      const double Q = static_cast<double>(m_group_partials.size()) / 6, G = m_group_count;
+      return P * 4 * r + G * (kGroupLanes * 6 + 4) + S * (13 * r + 4 + 4) + N * (kLeverRecord * r - 12 * r) + Q * 4 +
+             N * 4 + m_group_blocks * 8 + Q * 6 * r * 2 + frames;
+    }
     if (design == Design::fused && pass == SamplePass::coalesced) {
       // ELL entries (frame, w, g), per-sample state and offsets and materials, lever records
       // (instead of rotation and position), slot tables, slot partials out and in.
@@ -503,6 +554,50 @@ class System final : public DeviceElasticity::Impl {
                           reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>),
                           resident_kernel(4), resident_kernel(8)})
       FASCIA_CUDA(cudaFuncSetAttribute(k, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
+    return true;
+  }
+
+  // The grouped pass's tables (group_layout.hpp) for a model in group order: groups, their frames
+  // and entry positions, w and g per (block, frame, thread), the slot tables of its blocks; false,
+  // with nothing uploaded and the reason in grouped_refusal, where the groups average fewer than
+  // kMinGroupSamples samples (the pass would run most of its threads idle).
+  static constexpr double kMinGroupSamples = 2.0;
+  bool upload_groups(const Model& model) {
+    const GroupLayout G = build_group_layout(model);
+    if (G.mean_group_samples() < kMinGroupSamples) {
+      char text[160];
+      std::snprintf(text, sizeof text, "its groups of samples with the same frames average %.2f samples (at least %.0f needed)",
+                    G.mean_group_samples(), kMinGroupSamples);
+      grouped_refusal = text;
+      return false;
+    }
+    const NeighbourTable& nb = model.neighbours;
+    const BlockLayout& L = G.slots;
+    m_group_blocks = L.block_count();
+    const size_t E = static_cast<size_t>(m_group_blocks) * kGroupLanes * kGroupThreads;
+    std::vector<double> data(4 * E, 0.0);
+    for (int b = 0; b < m_group_blocks; ++b)
+      for (int g = L.block_samples[b]; g < L.block_samples[b + 1]; ++g)
+        for (int s = G.group_samples[g]; s < G.group_samples[g + 1]; ++s) {
+          const int t = (g - L.block_samples[b]) * kGroupLanes + (s - G.group_samples[g]);
+          for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+            const size_t e = static_cast<size_t>(group_data_index(b, G.pair_entry[p], t));
+            data[e] = nb.weights[p];
+            for (int k = 0; k < 3; ++k) data[(k + 1) * E + e] = nb.weight_gradients[3 * static_cast<size_t>(p) + k];
+          }
+        }
+    m_group_data.upload(data);
+    m_group_samples.upload(G.group_samples);
+    m_group_frames.upload(G.group_frames);
+    m_group_pos.upload(std::vector<unsigned short>(G.entry_pos.begin(), G.entry_pos.end()));
+    m_group_block_groups.upload(L.block_samples);
+    m_group_block_slots.upload(L.block_slots);
+    m_group_slot_frames.upload(L.slot_frames);
+    m_group_slot_pair_offsets.upload(L.slot_pair_offsets);
+    m_group_frame_slot_offsets.upload(L.frame_slot_offsets);
+    m_group_frame_slots.upload(L.frame_slots);
+    m_group_partials.resize(6 * static_cast<size_t>(L.slot_count()));
+    m_group_count = G.group_count();
     return true;
   }
 
@@ -768,6 +863,7 @@ class System final : public DeviceElasticity::Impl {
   // The launched tangent product's sample kernel in use (enqueue_tangent's choice).
   const void* tangent_sample_kernel() const {
     if (design != Design::fused) return reinterpret_cast<const void*>(&k_paper_tangent<R>);
+    if (grouped) return reinterpret_cast<const void*>(&k_group_tangent<R>);
     if (pass == SamplePass::coalesced) return reinterpret_cast<const void*>(ell_tangent_kernel());
     if (pass == SamplePass::records) {
       if (m_lane_threads > 128) return reinterpret_cast<const void*>(&k_records_tangent<R, 2, kLaneThreadsMax>);
@@ -791,6 +887,18 @@ class System final : public DeviceElasticity::Impl {
     if (design == Design::fused) {
       // With the direction pass p is already formed: the passes read it instead of z and p.
       const R* z = pcg && !direction_pass ? m_cz.data() : nullptr;
+      if (grouped) {
+        const R* pd = z ? z : d;
+        const R* pold = z ? d : nullptr;
+        k_group_tangent<R><<<m_group_blocks, kGroupThreads, 0, m_stream>>>(
+            m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes);
+        check_launch();
+        k_frame_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
+            m_group_view, m_group_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(),
+            pcg, z);
+        check_launch();
+        return;
+      }
       if (pass == SamplePass::coalesced) {
         const R* pd = z ? z : d;
         const R* pold = z ? d : nullptr;
@@ -1066,6 +1174,7 @@ class System final : public DeviceElasticity::Impl {
   cudaStream_t m_stream = nullptr;
   cudaEvent_t m_start = nullptr, m_stop = nullptr;
   ModelView<R> m_view;
+  ModelView<R> m_group_view;  // the grouped pass's: m_view with its blocks of groups and their slots
   FrameView<R> m_frame_view;
   StepOptions m_step;
   cudaGraphExec_t m_graph_full = nullptr, m_graph_begin = nullptr, m_graph_end = nullptr, m_graph_chunk = nullptr,
@@ -1082,6 +1191,12 @@ class System final : public DeviceElasticity::Impl {
   DeviceBuffer<R> m_ell_data, m_pair_records, m_sample_records, m_records, m_levers, m_sample_state;
   DeviceBuffer<int> m_shape_class, m_class_offsets;
   DeviceBuffer<R> m_shape_maps, m_class_pairs;
+  // Grouped pass (upload_groups).
+  int m_group_blocks = 0, m_group_count = 0;
+  DeviceBuffer<int> m_group_samples, m_group_frames, m_group_block_groups, m_group_block_slots, m_group_slot_frames,
+      m_group_slot_pair_offsets, m_group_frame_slot_offsets, m_group_frame_slots;
+  DeviceBuffer<unsigned short> m_group_pos;
+  DeviceBuffer<R> m_group_data, m_group_partials;
   // State (double) and per-iteration data (R).
   DeviceBuffer<double> m_positions, m_orientations, m_velocities, m_external, m_load_rot, m_diag;
   DeviceBuffer<double> m_prepare_sums;  // k_frame_columns -> k_frame_finish: [N][kPrepareSums]
@@ -1136,6 +1251,8 @@ bool DeviceElasticity::hold_pairs() const { return m_impl->hold_pairs; }
 bool DeviceElasticity::prefetch_frames() const { return m_impl->prefetch_frames; }
 bool DeviceElasticity::resident_frames() const { return m_impl->resident_frames(); }
 bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
+bool DeviceElasticity::group_samples() const { return m_impl->grouped; }
+const std::string& DeviceElasticity::group_samples_refusal() const { return m_impl->grouped_refusal; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }
 double DeviceElasticity::time_tangent_ms(int repeats) { return m_impl->time_tangent_ms(std::max(1, repeats)); }

@@ -116,6 +116,15 @@ struct DeviceOptions {
   // 4.18 M (ninth round): no faster than the default (single 1.071 against 1.021 ms per CG
   // iteration with 4 held entries; double at best 1 % under it), so off.
   bool prefetch_frames = false;
+  // Coalesced pass, launched tangent product: the grouped pass (group_pass.hpp), where the model's
+  // samples fall into groups with the same frames (mesh-based models: the samples of one cell) of
+  // 2 samples on average at least and have at most 8 frames each. Eight threads per group, one per
+  // sample; each frame's record is formed once per group, which turns a pair's dF into 27
+  // multiply-adds, and the group's outputs are summed per frame across its threads, so that the
+  // block's shared memory takes one output per (group, frame) instead of one per pair. Samples are
+  // then in group order on the device (groups in Morton order). The persistent PCG kernels, used
+  // for small models, keep the coalesced pass.
+  bool group_samples = false;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16
@@ -195,6 +204,10 @@ class DeviceElasticity {
   // Why the model does not use shape classes where DeviceOptions::shape_classes asked for them
   // (empty otherwise).
   const std::string& shape_classes_refusal() const;
+  // Coalesced pass: whether the launched tangent product runs the grouped pass
+  // (DeviceOptions::group_samples, where the model allows it), and why not where it was asked for.
+  bool group_samples() const;
+  const std::string& group_samples_refusal() const;
   // Coalesced pass: whether the launched tangent kernel reads the frames from shared memory
   // (DeviceOptions::slot_frames with the dense kernel and no shape classes).
   bool slot_frames() const;

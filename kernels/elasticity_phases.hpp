@@ -103,6 +103,14 @@ struct ModelView {
   const R* shape_maps = nullptr;            // [9][S] A_s row-major, component-major over samples
   const int* class_offsets = nullptr;       // [C+1] first reference pair of each class
   const R* class_pairs = nullptr;           // [Pc][4] w, r (1/m); 16-byte aligned
+  // Grouped tangent pass (group_layout.hpp, group_pass.hpp), in the view of its own blocks, where
+  // `blocks`, block_samples (each block's first group), the slot tables and frame_slot_offsets /
+  // frame_slots are those of its blocks of groups.
+  const int* group_samples = nullptr;          // [G+1] first sample of each group
+  const int* group_frames = nullptr;           // [G][kGroupLanes] frames, -1 past the group's count
+  const unsigned short* group_pos = nullptr;   // [G][kGroupLanes] slot-major position in the block
+  const R* group_data = nullptr;               // [4][group_entries] w, g (1/m) per block, frame k, thread
+  long long group_entries = 0;
   // Record tangent pass: packed records (kPairRecord, kSampleRecord values each).
   const R* pair_records = nullptr;          // [P][4]: g (1/m), w
   const R* sample_records = nullptr;        // [S][4]: p_s - origin (m), v (m^3)

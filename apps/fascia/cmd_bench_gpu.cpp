@@ -74,6 +74,9 @@ const Switch kSwitches[] = {
     {"--resident-frames", "resident_frames", &gpu::DeviceOptions::resident_frames,
      "resident PCG in double: the blocks' lever records, directions and materials staged in shared memory (1, the "
      "default) or read each iteration (0)"},
+    {"--group-samples", "group_samples", &gpu::DeviceOptions::group_samples,
+     "launched tangent product: the grouped pass, eight threads per group of samples with the same frames (1), or "
+     "the coalesced pass per pair (0, the default)"},
     {"--prefetch-frames", "prefetch_frames", &gpu::DeviceOptions::prefetch_frames,
      "launched dense tangent product with 2 or 4 held entries: the next pairs' frames read with the held entries "
      "(1) or with their own entries (0, the default)"},
@@ -85,6 +88,8 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
   gpu::DeviceElasticity dev(model, options);
   if (!dev.shape_classes_refusal().empty())
     std::fprintf(stderr, "shape classes not used: %s\n", dev.shape_classes_refusal().c_str());
+  if (!dev.group_samples_refusal().empty())
+    std::fprintf(stderr, "grouped pass not used: %s\n", dev.group_samples_refusal().c_str());
   const State start = rest_state(model);
   dev.set_state(start);
   gpu::StepOptions so = gpu::make_step_options(model, bench_step_loads(), start, kBenchStepDt, 0, 0,
@@ -115,7 +120,7 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
                   (dev.sample_pass() == gpu::SamplePass::coalesced ? "s" + std::to_string(options.slot_lanes) : "") +
                   (dev.dense_tangent() ? "d" : "") + (dev.shape_classes() ? "m" : "") + (dev.slot_frames() ? "f" : "") +
                   (dev.direction_pass() ? "p" : "") + (dev.hold_pairs() ? "h" : "") +
-                  (dev.resident_frames() ? "l" : "") + (dev.prefetch_frames() ? "x" : "") +
+                  (dev.resident_frames() ? "l" : "") + (dev.prefetch_frames() ? "x" : "") + (dev.group_samples() ? "g" : "") +
                   (options.row_frames != gpu::DeviceOptions{}.row_frames ? "r" + std::to_string(options.row_frames) : "");
   row.linear = to_string(c.linear);
   row.cg_kernel = report.resident ? "resident" : report.persistent ? "persistent" : "launches";

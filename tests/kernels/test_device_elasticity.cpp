@@ -12,9 +12,11 @@
 #include "device_step.hpp"
 #include "integrate/step_potential.hpp"
 #include "reference_step.hpp"
+#include "sample_layout.hpp"
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <cmath>
 #include <cstring>
@@ -266,6 +268,89 @@ TEST_CASE("launched PCG with the dense and mapped tangent kernels equals the CPU
   std::printf("[gpu] launched dense mapped %s %s: cg %d delta %.2e\n", to_string(precision), name(type),
               report.cg_iterations, e);
   CHECK(e < bound(precision, true));
+}
+
+TEST_CASE("grouped tangent pass equals the CPU reference", "[gpu]") {
+  // Hexahedra: groups of 8 samples on 8 frames; tetrahedra: 4 samples on 4 frames (half of each
+  // group's threads idle). Every slot-sum width.
+  const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
+  const MaterialLaw law = GENERATE(MaterialLaw::stvk, MaterialLaw::neo_hookean);
+  const int slot_lanes = GENERATE(1, 2, 32);
+  const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
+  const Model model = kernels_test_model(type, law, 5, 4, 3);
+  DeviceOptions options;
+  options.precision = precision;
+  options.group_samples = true;
+  options.slot_lanes = slot_lanes;
+  const double e = tangent_difference(model, 19, 3, options, [&](const DeviceElasticity& dev) {
+    INFO(dev.group_samples_refusal());
+    REQUIRE(dev.group_samples());
+  });
+  std::printf("[gpu] grouped %s %s %s slot lanes %d: tangent %.2e\n", name(type), to_string(law), to_string(precision),
+              slot_lanes, e);
+  CHECK(e < bound(precision, false));
+}
+
+TEST_CASE("launched PCG with the grouped pass equals the CPU reference", "[gpu]") {
+  // The grouped kernel forms the direction z + beta p_old itself, or reads p from the direction
+  // pass; the persistent kernels keep the coalesced pass, so the step runs launched.
+  const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
+  const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
+  const bool direction_pass = GENERATE(false, true);
+  const Model model = kernels_test_model(type, MaterialLaw::stvk);
+  const State state = kernels_test_state(model, 43);
+  const double h = 0.01;
+  const std::vector<double> loads = kernels_test_loads(model);
+  const ReferenceStep ref = reference_step(model, state, h, 60, loads);
+  DeviceOptions options;
+  options.precision = precision;
+  options.group_samples = true;
+  options.direction_pass = direction_pass;
+  DeviceElasticity dev(model, options);
+  REQUIRE(dev.group_samples());
+  dev.set_state(state);
+  StepOptions so;
+  so.dt = h;
+  so.max_cg_iterations = 60;
+  so.persistent = false;
+  so.external_forces = loads;
+  DeviceBackwardEuler stepper(dev, so);
+  const StepReport report = stepper.step();
+  CHECK_FALSE(report.persistent);
+  CHECK(report.cg_iterations == ref.iterations);
+  std::vector<double> delta(model.dof_count());
+  stepper.last_increment(delta.data());
+  const double e = relative_difference(delta, ref.delta);
+  std::printf("[gpu] launched grouped %s %s direction pass %d: cg %d delta %.2e\n", to_string(precision), name(type),
+              direction_pass ? 1 : 0, report.cg_iterations, e);
+  CHECK(e < bound(precision, true));
+}
+
+TEST_CASE("the grouped pass is refused where samples share no frames", "[gpu]") {
+  // One sample per tetrahedron: every group holds one sample, below the 2 the pass needs; the
+  // coalesced pass runs instead, and says why.
+  const Model model = kernels_test_model(CellType::tetrahedron, MaterialLaw::stvk);
+  // Each frame set's first sample only (reorder_samples with a subset of the samples).
+  std::vector<int> order;
+  {
+    std::vector<std::vector<int>> seen;
+    const NeighbourTable& nb = model.neighbours;
+    for (int s = 0; s < model.sample_count(); ++s) {
+      std::vector<int> f(nb.frames.begin() + nb.offsets[s], nb.frames.begin() + nb.offsets[s + 1]);
+      std::sort(f.begin(), f.end());
+      if (std::find(seen.begin(), seen.end(), f) == seen.end()) {
+        seen.push_back(f);
+        order.push_back(s);
+      }
+    }
+  }
+  REQUIRE(static_cast<int>(order.size()) < model.sample_count());
+  DeviceOptions options;
+  options.group_samples = true;
+  DeviceElasticity dev(reorder_samples(model, order), options);
+  CHECK_FALSE(dev.group_samples());
+  CHECK(dev.group_samples_refusal().find("average 1.00 samples") != std::string::npos);
+  CHECK(dev.sample_pass() == SamplePass::coalesced);
 }
 
 namespace {
@@ -558,6 +643,18 @@ TEST_CASE("repeated device runs with the dense and mapped tangent kernels and th
                           REQUIRE(dev.dense_tangent());
                           REQUIRE(dev.shape_classes());
                         });
+}
+
+TEST_CASE("repeated device runs with the grouped pass are bitwise identical", "[gpu]") {
+  // The grouped pass in the tangent product and a launched PCG (its sums in fixed orders: the
+  // group's reduce-scatter, the slot sums, the frame rows).
+  const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
+  const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
+  DeviceOptions options;
+  options.precision = precision;
+  options.group_samples = true;
+  check_bitwise_repeats(kernels_test_model(type, MaterialLaw::neo_hookean, 6, 5, 4), 9, 10, options, false,
+                        [](const DeviceElasticity& dev) { REQUIRE(dev.group_samples()); });
 }
 
 TEST_CASE("repeated device runs are bitwise identical", "[gpu]") {

@@ -1,5 +1,6 @@
 // Host-side checks of the device layout (sample_layout.hpp) and of the kernels' per-thread bodies
 // (elasticity_phases.hpp) stepped through on the CPU in the device's order: no GPU needed.
+#include "group_pass.hpp"
 #include "reference_step.hpp"
 #include "sample_layout.hpp"
 #include "shape_classes.hpp"
@@ -25,8 +26,14 @@ struct HostDevice {
   ModelView<double> view;
   FrameView<double> frames;
 
-  HostDevice(const Model& input, const State& state, int block_samples, int block_pairs)
-      : model(reorder_samples(input, spatial_sample_order(input))),
+  // Samples in Morton order, or in group order (group_layout.hpp) from it where `grouped`.
+  static std::vector<int> device_order(const Model& input, bool grouped) {
+    const std::vector<int> order = spatial_sample_order(input);
+    return grouped ? group_sample_order(input, order) : order;
+  }
+
+  HostDevice(const Model& input, const State& state, int block_samples, int block_pairs, bool grouped = false)
+      : model(reorder_samples(input, device_order(input, grouped))),
         layout(build_block_layout(model, block_samples, block_pairs, kMappedSlots)) {
     build_ell_order(model, layout);
     sample_rest = model.samples.rest_positions;
@@ -196,6 +203,70 @@ struct HostDevice {
     }
     std::vector<double> out(model.dof_count());
     for (int i = 0; i < n; ++i) fused_gather(view, partials.data(), i, &out[6 * i]);
+    return out;
+  }
+
+  // The grouped tangent pass as k_group_tangent runs it (the model in group order): per group its
+  // frames' records, per sample dF, dP and the pair outputs, each (group, frame) entry's sum over
+  // the group's threads in the kernel's order (group_lane_sum) at its slot-major position, slot
+  // sums with `slot_lanes` lanes; then the frame gather over the blocks of groups' slots.
+  std::vector<double> grouped(const std::vector<double>& d, const std::vector<double>& F,
+                              const std::vector<double>& cache, int slot_lanes) {
+    const int n = model.frame_count(), S = model.sample_count();
+    const NeighbourTable& nb = model.neighbours;
+    std::vector<double> levers(kLeverRecord * static_cast<size_t>(n), std::nan(""));
+    for (int i = 0; i < n; ++i) write_lever_record(&rot[9 * i], frame_rest.data(), i, levers.data());
+    std::vector<double> state(kSampleState * static_cast<size_t>(S), std::nan(""));
+    for (int s = 0; s < S; ++s) pack_sample_state(view, F.data(), cache.data(), s, state.data());
+    const GroupLayout G = build_group_layout(model);
+    const BlockLayout& L = G.slots;
+    std::vector<double> partials(6 * static_cast<size_t>(L.slot_count()));
+    for (int b = 0; b < L.block_count(); ++b) {
+      const int q0 = L.block_slots[b], base = L.slot_pair_offsets[q0];
+      const int stride = L.slot_pair_offsets[L.block_slots[b + 1]] - base;
+      std::vector<double> outs(6 * static_cast<size_t>(stride), std::nan(""));
+      for (int g = L.block_samples[b]; g < L.block_samples[b + 1]; ++g) {
+        const int* frames_g = &G.group_frames[kGroupLanes * static_cast<size_t>(g)];
+        const int count = static_cast<int>(std::count_if(frames_g, frames_g + kGroupLanes, [](int i) { return i >= 0; }));
+        std::vector<double> rec(kGroupRecord * kGroupLanes, std::nan(""));
+        for (int k = 0; k < count; ++k)
+          group_frame_record(&levers[kLeverRecord * static_cast<size_t>(frames_g[k])], &d[6 * static_cast<size_t>(frames_g[k])],
+                             rec.data() + k, kGroupLanes);
+        double o[kGroupLanes][kGroupLanes][6] = {};  // [thread][frame][value]
+        for (int s = G.group_samples[g]; s < G.group_samples[g + 1]; ++s) {
+          const int lane = s - G.group_samples[g];
+          const Vec3 ps{sample_value(state.data(), S, 0, s), sample_value(state.data(), S, 1, s),
+                        sample_value(state.data(), S, 2, s)};
+          std::vector<double> w(kGroupLanes, 0.0);
+          std::vector<Vec3> gr(kGroupLanes, Vec3{0, 0, 0});
+          for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+            w[G.pair_entry[p]] = nb.weights[p];
+            gr[G.pair_entry[p]] = ld3(&nb.weight_gradients[3 * static_cast<size_t>(p)]);
+          }
+          Mat3 dF = zero3();
+          for (int k = 0; k < count; ++k) group_pair_dF(rec.data() + k, kGroupLanes, ps, w[k], gr[k], dF);
+          const Mat3 dP = ell_sample_dP(view, state.data(), s, dF);
+          const double v = sample_value(state.data(), S, 3, s);
+          for (int k = 0; k < count; ++k) group_pair_output(rec.data() + k, kGroupLanes, ps, w[k], gr[k], dP, v, o[lane][k]);
+        }
+        for (int k = 0; k < count; ++k)
+          for (int c = 0; c < 6; ++c) {
+            double lanes[kGroupLanes];
+            for (int l = 0; l < kGroupLanes; ++l) lanes[l] = o[l][k][c];
+            outs[c * static_cast<size_t>(stride) + G.entry_pos[kGroupLanes * static_cast<size_t>(g) + k]] =
+                group_lane_sum(lanes);
+          }
+      }
+      for (int q = q0; q < L.block_slots[b + 1]; ++q)
+        for (int c = 0; c < 6; ++c)
+          partials[6 * q + c] = slot_tree_sum(outs.data(), stride, L.slot_pair_offsets[q] - base,
+                                              L.slot_pair_offsets[q + 1] - base, c, slot_lanes);
+    }
+    ModelView<double> gv = view;
+    gv.frame_slot_offsets = L.frame_slot_offsets.data();
+    gv.frame_slots = L.frame_slots.data();
+    std::vector<double> out(model.dof_count());
+    for (int i = 0; i < n; ++i) fused_gather(gv, partials.data(), i, &out[6 * i]);
     return out;
   }
 
@@ -462,6 +533,26 @@ TEST_CASE("kernel bodies stepped on the host reproduce the CPU reference", "[ker
       for (int k = 0; k < 6; ++k)
         mk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, mk[6 * i + k]);
     CHECK(relative_difference(mk, Kd) < 1e-12);
+  }
+
+  // Grouped tangent pass, samples in group order (F and the material cache from its force pass).
+  {
+    HostDevice gdev(model, state, 32, 96, true);
+    const int S = model.sample_count();
+    std::vector<double> sF(9 * S), cache(10 * S), local(6 * static_cast<size_t>(gdev.layout.max_block_pairs));
+    for (int b = 0; b < gdev.layout.block_count(); ++b) {
+      const int s0 = gdev.layout.block_samples[b];
+      for (int s = s0; s < gdev.layout.block_samples[b + 1]; ++s)
+        fused_sample<Pass::gradient>(gdev.view, gdev.frames, d.data(), s, gdev.model.neighbours.offsets[s0],
+                                     local.data(), sF.data(), static_cast<const double*>(nullptr), 0.0, cache.data());
+    }
+    for (int slot_lanes : {1, 2, 32}) {
+      std::vector<double> gk = gdev.grouped(d, sF, cache, slot_lanes);
+      for (int i = 0; i < n; ++i)
+        for (int k = 0; k < 6; ++k)
+          gk[6 * i + k] = frame_row(gdev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, gk[6 * i + k]);
+      CHECK(relative_difference(gk, Kd) < 1e-12);
+    }
   }
 
   // Fused design, record tangent pass (F and the material cache rebuilt from the frames).
