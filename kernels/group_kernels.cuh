@@ -45,11 +45,13 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
   const int gl = t / kGroupLanes, lane = t % kGroupLanes;
   const int g = m.block_samples[b] + gl;
   const bool group_active = g < m.block_samples[b + 1];
-  // Records: thread `lane` forms its group's frame `lane`.
+  // Every global load of the dF half and the material first, so that their latencies overlap:
+  // thread `lane` gathers its group's frame `lane` (lever record, direction) and reads its
+  // group's sample `lane` (position, w and g of its pairs, H and the material cache).
   R* rec = records + gl * kGroupSlotStride;
   const int frame = group_active ? m.group_frames[kGroupLanes * static_cast<size_t>(g) + lane] : -1;
+  R lever[kLeverRecord], di[6];
   if (frame >= 0) {
-    R lever[kLeverRecord], di[6];
     load_aligned<kLeverRecord>(f.levers + kLeverRecord * static_cast<size_t>(frame), lever);
     load_six(d, frame, di);
     if (p_old) {
@@ -58,19 +60,15 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
 #pragma unroll
       for (int k = 0; k < 6; ++k) di[k] = direction_value(di[k], po[k], beta);
     }
-    group_frame_record(lever, di, rec + lane, kGroupRecordStride);
   }
   // The group's frame count: its threads' bits of the warp's ballot (frames come first).
   const unsigned present = __ballot_sync(0xffffffffu, frame >= 0);
   const int n = __popc((present >> (t & 31 & ~(kGroupLanes - 1))) & ((1u << kGroupLanes) - 1));
-  __syncwarp();
-  // Samples: thread `lane` takes its group's sample `lane`.
   const int s0 = group_active ? m.group_samples[g] : 0;
   const bool active = group_active && lane < m.group_samples[g + 1] - s0;
   const int s = s0 + lane;
   const long long E = m.group_entries;
   Vec3T<R> ps{0, 0, 0};
-  Mat3T<R> dF = zero3<R>();
   R w[kGroupLanes];
   Vec3T<R> gr[kGroupLanes];
   const auto load_entry = [&](int k, R& wk, Vec3T<R>& gk) {
@@ -78,20 +76,27 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
     wk = m.group_data[e];
     gk = Vec3T<R>{m.group_data[E + e], m.group_data[2 * E + e], m.group_data[3 * E + e]};
   };
+  Mat3T<R> F = zero3<R>();
+  MaterialCacheT<R> cache{};
+  const Material* mat = nullptr;
   if (active) {
     ps = Vec3T<R>{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
                   sample_value(f.sample_state, m.samples, 2, s)};
 #pragma unroll
     for (int k = 0; k < kGroupLanes; ++k)
       if (k < n) load_entry(k, w[k], gr[k]);
+    mat = &m.materials[m.sample_materials[s]];
+    ell_sample_material(m, f.sample_state, s, *mat, F, cache);
+  }
+  if (frame >= 0) group_frame_record(lever, di, rec + lane, kGroupRecordStride);
+  __syncwarp();
+  Mat3T<R> dF = zero3<R>(), dP = zero3<R>();
+  R v = 0;
+  if (active) {
 #pragma unroll
     for (int k = 0; k < kGroupLanes; ++k)
       if (k < n) group_pair_dF(rec + k, kGroupRecordStride, ps, w[k], gr[k], dF);
-  }
-  Mat3T<R> dP = zero3<R>();
-  R v = 0;
-  if (active) {
-    dP = ell_sample_dP(m, f.sample_state, s, dF);
+    dP = pk1_differential(*mat, F, cache, dF);
     v = sample_value(f.sample_state, m.samples, 3, s);
   }
   const int stride = m.slot_pair_offsets[m.block_slots[b + 1]] - m.slot_pair_offsets[m.block_slots[b]];
