@@ -291,7 +291,8 @@ class System final : public DeviceElasticity::Impl {
       m_group_view.slot_pair_offsets = m_group_slot_pair_offsets.data();
       m_group_view.slot_pairs = nullptr;
       m_group_view.frame_slot_offsets = m_group_frame_slot_offsets.data();
-      m_group_view.frame_slots = m_group_frame_slots.data();
+      m_group_view.frame_slots = nullptr;  // the partials are stored frame-major (slot_store)
+      m_group_view.slot_store = m_group_slot_store.data();
       m_group_view.group_samples = m_group_samples.data();
       m_group_view.group_frames = m_group_frames.data();
       m_group_view.group_pos = m_group_pos.data();
@@ -595,7 +596,7 @@ class System final : public DeviceElasticity::Impl {
     m_group_slot_frames.upload(L.slot_frames);
     m_group_slot_pair_offsets.upload(L.slot_pair_offsets);
     m_group_frame_slot_offsets.upload(L.frame_slot_offsets);
-    m_group_frame_slots.upload(L.frame_slots);
+    m_group_slot_store.upload(G.slot_store);
     m_group_partials.resize(6 * static_cast<size_t>(L.slot_count()));
     m_group_count = G.group_count();
     return true;
@@ -1194,7 +1195,7 @@ class System final : public DeviceElasticity::Impl {
   // Grouped pass (upload_groups).
   int m_group_blocks = 0, m_group_count = 0;
   DeviceBuffer<int> m_group_samples, m_group_frames, m_group_block_groups, m_group_block_slots, m_group_slot_frames,
-      m_group_slot_pair_offsets, m_group_frame_slot_offsets, m_group_frame_slots;
+      m_group_slot_pair_offsets, m_group_frame_slot_offsets, m_group_slot_store;
   DeviceBuffer<unsigned short> m_group_pos;
   DeviceBuffer<R> m_group_data, m_group_partials;
   // State (double) and per-iteration data (R).

@@ -359,7 +359,7 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
 #pragma unroll
       for (int c = 0; c < 6; ++c) acc[c] += __shfl_xor_sync(0xffffffffu, acc[c], o);
     if (q < q1) {
-      R* dst = slot_partials + 6 * static_cast<size_t>(q);
+      R* dst = slot_partials + 6 * static_cast<size_t>(m.slot_store ? m.slot_store[q] : q);
       if (slot_lanes < 6) {
         if (lane == 0)
 #pragma unroll
@@ -673,7 +673,7 @@ __device__ double frame_rows_chunk(const ModelView<R>& m, const R* slot_partials
       int slot[kRound];
       R part[kRound];
 #pragma unroll
-      for (int u = 0; u < kRound; ++u) slot[u] = q + u < q1 ? m.frame_slots[q + u] : -1;
+      for (int u = 0; u < kRound; ++u) slot[u] = q + u < q1 ? (m.frame_slots ? m.frame_slots[q + u] : q + u) : -1;
 #pragma unroll
       for (int u = 0; u < kRound; ++u) part[u] = slot[u] >= 0 ? slot_partials[6 * slot[u] + k] : R(0);
 #pragma unroll

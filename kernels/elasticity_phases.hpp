@@ -109,6 +109,9 @@ struct ModelView {
   const int* group_samples = nullptr;          // [G+1] first sample of each group
   const int* group_frames = nullptr;           // [G][kGroupLanes] frames, -1 past the group's count
   const unsigned short* group_pos = nullptr;   // [G][kGroupLanes] slot-major position in the block
+  // [Q] where slot q's partials are stored: frame-major, so that each frame's slots are contiguous
+  // and frame_slots (then null) is not read (k_frame_rows: one dependent load fewer).
+  const int* slot_store = nullptr;
   const R* group_data = nullptr;               // [4][group_entries] w, g (1/m) per block, frame k, thread
   long long group_entries = 0;
   // Record tangent pass: packed records (kPairRecord, kSampleRecord values each).

@@ -37,7 +37,7 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
     k_group_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
                     int slot_lanes) {
   constexpr bool kKeepEntries = sizeof(R) == sizeof(float);
-  __shared__ __align__(16) R records[kGroupRecord * kGroupRecordStride];
+  __shared__ __align__(16) R records[kGroupRecords];
   __shared__ __align__(16) R outs[6 * kGroupThreads];
   if (finished(sc)) return;
   const double beta = p_old ? sc->beta : 0.0;
@@ -48,7 +48,7 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
   // Every global load of the dF half and the material first, so that their latencies overlap:
   // thread `lane` gathers its group's frame `lane` (lever record, direction) and reads its
   // group's sample `lane` (position, w and g of its pairs, H and the material cache).
-  R* rec = records + gl * kGroupSlotStride;
+  R* rec = records + gl * kGroupSlotStride * kGroupRecord;  // the group's frame k at rec + k kGroupRecord
   const int frame = group_active ? m.group_frames[kGroupLanes * static_cast<size_t>(g) + lane] : -1;
   R lever[kLeverRecord], di[6];
   if (frame >= 0) {
@@ -88,16 +88,14 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
     mat = &m.materials[m.sample_materials[s]];
     ell_sample_material(m, f.sample_state, s, *mat, F, cache);
   }
-  if (frame >= 0) group_frame_record(lever, di, rec + lane, kGroupRecordStride);
+  if (frame >= 0) group_frame_record(lever, di, rec + lane * kGroupRecord);
   __syncwarp();
-  Mat3T<R> dF = zero3<R>(), dP = zero3<R>();
-  R v = 0;
+  Mat3T<R> dF = zero3<R>(), dP = zero3<R>();  // dP: v dP
   if (active) {
 #pragma unroll
     for (int k = 0; k < kGroupLanes; ++k)
-      if (k < n) group_pair_dF(rec + k, kGroupRecordStride, ps, w[k], gr[k], dF);
-    dP = pk1_differential(*mat, F, cache, dF);
-    v = sample_value(f.sample_state, m.samples, 3, s);
+      if (k < n) group_pair_dF(rec + k * kGroupRecord, ps, w[k], gr[k], dF);
+    dP = sample_value(f.sample_state, m.samples, 3, s) * pk1_differential(*mat, F, cache, dF);
   }
   const int stride = m.slot_pair_offsets[m.block_slots[b + 1]] - m.slot_pair_offsets[m.block_slots[b]];
   const bool up4 = (lane & 4) != 0, up2 = (lane & 2) != 0, up1 = (lane & 1) != 0;
@@ -116,7 +114,7 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
         } else {
           load_entry(k, wk, gk);
         }
-        group_pair_output(rec + k, kGroupRecordStride, ps, wk, gk, dP, v, o[kk]);
+        group_pair_output(rec + k * kGroupRecord, ps, wk, gk, dP, o[kk]);
       } else {
 #pragma unroll
         for (int c = 0; c < 6; ++c) o[kk][c] = R(0);

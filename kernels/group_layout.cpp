@@ -121,6 +121,8 @@ GroupLayout build_group_layout(const Model& model) {
   G.slots = build_block_layout(entries, kGroupBlock, kEntries, kEntries);
   G.entry_pos.assign(kGroupLanes * static_cast<size_t>(groups), 0);
   const BlockLayout& L = G.slots;
+  G.slot_store.assign(L.slot_count(), 0);
+  for (int k = 0; k < L.slot_count(); ++k) G.slot_store[L.frame_slots[k]] = k;
   for (int b = 0; b < L.block_count(); ++b) {
     const int g0 = L.block_samples[b], p0 = en.offsets[g0];
     const int k0 = L.slot_pair_offsets[L.block_slots[b]], k1 = L.slot_pair_offsets[L.block_slots[b + 1]];

@@ -44,6 +44,9 @@ struct GroupLayout {
   // follow the previous groups' in the block), and slots.frame_slot_offsets / frame_slots the
   // frames' slots, as k_frame_rows reads them.
   BlockLayout slots;
+  // [Q] the slots in frame-major order: slot q's partials are stored at slot_store[q], so that
+  // frame i's are at [slots.frame_slot_offsets[i], [i + 1]), in slots.frame_slots' order.
+  std::vector<int> slot_store;
   // [G][kGroupLanes] slot-major position of entry (g, k) in its block (its slot's range; 0 past
   // the group's frame count).
   std::vector<int> entry_pos;

@@ -98,12 +98,17 @@ TEST_CASE("blocks of groups list every entry once, at a slot-major position in i
     REQUIRE(std::all_of(at.begin(), at.end(), [](int c) { return c == 1; }));
   }
   REQUIRE(entries == static_cast<int>(L.slot_pairs.size()));
-  // Every frame's slots, in block order.
+  // Every frame's slots, in block order, stored frame-major: frame i's at
+  // [frame_slot_offsets[i], [i + 1]).
+  std::vector<int> stored(L.slot_count(), 0);
   for (int i = 0; i < model.frame_count(); ++i)
     for (int k = L.frame_slot_offsets[i]; k < L.frame_slot_offsets[i + 1]; ++k) {
       REQUIRE(L.slot_frames[L.frame_slots[k]] == i);
       if (k > L.frame_slot_offsets[i]) REQUIRE(L.frame_slots[k] > L.frame_slots[k - 1]);
+      REQUIRE(G.slot_store[L.frame_slots[k]] == k);
+      ++stored[k];
     }
+  REQUIRE(std::all_of(stored.begin(), stored.end(), [](int c) { return c == 1; }));
 }
 
 TEST_CASE("the grouped pass refuses samples it cannot hold", "[kernels][layout]") {

@@ -231,7 +231,7 @@ struct HostDevice {
         std::vector<double> rec(kGroupRecord * kGroupLanes, std::nan(""));
         for (int k = 0; k < count; ++k)
           group_frame_record(&levers[kLeverRecord * static_cast<size_t>(frames_g[k])], &d[6 * static_cast<size_t>(frames_g[k])],
-                             rec.data() + k, kGroupLanes);
+                             rec.data() + k * kGroupRecord);
         double o[kGroupLanes][kGroupLanes][6] = {};  // [thread][frame][value]
         for (int s = G.group_samples[g]; s < G.group_samples[g + 1]; ++s) {
           const int lane = s - G.group_samples[g];
@@ -244,10 +244,9 @@ struct HostDevice {
             gr[G.pair_entry[p]] = ld3(&nb.weight_gradients[3 * static_cast<size_t>(p)]);
           }
           Mat3 dF = zero3();
-          for (int k = 0; k < count; ++k) group_pair_dF(rec.data() + k, kGroupLanes, ps, w[k], gr[k], dF);
-          const Mat3 dP = ell_sample_dP(view, state.data(), s, dF);
-          const double v = sample_value(state.data(), S, 3, s);
-          for (int k = 0; k < count; ++k) group_pair_output(rec.data() + k, kGroupLanes, ps, w[k], gr[k], dP, v, o[lane][k]);
+          for (int k = 0; k < count; ++k) group_pair_dF(rec.data() + k * kGroupRecord, ps, w[k], gr[k], dF);
+          const Mat3 vdP = sample_value(state.data(), S, 3, s) * ell_sample_dP(view, state.data(), s, dF);
+          for (int k = 0; k < count; ++k) group_pair_output(rec.data() + k * kGroupRecord, ps, w[k], gr[k], vdP, o[lane][k]);
         }
         for (int k = 0; k < count; ++k)
           for (int c = 0; c < 6; ++c) {
