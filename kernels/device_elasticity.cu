@@ -293,6 +293,7 @@ class System final : public DeviceElasticity::Impl {
       m_group_view.frame_slot_offsets = m_group_frame_slot_offsets.data();
       m_group_view.frame_slots = nullptr;  // the partials are stored frame-major (slot_store)
       m_group_view.slot_store = m_group_slot_store.data();
+      m_group_view.group_count = m_group_count;
       m_group_view.group_samples = m_group_samples.data();
       m_group_view.group_frames = m_group_frames.data();
       m_group_view.group_pos = m_group_pos.data();

@@ -339,6 +339,33 @@ __device__ void records_tangent_block(const ModelView<R>& m, const FrameView<R>&
 // thread of the block must call it (blockDim.x a multiple of 32). (Storing each warp's slots as one
 // contiguous range through warp shuffles instead was measured slower on an H100: docs/benchmarks.md,
 // eighth round.)
+// One slot's sum by its group of `slot_lanes` lanes (warp_slot_sums' arithmetic): positions [a, e)
+// of outs [6][stride], the six components into dst where `valid`. Every lane of the warp must call it.
+template <class R>
+__device__ inline void slot_sum_store(const R* outs, int stride, int a, int e, bool valid, int lane, int slot_lanes,
+                                      R* dst) {
+  R acc[6] = {0, 0, 0, 0, 0, 0};
+  if (valid)
+    for (int k = a + lane; k < e; k += slot_lanes)
+#pragma unroll
+      for (int c = 0; c < 6; ++c) acc[c] += outs[c * stride + k];
+  for (int o = slot_lanes / 2; o > 0; o >>= 1)
+#pragma unroll
+    for (int c = 0; c < 6; ++c) acc[c] += __shfl_xor_sync(0xffffffffu, acc[c], o);
+  if (!valid) return;
+  if (slot_lanes < 6) {
+    if (lane == 0)
+#pragma unroll
+      for (int c = 0; c < 6; ++c) dst[c] = acc[c];
+  } else {
+    R mine = 0;
+#pragma unroll
+    for (int c = 0; c < 6; ++c)
+      if (lane == c) mine = acc[c];
+    if (lane < 6) dst[lane] = mine;
+  }
+}
+
 template <class R>
 __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride, int b, int slot_lanes,
                                R* slot_partials) {
@@ -348,30 +375,9 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
   const int base = m.slot_pair_offsets[q0];
   for (int first = q0; first < q1; first += groups) {  // the same trip count in every thread
     const int q = first + group;
-    R acc[6] = {0, 0, 0, 0, 0, 0};
-    if (q < q1) {
-      const int a = m.slot_pair_offsets[q] - base, e = m.slot_pair_offsets[q + 1] - base;
-      for (int k = a + lane; k < e; k += slot_lanes)
-#pragma unroll
-        for (int c = 0; c < 6; ++c) acc[c] += outs[c * stride + k];
-    }
-    for (int o = slot_lanes / 2; o > 0; o >>= 1)
-#pragma unroll
-      for (int c = 0; c < 6; ++c) acc[c] += __shfl_xor_sync(0xffffffffu, acc[c], o);
-    if (q < q1) {
-      R* dst = slot_partials + 6 * static_cast<size_t>(m.slot_store ? m.slot_store[q] : q);
-      if (slot_lanes < 6) {
-        if (lane == 0)
-#pragma unroll
-          for (int c = 0; c < 6; ++c) dst[c] = acc[c];
-      } else {
-        R mine = 0;
-#pragma unroll
-        for (int c = 0; c < 6; ++c)
-          if (lane == c) mine = acc[c];
-        if (lane < 6) dst[lane] = mine;
-      }
-    }
+    const bool valid = q < q1;
+    slot_sum_store(outs, stride, valid ? m.slot_pair_offsets[q] - base : 0, valid ? m.slot_pair_offsets[q + 1] - base : 0,
+                   valid, lane, slot_lanes, slot_partials + 6 * static_cast<size_t>(valid ? q : 0));
   }
 }
 

@@ -106,6 +106,7 @@ struct ModelView {
   // Grouped tangent pass (group_layout.hpp, group_pass.hpp), in the view of its own blocks, where
   // `blocks`, block_samples (each block's first group), the slot tables and frame_slot_offsets /
   // frame_slots are those of its blocks of groups.
+  int group_count = 0;                         // G
   const int* group_samples = nullptr;          // [G+1] first sample of each group
   const int* group_frames = nullptr;           // [G][kGroupLanes] frames, -1 past the group's count
   const unsigned short* group_pos = nullptr;   // [G][kGroupLanes] slot-major position in the block

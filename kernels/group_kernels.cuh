@@ -26,12 +26,57 @@ __device__ inline void group_exchange(const R* lower, const R* upper, bool upper
   }
 }
 
+// A block's slots [q0, q1) and its outputs' first slot-major position (base) and count (stride).
+struct BlockSlots {
+  int q0 = 0, q1 = 0, base = 0, stride = 0;
+};
+template <class R>
+__device__ inline BlockSlots block_slot_range(const ModelView<R>& m, int b) {
+  BlockSlots bs;
+  bs.q0 = m.block_slots[b];
+  bs.q1 = m.block_slots[b + 1];
+  bs.base = m.slot_pair_offsets[bs.q0];
+  bs.stride = m.slot_pair_offsets[bs.q1] - bs.base;
+  return bs;
+}
+
+// One slot of group_slot_sums: its positions [a, e) in the block's outputs and where its partials
+// are stored (frame-major, m.slot_store); zero past the block's slots.
+struct SlotBounds {
+  int a = 0, e = 0, store = 0;
+};
+template <class R>
+__device__ inline SlotBounds slot_bounds(const ModelView<R>& m, int q, int q1, int base) {
+  SlotBounds sb;
+  if (q < q1) {
+    sb.a = m.slot_pair_offsets[q] - base;
+    sb.e = m.slot_pair_offsets[q + 1] - base;
+    sb.store = m.slot_store[q];
+  }
+  return sb;
+}
+
+// warp_slot_sums for the grouped pass (the same sums in the same order) over the block's slots
+// [q0, q1) with the partials stored frame-major (m.slot_store); `first_bounds`: this thread's
+// slot of the first round, where loaded beforehand (Preloaded), else loaded here.
+template <bool Preloaded, class R>
+__device__ void group_slot_sums(const ModelView<R>& m, const R* outs, int stride, const SlotBounds& first_bounds,
+                                int q0, int q1, int base, int slot_lanes, R* slot_partials) {
+  const int lane = static_cast<int>(threadIdx.x) & (slot_lanes - 1);
+  const int group = static_cast<int>(threadIdx.x) / slot_lanes, groups = static_cast<int>(blockDim.x) / slot_lanes;
+  for (int first = q0; first < q1; first += groups) {  // the same trip count in every thread
+    const int q = first + group;
+    const SlotBounds sb = Preloaded && first == q0 ? first_bounds : slot_bounds(m, q, q1, base);
+    slot_sum_store(outs, stride, sb.a, sb.e, q < q1, lane, slot_lanes, slot_partials + 6 * static_cast<size_t>(sb.store));
+  }
+}
+
 // Tangent sample pass, grouped (ModelView's grouped fields; `d`, `p_old`, scalars as
 // k_ell_tangent): per group its frames' records into shared memory, per thread its sample's dF,
 // dP and pair outputs; the outputs of each frame summed across the group's threads by a
 // reduce-scatter (exchanges at distance 4, 2, 1: group_lane_sum's order), in two halves of 4
 // frames (24 values live); each (group, frame) entry's sum into shared memory at its slot-major
-// position, then `slot_lanes` lanes per slot sum the block's slots (warp_slot_sums).
+// position, then `slot_lanes` lanes per slot sum the block's slots (group_slot_sums).
 template <class R>
 __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
     k_group_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
@@ -39,17 +84,35 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
   constexpr bool kKeepEntries = sizeof(R) == sizeof(float);
   __shared__ __align__(16) R records[kGroupRecords];
   __shared__ __align__(16) R outs[6 * kGroupThreads];
-  if (finished(sc)) return;
-  const double beta = p_old ? sc->beta : 0.0;
   const int b = static_cast<int>(blockIdx.x), t = static_cast<int>(threadIdx.x);
   const int gl = t / kGroupLanes, lane = t % kGroupLanes;
-  const int g = m.block_samples[b] + gl;
-  const bool group_active = g < m.block_samples[b + 1];
-  // Every global load of the dF half and the material first, so that their latencies overlap:
+  const int g = b * kGroupBlock + gl;  // blocks of kGroupBlock consecutive groups (group_layout.hpp)
+  const bool group_active = g < m.group_count;
+  const bool up4 = (lane & 4) != 0, up2 = (lane & 2) != 0, up1 = (lane & 1) != 0;
+  // The loads that depend on nothing else, issued together: the group's frame `lane`, first
+  // sample and the slot-major positions this thread stores (frames kh and kh + 4 of the group,
+  // group_exchange's split), the block's slot range and the scalars.
+  const int kh = (up4 ? 2 : 0) + (up2 ? 1 : 0);
+  const size_t entry = kGroupLanes * static_cast<size_t>(g);
+  const int frame = group_active ? m.group_frames[entry + lane] : -1;
+  const int s0 = group_active ? m.group_samples[g] : 0, s1 = group_active ? m.group_samples[g + 1] : 0;
+  // Float also loads here what the outputs and the slot sums need (positions, the block's slots);
+  // double, where registers are short, loads them there.
+  constexpr bool kPreload = sizeof(R) == sizeof(float);
+  BlockSlots bs;
+  if constexpr (kPreload) bs = block_slot_range(m, b);
+  int pos[2] = {0, 0};
+  if (kPreload && group_active) {
+    pos[0] = m.group_pos[entry + kh];
+    pos[1] = m.group_pos[entry + kh + 4];
+  }
+  const double beta = p_old ? sc->beta : 0.0;
+  if (finished(sc)) return;
+  // Then every global load of the dF half and the material, so that their latencies overlap:
   // thread `lane` gathers its group's frame `lane` (lever record, direction) and reads its
-  // group's sample `lane` (position, w and g of its pairs, H and the material cache).
+  // group's sample `lane` (position, w and g of its pairs, H and the material cache); and the
+  // block's slot-sum bounds (group_slot_sums).
   R* rec = records + gl * kGroupSlotStride * kGroupRecord;  // the group's frame k at rec + k kGroupRecord
-  const int frame = group_active ? m.group_frames[kGroupLanes * static_cast<size_t>(g) + lane] : -1;
   R lever[kLeverRecord], di[6];
   if (frame >= 0) {
     load_aligned<kLeverRecord>(f.levers + kLeverRecord * static_cast<size_t>(frame), lever);
@@ -64,9 +127,10 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
   // The group's frame count: its threads' bits of the warp's ballot (frames come first).
   const unsigned present = __ballot_sync(0xffffffffu, frame >= 0);
   const int n = __popc((present >> (t & 31 & ~(kGroupLanes - 1))) & ((1u << kGroupLanes) - 1));
-  const int s0 = group_active ? m.group_samples[g] : 0;
-  const bool active = group_active && lane < m.group_samples[g + 1] - s0;
+  const bool active = group_active && lane < s1 - s0;
   const int s = s0 + lane;
+  SlotBounds bounds;  // this thread's slot of the first round of the slot sums
+  if constexpr (kPreload) bounds = slot_bounds(m, bs.q0 + t / slot_lanes, bs.q1, bs.base);
   const long long E = m.group_entries;
   Vec3T<R> ps{0, 0, 0};
   R w[kGroupLanes];
@@ -97,8 +161,8 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
       if (k < n) group_pair_dF(rec + k * kGroupRecord, ps, w[k], gr[k], dF);
     dP = sample_value(f.sample_state, m.samples, 3, s) * pk1_differential(*mat, F, cache, dF);
   }
-  const int stride = m.slot_pair_offsets[m.block_slots[b + 1]] - m.slot_pair_offsets[m.block_slots[b]];
-  const bool up4 = (lane & 4) != 0, up2 = (lane & 2) != 0, up1 = (lane & 1) != 0;
+  if constexpr (!kPreload) bs = block_slot_range(m, b);
+  const int stride = bs.stride;
 #pragma unroll
   for (int half = 0; half < 2; ++half) {
     R o[4][6];
@@ -125,15 +189,15 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
     group_exchange<R, 12>(&o[0][0], &o[2][0], up4, 4, &pair[0][0]);
     group_exchange<R, 6>(pair[0], pair[1], up2, 2, one);
     group_exchange<R, 3>(one, one + 3, up1, 1, three);
-    const int k = 4 * half + (up4 ? 2 : 0) + (up2 ? 1 : 0), c0 = up1 ? 3 : 0;
-    if (group_active && k < n) {
-      const int pos = m.group_pos[kGroupLanes * static_cast<size_t>(g) + k];
+    const int c0 = up1 ? 3 : 0;
+    if (group_active && 4 * half + kh < n) {
+      const int at = kPreload ? pos[half] : m.group_pos[entry + 4 * half + kh];
 #pragma unroll
-      for (int c = 0; c < 3; ++c) outs[(c0 + c) * stride + pos] = three[c];
+      for (int c = 0; c < 3; ++c) outs[(c0 + c) * stride + at] = three[c];
     }
   }
   __syncthreads();
-  warp_slot_sums(m, outs, stride, b, slot_lanes, slot_partials);
+  group_slot_sums<kPreload>(m, outs, stride, bounds, bs.q0, bs.q1, bs.base, slot_lanes, slot_partials);
 }
 
 }  // namespace fascia::gpu

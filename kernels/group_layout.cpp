@@ -119,6 +119,9 @@ GroupLayout build_group_layout(const Model& model) {
   }
   constexpr int kEntries = kGroupBlock * kGroupLanes;
   G.slots = build_block_layout(entries, kGroupBlock, kEntries, kEntries);
+  for (int b = 0; b < G.slots.block_count(); ++b)  // the kernel takes block b's groups as [b kGroupBlock, ...)
+    if (G.slots.block_samples[b] != b * kGroupBlock)
+      throw std::logic_error("build_group_layout: a block that is not kGroupBlock consecutive groups");
   G.entry_pos.assign(kGroupLanes * static_cast<size_t>(groups), 0);
   const BlockLayout& L = G.slots;
   G.slot_store.assign(L.slot_count(), 0);
