@@ -123,8 +123,11 @@ struct DeviceOptions {
   // multiply-adds, and the group's outputs are summed per frame across its threads, so that the
   // block's shared memory takes one output per (group, frame) instead of one per pair. Samples are
   // then in group order on the device (groups in Morton order). The persistent PCG kernels, used
-  // for small models, keep the coalesced pass.
-  bool group_samples = false;
+  // for small models, keep the coalesced pass. Measured on an H100 (docs/benchmarks.md, eleventh
+  // round), hexahedra x 8 launched, ms per CG iteration, coalesced -> grouped: 131,072 samples
+  // single 0.052 -> 0.033, double 0.067 -> 0.057; 4.18 M single 0.936 -> 0.575, double 1.735 ->
+  // 1.120.
+  bool group_samples = true;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16

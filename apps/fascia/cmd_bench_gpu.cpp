@@ -75,8 +75,8 @@ const Switch kSwitches[] = {
      "resident PCG in double: the blocks' lever records, directions and materials staged in shared memory (1, the "
      "default) or read each iteration (0)"},
     {"--group-samples", "group_samples", &gpu::DeviceOptions::group_samples,
-     "launched tangent product: the grouped pass, eight threads per group of samples with the same frames (1), or "
-     "the coalesced pass per pair (0, the default)"},
+     "launched tangent product: the grouped pass, eight threads per group of samples with the same frames (1, the "
+     "default, where the model has such groups), or the coalesced pass per pair (0)"},
     {"--prefetch-frames", "prefetch_frames", &gpu::DeviceOptions::prefetch_frames,
      "launched dense tangent product with 2 or 4 held entries: the next pairs' frames read with the held entries "
      "(1) or with their own entries (0, the default)"},

@@ -142,6 +142,7 @@ TEST_CASE("record and coalesced passes equal the CPU reference with every lane c
   options.precision = precision;
   options.block_samples = 32;
   options.sample_pass = pass;
+  options.group_samples = false;  // the coalesced kernels themselves (the grouped pass: below)
   options.lanes = lanes;
   options.record_keep = keep;
   options.slot_lanes = slot_lanes;
@@ -169,6 +170,7 @@ TEST_CASE("dense and mapped coalesced tangent kernels equal the CPU reference", 
   options.coalesced_keep = keep;
   options.dense_tangent = dense;
   options.shape_classes = mapped;
+  options.group_samples = false;
   const double e = tangent_difference(model, 17, 7, options, [&](const DeviceElasticity& dev) {
     REQUIRE(dev.sample_pass() == SamplePass::coalesced);
     CHECK(dev.dense_tangent() == dense);
@@ -249,6 +251,7 @@ TEST_CASE("launched PCG with the dense and mapped tangent kernels equals the CPU
   options.lanes = 1;
   options.dense_tangent = true;
   options.shape_classes = true;
+  options.group_samples = false;
   DeviceElasticity dev(model, options);
   REQUIRE(dev.dense_tangent());
   REQUIRE(dev.shape_classes());
@@ -401,6 +404,7 @@ DeviceOptions dense_options(Precision precision, int keep) {
   options.lanes = 1;
   options.coalesced_keep = keep;
   options.dense_tangent = true;
+  options.group_samples = false;
   return options;
 }
 
@@ -457,6 +461,7 @@ TEST_CASE("direction pass gives the bits of the direction formed in the tangent 
   options.precision = precision;
   options.lanes = 1;
   options.slot_frames = slot_frames;
+  options.group_samples = false;
   const LaunchedRun formed = launched_run(model, options);
   options.direction_pass = true;
   const LaunchedRun passed = launched_run(model, options);
@@ -637,6 +642,7 @@ TEST_CASE("repeated device runs with the dense and mapped tangent kernels and th
   options.lanes = 1;
   options.dense_tangent = true;
   options.shape_classes = true;
+  options.group_samples = false;
   options.resident_double = true;
   check_bitwise_repeats(kernels_test_model(type, MaterialLaw::neo_hookean, 6, 5, 4), 9, 10, options, persistent,
                         [](const DeviceElasticity& dev) {
