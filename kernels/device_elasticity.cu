@@ -1,6 +1,7 @@
 #include "device_buffers.cuh"
 #include "device_elasticity.hpp"
 #include "elasticity_kernels.cuh"
+#include "group_classes.hpp"
 #include "group_kernels.cuh"
 #include "group_layout.hpp"
 #include "sample_layout.hpp"
@@ -101,8 +102,10 @@ struct DeviceElasticity::Impl {
   bool hold_pairs = false;                // coalesced pass: the dense kernel holds its kept pairs' levers
   bool prefetch_frames = false;           // coalesced pass: the dense kernel prefetches its next pairs' frames
   bool grouped = false;                   // coalesced pass: the launched tangent product runs the grouped pass
+  bool group_mapped = false;              // ... with w and g from the groups' classes
   std::string mapped_refusal;             // why not, where DeviceOptions::shape_classes asked for them
   std::string grouped_refusal;            // why not, where DeviceOptions::group_samples asked for it
+  std::string group_classes_refusal;      // why not, where DeviceOptions::group_classes asked for them
 };
 
 namespace {
@@ -297,7 +300,10 @@ class System final : public DeviceElasticity::Impl {
       m_group_view.group_samples = m_group_samples.data();
       m_group_view.group_frames = m_group_frames.data();
       m_group_view.group_pos = m_group_pos.data();
-      m_group_view.group_data = m_group_data.data();
+      m_group_view.group_data = m_group_data.size() ? m_group_data.data() : nullptr;
+      m_group_view.group_class = group_mapped ? m_group_class.data() : nullptr;
+      m_group_view.group_maps = group_mapped ? m_group_maps.data() : nullptr;
+      m_group_view.group_class_pairs = group_mapped ? m_group_class_pairs.data() : nullptr;
       m_group_view.group_entries = static_cast<long long>(m_group_data.size() / 4);
     }
 
@@ -450,8 +456,10 @@ class System final : public DeviceElasticity::Impl {
       // state (StVK: 13 values), material and offset; lever records (instead of rotation and
       // position), read once per group but counted once; the slot tables of the blocks of groups
       // and their slot partials out and in.
+      // Mapped: per group its class and map instead, and the classes' tables (counted once).
       const double Q = static_cast<double>(m_group_partials.size()) / 6, G = m_group_count;
-      return P * 4 * r + G * (kGroupLanes * 6 + 4) + S * (13 * r + 4 + 4) + N * (kLeverRecord * r - 12 * r) + Q * 4 +
+      const double entries = group_mapped ? G * (9 * r + 4) + m_group_class_pairs.size() * r : P * 4 * r;
+      return entries + G * (kGroupLanes * 6 + 4) + S * (13 * r + 4 + 4) + N * (kLeverRecord * r - 12 * r) + Q * 4 +
              N * 4 + m_group_blocks * 8 + Q * 6 * r * 2 + frames;
     }
     if (design == Design::fused && pass == SamplePass::coalesced) {
@@ -573,9 +581,28 @@ class System final : public DeviceElasticity::Impl {
       grouped_refusal = text;
       return false;
     }
-    const NeighbourTable& nb = model.neighbours;
     const BlockLayout& L = G.slots;
     m_group_blocks = L.block_count();
+    m_group_count = G.group_count();
+    group_mapped = options.group_classes && upload_group_classes(model, G);
+    if (!group_mapped) upload_group_data(model, G);
+    m_group_samples.upload(G.group_samples);
+    m_group_frames.upload(G.group_frames);
+    m_group_pos.upload(std::vector<unsigned short>(G.entry_pos.begin(), G.entry_pos.end()));
+    m_group_block_groups.upload(L.block_samples);
+    m_group_block_slots.upload(L.block_slots);
+    m_group_slot_frames.upload(L.slot_frames);
+    m_group_slot_pair_offsets.upload(L.slot_pair_offsets);
+    m_group_frame_slot_offsets.upload(L.frame_slot_offsets);
+    m_group_slot_store.upload(G.slot_store);
+    m_group_partials.resize(6 * static_cast<size_t>(L.slot_count()));
+    return true;
+  }
+
+  // The grouped pass's w and g per (block, frame, thread) entry, [4][E] (group_data_index).
+  void upload_group_data(const Model& model, const GroupLayout& G) {
+    const NeighbourTable& nb = model.neighbours;
+    const BlockLayout& L = G.slots;
     const size_t E = static_cast<size_t>(m_group_blocks) * kGroupLanes * kGroupThreads;
     std::vector<double> data(4 * E, 0.0);
     for (int b = 0; b < m_group_blocks; ++b)
@@ -589,17 +616,33 @@ class System final : public DeviceElasticity::Impl {
           }
         }
     m_group_data.upload(data);
-    m_group_samples.upload(G.group_samples);
-    m_group_frames.upload(G.group_frames);
-    m_group_pos.upload(std::vector<unsigned short>(G.entry_pos.begin(), G.entry_pos.end()));
-    m_group_block_groups.upload(L.block_samples);
-    m_group_block_slots.upload(L.block_slots);
-    m_group_slot_frames.upload(L.slot_frames);
-    m_group_slot_pair_offsets.upload(L.slot_pair_offsets);
-    m_group_frame_slot_offsets.upload(L.frame_slot_offsets);
-    m_group_slot_store.upload(G.slot_store);
-    m_group_partials.resize(6 * static_cast<size_t>(L.slot_count()));
-    m_group_count = G.group_count();
+  }
+
+  // The groups' classes and maps (group_classes.hpp) for the mapped grouped pass; false, with
+  // nothing uploaded and the reason in group_classes_refusal, where the model has none, or so many
+  // that they would not save memory traffic (more than one class per kGroupClassGroups groups).
+  static constexpr int kMaxGroupClasses = 4096;
+  static constexpr int kGroupClassGroups = 4;
+  bool upload_group_classes(const Model& model, const GroupLayout& G) {
+    std::string why;
+    const std::optional<GroupClasses> classes = find_group_classes(model, G, kMaxGroupClasses, &why);
+    if (!classes) {
+      group_classes_refusal = why;
+      return false;
+    }
+    if (static_cast<long long>(classes->class_count()) * kGroupClassGroups > G.group_count()) {
+      group_classes_refusal = std::to_string(classes->class_count()) + " classes for " +
+                              std::to_string(G.group_count()) + " groups";
+      return false;
+    }
+    const size_t groups = static_cast<size_t>(G.group_count());
+    std::vector<double> maps(9 * groups);  // component-major
+    for (size_t g = 0; g < groups; ++g)
+      for (int k = 0; k < 9; ++k) maps[k * groups + g] = classes->group_maps[9 * g + k];
+    m_group_maps.upload(maps);
+    m_group_class.upload(classes->group_class);
+    m_group_class_pairs.upload(classes->class_pairs);
+    m_group_class_count = classes->class_count();
     return true;
   }
 
@@ -865,7 +908,9 @@ class System final : public DeviceElasticity::Impl {
   // The launched tangent product's sample kernel in use (enqueue_tangent's choice).
   const void* tangent_sample_kernel() const {
     if (design != Design::fused) return reinterpret_cast<const void*>(&k_paper_tangent<R>);
-    if (grouped) return reinterpret_cast<const void*>(&k_group_tangent<R>);
+    if (grouped)
+      return group_mapped ? reinterpret_cast<const void*>(&k_group_tangent<R, true>)
+                          : reinterpret_cast<const void*>(&k_group_tangent<R, false>);
     if (pass == SamplePass::coalesced) return reinterpret_cast<const void*>(ell_tangent_kernel());
     if (pass == SamplePass::records) {
       if (m_lane_threads > 128) return reinterpret_cast<const void*>(&k_records_tangent<R, 2, kLaneThreadsMax>);
@@ -892,7 +937,8 @@ class System final : public DeviceElasticity::Impl {
       if (grouped) {
         const R* pd = z ? z : d;
         const R* pold = z ? d : nullptr;
-        k_group_tangent<R><<<m_group_blocks, kGroupThreads, 0, m_stream>>>(
+        (group_mapped ? k_group_tangent<R, true> : k_group_tangent<R, false>)<<<m_group_blocks, kGroupThreads, 0,
+                                                                             m_stream>>>(
             m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes);
         check_launch();
         k_frame_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
@@ -1199,6 +1245,9 @@ class System final : public DeviceElasticity::Impl {
       m_group_slot_pair_offsets, m_group_frame_slot_offsets, m_group_slot_store;
   DeviceBuffer<unsigned short> m_group_pos;
   DeviceBuffer<R> m_group_data, m_group_partials;
+  int m_group_class_count = 0;
+  DeviceBuffer<int> m_group_class;
+  DeviceBuffer<R> m_group_maps, m_group_class_pairs;
   // State (double) and per-iteration data (R).
   DeviceBuffer<double> m_positions, m_orientations, m_velocities, m_external, m_load_rot, m_diag;
   DeviceBuffer<double> m_prepare_sums;  // k_frame_columns -> k_frame_finish: [N][kPrepareSums]
@@ -1255,6 +1304,8 @@ bool DeviceElasticity::resident_frames() const { return m_impl->resident_frames(
 bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
 bool DeviceElasticity::group_samples() const { return m_impl->grouped; }
 const std::string& DeviceElasticity::group_samples_refusal() const { return m_impl->grouped_refusal; }
+bool DeviceElasticity::group_classes() const { return m_impl->group_mapped; }
+const std::string& DeviceElasticity::group_classes_refusal() const { return m_impl->group_classes_refusal; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }
 double DeviceElasticity::time_tangent_ms(int repeats) { return m_impl->time_tangent_ms(std::max(1, repeats)); }

@@ -128,6 +128,10 @@ struct DeviceOptions {
   // single 0.052 -> 0.033, double 0.067 -> 0.057; 4.18 M single 0.936 -> 0.575, double 1.735 ->
   // 1.120.
   bool group_samples = true;
+  // Grouped pass: w and g of every pair formed from its group's class and map A_g
+  // (group_classes.hpp; mesh-based models of tetrahedra or parallelepiped hexahedra) instead of
+  // read per pair: 10 values per group instead of 4 per pair.
+  bool group_classes = true;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16
@@ -211,6 +215,10 @@ class DeviceElasticity {
   // (DeviceOptions::group_samples, where the model allows it), and why not where it was asked for.
   bool group_samples() const;
   const std::string& group_samples_refusal() const;
+  // Grouped pass: whether w and g come from the groups' classes (DeviceOptions::group_classes),
+  // and why not where they were asked for.
+  bool group_classes() const;
+  const std::string& group_classes_refusal() const;
   // Coalesced pass: whether the launched tangent kernel reads the frames from shared memory
   // (DeviceOptions::slot_frames with the dense kernel and no shape classes).
   bool slot_frames() const;

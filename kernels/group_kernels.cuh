@@ -76,8 +76,9 @@ __device__ void group_slot_sums(const ModelView<R>& m, const R* outs, int stride
 // dP and pair outputs; the outputs of each frame summed across the group's threads by a
 // reduce-scatter (exchanges at distance 4, 2, 1: group_lane_sum's order), in two halves of 4
 // frames (24 values live); each (group, frame) entry's sum into shared memory at its slot-major
-// position, then `slot_lanes` lanes per slot sum the block's slots (group_slot_sums).
-template <class R>
+// position, then `slot_lanes` lanes per slot sum the block's slots (group_slot_sums). Mapped: w and
+// g from the group's class and map (group_classes.hpp) instead of group_data.
+template <class R, bool Mapped>
 __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
     k_group_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
                     int slot_lanes) {
@@ -135,10 +136,25 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
   Vec3T<R> ps{0, 0, 0};
   R w[kGroupLanes];
   Vec3T<R> gr[kGroupLanes];
+  // Mapped: the group's map A_g and its class's table (group_class_entry).
+  Mat3T<R> A = zero3<R>();
+  const R* class_pairs = nullptr;
+  if constexpr (Mapped) {
+    if (group_active) {
+      const size_t G = static_cast<size_t>(m.group_count);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) A.m[r][c] = m.group_maps[(3 * r + c) * G + g];
+      class_pairs = m.group_class_pairs + 4 * kGroupLanes * kGroupLanes * static_cast<size_t>(m.group_class[g]);
+    }
+  }
   const auto load_entry = [&](int k, R& wk, Vec3T<R>& gk) {
-    const long long e = group_data_index(b, k, t);
-    wk = m.group_data[e];
-    gk = Vec3T<R>{m.group_data[E + e], m.group_data[2 * E + e], m.group_data[3 * E + e]};
+    if constexpr (Mapped) {
+      group_class_entry(class_pairs, A, lane, k, wk, gk);
+    } else {
+      const long long e = group_data_index(b, k, t);
+      wk = m.group_data[e];
+      gk = Vec3T<R>{m.group_data[E + e], m.group_data[2 * E + e], m.group_data[3 * E + e]};
+    }
   };
   Mat3T<R> F = zero3<R>();
   MaterialCacheT<R> cache{};

@@ -61,6 +61,19 @@ std::vector<int> group_sample_order(const Model& model, const std::vector<int>& 
   std::partial_sum(offsets.begin(), offsets.end(), offsets.begin());
   std::vector<int> cursor(offsets.begin(), offsets.end() - 1);
   for (int s : order) members[cursor[group[s]]++] = s;
+  // Within a group, samples by their weights in frame order (then in `order`'s): the samples at
+  // one quadrature point of like elements take the same thread in every group, so that like
+  // groups have like tables of w and g (group_classes.hpp).
+  const auto weights = [&](int s) {
+    std::array<double, kGroupLanes> w;
+    w.fill(0.0);
+    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p)
+      w[std::find(keys[s].begin(), keys[s].end(), nb.frames[p]) - keys[s].begin()] = nb.weights[p];
+    return w;
+  };
+  for (int g = 0; g < groups; ++g)
+    std::stable_sort(members.begin() + offsets[g], members.begin() + offsets[g + 1],
+                     [&](int a, int b) { return weights(a) < weights(b); });
   std::vector<int> result;
   result.reserve(S);
   std::vector<char> placed(groups, 0);

@@ -29,7 +29,8 @@ std::string group_refusal(const Model& model);
 
 // The permutation of samples that makes every group's samples consecutive: new sample k is old
 // sample result[k]. Samples are visited in `order`; a sample whose group has not been placed yet
-// places its whole group there (its samples in `order`'s order). A group of more than kGroupLanes
+// places its whole group there (its samples ordered by their weights in frame order, then in
+// `order`'s order). A group of more than kGroupLanes
 // samples is split, by build_group_layout, into consecutive groups of at most kGroupLanes.
 // Requires group_refusal(model) to be empty.
 std::vector<int> group_sample_order(const Model& model, const std::vector<int>& order);

@@ -77,6 +77,9 @@ const Switch kSwitches[] = {
     {"--group-samples", "group_samples", &gpu::DeviceOptions::group_samples,
      "launched tangent product: the grouped pass, eight threads per group of samples with the same frames (1, the "
      "default, where the model has such groups), or the coalesced pass per pair (0)"},
+    {"--group-classes", "group_classes", &gpu::DeviceOptions::group_classes,
+     "grouped pass: w and g from the groups' classes and maps (1, the default, where the model has them) or read per "
+     "pair (0)"},
     {"--prefetch-frames", "prefetch_frames", &gpu::DeviceOptions::prefetch_frames,
      "launched dense tangent product with 2 or 4 held entries: the next pairs' frames read with the held entries "
      "(1) or with their own entries (0, the default)"},
@@ -90,6 +93,8 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
     std::fprintf(stderr, "shape classes not used: %s\n", dev.shape_classes_refusal().c_str());
   if (!dev.group_samples_refusal().empty())
     std::fprintf(stderr, "grouped pass not used: %s\n", dev.group_samples_refusal().c_str());
+  if (dev.group_samples() && !dev.group_classes_refusal().empty())
+    std::fprintf(stderr, "group classes not used: %s\n", dev.group_classes_refusal().c_str());
   const State start = rest_state(model);
   dev.set_state(start);
   gpu::StepOptions so = gpu::make_step_options(model, bench_step_loads(), start, kBenchStepDt, 0, 0,
@@ -120,7 +125,7 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
                   (dev.sample_pass() == gpu::SamplePass::coalesced ? "s" + std::to_string(options.slot_lanes) : "") +
                   (dev.dense_tangent() ? "d" : "") + (dev.shape_classes() ? "m" : "") + (dev.slot_frames() ? "f" : "") +
                   (dev.direction_pass() ? "p" : "") + (dev.hold_pairs() ? "h" : "") +
-                  (dev.resident_frames() ? "l" : "") + (dev.prefetch_frames() ? "x" : "") + (dev.group_samples() ? "g" : "") +
+                  (dev.resident_frames() ? "l" : "") + (dev.prefetch_frames() ? "x" : "") + (dev.group_samples() ? (dev.group_classes() ? "gc" : "g") : "") +
                   (options.row_frames != gpu::DeviceOptions{}.row_frames ? "r" + std::to_string(options.row_frames) : "");
   row.linear = to_string(c.linear);
   row.cg_kernel = report.resident ? "resident" : report.persistent ? "persistent" : "launches";

@@ -275,22 +275,25 @@ TEST_CASE("launched PCG with the dense and mapped tangent kernels equals the CPU
 
 TEST_CASE("grouped tangent pass equals the CPU reference", "[gpu]") {
   // Hexahedra: groups of 8 samples on 8 frames; tetrahedra: 4 samples on 4 frames (half of each
-  // group's threads idle). Every slot-sum width.
+  // group's threads idle). Every slot-sum width; w and g per pair or from the groups' classes.
   const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
   const MaterialLaw law = GENERATE(MaterialLaw::stvk, MaterialLaw::neo_hookean);
   const int slot_lanes = GENERATE(1, 2, 32);
+  const bool classes = GENERATE(false, true);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const Model model = kernels_test_model(type, law, 5, 4, 3);
   DeviceOptions options;
   options.precision = precision;
   options.group_samples = true;
+  options.group_classes = classes;
   options.slot_lanes = slot_lanes;
   const double e = tangent_difference(model, 19, 3, options, [&](const DeviceElasticity& dev) {
-    INFO(dev.group_samples_refusal());
+    INFO(dev.group_samples_refusal() << dev.group_classes_refusal());
     REQUIRE(dev.group_samples());
+    REQUIRE(dev.group_classes() == classes);
   });
-  std::printf("[gpu] grouped %s %s %s slot lanes %d: tangent %.2e\n", name(type), to_string(law), to_string(precision),
-              slot_lanes, e);
+  std::printf("[gpu] grouped %s %s %s slot lanes %d classes %d: tangent %.2e\n", name(type), to_string(law),
+              to_string(precision), slot_lanes, classes ? 1 : 0, e);
   CHECK(e < bound(precision, false));
 }
 
@@ -300,6 +303,7 @@ TEST_CASE("launched PCG with the grouped pass equals the CPU reference", "[gpu]"
   const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const bool direction_pass = GENERATE(false, true);
+  const bool classes = GENERATE(false, true);
   const Model model = kernels_test_model(type, MaterialLaw::stvk);
   const State state = kernels_test_state(model, 43);
   const double h = 0.01;
@@ -309,8 +313,10 @@ TEST_CASE("launched PCG with the grouped pass equals the CPU reference", "[gpu]"
   options.precision = precision;
   options.group_samples = true;
   options.direction_pass = direction_pass;
+  options.group_classes = classes;
   DeviceElasticity dev(model, options);
   REQUIRE(dev.group_samples());
+  REQUIRE(dev.group_classes() == classes);
   dev.set_state(state);
   StepOptions so;
   so.dt = h;
@@ -324,8 +330,8 @@ TEST_CASE("launched PCG with the grouped pass equals the CPU reference", "[gpu]"
   std::vector<double> delta(model.dof_count());
   stepper.last_increment(delta.data());
   const double e = relative_difference(delta, ref.delta);
-  std::printf("[gpu] launched grouped %s %s direction pass %d: cg %d delta %.2e\n", to_string(precision), name(type),
-              direction_pass ? 1 : 0, report.cg_iterations, e);
+  std::printf("[gpu] launched grouped %s %s direction pass %d classes %d: cg %d delta %.2e\n", to_string(precision),
+              name(type), direction_pass ? 1 : 0, classes ? 1 : 0, report.cg_iterations, e);
   CHECK(e < bound(precision, true));
 }
 
@@ -656,11 +662,16 @@ TEST_CASE("repeated device runs with the grouped pass are bitwise identical", "[
   // group's reduce-scatter, the slot sums, the frame rows).
   const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
+  const bool classes = GENERATE(false, true);
   DeviceOptions options;
   options.precision = precision;
   options.group_samples = true;
+  options.group_classes = classes;
   check_bitwise_repeats(kernels_test_model(type, MaterialLaw::neo_hookean, 6, 5, 4), 9, 10, options, false,
-                        [](const DeviceElasticity& dev) { REQUIRE(dev.group_samples()); });
+                        [&](const DeviceElasticity& dev) {
+                          REQUIRE(dev.group_samples());
+                          REQUIRE(dev.group_classes() == classes);
+                        });
 }
 
 TEST_CASE("repeated device runs are bitwise identical", "[gpu]") {

@@ -1,5 +1,6 @@
 // Host-side checks of the device layout (sample_layout.hpp) and of the kernels' per-thread bodies
 // (elasticity_phases.hpp) stepped through on the CPU in the device's order: no GPU needed.
+#include "group_classes.hpp"
 #include "group_pass.hpp"
 #include "reference_step.hpp"
 #include "sample_layout.hpp"
@@ -209,9 +210,10 @@ struct HostDevice {
   // The grouped tangent pass as k_group_tangent runs it (the model in group order): per group its
   // frames' records, per sample dF, dP and the pair outputs, each (group, frame) entry's sum over
   // the group's threads in the kernel's order (group_lane_sum) at its slot-major position, slot
-  // sums with `slot_lanes` lanes; then the frame gather over the blocks of groups' slots.
+  // sums with `slot_lanes` lanes; then the frame gather over the blocks of groups' slots. With
+  // `mapped`, w and g come from the groups' classes and maps (group_classes.hpp).
   std::vector<double> grouped(const std::vector<double>& d, const std::vector<double>& F,
-                              const std::vector<double>& cache, int slot_lanes) {
+                              const std::vector<double>& cache, int slot_lanes, bool mapped = false) {
     const int n = model.frame_count(), S = model.sample_count();
     const NeighbourTable& nb = model.neighbours;
     std::vector<double> levers(kLeverRecord * static_cast<size_t>(n), std::nan(""));
@@ -219,6 +221,11 @@ struct HostDevice {
     std::vector<double> state(kSampleState * static_cast<size_t>(S), std::nan(""));
     for (int s = 0; s < S; ++s) pack_sample_state(view, F.data(), cache.data(), s, state.data());
     const GroupLayout G = build_group_layout(model);
+    std::optional<GroupClasses> classes;
+    if (mapped) {
+      classes = find_group_classes(model, G, 4096);
+      REQUIRE(classes.has_value());
+    }
     const BlockLayout& L = G.slots;
     std::vector<double> partials(6 * static_cast<size_t>(L.slot_count()));
     for (int b = 0; b < L.block_count(); ++b) {
@@ -240,8 +247,15 @@ struct HostDevice {
           std::vector<double> w(kGroupLanes, 0.0);
           std::vector<Vec3> gr(kGroupLanes, Vec3{0, 0, 0});
           for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-            w[G.pair_entry[p]] = nb.weights[p];
-            gr[G.pair_entry[p]] = ld3(&nb.weight_gradients[3 * static_cast<size_t>(p)]);
+            const int k = G.pair_entry[p];
+            if (mapped) {
+              const double* pairs =
+                  &classes->class_pairs[4 * kGroupLanes * kGroupLanes * static_cast<size_t>(classes->group_class[g])];
+              group_class_entry(pairs, ldm(&classes->group_maps[9 * static_cast<size_t>(g)]), lane, k, w[k], gr[k]);
+            } else {
+              w[k] = nb.weights[p];
+              gr[k] = ld3(&nb.weight_gradients[3 * static_cast<size_t>(p)]);
+            }
           }
           Mat3 dF = zero3();
           for (int k = 0; k < count; ++k) group_pair_dF(rec.data() + k * kGroupRecord, ps, w[k], gr[k], dF);
@@ -545,13 +559,14 @@ TEST_CASE("kernel bodies stepped on the host reproduce the CPU reference", "[ker
         fused_sample<Pass::gradient>(gdev.view, gdev.frames, d.data(), s, gdev.model.neighbours.offsets[s0],
                                      local.data(), sF.data(), static_cast<const double*>(nullptr), 0.0, cache.data());
     }
-    for (int slot_lanes : {1, 2, 32}) {
-      std::vector<double> gk = gdev.grouped(d, sF, cache, slot_lanes);
-      for (int i = 0; i < n; ++i)
-        for (int k = 0; k < 6; ++k)
-          gk[6 * i + k] = frame_row(gdev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, gk[6 * i + k]);
-      CHECK(relative_difference(gk, Kd) < 1e-12);
-    }
+    for (int slot_lanes : {1, 2, 32})
+      for (bool mapped : {false, true}) {
+        std::vector<double> gk = gdev.grouped(d, sF, cache, slot_lanes, mapped);
+        for (int i = 0; i < n; ++i)
+          for (int k = 0; k < 6; ++k)
+            gk[6 * i + k] = frame_row(gdev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, gk[6 * i + k]);
+        CHECK(relative_difference(gk, Kd) < 1e-12);
+      }
   }
 
   // Fused design, record tangent pass (F and the material cache rebuilt from the frames).
