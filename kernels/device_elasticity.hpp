@@ -130,8 +130,11 @@ struct DeviceOptions {
   bool group_samples = true;
   // Grouped pass: w and g of every pair formed from its group's class and map A_g
   // (group_classes.hpp; mesh-based models of tetrahedra or parallelepiped hexahedra) instead of
-  // read per pair: 10 values per group instead of 4 per pair.
-  bool group_classes = true;
+  // read per pair: 10 values per group instead of 4 per pair. Off by default: measured slower on an
+  // H100 (docs/benchmarks.md, eleventh round; 4.18 M x 8, ms per CG iteration, per pair -> classes:
+  // single 0.575 -> 0.636, double 1.120 -> 1.421) though it moves a third of the bytes: the pass is
+  // bound by latency, and the classes' table loads and maps add work and registers.
+  bool group_classes = false;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16

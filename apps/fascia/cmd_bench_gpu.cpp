@@ -78,8 +78,8 @@ const Switch kSwitches[] = {
      "launched tangent product: the grouped pass, eight threads per group of samples with the same frames (1, the "
      "default, where the model has such groups), or the coalesced pass per pair (0)"},
     {"--group-classes", "group_classes", &gpu::DeviceOptions::group_classes,
-     "grouped pass: w and g from the groups' classes and maps (1, the default, where the model has them) or read per "
-     "pair (0)"},
+     "grouped pass: w and g from the groups' classes and maps (1, where the model has them) or read per pair (0, "
+     "the default)"},
     {"--prefetch-frames", "prefetch_frames", &gpu::DeviceOptions::prefetch_frames,
      "launched dense tangent product with 2 or 4 held entries: the next pairs' frames read with the held entries "
      "(1) or with their own entries (0, the default)"},
