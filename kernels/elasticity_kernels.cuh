@@ -666,12 +666,7 @@ __device__ double frame_rows_chunk(const ModelView<R>& m, const R* slot_partials
   const int fpc = static_cast<int>(blockDim.x) / 6;
   const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
   const bool active = t < 6 * fpc && i < m.frames;
-  // The row's frame terms are read before the barrier, with the direction: their latency overlaps.
-  FrameRowTerms terms;
-  if (active) {
-    dir[t] = z ? static_cast<double>(next_direction(z, d, beta, 6 * i + k)) : d ? static_cast<double>(d[6 * i + k]) : 0.0;
-    terms = frame_row_terms(m, geo, inertia_world, i, k);
-  }
+  if (active) dir[t] = z ? static_cast<double>(next_direction(z, d, beta, 6 * i + k)) : d ? static_cast<double>(d[6 * i + k]) : 0.0;
   __syncthreads();
   double dot = 0;
   if (active) {
@@ -691,8 +686,8 @@ __device__ double frame_rows_chunk(const ModelView<R>& m, const R* slot_partials
       for (int u = 0; u < kRound; ++u)
         if (slot[u] >= 0) acc += static_cast<double>(part[u]);
     }
-    // frame_row_of's arithmetic on the terms read above.
-    const double v = apply_frame_row(terms, flags.inv_h2, flags.project, dir + (t - k), k, acc, flags.k_scale);
+    const double v =
+        frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, dir + (t - k), i, k, acc, flags.k_scale);
     out[6 * i + k] = static_cast<R>(v);
     dot = dir[t] * static_cast<double>(static_cast<R>(v));
   }
@@ -708,19 +703,16 @@ template <class R>
 __device__ double store_and_precondition_row(bool active, const UpdatedRow<R>& u, const R* minv, int i, int k, int t,
                                              R* x, R* r, R* z, double* res) {
   const int j = 6 * i + k;
-  // The preconditioner's row is read before the barrier: its latency overlaps the wait.
-  R row[6] = {0, 0, 0, 0, 0, 0};
   if (active) {
     x[j] = u.x;
     r[j] = u.r;
     res[t] = static_cast<double>(u.r);
-#pragma unroll
-    for (int c = 0; c < 6; ++c) row[c] = minv[36 * static_cast<size_t>(i) + 6 * k + c];
   }
   __syncthreads();
   double dot = 0;
   if (active) {
-    const R zk = static_cast<R>(preconditioned_row([&](int c) { return static_cast<double>(row[c]); }, res + (t - k)));
+    const R zk = static_cast<R>(preconditioned_row(
+        [&](int c) { return static_cast<double>(minv[36 * static_cast<size_t>(i) + 6 * k + c]); }, res + (t - k)));
     z[j] = zk;
     dot = res[t] * static_cast<double>(zk);
   }
