@@ -74,13 +74,7 @@ FASCIA_HD void group_pair_output(const R* rec, const Vec3T<R>& ps, R w, const Ve
     for (int c = 0; c < 3; ++c) Ri.m[r][c] = v[4 + 3 * r + c];
   const Vec3T<R> a = Ri * (ps - Vec3T<R>{v[0], v[1], v[2]});
   const Vec3T<R> u = P * g;
-  const Vec3T<R> t = cross(a, u) + w * axial_times_transpose(Ri, P);
-  out[0] = u.x;
-  out[1] = u.y;
-  out[2] = u.z;
-  out[3] = t.x;
-  out[4] = t.y;
-  out[5] = t.z;
+  store_pair_values(u, cross(a, u) + w * axial_times_transpose(Ri, P), out);
 }
 
 // The sum of one output value over a group's kGroupLanes threads (o: thread l's value, 0 for a

@@ -86,17 +86,21 @@ FASCIA_HD Mat3T<T> pair_lever_differential(const Vec3T<T>& dx, const Vec3T<T>& d
   return outer(dx, g) + skew_times(dr, M);
 }
 
-// out = [P g, axial(M P^T)]: B_p^T applied to P, 6 values.
+// A pair's 6 generalised values [u (force part), t (torque part)] into out.
 template <class T>
-FASCIA_HD void pair_lever_virtual_work(const Mat3T<T>& P, const Vec3T<T>& g, const Mat3T<T>& M, T* out) {
-  const Vec3T<T> u = P * g;
-  const Vec3T<T> t = axial_times_transpose(M, P);
+FASCIA_HD void store_pair_values(const Vec3T<T>& u, const Vec3T<T>& t, T* out) {
   out[0] = u.x;
   out[1] = u.y;
   out[2] = u.z;
   out[3] = t.x;
   out[4] = t.y;
   out[5] = t.z;
+}
+
+// out = [P g, axial(M P^T)]: B_p^T applied to P, 6 values.
+template <class T>
+FASCIA_HD void pair_lever_virtual_work(const Mat3T<T>& P, const Vec3T<T>& g, const Mat3T<T>& M, T* out) {
+  store_pair_values(P * g, axial_times_transpose(M, P), out);
 }
 
 // The pair's share of the rotational geometric stiffness that comes from the second derivative

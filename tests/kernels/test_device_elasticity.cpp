@@ -126,6 +126,35 @@ double tangent_difference(const Model& model, unsigned state_seed, unsigned dire
   return relative_difference(dKd, Kd);
 }
 
+// One launched-PCG step (60 CG iterations, kernels_test_loads, h = 0.01) on `model` from
+// kernels_test_state(state_seed) against the CPU reference step: checks that it ran launched with
+// the reference's CG iteration count (into `iterations`) and returns the increments' relative
+// difference. `inspect` sees the device object before the step.
+template <class Inspect>
+double launched_step_difference(const Model& model, unsigned state_seed, const DeviceOptions& options,
+                                Inspect inspect, int& iterations) {
+  const State state = kernels_test_state(model, state_seed);
+  const double h = 0.01;
+  const std::vector<double> loads = kernels_test_loads(model);
+  const ReferenceStep ref = reference_step(model, state, h, 60, loads);
+  DeviceElasticity dev(model, options);
+  inspect(static_cast<const DeviceElasticity&>(dev));
+  dev.set_state(state);
+  StepOptions so;
+  so.dt = h;
+  so.max_cg_iterations = 60;
+  so.persistent = false;
+  so.external_forces = loads;
+  DeviceBackwardEuler stepper(dev, so);
+  const StepReport report = stepper.step();
+  CHECK_FALSE(report.persistent);
+  CHECK(report.cg_iterations == ref.iterations);
+  iterations = report.cg_iterations;
+  std::vector<double> delta(model.dof_count());
+  stepper.last_increment(delta.data());
+  return relative_difference(delta, ref.delta);
+}
+
 }  // namespace
 
 TEST_CASE("record and coalesced passes equal the CPU reference with every lane count", "[gpu]") {
@@ -242,34 +271,19 @@ TEST_CASE("launched PCG with the dense and mapped tangent kernels equals the CPU
   const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const Model model = kernels_test_model(type, MaterialLaw::stvk);
-  const State state = kernels_test_state(model, 37);
-  const double h = 0.01;
-  const std::vector<double> loads = kernels_test_loads(model);
-  const ReferenceStep ref = reference_step(model, state, h, 60, loads);
   DeviceOptions options;
   options.precision = precision;
   options.lanes = 1;
   options.dense_tangent = true;
   options.shape_classes = true;
   options.group_samples = false;
-  DeviceElasticity dev(model, options);
-  REQUIRE(dev.dense_tangent());
-  REQUIRE(dev.shape_classes());
-  dev.set_state(state);
-  StepOptions so;
-  so.dt = h;
-  so.max_cg_iterations = 60;
-  so.persistent = false;
-  so.external_forces = loads;
-  DeviceBackwardEuler stepper(dev, so);
-  const StepReport report = stepper.step();
-  CHECK_FALSE(report.persistent);
-  CHECK(report.cg_iterations == ref.iterations);
-  std::vector<double> delta(model.dof_count());
-  stepper.last_increment(delta.data());
-  const double e = relative_difference(delta, ref.delta);
-  std::printf("[gpu] launched dense mapped %s %s: cg %d delta %.2e\n", to_string(precision), name(type),
-              report.cg_iterations, e);
+  int iterations = 0;
+  const double e = launched_step_difference(model, 37, options, [](const DeviceElasticity& dev) {
+    REQUIRE(dev.dense_tangent());
+    REQUIRE(dev.shape_classes());
+  }, iterations);
+  std::printf("[gpu] launched dense mapped %s %s: cg %d delta %.2e\n", to_string(precision), name(type), iterations,
+              e);
   CHECK(e < bound(precision, true));
 }
 
@@ -305,33 +319,18 @@ TEST_CASE("launched PCG with the grouped pass equals the CPU reference", "[gpu]"
   const bool direction_pass = GENERATE(false, true);
   const bool classes = GENERATE(false, true);
   const Model model = kernels_test_model(type, MaterialLaw::stvk);
-  const State state = kernels_test_state(model, 43);
-  const double h = 0.01;
-  const std::vector<double> loads = kernels_test_loads(model);
-  const ReferenceStep ref = reference_step(model, state, h, 60, loads);
   DeviceOptions options;
   options.precision = precision;
   options.group_samples = true;
   options.direction_pass = direction_pass;
   options.group_classes = classes;
-  DeviceElasticity dev(model, options);
-  REQUIRE(dev.group_samples());
-  REQUIRE(dev.group_classes() == classes);
-  dev.set_state(state);
-  StepOptions so;
-  so.dt = h;
-  so.max_cg_iterations = 60;
-  so.persistent = false;
-  so.external_forces = loads;
-  DeviceBackwardEuler stepper(dev, so);
-  const StepReport report = stepper.step();
-  CHECK_FALSE(report.persistent);
-  CHECK(report.cg_iterations == ref.iterations);
-  std::vector<double> delta(model.dof_count());
-  stepper.last_increment(delta.data());
-  const double e = relative_difference(delta, ref.delta);
+  int iterations = 0;
+  const double e = launched_step_difference(model, 43, options, [&](const DeviceElasticity& dev) {
+    REQUIRE(dev.group_samples());
+    REQUIRE(dev.group_classes() == classes);
+  }, iterations);
   std::printf("[gpu] launched grouped %s %s direction pass %d classes %d: cg %d delta %.2e\n", to_string(precision),
-              name(type), direction_pass ? 1 : 0, classes ? 1 : 0, report.cg_iterations, e);
+              name(type), direction_pass ? 1 : 0, classes ? 1 : 0, iterations, e);
   CHECK(e < bound(precision, true));
 }
 
