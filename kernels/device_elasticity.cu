@@ -288,9 +288,9 @@ class System final : public DeviceElasticity::Impl {
     if (grouped) {
       m_group_view = m_view;
       m_group_view.blocks = m_group_blocks;
-      m_group_view.block_samples = m_group_block_groups.data();
+      m_group_view.block_samples = nullptr;  // block b's groups are [kGroupBlock b, ...) (group_layout.hpp)
       m_group_view.block_slots = m_group_block_slots.data();
-      m_group_view.slot_frames = m_group_slot_frames.data();
+      m_group_view.slot_frames = nullptr;  // neither the grouped kernel nor k_frame_rows reads them
       m_group_view.slot_pair_offsets = m_group_slot_pair_offsets.data();
       m_group_view.slot_pairs = nullptr;
       m_group_view.frame_slot_offsets = m_group_frame_slot_offsets.data();
@@ -589,9 +589,7 @@ class System final : public DeviceElasticity::Impl {
     m_group_samples.upload(G.group_samples);
     m_group_frames.upload(G.group_frames);
     m_group_pos.upload(std::vector<unsigned short>(G.entry_pos.begin(), G.entry_pos.end()));
-    m_group_block_groups.upload(L.block_samples);
     m_group_block_slots.upload(L.block_slots);
-    m_group_slot_frames.upload(L.slot_frames);
     m_group_slot_pair_offsets.upload(L.slot_pair_offsets);
     m_group_frame_slot_offsets.upload(L.frame_slot_offsets);
     m_group_slot_store.upload(G.slot_store);
@@ -642,7 +640,6 @@ class System final : public DeviceElasticity::Impl {
     m_group_maps.upload(maps);
     m_group_class.upload(classes->group_class);
     m_group_class_pairs.upload(classes->class_pairs);
-    m_group_class_count = classes->class_count();
     return true;
   }
 
@@ -1241,11 +1238,10 @@ class System final : public DeviceElasticity::Impl {
   DeviceBuffer<R> m_shape_maps, m_class_pairs;
   // Grouped pass (upload_groups).
   int m_group_blocks = 0, m_group_count = 0;
-  DeviceBuffer<int> m_group_samples, m_group_frames, m_group_block_groups, m_group_block_slots, m_group_slot_frames,
-      m_group_slot_pair_offsets, m_group_frame_slot_offsets, m_group_slot_store;
+  DeviceBuffer<int> m_group_samples, m_group_frames, m_group_block_slots, m_group_slot_pair_offsets,
+      m_group_frame_slot_offsets, m_group_slot_store;
   DeviceBuffer<unsigned short> m_group_pos;
   DeviceBuffer<R> m_group_data, m_group_partials;
-  int m_group_class_count = 0;
   DeviceBuffer<int> m_group_class;
   DeviceBuffer<R> m_group_maps, m_group_class_pairs;
   // State (double) and per-iteration data (R).

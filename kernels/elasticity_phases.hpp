@@ -104,8 +104,9 @@ struct ModelView {
   const int* class_offsets = nullptr;       // [C+1] first reference pair of each class
   const R* class_pairs = nullptr;           // [Pc][4] w, r (1/m); 16-byte aligned
   // Grouped tangent pass (group_layout.hpp, group_pass.hpp), in the view of its own blocks, where
-  // `blocks`, block_samples (each block's first group), the slot tables and frame_slot_offsets /
-  // frame_slots are those of its blocks of groups.
+  // `blocks`, block_slots, slot_pair_offsets and frame_slot_offsets are those of its blocks of
+  // groups (block b holds groups [kGroupBlock b, kGroupBlock (b + 1))), frame_slots is null
+  // (slot_store) and the per-sample block and slot tables are not used.
   int group_count = 0;                         // G
   const int* group_samples = nullptr;          // [G+1] first sample of each group
   const int* group_frames = nullptr;           // [G][kGroupLanes] frames, -1 past the group's count

@@ -15,7 +15,8 @@ constexpr int group_blocks_per_sm() {
 }
 
 // One exchange of the reduce-scatter across a group's threads at distance `o`: the thread keeps
-// the half `mine` (its bit o set: the upper half) and adds its partner's copy of it.
+// the upper half where `upper_mine` (its lane's bit o is set), else the lower, adds its partner's
+// copy of that half, and sends its partner the other.
 template <class R, int n>
 __device__ inline void group_exchange(const R* lower, const R* upper, bool upper_mine, int o, R* kept) {
 #pragma unroll

@@ -71,9 +71,14 @@ std::vector<int> group_sample_order(const Model& model, const std::vector<int>& 
       w[std::find(keys[s].begin(), keys[s].end(), nb.frames[p]) - keys[s].begin()] = nb.weights[p];
     return w;
   };
-  for (int g = 0; g < groups; ++g)
-    std::stable_sort(members.begin() + offsets[g], members.begin() + offsets[g + 1],
-                     [&](int a, int b) { return weights(a) < weights(b); });
+  std::vector<std::pair<std::array<double, kGroupLanes>, int>> keyed;  // one group's (weights, sample)
+  for (int g = 0; g < groups; ++g) {
+    keyed.clear();
+    for (int k = offsets[g]; k < offsets[g + 1]; ++k) keyed.emplace_back(weights(members[k]), members[k]);
+    // Equal weights keep `order`'s order: members are in it, and stable_sort keeps it.
+    std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (size_t k = 0; k < keyed.size(); ++k) members[offsets[g] + k] = keyed[k].second;
+  }
   std::vector<int> result;
   result.reserve(S);
   std::vector<char> placed(groups, 0);
