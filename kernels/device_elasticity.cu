@@ -304,6 +304,7 @@ class System final : public DeviceElasticity::Impl {
       m_group_view.group_class = group_mapped ? m_group_class.data() : nullptr;
       m_group_view.group_maps = group_mapped ? m_group_maps.data() : nullptr;
       m_group_view.group_class_pairs = group_mapped ? m_group_class_pairs.data() : nullptr;
+      m_group_view.group_entries = static_cast<long long>(m_group_data.size() / 4);
     }
 
     const size_t dofs = 6 * static_cast<size_t>(m_n);
@@ -593,14 +594,10 @@ class System final : public DeviceElasticity::Impl {
     m_group_frame_slot_offsets.upload(L.frame_slot_offsets);
     m_group_slot_store.upload(G.slot_store);
     m_group_partials.resize(6 * static_cast<size_t>(L.slot_count()));
-    // All of the multiprocessor's shared memory, so that the blocks the kernel is compiled for
-    // (group_blocks_per_sm) fit beside each other with their staged entries.
-    FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(&k_group_tangent<R, false>),
-                                     cudaFuncAttributePreferredSharedMemoryCarveout, cudaSharedmemCarveoutMaxShared));
     return true;
   }
 
-  // The grouped pass's w and g per (block, frame, thread) entry, [E][4] (group_data_index).
+  // The grouped pass's w and g per (block, frame, thread) entry, [4][E] (group_data_index).
   void upload_group_data(const Model& model, const GroupLayout& G) {
     const NeighbourTable& nb = model.neighbours;
     const BlockLayout& L = G.slots;
@@ -612,8 +609,8 @@ class System final : public DeviceElasticity::Impl {
           const int t = (g - L.block_samples[b]) * kGroupLanes + (s - G.group_samples[g]);
           for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
             const size_t e = static_cast<size_t>(group_data_index(b, G.pair_entry[p], t));
-            data[4 * e] = nb.weights[p];
-            for (int k = 0; k < 3; ++k) data[4 * e + 1 + k] = nb.weight_gradients[3 * static_cast<size_t>(p) + k];
+            data[e] = nb.weights[p];
+            for (int k = 0; k < 3; ++k) data[(k + 1) * E + e] = nb.weight_gradients[3 * static_cast<size_t>(p) + k];
           }
         }
     m_group_data.upload(data);

@@ -114,11 +114,12 @@ struct ModelView {
   // [Q] where slot q's partials are stored: frame-major, so that each frame's slots are contiguous
   // and frame_slots (then null) is not read (k_frame_rows: one dependent load fewer).
   const int* slot_store = nullptr;
-  const R* group_data = nullptr;               // [entries][4] w, g (1/m) per block, frame k, thread
+  const R* group_data = nullptr;               // [4][group_entries] w, g (1/m) per block, frame k, thread
   // Mapped grouped pass (group_classes.hpp): w and g from the group's class and map instead.
   const int* group_class = nullptr;            // [G]
   const R* group_maps = nullptr;               // [9][G] A_g row-major, component-major over groups
   const R* group_class_pairs = nullptr;        // [C][kGroupLanes][kGroupLanes][4] w, r (1/m)
+  long long group_entries = 0;
   // Record tangent pass: packed records (kPairRecord, kSampleRecord values each).
   const R* pair_records = nullptr;          // [P][4]: g (1/m), w
   const R* sample_records = nullptr;        // [S][4]: p_s - origin (m), v (m^3)

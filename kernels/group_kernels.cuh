@@ -7,32 +7,11 @@
 
 namespace fascia::gpu {
 
-// Whether the kernel stages each thread's w and g in shared memory (float): copied there by
-// asynchronous copies that hold no registers while in flight, read there by both halves. Double,
-// whose staged entries would need 32 KB more per block than its 3 blocks per SM leave, loads them
-// into registers and reads them again for the output half.
+// Blocks per multiprocessor the kernel is compiled for (registers within 65,536 / (128 blocks));
+// float keeps each sample's w and g in registers between the two halves, double reads them again.
 template <class R>
-constexpr bool group_stages_entries() {
-  return sizeof(R) == sizeof(float);
-}
-
-// Blocks per multiprocessor the kernel is compiled for (registers within 65,536 / (128 blocks)):
-// staged float, 6 blocks of 35.3 KB static shared memory (212 of the 228 KB per SM); mapped float,
-// which keeps w and g in registers, 5 (at 6 it spills); double 3.
-template <class R, bool Mapped>
 constexpr int group_blocks_per_sm() {
-  if (sizeof(R) != sizeof(float)) return 3;
-  return Mapped ? 5 : 6;
-}
-
-// A 16-byte copy from global to shared memory that completes asynchronously (cp.async, L2 only),
-// then the wait for all of the thread's copies: each thread reads only what it copied itself.
-__device__ inline void copy_async16(void* shared, const void* global) {
-  const unsigned s = static_cast<unsigned>(__cvta_generic_to_shared(shared));
-  asm volatile("cp.async.cg.shared.global [%0], [%1], 16;\n" ::"r"(s), "l"(global) : "memory");
-}
-__device__ inline void copy_async_wait_all() {
-  asm volatile("cp.async.commit_group;\ncp.async.wait_group 0;\n" ::: "memory");
+  return sizeof(R) == sizeof(float) ? 5 : 3;
 }
 
 // One exchange of the reduce-scatter across a group's threads at distance `o`: the thread keeps
@@ -101,15 +80,12 @@ __device__ void group_slot_sums(const ModelView<R>& m, const R* outs, int stride
 // position, then `slot_lanes` lanes per slot sum the block's slots (group_slot_sums). Mapped: w and
 // g from the group's class and map (group_classes.hpp) instead of group_data.
 template <class R, bool Mapped>
-__global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R, Mapped>())
+__global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
     k_group_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
                     int slot_lanes) {
-  constexpr bool kStage = group_stages_entries<R>() && !Mapped;
-  constexpr bool kKeepEntries = sizeof(R) == sizeof(float);  // unstaged: in registers between the halves
+  constexpr bool kKeepEntries = sizeof(R) == sizeof(float);
   __shared__ __align__(16) R records[kGroupRecords];
   __shared__ __align__(16) R outs[6 * kGroupThreads];
-  // Staged w and g: thread t's pair with frame k at staged + 4 (k kGroupThreads + t).
-  __shared__ __align__(16) R staged[kStage ? 4 * kGroupLanes * kGroupThreads : 1];
   const int b = static_cast<int>(blockIdx.x), t = static_cast<int>(threadIdx.x);
   const int gl = t / kGroupLanes, lane = t % kGroupLanes;
   const int g = b * kGroupBlock + gl;  // blocks of kGroupBlock consecutive groups (group_layout.hpp)
@@ -157,6 +133,7 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R, Mapped>(
   const int s = s0 + lane;
   SlotBounds bounds;  // this thread's slot of the first round of the slot sums
   if constexpr (kPreload) bounds = slot_bounds(m, bs.q0 + t / slot_lanes, bs.q1, bs.base);
+  const long long E = m.group_entries;
   Vec3T<R> ps{0, 0, 0};
   R w[kGroupLanes];
   Vec3T<R> gr[kGroupLanes];
@@ -174,16 +151,10 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R, Mapped>(
   const auto load_entry = [&](int k, R& wk, Vec3T<R>& gk) {
     if constexpr (Mapped) {
       group_class_entry(class_pairs, A, lane, k, wk, gk);
-    } else if constexpr (kStage) {
-      R v[4];
-      load_shared<4>(staged + 4 * (k * kGroupThreads + t), v);
-      wk = v[0];
-      gk = Vec3T<R>{v[1], v[2], v[3]};
     } else {
-      R v[4];
-      load_aligned<4>(m.group_data + 4 * group_data_index(b, k, t), v);
-      wk = v[0];
-      gk = Vec3T<R>{v[1], v[2], v[3]};
+      const long long e = group_data_index(b, k, t);
+      wk = m.group_data[e];
+      gk = Vec3T<R>{m.group_data[E + e], m.group_data[2 * E + e], m.group_data[3 * E + e]};
     }
   };
   Mat3T<R> F = zero3<R>();
@@ -194,12 +165,7 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R, Mapped>(
                   sample_value(f.sample_state, m.samples, 2, s)};
 #pragma unroll
     for (int k = 0; k < kGroupLanes; ++k)
-      if (k < n) {
-        if constexpr (kStage)
-          copy_async16(staged + 4 * (k * kGroupThreads + t), m.group_data + 4 * group_data_index(b, k, t));
-        else
-          load_entry(k, w[k], gr[k]);
-      }
+      if (k < n) load_entry(k, w[k], gr[k]);
     mat = &m.materials[m.sample_materials[s]];
     ell_sample_material(m, f.sample_state, s, *mat, F, cache);
   }
@@ -207,13 +173,9 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R, Mapped>(
   __syncwarp();
   Mat3T<R> dF = zero3<R>(), dP = zero3<R>();  // dP: v dP
   if (active) {
-    if constexpr (kStage) copy_async_wait_all();
 #pragma unroll
     for (int k = 0; k < kGroupLanes; ++k)
-      if (k < n) {
-        if constexpr (kStage) load_entry(k, w[k], gr[k]);
-        group_pair_dF(rec + k * kGroupRecord, ps, w[k], gr[k], dF);
-      }
+      if (k < n) group_pair_dF(rec + k * kGroupRecord, ps, w[k], gr[k], dF);
     dP = sample_value(f.sample_state, m.samples, 3, s) * pk1_differential(*mat, F, cache, dF);
   }
   if constexpr (!kPreload) bs = block_slot_range(m, b);
@@ -227,7 +189,7 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R, Mapped>(
       if (active && k < n) {
         R wk = 0;
         Vec3T<R> gk{0, 0, 0};
-        if constexpr (kKeepEntries && !kStage) {
+        if constexpr (kKeepEntries) {
           wk = w[k];
           gk = gr[k];
         } else {

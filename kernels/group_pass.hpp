@@ -96,8 +96,7 @@ FASCIA_HD void group_class_entry(const R* pairs, const Mat3T<R>& A, int lane, in
   g = A * Vec3T<R>{ref[1], ref[2], ref[3]};
 }
 
-// Index of entry (block b, frame k, block thread t) in group_data, whose entries are [w, g] (4
-// values each, 16-byte aligned in float): entry e at group_data + 4 e.
+// Index of component c of entry (block b, frame k, block thread t) in group_data's rows.
 FASCIA_HD long long group_data_index(int b, int k, int t) {
   return (static_cast<long long>(b) * kGroupLanes + k) * kGroupThreads + t;
 }
