@@ -106,6 +106,11 @@ struct DeviceElasticity::Impl {
   std::string mapped_refusal;             // why not, where DeviceOptions::shape_classes asked for them
   std::string grouped_refusal;            // why not, where DeviceOptions::group_samples asked for it
   std::string group_classes_refusal;      // why not, where DeviceOptions::group_classes asked for them
+
+  // The launched PCG runs the split iteration (DeviceOptions::split_iteration).
+  bool split_iteration() const {
+    return design == Design::fused && grouped && options.split_iteration && !direction_pass;
+  }
 };
 
 namespace {
@@ -320,11 +325,11 @@ class System final : public DeviceElasticity::Impl {
     m_diag.resize(36 * static_cast<size_t>(m_n));
     m_prepare_sums.resize(kPrepareSums * static_cast<size_t>(m_n));
     for (auto* v : {&m_grad, &m_d, &m_out, &m_cx, &m_cr, &m_cz, &m_cp, &m_cAp}) v->resize(dofs);
-    // One partial per block of every kernel that reduces (reduce_and_finish).
+    // The partials and counters of every kernel that reduces (reduce_and_finish, at most 4 values).
     const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(m_n, kThreads), grid_for(m_n, m_row_frames),
-                                   grid_for(6LL * m_n, kPaperGather), m_blocks, 1});
-    m_red_partials.resize(max_grid);
-    m_counter.resize(1);
+                                   grid_for(6LL * m_n, kPaperGather), m_blocks, m_group_blocks, 1});
+    m_red_partials.resize(reduce_partial_count(max_grid, 4));
+    m_counter.resize(reduce_counter_count(max_grid));
     m_counter.zero();
     m_scalars.resize(1);
     m_scalars.zero();
@@ -936,7 +941,8 @@ class System final : public DeviceElasticity::Impl {
         const R* pold = z ? d : nullptr;
         (group_mapped ? k_group_tangent<R, true> : k_group_tangent<R, false>)<<<m_group_blocks, kGroupThreads, 0,
                                                                              m_stream>>>(
-            m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes);
+            m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes, false, reduction(),
+            flags.k_scale);
         check_launch();
         k_frame_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
             m_group_view, m_group_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(),
@@ -989,13 +995,26 @@ class System final : public DeviceElasticity::Impl {
     enqueue_frame_prepare(flags.inv_h2, false, flags.k_scale, m_load_rot.size() ? m_load_rot.data() : nullptr,
                           m_step.preconditioner);
     k_pcg_init<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
-        m_view, m_grad.data(), m_inertia_world.data(), m_velocities.data(),
+        m_view, m_grad.data(), m_inertia_world.data(), m_geo.data(), flags, m_velocities.data(),
         m_external.size() ? m_external.data() : nullptr, 1.0 / h, m_minv.data(), m_cx.data(), m_cr.data(), m_cz.data(),
         m_cp.data(), reduction());
     check_launch();
   }
 
   void enqueue_cg_iteration() {
+    if (split_iteration()) {
+      const FrameTermsFlags flags = step_flags();
+      (group_mapped ? k_group_tangent<R, true> : k_group_tangent<R, false>)<<<m_group_blocks, kGroupThreads, 0,
+                                                                           m_stream>>>(
+          m_group_view, m_frame_view, m_cz.data(), m_cp.data(), m_group_partials.data(), m_scalars.data(),
+          options.slot_lanes, true, reduction(), flags.k_scale);
+      check_launch();
+      k_frame_update<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
+          m_group_view, m_group_partials.data(), m_geo.data(), m_inertia_world.data(), flags, m_minv.data(),
+          m_cx.data(), m_cr.data(), m_cz.data(), m_cp.data(), reduction(), m_step.cg_tolerance);
+      check_launch();
+      return;
+    }
     enqueue_tangent(m_cp.data(), m_cAp.data(), step_flags(), true);
     k_update_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
         m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
@@ -1299,6 +1318,7 @@ bool DeviceElasticity::prefetch_frames() const { return m_impl->prefetch_frames;
 bool DeviceElasticity::resident_frames() const { return m_impl->resident_frames(); }
 bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
 bool DeviceElasticity::group_samples() const { return m_impl->grouped; }
+bool DeviceElasticity::split_iteration() const { return m_impl->split_iteration(); }
 const std::string& DeviceElasticity::group_samples_refusal() const { return m_impl->grouped_refusal; }
 bool DeviceElasticity::group_classes() const { return m_impl->group_mapped; }
 const std::string& DeviceElasticity::group_classes_refusal() const { return m_impl->group_classes_refusal; }

@@ -135,6 +135,13 @@ struct DeviceOptions {
   // single 0.575 -> 0.636, double 1.120 -> 1.421) though it moves a third of the bytes: the pass is
   // bound by latency, and the classes' table loads and maps add work and registers.
   bool group_classes = false;
+  // Grouped pass, launched PCG: two launches per CG iteration instead of three. The grouped pass
+  // also reduces p . A p as k_scale sum_s v dF : dP plus the frame terms of p = z + beta p_old,
+  // whose parts the previous frame pass reduced (k_frame_update), and so alpha; one frame pass then
+  // forms A p and applies the update and the preconditioner (A p neither stored nor read again).
+  // Equal to the three-launch iteration in exact arithmetic (p is zero on fixed DOFs); alpha
+  // differs at round-off level.
+  bool split_iteration = true;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16
@@ -221,6 +228,9 @@ class DeviceElasticity {
   // Grouped pass: whether w and g come from the groups' classes (DeviceOptions::group_classes),
   // and why not where they were asked for.
   bool group_classes() const;
+  // Whether the launched PCG runs the split iteration (DeviceOptions::split_iteration; grouped
+  // pass without the direction pass).
+  bool split_iteration() const;
   const std::string& group_classes_refusal() const;
   // Coalesced pass: whether the launched tangent kernel reads the frames from shared memory
   // (DeviceOptions::slot_frames with the dense kernel and no shape classes).

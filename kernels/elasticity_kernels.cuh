@@ -20,30 +20,61 @@ struct Scalars {
   double rz, rz0, alpha, beta;
   int done;        // 1 converged, 2 breakdown (p.Ap <= 0 or not finite)
   int iterations;
+  // Split launched PCG (k_frame_update): the frame terms of the next direction's p . A p as the
+  // parts of p = z + beta p_old (bilinear form D of frame_row_of without sample terms):
+  // z.Dz, z.Dp_old + p_old.Dz, p_old.Dp_old.
+  double frame_zz, frame_cross, frame_pp;
 };
 
-// Where a kernel's reduction goes: per-block partials, the last-block counter, the scalars.
+// Where a kernel's reduction goes (reduce_and_finish): per-block partials, then per-chunk
+// partials, the counters (one for the grid, then one per chunk; zero between kernels), the
+// scalars.
 struct Reduction {
-  double* partials;   // [grid]
-  unsigned* counter;  // zero between kernels
+  double* partials;   // [reduce_partial_count(grid, N)]
+  unsigned* counter;  // [reduce_counter_count(grid)]
   Scalars* scalars;
 };
 
-enum class Finish { energy, alpha, beta, init };
+// Blocks whose partials one block sums at the reduction's first level: at most 2 per thread of a
+// 128-thread block, one round trip to the L2.
+constexpr int kReduceChunk = 256;
+FASCIA_HD int reduce_chunk_count(int grid) { return (grid + kReduceChunk - 1) / kReduceChunk; }
+FASCIA_HD int reduce_counter_count(int grid) { return 1 + reduce_chunk_count(grid); }
+FASCIA_HD size_t reduce_partial_count(int grid, int values) {
+  return static_cast<size_t>(values) * (static_cast<size_t>(grid) + static_cast<size_t>(reduce_chunk_count(grid)));
+}
+
+enum class Finish { energy, alpha, beta, init, alpha_split, beta_split };
+
+// Sums over the block of each of N values, valid on thread 0 (v[n] holds them there). Every thread
+// of the block must call it; blockDim.x is a multiple of 32.
+template <int N>
+__device__ inline void block_sums(double (&v)[N]) {
+  __shared__ double warp_sums[N][32];
+  for (int o = 16; o > 0; o >>= 1)
+#pragma unroll
+    for (int n = 0; n < N; ++n) v[n] += __shfl_down_sync(0xffffffffu, v[n], o);
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+  __syncthreads();
+  if (lane == 0)
+#pragma unroll
+    for (int n = 0; n < N; ++n) warp_sums[n][warp] = v[n];
+  __syncthreads();
+  if (threadIdx.x == 0)
+#pragma unroll
+    for (int n = 0; n < N; ++n) {
+      double total = 0;
+      for (int k = 0; k < static_cast<int>(blockDim.x + 31) / 32; ++k) total += warp_sums[n][k];
+      v[n] = total;
+    }
+}
 
 // Sum over the block, valid on thread 0. Every thread of the block must call it; blockDim.x is
 // a multiple of 32.
 __device__ inline double block_sum(double v) {
-  __shared__ double warp_sums[32];
-  for (int o = 16; o > 0; o >>= 1) v += __shfl_down_sync(0xffffffffu, v, o);
-  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
-  __syncthreads();
-  if (lane == 0) warp_sums[warp] = v;
-  __syncthreads();
-  double total = 0;
-  if (threadIdx.x == 0)
-    for (int k = 0; k < static_cast<int>(blockDim.x + 31) / 32; ++k) total += warp_sums[k];
-  return total;
+  double s[1] = {v};
+  block_sums(s);
+  return s[0];
 }
 
 // The end of a PCG iteration from its r.z (rz_new): beta = rz_new / rz, rz, the iteration count,
@@ -85,45 +116,118 @@ __device__ inline double strided_partial_sum(const double* partials, unsigned n)
   return s;
 }
 
-// Writes the block's value (thread 0's v) and, in the last block, sums all partials in block order
-// and applies `finish` to the scalars.
-__device__ inline void reduce_and_finish(double v, const Reduction& red, Finish finish, double tolerance) {
-  __shared__ bool is_last;
-  const double block = block_sum(v);
-  if (threadIdx.x == 0) {
-    red.partials[blockIdx.x] = block;
-    __threadfence();
-    is_last = atomicAdd(red.counter, 1u) == gridDim.x - 1;
+// The sums over the block of N interleaved partials (entry b: partials[N b + n]) for b < count,
+// valid on thread 0: thread t adds entries t, t + blockDim.x, ... in that order (loads of 2
+// strides issued together), then block_sums.
+template <int N>
+__device__ inline void sum_partials(const double* partials, unsigned count, double (&s)[N]) {
+#pragma unroll
+  for (int n = 0; n < N; ++n) s[n] = 0;
+  for (unsigned k = threadIdx.x; k < count; k += 2 * blockDim.x) {
+    double round[2][N];
+#pragma unroll
+    for (int u = 0; u < 2; ++u)
+#pragma unroll
+      for (int n = 0; n < N; ++n) {
+        const unsigned b = k + u * blockDim.x;
+        round[u][n] = b < count ? __ldcg(partials + N * static_cast<size_t>(b) + n) : 0.0;
+      }
+#pragma unroll
+    for (int u = 0; u < 2; ++u)
+      if (k + u * blockDim.x < count)
+#pragma unroll
+        for (int n = 0; n < N; ++n) s[n] += round[u][n];
   }
-  __syncthreads();
-  if (!is_last) return;
-  // 4 M samples: 13,005 blocks of the frame-row passes, 52 partials per thread of the last block.
-  const double total = block_sum(strided_partial_sum<8>(red.partials, gridDim.x));
-  if (threadIdx.x != 0) return;
-  *red.counter = 0;
-  Scalars& sc = *red.scalars;
+  block_sums(s);
+}
+
+// Applies `finish` to the scalars from the grid's totals (N of them: Finish::beta_split 4
+// [r.z, z.Dz, cross, p.Dp], Finish::init 2 [r.z, z.Dz], else 1).
+template <int N>
+__device__ inline void finish_scalars(const double (&total)[N], Finish finish, double tolerance, Scalars& sc) {
   switch (finish) {
     case Finish::energy:
-      sc.energy = total;
+      sc.energy = total[0];
       break;
     case Finish::init:
-      sc.rz = sc.rz0 = total;
+      sc.rz = sc.rz0 = total[0];
       sc.alpha = sc.beta = 0;
       sc.iterations = 0;
-      sc.done = total > 0 ? 0 : 1;
+      sc.done = total[0] > 0 ? 0 : 1;
+      if constexpr (N >= 2) {
+        sc.frame_zz = total[1];  // p = z: no cross or p_old terms
+        sc.frame_cross = sc.frame_pp = 0;
+      }
       break;
     case Finish::alpha:
-      if (total > 0 && total < HUGE_VAL) {
-        sc.alpha = sc.rz / total;
+    case Finish::alpha_split: {
+      // Split: total[0] = k_scale sum_s v dF : dP, plus the frame terms of p = z + beta p_old.
+      const double pAp = finish == Finish::alpha
+                             ? total[0]
+                             : total[0] + (sc.frame_zz + sc.beta * sc.frame_cross + sc.beta * sc.beta * sc.frame_pp);
+      if (pAp > 0 && pAp < HUGE_VAL) {
+        sc.alpha = sc.rz / pAp;
       } else {
         sc.alpha = 0;
         sc.done = 2;
       }
       break;
+    }
     case Finish::beta:
-      end_iteration(total, sc.rz0, tolerance, sc.rz, sc.beta, sc.iterations, sc.done);
+    case Finish::beta_split:
+      end_iteration(total[0], sc.rz0, tolerance, sc.rz, sc.beta, sc.iterations, sc.done);
+      if constexpr (N >= 4) {
+        sc.frame_zz = total[1];
+        sc.frame_cross = total[2];
+        sc.frame_pp = total[3];
+      }
       break;
   }
+}
+
+// Grid reduction of N values per thread, deterministic: each block writes its sums (block_sums);
+// the last block of each chunk of kReduceChunk blocks (counted by the chunk's counter) sums the
+// chunk's partials in block order; the last chunk (the grid's counter) sums the chunks' partials
+// in chunk order and applies `finish`. Two round trips to the L2 at the end of a 32,768-block grid
+// instead of 32 with one level. Counters are reset by the blocks that finish them.
+template <int N>
+__device__ inline void reduce_and_finish(const double (&v)[N], const Reduction& red, Finish finish, double tolerance) {
+  __shared__ bool is_last;
+  double s[N];
+#pragma unroll
+  for (int n = 0; n < N; ++n) s[n] = v[n];
+  block_sums(s);
+  const unsigned grid = gridDim.x, chunk = blockIdx.x / kReduceChunk;
+  const unsigned first = chunk * kReduceChunk, count = min(static_cast<unsigned>(kReduceChunk), grid - first);
+  const unsigned chunks = static_cast<unsigned>(reduce_chunk_count(static_cast<int>(grid)));
+  double* chunk_partials = red.partials + N * static_cast<size_t>(grid);
+  if (threadIdx.x == 0) {
+#pragma unroll
+    for (int n = 0; n < N; ++n) red.partials[N * static_cast<size_t>(blockIdx.x) + n] = s[n];
+    __threadfence();
+    is_last = atomicAdd(red.counter + 1 + chunk, 1u) == count - 1;
+  }
+  __syncthreads();
+  if (!is_last) return;
+  sum_partials(red.partials + N * static_cast<size_t>(first), count, s);
+  if (threadIdx.x == 0) {
+    red.counter[1 + chunk] = 0;
+#pragma unroll
+    for (int n = 0; n < N; ++n) chunk_partials[N * static_cast<size_t>(chunk) + n] = s[n];
+    __threadfence();
+    is_last = atomicAdd(red.counter, 1u) == chunks - 1;
+  }
+  __syncthreads();
+  if (!is_last) return;
+  sum_partials(chunk_partials, chunks, s);
+  if (threadIdx.x != 0) return;
+  *red.counter = 0;
+  finish_scalars(s, finish, tolerance, *red.scalars);
+}
+
+__device__ inline void reduce_and_finish(double v, const Reduction& red, Finish finish, double tolerance) {
+  const double values[1] = {v};
+  reduce_and_finish(values, red, finish, tolerance);
 }
 
 __device__ inline bool finished(const Scalars* sc) { return sc != nullptr && *(volatile const int*)&sc->done != 0; }
@@ -652,6 +756,28 @@ __global__ void __launch_bounds__(kLaneThreadsMax) k_staged_tangent(ModelView<R>
   staged_tangent_block(m, f, F, cache, d, p_old, beta, static_cast<int>(blockIdx.x), smem, slot_partials);
 }
 
+// Row k of frame i's slot partials, summed in slot order (fused_gather's order) in double: loads
+// in rounds of 4 issued together. Slots in frame order where m.frame_slots is null (the grouped
+// pass's frame-major store).
+template <class R>
+__device__ double frame_slot_sum(const ModelView<R>& m, const R* slot_partials, int i, int k) {
+  constexpr int kRound = 4;
+  double acc = 0;
+  const int q1 = m.frame_slot_offsets[i + 1];
+  for (int q = m.frame_slot_offsets[i]; q < q1; q += kRound) {
+    int slot[kRound];
+    R part[kRound];
+#pragma unroll
+    for (int u = 0; u < kRound; ++u) slot[u] = q + u < q1 ? (m.frame_slots ? m.frame_slots[q + u] : q + u) : -1;
+#pragma unroll
+    for (int u = 0; u < kRound; ++u) part[u] = slot[u] >= 0 ? slot_partials[6 * slot[u] + k] : R(0);
+#pragma unroll
+    for (int u = 0; u < kRound; ++u)
+      if (slot[u] >= 0) acc += static_cast<double>(part[u]);
+  }
+  return acc;
+}
+
 // Frame pass with one thread per frame row: chunk c covers frames [c fpc, (c + 1) fpc), fpc =
 // blockDim.x / 6. With z set (PCG) the direction p = z + beta p is formed (every thread of a frame
 // has read the old p before the barrier) and stored; out = H d from the block slots' sums (in
@@ -671,21 +797,7 @@ __device__ double frame_rows_chunk(const ModelView<R>& m, const R* slot_partials
   double dot = 0;
   if (active) {
     if (z) d[6 * i + k] = static_cast<R>(dir[t]);
-    // The frame's slot partials in rounds of 4 loads issued together, added in slot order.
-    constexpr int kRound = 4;
-    double acc = 0;
-    const int q1 = m.frame_slot_offsets[i + 1];
-    for (int q = m.frame_slot_offsets[i]; q < q1; q += kRound) {
-      int slot[kRound];
-      R part[kRound];
-#pragma unroll
-      for (int u = 0; u < kRound; ++u) slot[u] = q + u < q1 ? (m.frame_slots ? m.frame_slots[q + u] : q + u) : -1;
-#pragma unroll
-      for (int u = 0; u < kRound; ++u) part[u] = slot[u] >= 0 ? slot_partials[6 * slot[u] + k] : R(0);
-#pragma unroll
-      for (int u = 0; u < kRound; ++u)
-        if (slot[u] >= 0) acc += static_cast<double>(part[u]);
-    }
+    const double acc = frame_slot_sum(m, slot_partials, i, k);
     const double v =
         frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, dir + (t - k), i, k, acc, flags.k_scale);
     out[6 * i + k] = static_cast<R>(v);
@@ -755,6 +867,63 @@ __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* 
   reduce_and_finish(dot, red, Finish::beta, tolerance);
 }
 
+// The split launched PCG's frame pass (after the grouped pass with `split`, which reduced alpha
+// from the sample terms of p . A p and the frame terms held in the scalars): one thread per frame
+// row, chunks as frame_rows_chunk. p = z + beta p_old formed (next_direction) and stored; A p from
+// the slot sums and the frame terms (frame_rows_chunk's arithmetic, rounded to R); x += alpha p,
+// r -= alpha A p, z = M^-1 r (update_rows_chunk's); then reduced: r . z into beta, and the frame
+// terms of the next direction p' = z + beta' p as its parts z.Dz, z.Dp + p.Dz, p.Dp (D: the frame
+// terms, frame_row_of without sample terms; p' . D p' = z.Dz + beta' (z.Dp + p.Dz) + beta'^2 p.Dp),
+// so that the next grouped pass can finish p' . A p' without a pass over the frames. An iteration
+// is then two launches instead of three, and A p is neither stored nor read again.
+template <class R>
+__global__ void k_frame_update(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
+                               FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, Reduction red,
+                               double tolerance) {
+  __shared__ double dir[kLaneThreadsMax];  // p of the chunk's rows
+  __shared__ double res[kLaneThreadsMax];  // r, then z
+  if (finished(red.scalars)) return;
+  const double alpha = red.scalars->alpha, beta = red.scalars->beta;
+  const int fpc = static_cast<int>(blockDim.x) / 6;
+  const int t = static_cast<int>(threadIdx.x), i = static_cast<int>(blockIdx.x) * fpc + t / 6, k = t - 6 * (t / 6);
+  const bool active = t < 6 * fpc && i < m.frames;
+  const int j = 6 * i + k;
+  FrameRowTerms terms{};
+  if (active) {
+    dir[t] = static_cast<double>(next_direction(z, p, beta, j));
+    terms = frame_row_terms(m, geo, inertia_world, i, k);
+  }
+  __syncthreads();
+  if (active) {
+    p[j] = static_cast<R>(dir[t]);
+    const double acc = frame_slot_sum(m, slot_partials, i, k);
+    const R apj = static_cast<R>(apply_frame_row(terms, flags.inv_h2, flags.project, dir + (t - k), k, acc, flags.k_scale));
+    const UpdatedRow<R> u = update_row(x[j], r[j], alpha, dir[t], static_cast<double>(apj));
+    x[j] = u.x;
+    r[j] = u.r;
+    res[t] = static_cast<double>(u.r);
+  }
+  __syncthreads();
+  double zk = 0, sums[4] = {0, 0, 0, 0};
+  if (active) {
+    zk = static_cast<double>(static_cast<R>(preconditioned_row(
+        [&](int c) { return static_cast<double>(minv[36 * static_cast<size_t>(i) + 6 * k + c]); }, res + (t - k))));
+    z[j] = static_cast<R>(zk);
+    sums[0] = res[t] * zk;
+  }
+  __syncthreads();
+  if (active) res[t] = zk;
+  __syncthreads();
+  if (active) {
+    const double Dz = apply_frame_row(terms, flags.inv_h2, flags.project, res + (t - k), k, 0.0, flags.k_scale);
+    const double Dp = apply_frame_row(terms, flags.inv_h2, flags.project, dir + (t - k), k, 0.0, flags.k_scale);
+    sums[1] = zk * Dz;
+    sums[2] = zk * Dp + dir[t] * Dz;
+    sums[3] = dir[t] * Dp;
+  }
+  reduce_and_finish(sums, red, Finish::beta_split, tolerance);
+}
+
 // ---- frames: preparation and PCG ----
 
 // Frame preparation in two kernels. k_frame_columns: kColumnParts threads per frame, each summing
@@ -820,12 +989,14 @@ FASCIA_HD void block_jacobi(const R* minv, const R* r, int i, double* z) {
 }
 
 // Right-hand side and start of the PCG: b = M v / h - dW + f_ext (fixed DOFs 0), x = 0, r = b,
-// z = M^-1 r, p = z, rz = r . z.
+// z = M^-1 r, p = z, rz = r . z, and for the split launched PCG the frame terms z . D z of the
+// first direction's p . A p (`geo`, `flags`: the step's frame terms, frame_row_of).
 template <class R>
-__global__ void k_pcg_init(ModelView<R> m, const R* gradient, const R* inertia_world, const double* velocities,
-                           const double* external, double inv_h, const R* minv, R* x, R* r, R* z, R* p, Reduction red) {
+__global__ void k_pcg_init(ModelView<R> m, const R* gradient, const R* inertia_world, const R* geo,
+                           FrameTermsFlags flags, const double* velocities, const double* external, double inv_h,
+                           const R* minv, R* x, R* r, R* z, R* p, Reduction red) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  double dot = 0;
+  double dot = 0, zDz = 0;
   if (i < m.frames) {
     double b[6];
     const double mass = static_cast<double>(m.masses[i]);
@@ -840,13 +1011,18 @@ __global__ void k_pcg_init(ModelView<R> m, const R* gradient, const R* inertia_w
     }
     double zz[6];
     block_jacobi(minv, r, i, zz);
+    double zr[6];  // z as stored
     for (int k = 0; k < 6; ++k) {
+      zr[k] = static_cast<double>(static_cast<R>(zz[k]));
       z[6 * i + k] = static_cast<R>(zz[k]);
       p[6 * i + k] = static_cast<R>(zz[k]);
-      dot += static_cast<double>(r[6 * i + k]) * static_cast<double>(static_cast<R>(zz[k]));
+      dot += static_cast<double>(r[6 * i + k]) * zr[k];
     }
+    for (int k = 0; k < 6; ++k)
+      zDz += zr[k] * frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, zr, i, k, 0.0, flags.k_scale);
   }
-  reduce_and_finish(dot, red, Finish::init, 0);
+  const double sums[2] = {dot, zDz};
+  reduce_and_finish(sums, red, Finish::init, 0);
 }
 
 // p = z + beta p.

@@ -313,24 +313,51 @@ TEST_CASE("grouped tangent pass equals the CPU reference", "[gpu]") {
 
 TEST_CASE("launched PCG with the grouped pass equals the CPU reference", "[gpu]") {
   // The grouped kernel forms the direction z + beta p_old itself, or reads p from the direction
-  // pass; the persistent kernels keep the coalesced pass, so the step runs launched.
+  // pass; the persistent kernels keep the coalesced pass, so the step runs launched. Split: two
+  // launches per iteration, p . A p reduced by the grouped pass (without the direction pass).
   const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const bool direction_pass = GENERATE(false, true);
   const bool classes = GENERATE(false, true);
+  const bool split = GENERATE(false, true);
   const Model model = kernels_test_model(type, MaterialLaw::stvk);
   DeviceOptions options;
   options.precision = precision;
   options.group_samples = true;
   options.direction_pass = direction_pass;
   options.group_classes = classes;
+  options.split_iteration = split;
   int iterations = 0;
   const double e = launched_step_difference(model, 43, options, [&](const DeviceElasticity& dev) {
     REQUIRE(dev.group_samples());
     REQUIRE(dev.group_classes() == classes);
+    REQUIRE(dev.split_iteration() == (split && !direction_pass));
   }, iterations);
-  std::printf("[gpu] launched grouped %s %s direction pass %d classes %d: cg %d delta %.2e\n", to_string(precision),
-              name(type), direction_pass ? 1 : 0, classes ? 1 : 0, iterations, e);
+  std::printf("[gpu] launched grouped %s %s direction pass %d classes %d split %d: cg %d delta %.2e\n",
+              to_string(precision), name(type), direction_pass ? 1 : 0, classes ? 1 : 0, split ? 1 : 0, iterations, e);
+  CHECK(e < bound(precision, true));
+}
+
+TEST_CASE("launched PCG reductions over many chunks equal the CPU reference", "[gpu]") {
+  // Every reduction sums per chunk of kReduceChunk = 256 blocks, then over the chunks. 16 x 16 x 17
+  // hexahedra: 4,352 groups, 272 grouped blocks (2 chunks); one frame per block of the frame
+  // passes (row_frames 1): 5,202 blocks (21 chunks, the last partial). Split and three-launch
+  // iterations, both precisions.
+  const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
+  const bool split = GENERATE(false, true);
+  const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::neo_hookean, 17, 16, 16);
+  DeviceOptions options;
+  options.precision = precision;
+  options.group_samples = true;
+  options.split_iteration = split;
+  options.row_frames = 1;
+  int iterations = 0;
+  const double e = launched_step_difference(model, 47, options, [&](const DeviceElasticity& dev) {
+    REQUIRE(dev.group_samples());
+    REQUIRE(dev.split_iteration() == split);
+  }, iterations);
+  std::printf("[gpu] launched grouped, %d samples, one frame per frame block, %s split %d: cg %d delta %.2e\n",
+              model.sample_count(), to_string(precision), split ? 1 : 0, iterations, e);
   CHECK(e < bound(precision, true));
 }
 
