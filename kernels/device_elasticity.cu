@@ -81,6 +81,7 @@ struct DeviceElasticity::Impl {
   virtual double time_tangent_ms(int repeats) = 0;
   virtual double tangent_bytes() const = 0;
   virtual KernelResources tangent_kernel_resources() const = 0;
+  virtual LaunchGrids launch_grids() const = 0;
   // Stepper.
   virtual void configure_step(const StepOptions& options) = 0;
   virtual StepReport step() = 0;
@@ -333,6 +334,11 @@ class System final : public DeviceElasticity::Impl {
     m_counter.zero();
     m_scalars.resize(1);
     m_scalars.zero();
+    // The launched row passes loop over their chunks in the blocks that fit at once.
+    const int chunks = grid_for(m_n, m_row_frames);
+    m_rows_grid = resident_blocks(reinterpret_cast<const void*>(&k_frame_rows<R>), 6 * m_row_frames, chunks);
+    m_update_grid = resident_blocks(reinterpret_cast<const void*>(&k_update_rows<R>), 6 * m_row_frames, chunks);
+    m_frame_update_grid = resident_blocks(reinterpret_cast<const void*>(&k_frame_update<R>), 6 * m_row_frames, chunks);
     m_frame_view.rotations = m_rot.data();
     m_frame_view.positions = m_x.data();
     m_frame_view.records = m_records.size() ? m_records.data() : nullptr;
@@ -874,7 +880,7 @@ class System final : public DeviceElasticity::Impl {
           pass == SamplePass::coalesced ? m_sample_state.data() : nullptr);
       check_launch();
       if (gather) {
-        k_frame_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
+        k_frame_rows<R><<<m_rows_grid, 6 * m_row_frames, 0, m_stream>>>(
             m_view, m_partials.data(), nullptr, nullptr, none, nullptr, m_grad.data(), reduction(), false, nullptr);
         check_launch();
       }
@@ -923,6 +929,10 @@ class System final : public DeviceElasticity::Impl {
     return reinterpret_cast<const void*>(&k_lanes_tangent<R>);
   }
 
+  LaunchGrids launch_grids() const override {
+    return LaunchGrids{m_group_blocks, grid_for(m_n, m_row_frames), m_frame_update_grid};
+  }
+
   KernelResources tangent_kernel_resources() const override {
     cudaFuncAttributes attr{};
     FASCIA_CUDA(cudaFuncGetAttributes(&attr, tangent_sample_kernel()));
@@ -941,10 +951,10 @@ class System final : public DeviceElasticity::Impl {
         const R* pold = z ? d : nullptr;
         (group_mapped ? k_group_tangent<R, true> : k_group_tangent<R, false>)<<<m_group_blocks, kGroupThreads, 0,
                                                                              m_stream>>>(
-            m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes, false, reduction(),
+            m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes, nullptr,
             flags.k_scale);
         check_launch();
-        k_frame_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
+        k_frame_rows<R><<<m_rows_grid, 6 * m_row_frames, 0, m_stream>>>(
             m_group_view, m_group_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(),
             pcg, z);
         check_launch();
@@ -976,7 +986,7 @@ class System final : public DeviceElasticity::Impl {
             m_view, m_frame_view, m_F.data(), m_cache.data(), pcg ? z : d, pcg ? d : nullptr, m_partials.data(), sc,
             m_lanes);
       check_launch();
-      k_frame_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
+      k_frame_rows<R><<<m_rows_grid, 6 * m_row_frames, 0, m_stream>>>(
           m_view, m_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(), pcg, z);
     } else {
       k_paper_tangent<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(
@@ -1007,16 +1017,18 @@ class System final : public DeviceElasticity::Impl {
       (group_mapped ? k_group_tangent<R, true> : k_group_tangent<R, false>)<<<m_group_blocks, kGroupThreads, 0,
                                                                            m_stream>>>(
           m_group_view, m_frame_view, m_cz.data(), m_cp.data(), m_group_partials.data(), m_scalars.data(),
-          options.slot_lanes, true, reduction(), flags.k_scale);
+          options.slot_lanes, m_red_partials.data(), flags.k_scale);
       check_launch();
-      k_frame_update<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
+      k_split_alpha<<<1, kSplitAlphaThreads, 0, m_stream>>>(m_red_partials.data(), m_group_blocks, m_scalars.data());
+      check_launch();
+      k_frame_update<R><<<m_frame_update_grid, 6 * m_row_frames, 0, m_stream>>>(
           m_group_view, m_group_partials.data(), m_geo.data(), m_inertia_world.data(), flags, m_minv.data(),
           m_cx.data(), m_cr.data(), m_cz.data(), m_cp.data(), reduction(), m_step.cg_tolerance);
       check_launch();
       return;
     }
     enqueue_tangent(m_cp.data(), m_cAp.data(), step_flags(), true);
-    k_update_rows<R><<<grid_for(m_n, m_row_frames), 6 * m_row_frames, 0, m_stream>>>(
+    k_update_rows<R><<<m_update_grid, 6 * m_row_frames, 0, m_stream>>>(
         m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
         m_step.cg_tolerance);
     check_launch();
@@ -1131,6 +1143,15 @@ class System final : public DeviceElasticity::Impl {
     return reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>);
   }
 
+  // Blocks of `kernel` (`threads` each) that fit on the device at once, at most `blocks`.
+  static int resident_blocks(const void* kernel, int threads, int blocks) {
+    int dev = 0, sms = 0, per_sm = 0;
+    FASCIA_CUDA(cudaGetDevice(&dev));
+    FASCIA_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
+    FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel, threads, 0));
+    return std::max(1, std::min(blocks, std::max(1, per_sm) * sms));
+  }
+
   // Grid of the persistent PCG: every block resident (cooperative launch), no more blocks than
   // sample blocks or frame blocks need. 0 where it cannot run (paper design, no cooperative launch).
   int persistent_grid() {
@@ -1225,6 +1246,9 @@ class System final : public DeviceElasticity::Impl {
   }
 
   int m_row_frames = 42;
+  // Grids of the launched row passes (k_frame_rows, k_update_rows, k_frame_update): the blocks
+  // that fit at once (resident_blocks).
+  int m_rows_grid = 1, m_update_grid = 1, m_frame_update_grid = 1;
   int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0, m_lanes = 1, m_lane_threads = 128;
   bool m_locked = false;
   int m_ell_entries = 0, m_keep = 2, m_max_neighbours = 0;
@@ -1327,6 +1351,7 @@ const DeviceOptions& DeviceElasticity::options() const { return m_impl->options;
 double DeviceElasticity::time_tangent_ms(int repeats) { return m_impl->time_tangent_ms(std::max(1, repeats)); }
 double DeviceElasticity::tangent_bytes() const { return m_impl->tangent_bytes(); }
 KernelResources DeviceElasticity::tangent_kernel_resources() const { return m_impl->tangent_kernel_resources(); }
+LaunchGrids DeviceElasticity::launch_grids() const { return m_impl->launch_grids(); }
 
 struct DeviceBackwardEuler::Impl {
   DeviceElasticity::Impl* system;

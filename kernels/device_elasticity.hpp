@@ -184,6 +184,13 @@ struct KernelResources {
   long long local_bytes = 0;  // local memory: register spills and stack
 };
 
+// Grids of the launched PCG's passes: blocks of groups (grouped pass, one thread block each) and
+// chunks of frame rows, over which the frame passes' blocks loop (the blocks that fit at once).
+struct LaunchGrids {
+  int group_blocks = 0;
+  int row_chunks = 0, frame_update_grid = 0;  // the split iteration's frame pass
+};
+
 // The model uploaded once to the device; the state is uploaded with set_state and stays there.
 class DeviceElasticity {
  public:
@@ -259,6 +266,7 @@ class DeviceElasticity {
   // Benchmark support: registers per thread and local memory (spills, stack) per thread of the
   // launched tangent product's sample kernel in use, as the CUDA runtime reports them.
   KernelResources tangent_kernel_resources() const;
+  LaunchGrids launch_grids() const;
 
   struct Impl;
 

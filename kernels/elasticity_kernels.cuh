@@ -847,15 +847,24 @@ __device__ double update_rows_chunk(int n, const R* minv, const R* p, const R* A
   return store_and_precondition_row(active, u, minv, i, k, t, x, r, z, res);
 }
 
-// Launch-per-phase forms of the two row passes (one chunk per block); with `pcg`, the dot
-// products are reduced into alpha and beta.
+// Chunks of fpc = blockDim.x / 6 frames covering n frames.
+__device__ inline int frame_chunks(int n) {
+  const int fpc = static_cast<int>(blockDim.x) / 6;
+  return (n + fpc - 1) / fpc;
+}
+
+// Launch-per-phase forms of the two row passes: each block takes chunks blockIdx.x, + gridDim.x,
+// ... (a grid of the blocks that fit on the device at once: each block's share of the grid
+// reduction, a fence and an atomic, is paid once per block instead of once per chunk); with
+// `pcg`, the dot products are reduced into alpha and beta.
 template <class R>
 __global__ void k_frame_rows(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
                              FrameTermsFlags flags, R* d, R* out, Reduction red, bool pcg, const R* z) {
   if (pcg && finished(red.scalars)) return;
   const double beta = z ? red.scalars->beta : 0.0;
-  const double dot = frame_rows_chunk(m, slot_partials, geo, inertia_world, flags, d, out, z, beta,
-                                      static_cast<int>(blockIdx.x));
+  double dot = 0;
+  for (int c = static_cast<int>(blockIdx.x); c < frame_chunks(m.frames); c += static_cast<int>(gridDim.x))
+    dot += frame_rows_chunk(m, slot_partials, geo, inertia_world, flags, d, out, z, beta, c);
   if (pcg) reduce_and_finish(dot, red, Finish::alpha, 0);
 }
 
@@ -863,7 +872,10 @@ template <class R>
 __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* x, R* r, R* z, Reduction red,
                               double tolerance) {
   if (finished(red.scalars)) return;
-  const double dot = update_rows_chunk(n, minv, p, Ap, x, r, z, red.scalars->alpha, static_cast<int>(blockIdx.x));
+  const double alpha = red.scalars->alpha;
+  double dot = 0;
+  for (int c = static_cast<int>(blockIdx.x); c < frame_chunks(n); c += static_cast<int>(gridDim.x))
+    dot += update_rows_chunk(n, minv, p, Ap, x, r, z, alpha, c);
   reduce_and_finish(dot, red, Finish::beta, tolerance);
 }
 
@@ -876,16 +888,16 @@ __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* 
 // terms, frame_row_of without sample terms; p' . D p' = z.Dz + beta' (z.Dp + p.Dz) + beta'^2 p.Dp),
 // so that the next grouped pass can finish p' . A p' without a pass over the frames. An iteration
 // is then two launches instead of three, and A p is neither stored nor read again.
+// One chunk of k_frame_update (chunks as frame_rows_chunk), adding this thread's shares of the four
+// sums to `sums`. Every thread of the block must call it.
 template <class R>
-__global__ void k_frame_update(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
-                               FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, Reduction red,
-                               double tolerance) {
+__device__ void frame_update_split_chunk(const ModelView<R>& m, const R* slot_partials, const R* geo,
+                                         const R* inertia_world, const FrameTermsFlags& flags, const R* minv, R* x,
+                                         R* r, R* z, R* p, double alpha, double beta, int chunk, double (&sums)[4]) {
   __shared__ double dir[kLaneThreadsMax];  // p of the chunk's rows
   __shared__ double res[kLaneThreadsMax];  // r, then z
-  if (finished(red.scalars)) return;
-  const double alpha = red.scalars->alpha, beta = red.scalars->beta;
   const int fpc = static_cast<int>(blockDim.x) / 6;
-  const int t = static_cast<int>(threadIdx.x), i = static_cast<int>(blockIdx.x) * fpc + t / 6, k = t - 6 * (t / 6);
+  const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
   const bool active = t < 6 * fpc && i < m.frames;
   const int j = 6 * i + k;
   FrameRowTerms terms{};
@@ -904,12 +916,12 @@ __global__ void k_frame_update(ModelView<R> m, const R* slot_partials, const R* 
     res[t] = static_cast<double>(u.r);
   }
   __syncthreads();
-  double zk = 0, sums[4] = {0, 0, 0, 0};
+  double zk = 0;
   if (active) {
     zk = static_cast<double>(static_cast<R>(preconditioned_row(
         [&](int c) { return static_cast<double>(minv[36 * static_cast<size_t>(i) + 6 * k + c]); }, res + (t - k))));
     z[j] = static_cast<R>(zk);
-    sums[0] = res[t] * zk;
+    sums[0] += res[t] * zk;
   }
   __syncthreads();
   if (active) res[t] = zk;
@@ -917,10 +929,35 @@ __global__ void k_frame_update(ModelView<R> m, const R* slot_partials, const R* 
   if (active) {
     const double Dz = apply_frame_row(terms, flags.inv_h2, flags.project, res + (t - k), k, 0.0, flags.k_scale);
     const double Dp = apply_frame_row(terms, flags.inv_h2, flags.project, dir + (t - k), k, 0.0, flags.k_scale);
-    sums[1] = zk * Dz;
-    sums[2] = zk * Dp + dir[t] * Dz;
-    sums[3] = dir[t] * Dp;
+    sums[1] += zk * Dz;
+    sums[2] += zk * Dp + dir[t] * Dz;
+    sums[3] += dir[t] * Dp;
   }
+  __syncthreads();
+}
+
+// Split launched PCG: alpha = rz / p . A p from the grouped pass's per-block sums of its sample
+// terms (`count` of them, summed in block order by one block) and the frame terms of p = z +
+// beta p_old held in the scalars (Finish::alpha_split).
+constexpr int kSplitAlphaThreads = 1024;
+__global__ void __launch_bounds__(kSplitAlphaThreads) k_split_alpha(const double* work_partials, int count,
+                                                                     Scalars* scalars) {
+  if (finished(scalars)) return;
+  double total[1] = {strided_partial_sum<8>(work_partials, static_cast<unsigned>(count))};
+  block_sums(total);
+  if (threadIdx.x == 0) finish_scalars(total, Finish::alpha_split, 0, *scalars);
+}
+
+// Chunks blockIdx.x, + gridDim.x, ... as the row passes.
+template <class R>
+__global__ void k_frame_update(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
+                               FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, Reduction red,
+                               double tolerance) {
+  if (finished(red.scalars)) return;
+  const double alpha = red.scalars->alpha, beta = red.scalars->beta;
+  double sums[4] = {0, 0, 0, 0};
+  for (int c = static_cast<int>(blockIdx.x); c < frame_chunks(m.frames); c += static_cast<int>(gridDim.x))
+    frame_update_split_chunk(m, slot_partials, geo, inertia_world, flags, minv, x, r, z, p, alpha, beta, c, sums);
   reduce_and_finish(sums, red, Finish::beta_split, tolerance);
 }
 

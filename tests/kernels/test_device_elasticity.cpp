@@ -339,10 +339,12 @@ TEST_CASE("launched PCG with the grouped pass equals the CPU reference", "[gpu]"
 }
 
 TEST_CASE("launched PCG reductions over many chunks equal the CPU reference", "[gpu]") {
-  // Every reduction sums per chunk of kReduceChunk = 256 blocks, then over the chunks. 16 x 16 x 17
-  // hexahedra: 4,352 groups, 272 grouped blocks (2 chunks); one frame per block of the frame
-  // passes (row_frames 1): 5,202 blocks (21 chunks, the last partial). Split and three-launch
-  // iterations, both precisions.
+  // Every last-block reduction sums per chunk of kReduceChunk = 256 blocks, then over the chunks,
+  // and the frame passes loop over their chunks of frames in the blocks that fit on the device at
+  // once. One frame per chunk (row_frames 1): 16 x 16 x 17 hexahedra have 5,202 frames, more
+  // chunks than fit (at most 32 blocks per multiprocessor), in more than 256 blocks. The split
+  // iteration's alpha sums the grouped pass's 272 block sums. Split and three-launch iterations,
+  // both precisions.
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const bool split = GENERATE(false, true);
   const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::neo_hookean, 17, 16, 16);
@@ -355,6 +357,12 @@ TEST_CASE("launched PCG reductions over many chunks equal the CPU reference", "[
   const double e = launched_step_difference(model, 47, options, [&](const DeviceElasticity& dev) {
     REQUIRE(dev.group_samples());
     REQUIRE(dev.split_iteration() == split);
+    const LaunchGrids grids = dev.launch_grids();
+    std::printf("[gpu] grids: %d blocks of groups, %d chunks of frames in %d blocks\n", grids.group_blocks,
+                grids.row_chunks, grids.frame_update_grid);
+    // The loop takes more than one turn in some blocks, and the reduction spans several chunks.
+    CHECK(grids.frame_update_grid < grids.row_chunks);
+    CHECK(grids.frame_update_grid > 256);
   }, iterations);
   std::printf("[gpu] launched grouped, %d samples, one frame per frame block, %s split %d: cg %d delta %.2e\n",
               model.sample_count(), to_string(precision), split ? 1 : 0, iterations, e);
