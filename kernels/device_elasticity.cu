@@ -107,11 +107,6 @@ struct DeviceElasticity::Impl {
   std::string mapped_refusal;             // why not, where DeviceOptions::shape_classes asked for them
   std::string grouped_refusal;            // why not, where DeviceOptions::group_samples asked for it
   std::string group_classes_refusal;      // why not, where DeviceOptions::group_classes asked for them
-
-  // The launched PCG runs the split iteration (DeviceOptions::split_iteration).
-  bool split_iteration() const {
-    return design == Design::fused && grouped && options.split_iteration && !direction_pass;
-  }
 };
 
 namespace {
@@ -326,19 +321,28 @@ class System final : public DeviceElasticity::Impl {
     m_diag.resize(36 * static_cast<size_t>(m_n));
     m_prepare_sums.resize(kPrepareSums * static_cast<size_t>(m_n));
     for (auto* v : {&m_grad, &m_d, &m_out, &m_cx, &m_cr, &m_cz, &m_cp, &m_cAp}) v->resize(dofs);
-    // The partials and counters of every kernel that reduces (reduce_and_finish, at most 4 values).
+    // The partials and counters of every kernel that reduces (reduce_and_finish).
     const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(m_n, kThreads), grid_for(m_n, m_row_frames),
                                    grid_for(6LL * m_n, kPaperGather), m_blocks, m_group_blocks, 1});
-    m_red_partials.resize(reduce_partial_count(max_grid, 4));
+    m_red_partials.resize(reduce_partial_count(max_grid));
     m_counter.resize(reduce_counter_count(max_grid));
     m_counter.zero();
     m_scalars.resize(1);
     m_scalars.zero();
-    // The launched row passes loop over their chunks in the blocks that fit at once.
-    const int chunks = grid_for(m_n, m_row_frames);
-    m_rows_grid = resident_blocks(reinterpret_cast<const void*>(&k_frame_rows<R>), 6 * m_row_frames, chunks);
-    m_update_grid = resident_blocks(reinterpret_cast<const void*>(&k_update_rows<R>), 6 * m_row_frames, chunks);
-    m_frame_update_grid = resident_blocks(reinterpret_cast<const void*>(&k_frame_update<R>), 6 * m_row_frames, chunks);
+    // The launched row passes loop over their chunks (or frames) in the blocks that fit at once.
+    if (options.frame_threads) {
+      const int blocks = grid_for(m_n, kFrameThreads);
+      m_rows_grid = resident_blocks(reinterpret_cast<const void*>(&k_frame_sums<R>), kFrameThreads, blocks);
+      m_update_grid = resident_blocks(reinterpret_cast<const void*>(&k_update_frames<R>), kFrameThreads, blocks);
+    } else {
+      const int chunks = grid_for(m_n, m_row_frames);
+      m_rows_grid = resident_blocks(reinterpret_cast<const void*>(&k_frame_rows<R>), 6 * m_row_frames, chunks);
+      m_update_grid = resident_blocks(reinterpret_cast<const void*>(&k_update_rows<R>), 6 * m_row_frames, chunks);
+    }
+    if (options.row_blocks > 0) {
+      m_rows_grid = std::min(m_rows_grid, options.row_blocks);
+      m_update_grid = std::min(m_update_grid, options.row_blocks);
+    }
     m_frame_view.rotations = m_rot.data();
     m_frame_view.positions = m_x.data();
     m_frame_view.records = m_records.size() ? m_records.data() : nullptr;
@@ -880,9 +884,7 @@ class System final : public DeviceElasticity::Impl {
           pass == SamplePass::coalesced ? m_sample_state.data() : nullptr);
       check_launch();
       if (gather) {
-        k_frame_rows<R><<<m_rows_grid, 6 * m_row_frames, 0, m_stream>>>(
-            m_view, m_partials.data(), nullptr, nullptr, none, nullptr, m_grad.data(), reduction(), false, nullptr);
-        check_launch();
+        enqueue_frame_rows(m_view, m_partials.data(), nullptr, nullptr, none, nullptr, m_grad.data(), false, nullptr);
       }
     } else {
       k_paper_gradient<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(
@@ -913,6 +915,20 @@ class System final : public DeviceElasticity::Impl {
     return FrameTermsFlags{(1.0 + m_step.rayleigh_mass * h) / (h * h), true, 1.0 + m_step.rayleigh_stiffness / h};
   }
 
+  // The frame pass of the launched tangent product (k_frame_rows, or k_frame_sums with
+  // DeviceOptions::frame_threads): out = H d from the slot partials and the frame terms; in the
+  // PCG (`pcg`) also alpha, with p = z + beta p formed where z is set.
+  void enqueue_frame_rows(const ModelView<R>& view, const R* partials, const R* geo, const R* inertia,
+                          FrameTermsFlags flags, R* d, R* out, bool pcg, const R* z) {
+    if (options.frame_threads)
+      k_frame_sums<R><<<m_rows_grid, kFrameThreads, 0, m_stream>>>(view, partials, geo, inertia, flags, d, out,
+                                                                   reduction(), pcg, z);
+    else
+      k_frame_rows<R><<<m_rows_grid, 6 * m_row_frames, 0, m_stream>>>(view, partials, geo, inertia, flags, d, out,
+                                                                      reduction(), pcg, z);
+    check_launch();
+  }
+
   // The launched tangent product's sample kernel in use (enqueue_tangent's choice).
   const void* tangent_sample_kernel() const {
     if (design != Design::fused) return reinterpret_cast<const void*>(&k_paper_tangent<R>);
@@ -930,7 +946,8 @@ class System final : public DeviceElasticity::Impl {
   }
 
   LaunchGrids launch_grids() const override {
-    return LaunchGrids{m_group_blocks, grid_for(m_n, m_row_frames), m_frame_update_grid};
+    const int work = options.frame_threads ? grid_for(m_n, kFrameThreads) : grid_for(m_n, m_row_frames);
+    return LaunchGrids{work, m_rows_grid, m_update_grid, kReduceChunk};
   }
 
   KernelResources tangent_kernel_resources() const override {
@@ -951,13 +968,10 @@ class System final : public DeviceElasticity::Impl {
         const R* pold = z ? d : nullptr;
         (group_mapped ? k_group_tangent<R, true> : k_group_tangent<R, false>)<<<m_group_blocks, kGroupThreads, 0,
                                                                              m_stream>>>(
-            m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes, nullptr,
-            flags.k_scale);
+            m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes);
         check_launch();
-        k_frame_rows<R><<<m_rows_grid, 6 * m_row_frames, 0, m_stream>>>(
-            m_group_view, m_group_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(),
-            pcg, z);
-        check_launch();
+        enqueue_frame_rows(m_group_view, m_group_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out,
+                           pcg, z);
         return;
       }
       if (pass == SamplePass::coalesced) {
@@ -986,8 +1000,7 @@ class System final : public DeviceElasticity::Impl {
             m_view, m_frame_view, m_F.data(), m_cache.data(), pcg ? z : d, pcg ? d : nullptr, m_partials.data(), sc,
             m_lanes);
       check_launch();
-      k_frame_rows<R><<<m_rows_grid, 6 * m_row_frames, 0, m_stream>>>(
-          m_view, m_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(), pcg, z);
+      enqueue_frame_rows(m_view, m_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, pcg, z);
     } else {
       k_paper_tangent<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(
           m_view, m_frame_view, m_F.data(), m_cache.data(), m_a.data(), d, m_partials.data(), sc);
@@ -1005,32 +1018,22 @@ class System final : public DeviceElasticity::Impl {
     enqueue_frame_prepare(flags.inv_h2, false, flags.k_scale, m_load_rot.size() ? m_load_rot.data() : nullptr,
                           m_step.preconditioner);
     k_pcg_init<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
-        m_view, m_grad.data(), m_inertia_world.data(), m_geo.data(), flags, m_velocities.data(),
+        m_view, m_grad.data(), m_inertia_world.data(), m_velocities.data(),
         m_external.size() ? m_external.data() : nullptr, 1.0 / h, m_minv.data(), m_cx.data(), m_cr.data(), m_cz.data(),
         m_cp.data(), reduction());
     check_launch();
   }
 
   void enqueue_cg_iteration() {
-    if (split_iteration()) {
-      const FrameTermsFlags flags = step_flags();
-      (group_mapped ? k_group_tangent<R, true> : k_group_tangent<R, false>)<<<m_group_blocks, kGroupThreads, 0,
-                                                                           m_stream>>>(
-          m_group_view, m_frame_view, m_cz.data(), m_cp.data(), m_group_partials.data(), m_scalars.data(),
-          options.slot_lanes, m_red_partials.data(), flags.k_scale);
-      check_launch();
-      k_split_alpha<<<1, kSplitAlphaThreads, 0, m_stream>>>(m_red_partials.data(), m_group_blocks, m_scalars.data());
-      check_launch();
-      k_frame_update<R><<<m_frame_update_grid, 6 * m_row_frames, 0, m_stream>>>(
-          m_group_view, m_group_partials.data(), m_geo.data(), m_inertia_world.data(), flags, m_minv.data(),
-          m_cx.data(), m_cr.data(), m_cz.data(), m_cp.data(), reduction(), m_step.cg_tolerance);
-      check_launch();
-      return;
-    }
     enqueue_tangent(m_cp.data(), m_cAp.data(), step_flags(), true);
-    k_update_rows<R><<<m_update_grid, 6 * m_row_frames, 0, m_stream>>>(
-        m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
-        m_step.cg_tolerance);
+    if (options.frame_threads)
+      k_update_frames<R><<<m_update_grid, kFrameThreads, 0, m_stream>>>(
+          m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
+          m_step.cg_tolerance);
+    else
+      k_update_rows<R><<<m_update_grid, 6 * m_row_frames, 0, m_stream>>>(
+          m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
+          m_step.cg_tolerance);
     check_launch();
     if (design != Design::fused || direction_pass) {  // else the fused passes form p = z + beta p themselves
       k_pcg_direction<R><<<grid_for(6LL * m_n, kThreads), kThreads, 0, m_stream>>>(6 * m_n, m_cz.data(), m_cp.data(),
@@ -1246,9 +1249,9 @@ class System final : public DeviceElasticity::Impl {
   }
 
   int m_row_frames = 42;
-  // Grids of the launched row passes (k_frame_rows, k_update_rows, k_frame_update): the blocks
-  // that fit at once (resident_blocks).
-  int m_rows_grid = 1, m_update_grid = 1, m_frame_update_grid = 1;
+  // Grids of the launched row passes (k_frame_rows, k_update_rows): the blocks that fit at once
+  // (resident_blocks).
+  int m_rows_grid = 1, m_update_grid = 1;
   int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0, m_lanes = 1, m_lane_threads = 128;
   bool m_locked = false;
   int m_ell_entries = 0, m_keep = 2, m_max_neighbours = 0;
@@ -1342,7 +1345,6 @@ bool DeviceElasticity::prefetch_frames() const { return m_impl->prefetch_frames;
 bool DeviceElasticity::resident_frames() const { return m_impl->resident_frames(); }
 bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
 bool DeviceElasticity::group_samples() const { return m_impl->grouped; }
-bool DeviceElasticity::split_iteration() const { return m_impl->split_iteration(); }
 const std::string& DeviceElasticity::group_samples_refusal() const { return m_impl->grouped_refusal; }
 bool DeviceElasticity::group_classes() const { return m_impl->group_mapped; }
 const std::string& DeviceElasticity::group_classes_refusal() const { return m_impl->group_classes_refusal; }

@@ -135,19 +135,20 @@ struct DeviceOptions {
   // single 0.575 -> 0.636, double 1.120 -> 1.421) though it moves a third of the bytes: the pass is
   // bound by latency, and the classes' table loads and maps add work and registers.
   bool group_classes = false;
-  // Grouped pass, launched PCG: two launches per CG iteration instead of three. The grouped pass
-  // also reduces p . A p as k_scale sum_s v dF : dP plus the frame terms of p = z + beta p_old,
-  // whose parts the previous frame pass reduced (k_frame_update), and so alpha; one frame pass then
-  // forms A p and applies the update and the preconditioner (A p neither stored nor read again).
-  // Equal to the three-launch iteration in exact arithmetic (p is zero on fixed DOFs); alpha
-  // differs at round-off level.
-  bool split_iteration = true;
   // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
   // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
   // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16
   // took 4.18 M x 8 from 1.92 to 1.73 ms per CG iteration (single) and 34,848 samples from 27.2
   // to 25.5 us (launches); 85 is within 1.5 % of 42.
   int row_frames = 42;
+  // Launched row passes (the frame pass of the tangent product and the PCG update): one thread per
+  // frame, each reading its frame's 6-vectors and M^-1 block in vector loads
+  // (k_frame_sums, k_update_frames), instead of one thread per frame row in chunks of row_frames
+  // frames. The same values row by row; the reduced dot products add each frame's rows first.
+  bool frame_threads = true;
+  // Launched row passes: at most this many thread blocks, which loop over the frames (0: as many as
+  // fit on the device at once). The tests set it to make small models loop.
+  int row_blocks = 0;
   // Persistent PCG (StepOptions::persistent): used while the model needs at most this many
   // thread blocks per multiprocessor (its blocks must all be resident). Measured on an H200
   // (docs/benchmarks.md): at 34,848 samples (273 blocks) 25.3 us per CG iteration persistent
@@ -184,11 +185,13 @@ struct KernelResources {
   long long local_bytes = 0;  // local memory: register spills and stack
 };
 
-// Grids of the launched PCG's passes: blocks of groups (grouped pass, one thread block each) and
-// chunks of frame rows, over which the frame passes' blocks loop (the blocks that fit at once).
+// Grids of the launched PCG's row passes: their blocks of work (chunks of DeviceOptions::row_frames
+// frames, or blocks of frames with DeviceOptions::frame_threads) and the thread blocks of the
+// frame pass and of the update, which loop over them (DeviceOptions::row_blocks); and the blocks
+// per chunk of the grid reductions' first level.
 struct LaunchGrids {
-  int group_blocks = 0;
-  int row_chunks = 0, frame_update_grid = 0;  // the split iteration's frame pass
+  int row_work = 0, frame_rows_grid = 0, update_rows_grid = 0;
+  int reduce_chunk = 0;
 };
 
 // The model uploaded once to the device; the state is uploaded with set_state and stays there.
@@ -235,9 +238,6 @@ class DeviceElasticity {
   // Grouped pass: whether w and g come from the groups' classes (DeviceOptions::group_classes),
   // and why not where they were asked for.
   bool group_classes() const;
-  // Whether the launched PCG runs the split iteration (DeviceOptions::split_iteration; grouped
-  // pass without the direction pass).
-  bool split_iteration() const;
   const std::string& group_classes_refusal() const;
   // Coalesced pass: whether the launched tangent kernel reads the frames from shared memory
   // (DeviceOptions::slot_frames with the dense kernel and no shape classes).
@@ -266,6 +266,7 @@ class DeviceElasticity {
   // Benchmark support: registers per thread and local memory (spills, stack) per thread of the
   // launched tangent product's sample kernel in use, as the CUDA runtime reports them.
   KernelResources tangent_kernel_resources() const;
+  // Test support: the launched row passes' chunks and grids.
   LaunchGrids launch_grids() const;
 
   struct Impl;

@@ -20,17 +20,13 @@ struct Scalars {
   double rz, rz0, alpha, beta;
   int done;        // 1 converged, 2 breakdown (p.Ap <= 0 or not finite)
   int iterations;
-  // Split launched PCG (k_frame_update): the frame terms of the next direction's p . A p as the
-  // parts of p = z + beta p_old (bilinear form D of frame_row_of without sample terms):
-  // z.Dz, z.Dp_old + p_old.Dz, p_old.Dp_old.
-  double frame_zz, frame_cross, frame_pp;
 };
 
 // Where a kernel's reduction goes (reduce_and_finish): per-block partials, then per-chunk
-// partials, the counters (one for the grid, then one per chunk; zero between kernels), the
+// partials; the counters (one for the grid, then one per chunk; zero between kernels); the
 // scalars.
 struct Reduction {
-  double* partials;   // [reduce_partial_count(grid, N)]
+  double* partials;   // [reduce_partial_count(grid)]
   unsigned* counter;  // [reduce_counter_count(grid)]
   Scalars* scalars;
 };
@@ -40,41 +36,25 @@ struct Reduction {
 constexpr int kReduceChunk = 256;
 FASCIA_HD int reduce_chunk_count(int grid) { return (grid + kReduceChunk - 1) / kReduceChunk; }
 FASCIA_HD int reduce_counter_count(int grid) { return 1 + reduce_chunk_count(grid); }
-FASCIA_HD size_t reduce_partial_count(int grid, int values) {
-  return static_cast<size_t>(values) * (static_cast<size_t>(grid) + static_cast<size_t>(reduce_chunk_count(grid)));
+FASCIA_HD size_t reduce_partial_count(int grid) {
+  return static_cast<size_t>(grid) + static_cast<size_t>(reduce_chunk_count(grid));
 }
 
-enum class Finish { energy, alpha, beta, init, alpha_split, beta_split };
-
-// Sums over the block of each of N values, valid on thread 0 (v[n] holds them there). Every thread
-// of the block must call it; blockDim.x is a multiple of 32.
-template <int N>
-__device__ inline void block_sums(double (&v)[N]) {
-  __shared__ double warp_sums[N][32];
-  for (int o = 16; o > 0; o >>= 1)
-#pragma unroll
-    for (int n = 0; n < N; ++n) v[n] += __shfl_down_sync(0xffffffffu, v[n], o);
-  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
-  __syncthreads();
-  if (lane == 0)
-#pragma unroll
-    for (int n = 0; n < N; ++n) warp_sums[n][warp] = v[n];
-  __syncthreads();
-  if (threadIdx.x == 0)
-#pragma unroll
-    for (int n = 0; n < N; ++n) {
-      double total = 0;
-      for (int k = 0; k < static_cast<int>(blockDim.x + 31) / 32; ++k) total += warp_sums[n][k];
-      v[n] = total;
-    }
-}
+enum class Finish { energy, alpha, beta, init };
 
 // Sum over the block, valid on thread 0. Every thread of the block must call it; blockDim.x is
 // a multiple of 32.
 __device__ inline double block_sum(double v) {
-  double s[1] = {v};
-  block_sums(s);
-  return s[0];
+  __shared__ double warp_sums[32];
+  for (int o = 16; o > 0; o >>= 1) v += __shfl_down_sync(0xffffffffu, v, o);
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+  __syncthreads();
+  if (lane == 0) warp_sums[warp] = v;
+  __syncthreads();
+  double total = 0;
+  if (threadIdx.x == 0)
+    for (int k = 0; k < static_cast<int>(blockDim.x + 31) / 32; ++k) total += warp_sums[k];
+  return total;
 }
 
 // The end of a PCG iteration from its r.z (rz_new): beta = rz_new / rz, rz, the iteration count,
@@ -116,118 +96,64 @@ __device__ inline double strided_partial_sum(const double* partials, unsigned n)
   return s;
 }
 
-// The sums over the block of N interleaved partials (entry b: partials[N b + n]) for b < count,
-// valid on thread 0: thread t adds entries t, t + blockDim.x, ... in that order (loads of 2
-// strides issued together), then block_sums.
-template <int N>
-__device__ inline void sum_partials(const double* partials, unsigned count, double (&s)[N]) {
-#pragma unroll
-  for (int n = 0; n < N; ++n) s[n] = 0;
-  for (unsigned k = threadIdx.x; k < count; k += 2 * blockDim.x) {
-    double round[2][N];
-#pragma unroll
-    for (int u = 0; u < 2; ++u)
-#pragma unroll
-      for (int n = 0; n < N; ++n) {
-        const unsigned b = k + u * blockDim.x;
-        round[u][n] = b < count ? __ldcg(partials + N * static_cast<size_t>(b) + n) : 0.0;
-      }
-#pragma unroll
-    for (int u = 0; u < 2; ++u)
-      if (k + u * blockDim.x < count)
-#pragma unroll
-        for (int n = 0; n < N; ++n) s[n] += round[u][n];
-  }
-  block_sums(s);
-}
-
-// Applies `finish` to the scalars from the grid's totals (N of them: Finish::beta_split 4
-// [r.z, z.Dz, cross, p.Dp], Finish::init 2 [r.z, z.Dz], else 1).
-template <int N>
-__device__ inline void finish_scalars(const double (&total)[N], Finish finish, double tolerance, Scalars& sc) {
+// Applies `finish` to the scalars from the grid's total.
+__device__ inline void finish_scalars(double total, Finish finish, double tolerance, Scalars& sc) {
   switch (finish) {
     case Finish::energy:
-      sc.energy = total[0];
+      sc.energy = total;
       break;
     case Finish::init:
-      sc.rz = sc.rz0 = total[0];
+      sc.rz = sc.rz0 = total;
       sc.alpha = sc.beta = 0;
       sc.iterations = 0;
-      sc.done = total[0] > 0 ? 0 : 1;
-      if constexpr (N >= 2) {
-        sc.frame_zz = total[1];  // p = z: no cross or p_old terms
-        sc.frame_cross = sc.frame_pp = 0;
-      }
+      sc.done = total > 0 ? 0 : 1;
       break;
     case Finish::alpha:
-    case Finish::alpha_split: {
-      // Split: total[0] = k_scale sum_s v dF : dP, plus the frame terms of p = z + beta p_old.
-      const double pAp = finish == Finish::alpha
-                             ? total[0]
-                             : total[0] + (sc.frame_zz + sc.beta * sc.frame_cross + sc.beta * sc.beta * sc.frame_pp);
-      if (pAp > 0 && pAp < HUGE_VAL) {
-        sc.alpha = sc.rz / pAp;
+      if (total > 0 && total < HUGE_VAL) {
+        sc.alpha = sc.rz / total;
       } else {
         sc.alpha = 0;
         sc.done = 2;
       }
       break;
-    }
     case Finish::beta:
-    case Finish::beta_split:
-      end_iteration(total[0], sc.rz0, tolerance, sc.rz, sc.beta, sc.iterations, sc.done);
-      if constexpr (N >= 4) {
-        sc.frame_zz = total[1];
-        sc.frame_cross = total[2];
-        sc.frame_pp = total[3];
-      }
+      end_iteration(total, sc.rz0, tolerance, sc.rz, sc.beta, sc.iterations, sc.done);
       break;
   }
 }
 
-// Grid reduction of N values per thread, deterministic: each block writes its sums (block_sums);
-// the last block of each chunk of kReduceChunk blocks (counted by the chunk's counter) sums the
+// Grid reduction, deterministic: each block writes its sum (thread 0's v after block_sum); the
+// last block of each chunk of kReduceChunk blocks (counted by the chunk's counter) sums the
 // chunk's partials in block order; the last chunk (the grid's counter) sums the chunks' partials
-// in chunk order and applies `finish`. Two round trips to the L2 at the end of a 32,768-block grid
-// instead of 32 with one level. Counters are reset by the blocks that finish them.
-template <int N>
-__device__ inline void reduce_and_finish(const double (&v)[N], const Reduction& red, Finish finish, double tolerance) {
+// in chunk order and applies `finish`. At the end of a 13,005-block grid two round trips to the
+// L2 instead of 7 with one level. Each counter is reset by the block that completes it.
+__device__ inline void reduce_and_finish(double v, const Reduction& red, Finish finish, double tolerance) {
   __shared__ bool is_last;
-  double s[N];
-#pragma unroll
-  for (int n = 0; n < N; ++n) s[n] = v[n];
-  block_sums(s);
+  const double block = block_sum(v);
   const unsigned grid = gridDim.x, chunk = blockIdx.x / kReduceChunk;
   const unsigned first = chunk * kReduceChunk, count = min(static_cast<unsigned>(kReduceChunk), grid - first);
   const unsigned chunks = static_cast<unsigned>(reduce_chunk_count(static_cast<int>(grid)));
-  double* chunk_partials = red.partials + N * static_cast<size_t>(grid);
+  double* chunk_partials = red.partials + grid;
   if (threadIdx.x == 0) {
-#pragma unroll
-    for (int n = 0; n < N; ++n) red.partials[N * static_cast<size_t>(blockIdx.x) + n] = s[n];
+    red.partials[blockIdx.x] = block;
     __threadfence();
     is_last = atomicAdd(red.counter + 1 + chunk, 1u) == count - 1;
   }
   __syncthreads();
   if (!is_last) return;
-  sum_partials(red.partials + N * static_cast<size_t>(first), count, s);
+  const double chunk_sum = block_sum(strided_partial_sum<2>(red.partials + first, count));
   if (threadIdx.x == 0) {
     red.counter[1 + chunk] = 0;
-#pragma unroll
-    for (int n = 0; n < N; ++n) chunk_partials[N * static_cast<size_t>(chunk) + n] = s[n];
+    chunk_partials[chunk] = chunk_sum;
     __threadfence();
     is_last = atomicAdd(red.counter, 1u) == chunks - 1;
   }
   __syncthreads();
   if (!is_last) return;
-  sum_partials(chunk_partials, chunks, s);
+  const double total = block_sum(strided_partial_sum<2>(chunk_partials, chunks));
   if (threadIdx.x != 0) return;
   *red.counter = 0;
-  finish_scalars(s, finish, tolerance, *red.scalars);
-}
-
-__device__ inline void reduce_and_finish(double v, const Reduction& red, Finish finish, double tolerance) {
-  const double values[1] = {v};
-  reduce_and_finish(values, red, finish, tolerance);
+  finish_scalars(total, finish, tolerance, *red.scalars);
 }
 
 __device__ inline bool finished(const Scalars* sc) { return sc != nullptr && *(volatile const int*)&sc->done != 0; }
@@ -879,86 +805,98 @@ __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* 
   reduce_and_finish(dot, red, Finish::beta, tolerance);
 }
 
-// The split launched PCG's frame pass (after the grouped pass with `split`, which reduced alpha
-// from the sample terms of p . A p and the frame terms held in the scalars): one thread per frame
-// row, chunks as frame_rows_chunk. p = z + beta p_old formed (next_direction) and stored; A p from
-// the slot sums and the frame terms (frame_rows_chunk's arithmetic, rounded to R); x += alpha p,
-// r -= alpha A p, z = M^-1 r (update_rows_chunk's); then reduced: r . z into beta, and the frame
-// terms of the next direction p' = z + beta' p as its parts z.Dz, z.Dp + p.Dz, p.Dp (D: the frame
-// terms, frame_row_of without sample terms; p' . D p' = z.Dz + beta' (z.Dp + p.Dz) + beta'^2 p.Dp),
-// so that the next grouped pass can finish p' . A p' without a pass over the frames. An iteration
-// is then two launches instead of three, and A p is neither stored nor read again.
-// One chunk of k_frame_update (chunks as frame_rows_chunk), adding this thread's shares of the four
-// sums to `sums`. Every thread of the block must call it.
+// The row passes with one thread per frame (DeviceOptions::frame_threads): frames
+// blockIdx.x blockDim.x + threadIdx.x, + gridDim.x blockDim.x, ... Each thread reads its frame's
+// vectors as 6 contiguous values (and M^-1 as 36) in vector loads, so that several hundred bytes
+// per thread are in flight at once against 4 to 24 per frame row, with no block barrier. The same
+// arithmetic per row as the chunked passes (frame_rows_chunk, update_rows_chunk; the slot sums in
+// slot order, M^-1 r in column order), so the same values; the reduced dot products add a frame's
+// six rows first.
+
+constexpr int kFrameThreads = 128;  // threads per block of k_frame_sums and k_update_frames
+
+// k_frame_rows with one thread per frame.
 template <class R>
-__device__ void frame_update_split_chunk(const ModelView<R>& m, const R* slot_partials, const R* geo,
-                                         const R* inertia_world, const FrameTermsFlags& flags, const R* minv, R* x,
-                                         R* r, R* z, R* p, double alpha, double beta, int chunk, double (&sums)[4]) {
-  __shared__ double dir[kLaneThreadsMax];  // p of the chunk's rows
-  __shared__ double res[kLaneThreadsMax];  // r, then z
-  const int fpc = static_cast<int>(blockDim.x) / 6;
-  const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
-  const bool active = t < 6 * fpc && i < m.frames;
-  const int j = 6 * i + k;
-  FrameRowTerms terms{};
-  if (active) {
-    dir[t] = static_cast<double>(next_direction(z, p, beta, j));
-    terms = frame_row_terms(m, geo, inertia_world, i, k);
+__global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
+                             FrameTermsFlags flags, R* d, R* out, Reduction red, bool pcg, const R* z) {
+  if (pcg && finished(red.scalars)) return;
+  const double beta = z ? red.scalars->beta : 0.0;
+  double dot = 0;
+  const int stride = static_cast<int>(gridDim.x * blockDim.x);
+  for (int i = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x); i < m.frames; i += stride) {
+    double dir[6] = {0, 0, 0, 0, 0, 0};
+    if (z) {
+      R zi[6], pi[6];
+      load_six(z, i, zi);
+      load_six(d, i, pi);
+#pragma unroll
+      for (int k = 0; k < 6; ++k) dir[k] = static_cast<double>(direction_value(zi[k], pi[k], beta));
+    } else if (d) {
+      load_six(d, i, dir);
+    }
+    // The frame's slot partials, two slots' 6 values per round, added in slot order.
+    double acc[6] = {0, 0, 0, 0, 0, 0};
+    const int q1 = m.frame_slot_offsets[i + 1];
+    for (int q = m.frame_slot_offsets[i]; q < q1; q += 2) {
+      R part[2][6];
+#pragma unroll
+      for (int u = 0; u < 2; ++u)
+        if (q + u < q1) load_six(slot_partials, m.frame_slots ? m.frame_slots[q + u] : q + u, part[u]);
+#pragma unroll
+      for (int u = 0; u < 2; ++u)
+        if (q + u < q1)
+#pragma unroll
+          for (int k = 0; k < 6; ++k) acc[k] += static_cast<double>(part[u][k]);
+    }
+    R outs[6];
+#pragma unroll
+    for (int k = 0; k < 6; ++k) {
+      outs[k] = static_cast<R>(
+          frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, dir, i, k, acc[k], flags.k_scale));
+      dot += dir[k] * static_cast<double>(outs[k]);
+    }
+#pragma unroll
+    for (int k = 0; k < 6; ++k) {
+      if (z) d[6 * i + k] = static_cast<R>(dir[k]);
+      out[6 * i + k] = outs[k];
+    }
   }
-  __syncthreads();
-  if (active) {
-    p[j] = static_cast<R>(dir[t]);
-    const double acc = frame_slot_sum(m, slot_partials, i, k);
-    const R apj = static_cast<R>(apply_frame_row(terms, flags.inv_h2, flags.project, dir + (t - k), k, acc, flags.k_scale));
-    const UpdatedRow<R> u = update_row(x[j], r[j], alpha, dir[t], static_cast<double>(apj));
-    x[j] = u.x;
-    r[j] = u.r;
-    res[t] = static_cast<double>(u.r);
-  }
-  __syncthreads();
-  double zk = 0;
-  if (active) {
-    zk = static_cast<double>(static_cast<R>(preconditioned_row(
-        [&](int c) { return static_cast<double>(minv[36 * static_cast<size_t>(i) + 6 * k + c]); }, res + (t - k))));
-    z[j] = static_cast<R>(zk);
-    sums[0] += res[t] * zk;
-  }
-  __syncthreads();
-  if (active) res[t] = zk;
-  __syncthreads();
-  if (active) {
-    const double Dz = apply_frame_row(terms, flags.inv_h2, flags.project, res + (t - k), k, 0.0, flags.k_scale);
-    const double Dp = apply_frame_row(terms, flags.inv_h2, flags.project, dir + (t - k), k, 0.0, flags.k_scale);
-    sums[1] += zk * Dz;
-    sums[2] += zk * Dp + dir[t] * Dz;
-    sums[3] += dir[t] * Dp;
-  }
-  __syncthreads();
+  if (pcg) reduce_and_finish(dot, red, Finish::alpha, 0);
 }
 
-// Split launched PCG: alpha = rz / p . A p from the grouped pass's per-block sums of its sample
-// terms (`count` of them, summed in block order by one block) and the frame terms of p = z +
-// beta p_old held in the scalars (Finish::alpha_split).
-constexpr int kSplitAlphaThreads = 1024;
-__global__ void __launch_bounds__(kSplitAlphaThreads) k_split_alpha(const double* work_partials, int count,
-                                                                     Scalars* scalars) {
-  if (finished(scalars)) return;
-  double total[1] = {strided_partial_sum<8>(work_partials, static_cast<unsigned>(count))};
-  block_sums(total);
-  if (threadIdx.x == 0) finish_scalars(total, Finish::alpha_split, 0, *scalars);
-}
-
-// Chunks blockIdx.x, + gridDim.x, ... as the row passes.
+// k_update_rows with one thread per frame.
 template <class R>
-__global__ void k_frame_update(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
-                               FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, Reduction red,
-                               double tolerance) {
+__global__ void k_update_frames(int n, const R* minv, const R* p, const R* Ap, R* x, R* r, R* z, Reduction red,
+                                double tolerance) {
   if (finished(red.scalars)) return;
-  const double alpha = red.scalars->alpha, beta = red.scalars->beta;
-  double sums[4] = {0, 0, 0, 0};
-  for (int c = static_cast<int>(blockIdx.x); c < frame_chunks(m.frames); c += static_cast<int>(gridDim.x))
-    frame_update_split_chunk(m, slot_partials, geo, inertia_world, flags, minv, x, r, z, p, alpha, beta, c, sums);
-  reduce_and_finish(sums, red, Finish::beta_split, tolerance);
+  const double alpha = red.scalars->alpha;
+  double dot = 0;
+  const int stride = static_cast<int>(gridDim.x * blockDim.x);
+  for (int i = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x); i < n; i += stride) {
+    R pi[6], api[6], xi[6], ri[6], mi[36];
+    load_six(p, i, pi);
+    load_six(Ap, i, api);
+    load_six(x, i, xi);
+    load_six(r, i, ri);
+    load_aligned<36>(minv + 36 * static_cast<size_t>(i), mi);
+    double res[6];
+#pragma unroll
+    for (int k = 0; k < 6; ++k) {
+      const UpdatedRow<R> u = update_row(xi[k], ri[k], alpha, static_cast<double>(pi[k]), static_cast<double>(api[k]));
+      xi[k] = u.x;
+      ri[k] = u.r;
+      res[k] = static_cast<double>(u.r);
+    }
+#pragma unroll
+    for (int k = 0; k < 6; ++k) {
+      const R zk = static_cast<R>(preconditioned_row([&](int c) { return static_cast<double>(mi[6 * k + c]); }, res));
+      x[6 * i + k] = xi[k];
+      r[6 * i + k] = ri[k];
+      z[6 * i + k] = zk;
+      dot += res[k] * static_cast<double>(zk);
+    }
+  }
+  reduce_and_finish(dot, red, Finish::beta, tolerance);
 }
 
 // ---- frames: preparation and PCG ----
@@ -1026,14 +964,12 @@ FASCIA_HD void block_jacobi(const R* minv, const R* r, int i, double* z) {
 }
 
 // Right-hand side and start of the PCG: b = M v / h - dW + f_ext (fixed DOFs 0), x = 0, r = b,
-// z = M^-1 r, p = z, rz = r . z, and for the split launched PCG the frame terms z . D z of the
-// first direction's p . A p (`geo`, `flags`: the step's frame terms, frame_row_of).
+// z = M^-1 r, p = z, rz = r . z.
 template <class R>
-__global__ void k_pcg_init(ModelView<R> m, const R* gradient, const R* inertia_world, const R* geo,
-                           FrameTermsFlags flags, const double* velocities, const double* external, double inv_h,
-                           const R* minv, R* x, R* r, R* z, R* p, Reduction red) {
+__global__ void k_pcg_init(ModelView<R> m, const R* gradient, const R* inertia_world, const double* velocities,
+                           const double* external, double inv_h, const R* minv, R* x, R* r, R* z, R* p, Reduction red) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  double dot = 0, zDz = 0;
+  double dot = 0;
   if (i < m.frames) {
     double b[6];
     const double mass = static_cast<double>(m.masses[i]);
@@ -1048,18 +984,13 @@ __global__ void k_pcg_init(ModelView<R> m, const R* gradient, const R* inertia_w
     }
     double zz[6];
     block_jacobi(minv, r, i, zz);
-    double zr[6];  // z as stored
     for (int k = 0; k < 6; ++k) {
-      zr[k] = static_cast<double>(static_cast<R>(zz[k]));
       z[6 * i + k] = static_cast<R>(zz[k]);
       p[6 * i + k] = static_cast<R>(zz[k]);
-      dot += static_cast<double>(r[6 * i + k]) * zr[k];
+      dot += static_cast<double>(r[6 * i + k]) * static_cast<double>(static_cast<R>(zz[k]));
     }
-    for (int k = 0; k < 6; ++k)
-      zDz += zr[k] * frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, zr, i, k, 0.0, flags.k_scale);
   }
-  const double sums[2] = {dot, zDz};
-  reduce_and_finish(sums, red, Finish::init, 0);
+  reduce_and_finish(dot, red, Finish::init, 0);
 }
 
 // p = z + beta p.

@@ -78,16 +78,11 @@ __device__ void group_slot_sums(const ModelView<R>& m, const R* outs, int stride
 // reduce-scatter (exchanges at distance 4, 2, 1: group_lane_sum's order), in two halves of 4
 // frames (24 values live); each (group, frame) entry's sum into shared memory at its slot-major
 // position, then `slot_lanes` lanes per slot sum the block's slots (group_slot_sums). Mapped: w and
-// g from the group's class and map (group_classes.hpp) instead of group_data. With work_partials
-// (the split launched PCG): the block's sum of the sample terms of p . A p, k_scale v dF : dP,
-// into work_partials[blockIdx.x] for k_split_alpha: plain stores, without the fence and atomic of
-// a last-block reduction in each of the kernel's many waves of blocks (with them the split
-// iteration measured 0.672 ms per CG iteration at 4.18 M in single on an H100, against 0.574 for
-// three launches).
+// g from the group's class and map (group_classes.hpp) instead of group_data.
 template <class R, bool Mapped>
 __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
     k_group_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
-                    int slot_lanes, double* work_partials, double k_scale) {
+                    int slot_lanes) {
   constexpr bool kKeepEntries = sizeof(R) == sizeof(float);
   __shared__ __align__(16) R records[kGroupRecords];
   __shared__ __align__(16) R outs[6 * kGroupThreads];
@@ -177,13 +172,11 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
   if (frame >= 0) group_frame_record(lever, di, rec + lane * kGroupRecord);
   __syncwarp();
   Mat3T<R> dF = zero3<R>(), dP = zero3<R>();  // dP: v dP
-  double work = 0;                             // k_scale v dF : dP, where work_partials is set
   if (active) {
 #pragma unroll
     for (int k = 0; k < kGroupLanes; ++k)
       if (k < n) group_pair_dF(rec + k * kGroupRecord, ps, w[k], gr[k], dF);
     dP = sample_value(f.sample_state, m.samples, 3, s) * pk1_differential(*mat, F, cache, dF);
-    if (work_partials) work = k_scale * static_cast<double>(ddot(dF, dP));
   }
   if constexpr (!kPreload) bs = block_slot_range(m, b);
   const int stride = bs.stride;
@@ -222,11 +215,6 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
   }
   __syncthreads();
   group_slot_sums<kPreload>(m, outs, stride, bounds, bs.q0, bs.q1, bs.base, slot_lanes, slot_partials);
-  if (work_partials) {
-    double sum[1] = {work};
-    block_sums(sum);
-    if (t == 0) work_partials[b] = sum[0];
-  }
 }
 
 }  // namespace fascia::gpu

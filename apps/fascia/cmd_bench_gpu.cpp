@@ -80,9 +80,8 @@ const Switch kSwitches[] = {
     {"--group-classes", "group_classes", &gpu::DeviceOptions::group_classes,
      "grouped pass: w and g from the groups' classes and maps (1, where the model has them) or read per pair (0, "
      "the default)"},
-    {"--split-iteration", "split_iteration", &gpu::DeviceOptions::split_iteration,
-     "grouped pass, launched PCG: two launches per CG iteration, p.Ap reduced by the grouped pass (1, the "
-     "default) or three, p.Ap from the frame pass (0)"},
+    {"--frame-threads", "frame_threads", &gpu::DeviceOptions::frame_threads,
+     "launched row passes: one thread per frame (1, the default) or per frame row (0)"},
     {"--prefetch-frames", "prefetch_frames", &gpu::DeviceOptions::prefetch_frames,
      "launched dense tangent product with 2 or 4 held entries: the next pairs' frames read with the held entries "
      "(1) or with their own entries (0, the default)"},
@@ -129,8 +128,8 @@ Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInf
                   (dev.dense_tangent() ? "d" : "") + (dev.shape_classes() ? "m" : "") + (dev.slot_frames() ? "f" : "") +
                   (dev.direction_pass() ? "p" : "") + (dev.hold_pairs() ? "h" : "") +
                   (dev.resident_frames() ? "l" : "") + (dev.prefetch_frames() ? "x" : "") + (dev.group_samples() ? (dev.group_classes() ? "gc" : "g") : "") +
-                  (dev.split_iteration() ? "2" : "") +
-                  (options.row_frames != gpu::DeviceOptions{}.row_frames ? "r" + std::to_string(options.row_frames) : "");
+                  (options.row_frames != gpu::DeviceOptions{}.row_frames ? "r" + std::to_string(options.row_frames) : "") +
+                  (options.frame_threads ? "" : "R");
   row.linear = to_string(c.linear);
   row.cg_kernel = report.resident ? "resident" : report.persistent ? "persistent" : "launches";
   row.ms_per_step = stepper.time_step_ms(repeats);

@@ -313,60 +313,64 @@ TEST_CASE("grouped tangent pass equals the CPU reference", "[gpu]") {
 
 TEST_CASE("launched PCG with the grouped pass equals the CPU reference", "[gpu]") {
   // The grouped kernel forms the direction z + beta p_old itself, or reads p from the direction
-  // pass; the persistent kernels keep the coalesced pass, so the step runs launched. Split: two
-  // launches per iteration, p . A p reduced by the grouped pass (without the direction pass).
+  // pass; the persistent kernels keep the coalesced pass, so the step runs launched.
   const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
   const bool direction_pass = GENERATE(false, true);
   const bool classes = GENERATE(false, true);
-  const bool split = GENERATE(false, true);
   const Model model = kernels_test_model(type, MaterialLaw::stvk);
   DeviceOptions options;
   options.precision = precision;
   options.group_samples = true;
   options.direction_pass = direction_pass;
   options.group_classes = classes;
-  options.split_iteration = split;
   int iterations = 0;
   const double e = launched_step_difference(model, 43, options, [&](const DeviceElasticity& dev) {
     REQUIRE(dev.group_samples());
     REQUIRE(dev.group_classes() == classes);
-    REQUIRE(dev.split_iteration() == (split && !direction_pass));
   }, iterations);
-  std::printf("[gpu] launched grouped %s %s direction pass %d classes %d split %d: cg %d delta %.2e\n",
-              to_string(precision), name(type), direction_pass ? 1 : 0, classes ? 1 : 0, split ? 1 : 0, iterations, e);
+  std::printf("[gpu] launched grouped %s %s direction pass %d classes %d: cg %d delta %.2e\n", to_string(precision),
+              name(type), direction_pass ? 1 : 0, classes ? 1 : 0, iterations, e);
   CHECK(e < bound(precision, true));
 }
 
-TEST_CASE("launched PCG reductions over many chunks equal the CPU reference", "[gpu]") {
-  // Every last-block reduction sums per chunk of kReduceChunk = 256 blocks, then over the chunks,
-  // and the frame passes loop over their chunks of frames in the blocks that fit on the device at
-  // once. One frame per chunk (row_frames 1): 34 x 17 x 9 hexahedra have 6,300 frames, more
-  // chunks than fit (at most 32 blocks per multiprocessor), in more than 256 blocks. The split
-  // iteration's alpha sums the grouped pass's 326 block sums. Split and three-launch iterations,
-  // both precisions. Cells of 5.6 to 5.9 mm, positions perturbed by at most 0.9 mm: the strains of
-  // the 4 x 3 x 2-cell box's tests (16 % of the thinnest cell), no cell inverted.
+TEST_CASE("launched row passes that loop and reduce over many chunks equal the CPU reference", "[gpu]") {
+  // Every last-block reduction sums per chunk of 256 blocks (LaunchGrids::reduce_chunk), then over
+  // the chunks, and the row passes loop over their work in at most the blocks that fit on the
+  // device at once. 34 x 17 x 9 hexahedra, 6,300 frames. One thread per frame row, one frame per
+  // chunk (row_frames 1): 6,300 chunks, more than fit (at most 32 blocks per multiprocessor), in
+  // more than 256 blocks. One thread per frame: 50 blocks of frames in 7 thread blocks. Grouped
+  // and coalesced passes, both precisions. Cells of 5.6 to 5.9 mm, positions perturbed by at most
+  // 0.9 mm: the strains of the 4 x 3 x 2-cell box's tests (16 % of the thinnest cell), no cell
+  // inverted.
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
-  const bool split = GENERATE(false, true);
+  const bool grouped = GENERATE(false, true);
+  const bool frame_threads = GENERATE(false, true);
   const Model model = kernels_test_model(CellType::hexahedron, MaterialLaw::neo_hookean, 34, 17, 9);
   DeviceOptions options;
   options.precision = precision;
-  options.group_samples = true;
-  options.split_iteration = split;
+  options.group_samples = grouped;
+  options.frame_threads = frame_threads;
   options.row_frames = 1;
+  if (frame_threads) options.row_blocks = 7;
   int iterations = 0;
   const double e = launched_step_difference(model, 47, options, [&](const DeviceElasticity& dev) {
-    REQUIRE(dev.group_samples());
-    REQUIRE(dev.split_iteration() == split);
+    REQUIRE(dev.group_samples() == grouped);
     const LaunchGrids grids = dev.launch_grids();
-    std::printf("[gpu] grids: %d blocks of groups, %d chunks of frames in %d blocks\n", grids.group_blocks,
-                grids.row_chunks, grids.frame_update_grid);
-    // The loop takes more than one turn in some blocks, and the reduction spans several chunks.
-    CHECK(grids.frame_update_grid < grids.row_chunks);
-    CHECK(grids.frame_update_grid > 256);
+    std::printf("[gpu] row passes: %d blocks of work in %d and %d blocks\n", grids.row_work, grids.frame_rows_grid,
+                grids.update_rows_grid);
+    // Each pass loops more than once in some blocks; one thread per row, its reduction spans
+    // several chunks.
+    CHECK(grids.frame_rows_grid < grids.row_work);
+    CHECK(grids.update_rows_grid < grids.row_work);
+    if (!frame_threads) {
+      CHECK(grids.frame_rows_grid > grids.reduce_chunk);
+      CHECK(grids.update_rows_grid > grids.reduce_chunk);
+    }
   }, iterations, 9e-4);
-  std::printf("[gpu] launched grouped, %d samples, one frame per frame block, %s split %d: cg %d delta %.2e\n",
-              model.sample_count(), to_string(precision), split ? 1 : 0, iterations, e);
+  std::printf("[gpu] launched, %d samples, %s, %s grouped %d: cg %d delta %.2e\n", model.sample_count(),
+              frame_threads ? "frame threads" : "one frame per chunk", to_string(precision), grouped ? 1 : 0,
+              iterations, e);
   CHECK(e < bound(precision, true));
 }
 
@@ -450,6 +454,29 @@ DeviceOptions dense_options(Precision precision, int keep) {
 }
 
 }  // namespace
+
+TEST_CASE("row passes with one thread per frame give the values of one thread per row", "[gpu]") {
+  // The same arithmetic per row (slot sums in slot order, M^-1 r in column order): the tangent
+  // product's frame pass gives the same bits; a PCG step's dot products add in another order, so
+  // its increment agrees within the bounds above (and with the CPU reference elsewhere).
+  const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
+  const bool grouped = GENERATE(false, true);
+  const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
+  const Model model = kernels_test_model(type, MaterialLaw::neo_hookean, 6, 5, 4);
+  DeviceOptions options;
+  options.precision = precision;
+  options.group_samples = grouped;
+  options.frame_threads = false;
+  const LaunchedRun rows = launched_run(model, options);
+  options.frame_threads = true;
+  const LaunchedRun frames = launched_run(model, options);
+  REQUIRE(length(rows.Kd) > 0);
+  CHECK(std::memcmp(frames.Kd.data(), rows.Kd.data(), sizeof(double) * rows.Kd.size()) == 0);
+  const double e = relative_difference(frames.delta, rows.delta);
+  std::printf("[gpu] frame threads %s %s grouped %d: |Kd| %.3e, delta against rows %.2e\n", name(type),
+              to_string(precision), grouped ? 1 : 0, length(rows.Kd), e);
+  CHECK(e < bound(precision, true));
+}
 
 TEST_CASE("slot-frames tangent kernel gives the bits of the gathering kernel", "[gpu]") {
   // The staged frame records hold the gathered values and the direction formed by the same
