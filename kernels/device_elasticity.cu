@@ -317,7 +317,7 @@ class System final : public DeviceElasticity::Impl {
     m_F.resize(9 * static_cast<size_t>(m_s));
     m_geo.resize(9 * static_cast<size_t>(m_n));
     m_inertia_world.resize(9 * static_cast<size_t>(m_n));
-    m_minv.resize(36 * static_cast<size_t>(m_n));
+    m_minv.resize(kMinvValues * static_cast<size_t>(m_n));
     m_diag.resize(36 * static_cast<size_t>(m_n));
     m_prepare_sums.resize(kPrepareSums * static_cast<size_t>(m_n));
     for (auto* v : {&m_grad, &m_d, &m_out, &m_cx, &m_cr, &m_cz, &m_cp, &m_cAp}) v->resize(dofs);
@@ -330,15 +330,12 @@ class System final : public DeviceElasticity::Impl {
     m_scalars.resize(1);
     m_scalars.zero();
     // The launched row passes loop over their chunks (or frames) in the blocks that fit at once.
-    if (options.frame_threads) {
-      const int blocks = grid_for(m_n, kFrameThreads);
-      m_rows_grid = resident_blocks(reinterpret_cast<const void*>(&k_frame_sums<R>), kFrameThreads, blocks);
-      m_update_grid = resident_blocks(reinterpret_cast<const void*>(&k_update_frames<R>), kFrameThreads, blocks);
-    } else {
-      const int chunks = grid_for(m_n, m_row_frames);
-      m_rows_grid = resident_blocks(reinterpret_cast<const void*>(&k_frame_rows<R>), 6 * m_row_frames, chunks);
-      m_update_grid = resident_blocks(reinterpret_cast<const void*>(&k_update_rows<R>), 6 * m_row_frames, chunks);
-    }
+    const int chunks = grid_for(m_n, m_row_frames);
+    m_rows_grid = options.frame_threads
+                      ? resident_blocks(reinterpret_cast<const void*>(&k_frame_sums<R>), kFrameThreads,
+                                        grid_for(m_n, kFrameThreads))
+                      : resident_blocks(reinterpret_cast<const void*>(&k_frame_rows<R>), 6 * m_row_frames, chunks);
+    m_update_grid = resident_blocks(reinterpret_cast<const void*>(&k_update_rows<R>), 6 * m_row_frames, chunks);
     if (options.row_blocks > 0) {
       m_rows_grid = std::min(m_rows_grid, options.row_blocks);
       m_update_grid = std::min(m_update_grid, options.row_blocks);
@@ -946,8 +943,9 @@ class System final : public DeviceElasticity::Impl {
   }
 
   LaunchGrids launch_grids() const override {
-    const int work = options.frame_threads ? grid_for(m_n, kFrameThreads) : grid_for(m_n, m_row_frames);
-    return LaunchGrids{work, m_rows_grid, m_update_grid, kReduceChunk};
+    const int chunks = grid_for(m_n, m_row_frames);
+    return LaunchGrids{options.frame_threads ? grid_for(m_n, kFrameThreads) : chunks, chunks, m_rows_grid,
+                       m_update_grid, kReduceChunk};
   }
 
   KernelResources tangent_kernel_resources() const override {
@@ -1026,14 +1024,9 @@ class System final : public DeviceElasticity::Impl {
 
   void enqueue_cg_iteration() {
     enqueue_tangent(m_cp.data(), m_cAp.data(), step_flags(), true);
-    if (options.frame_threads)
-      k_update_frames<R><<<m_update_grid, kFrameThreads, 0, m_stream>>>(
-          m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
-          m_step.cg_tolerance);
-    else
-      k_update_rows<R><<<m_update_grid, 6 * m_row_frames, 0, m_stream>>>(
-          m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
-          m_step.cg_tolerance);
+    k_update_rows<R><<<m_update_grid, 6 * m_row_frames, 0, m_stream>>>(
+        m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
+        m_step.cg_tolerance);
     check_launch();
     if (design != Design::fused || direction_pass) {  // else the fused passes form p = z + beta p themselves
       k_pcg_direction<R><<<grid_for(6LL * m_n, kThreads), kThreads, 0, m_stream>>>(6 * m_n, m_cz.data(), m_cp.data(),

@@ -141,13 +141,14 @@ struct DeviceOptions {
   // took 4.18 M x 8 from 1.92 to 1.73 ms per CG iteration (single) and 34,848 samples from 27.2
   // to 25.5 us (launches); 85 is within 1.5 % of 42.
   int row_frames = 42;
-  // Launched row passes (the frame pass of the tangent product and the PCG update): one thread per
-  // frame, each reading its frame's 6-vectors and M^-1 block in vector loads
-  // (k_frame_sums, k_update_frames), instead of one thread per frame row in chunks of row_frames
-  // frames. The same values row by row; the reduced dot products add each frame's rows first.
+  // Launched frame pass of the tangent product: one thread per frame, reading its frame's
+  // directions and slot partials in vector loads (k_frame_sums), instead of one thread per frame
+  // row in chunks of row_frames frames (k_frame_rows). The same values row by row; p . A p adds
+  // each frame's rows first. Measured on an H100 (docs/benchmarks.md, twelfth round): 4.18 M x 8
+  // single, the pass 83.1 -> 70.5 us at base clocks.
   bool frame_threads = true;
-  // Launched row passes: at most this many thread blocks, which loop over the frames (0: as many as
-  // fit on the device at once). The tests set it to make small models loop.
+  // Launched row passes: at most this many thread blocks, which loop over their work (0: as many
+  // as fit on the device at once). The tests set it to make small models loop.
   int row_blocks = 0;
   // Persistent PCG (StepOptions::persistent): used while the model needs at most this many
   // thread blocks per multiprocessor (its blocks must all be resident). Measured on an H200
@@ -185,12 +186,12 @@ struct KernelResources {
   long long local_bytes = 0;  // local memory: register spills and stack
 };
 
-// Grids of the launched PCG's row passes: their blocks of work (chunks of DeviceOptions::row_frames
-// frames, or blocks of frames with DeviceOptions::frame_threads) and the thread blocks of the
-// frame pass and of the update, which loop over them (DeviceOptions::row_blocks); and the blocks
-// per chunk of the grid reductions' first level.
+// Grids of the launched PCG's row passes: their blocks of work (the frame pass: chunks of
+// DeviceOptions::row_frames frames, or blocks of kFrameThreads frames with
+// DeviceOptions::frame_threads; the update: chunks) and the thread blocks of each, which loop over
+// them (DeviceOptions::row_blocks); and the blocks per chunk of the grid reductions' first level.
 struct LaunchGrids {
-  int row_work = 0, frame_rows_grid = 0, update_rows_grid = 0;
+  int frame_work = 0, update_work = 0, frame_rows_grid = 0, update_rows_grid = 0;
   int reduce_chunk = 0;
 };
 

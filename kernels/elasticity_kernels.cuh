@@ -750,7 +750,8 @@ __device__ double store_and_precondition_row(bool active, const UpdatedRow<R>& u
   double dot = 0;
   if (active) {
     const R zk = static_cast<R>(preconditioned_row(
-        [&](int c) { return static_cast<double>(minv[36 * static_cast<size_t>(i) + 6 * k + c]); }, res + (t - k)));
+        [&](int c) { return static_cast<double>(minv[kMinvValues * static_cast<size_t>(i) + minv_index(k, c)]); },
+        res + (t - k)));
     z[j] = zk;
     dot = res[t] * static_cast<double>(zk);
   }
@@ -805,15 +806,15 @@ __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* 
   reduce_and_finish(dot, red, Finish::beta, tolerance);
 }
 
-// The row passes with one thread per frame (DeviceOptions::frame_threads): frames
+// The frame pass with one thread per frame (DeviceOptions::frame_threads): frames
 // blockIdx.x blockDim.x + threadIdx.x, + gridDim.x blockDim.x, ... Each thread reads its frame's
-// vectors as 6 contiguous values (and M^-1 as 36) in vector loads, so that several hundred bytes
-// per thread are in flight at once against 4 to 24 per frame row, with no block barrier. The same
-// arithmetic per row as the chunked passes (frame_rows_chunk, update_rows_chunk; the slot sums in
-// slot order, M^-1 r in column order), so the same values; the reduced dot products add a frame's
-// six rows first.
-
-constexpr int kFrameThreads = 128;  // threads per block of k_frame_sums and k_update_frames
+// directions and each of its slots' 6 partials in vector loads, with no block barrier. The same
+// arithmetic per row as frame_rows_chunk (the slot sums in slot order), so the same values; p . A p
+// adds a frame's six rows first. Measured on an H100 at 4.18 M x 8 (Nsight Compute, base clocks):
+// 70.5 us against k_frame_rows' 83.1 in single. The update with one thread per frame (its M^-1
+// block as 9 vector loads) took 110 us against k_update_rows' 76, so the update keeps one thread
+// per row (docs/benchmarks.md, twelfth round).
+constexpr int kFrameThreads = 128;  // threads per block of k_frame_sums
 
 // k_frame_rows with one thread per frame.
 template <class R>
@@ -862,41 +863,6 @@ __global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* ge
     }
   }
   if (pcg) reduce_and_finish(dot, red, Finish::alpha, 0);
-}
-
-// k_update_rows with one thread per frame.
-template <class R>
-__global__ void k_update_frames(int n, const R* minv, const R* p, const R* Ap, R* x, R* r, R* z, Reduction red,
-                                double tolerance) {
-  if (finished(red.scalars)) return;
-  const double alpha = red.scalars->alpha;
-  double dot = 0;
-  const int stride = static_cast<int>(gridDim.x * blockDim.x);
-  for (int i = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x); i < n; i += stride) {
-    R pi[6], api[6], xi[6], ri[6], mi[36];
-    load_six(p, i, pi);
-    load_six(Ap, i, api);
-    load_six(x, i, xi);
-    load_six(r, i, ri);
-    load_aligned<36>(minv + 36 * static_cast<size_t>(i), mi);
-    double res[6];
-#pragma unroll
-    for (int k = 0; k < 6; ++k) {
-      const UpdatedRow<R> u = update_row(xi[k], ri[k], alpha, static_cast<double>(pi[k]), static_cast<double>(api[k]));
-      xi[k] = u.x;
-      ri[k] = u.r;
-      res[k] = static_cast<double>(u.r);
-    }
-#pragma unroll
-    for (int k = 0; k < 6; ++k) {
-      const R zk = static_cast<R>(preconditioned_row([&](int c) { return static_cast<double>(mi[6 * k + c]); }, res));
-      x[6 * i + k] = xi[k];
-      r[6 * i + k] = ri[k];
-      z[6 * i + k] = zk;
-      dot += res[k] * static_cast<double>(zk);
-    }
-  }
-  reduce_and_finish(dot, red, Finish::beta, tolerance);
 }
 
 // ---- frames: preparation and PCG ----
@@ -958,7 +924,8 @@ template <class R>
 FASCIA_HD void block_jacobi(const R* minv, const R* r, int i, double* z) {
   for (int a = 0; a < 6; ++a) {
     double acc = 0;
-    for (int b = 0; b < 6; ++b) acc += static_cast<double>(minv[36 * i + 6 * a + b]) * static_cast<double>(r[6 * i + b]);
+    for (int b = 0; b < 6; ++b)
+      acc += static_cast<double>(minv[kMinvValues * i + minv_index(a, b)]) * static_cast<double>(r[6 * i + b]);
     z[a] = acc;
   }
 }
@@ -1361,7 +1328,7 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
     rj = r[jrow];
     zj = z[jrow];
     pj = p[jrow];
-    for (int c = 0; c < 6; ++c) mrow[c] = static_cast<double>(minv[36 * static_cast<size_t>(i) + 6 * k + c]);
+    for (int c = 0; c < 6; ++c) mrow[c] = static_cast<double>(minv[kMinvValues * static_cast<size_t>(i) + minv_index(k, c)]);
     terms = frame_row_terms(m, geo, inertia_world, i, k);
     if constexpr (!InRegisters) {
       for (int c = 0; c < 6; ++c) held(row_held, c) = mrow[c];

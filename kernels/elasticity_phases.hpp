@@ -906,6 +906,15 @@ FASCIA_HD UpdatedRow<R> update_row(R x, R r, double alpha, double p, double ap) 
                        static_cast<R>(static_cast<double>(r) - alpha * ap)};
 }
 
+// Frame i's preconditioner block M_i^-1 (symmetric) is stored packed: its lower triangle row by
+// row, 21 values per frame ([N][kMinvValues]); entry (a, b) at kMinvValues i + minv_index(a, b).
+// Against the full 36 values, 33 MB less read per CG iteration at 4.18 M samples in single.
+constexpr int kMinvValues = 21;
+FASCIA_HD int minv_index(int a, int b) {
+  const int hi = a > b ? a : b, lo = a > b ? b : a;
+  return hi * (hi + 1) / 2 + lo;
+}
+
 // Row k of the block-Jacobi preconditioner applied to one frame's residual res [6]:
 // sum_c minv_kc(c) res_c in that order (minv_kc(c): the row's entries as double).
 template <class Row>
@@ -1157,7 +1166,7 @@ FASCIA_HD void frame_prepare_blocks(const ModelView<R>& m, const FrameView<R>& f
   }
 }
 
-// Column c of frame i's preconditioner into minv_out [N][36] (row-major) from K after
+// Column c of frame i's preconditioner, its rows r >= c, into minv_out (packed, minv_index) from K after
 // frame_prepare_blocks and its block_jacobi_factor: block_jacobi_inverse's column, or with
 // `precondition` false the identity's on free DOFs (plain CG).
 template <class R>
@@ -1168,7 +1177,7 @@ FASCIA_HD void frame_preconditioner_column(const unsigned char* fixed, const dou
     block_jacobi_inverse_column(fixed, K, factor, c, col);
   else
     for (int r = 0; r < 6; ++r) col[r] = r == c && !fixed[c] ? 1.0 : 0.0;
-  for (int r = 0; r < 6; ++r) minv_out[36 * static_cast<size_t>(i) + 6 * r + c] = static_cast<R>(col[r]);
+  for (int r = c; r < 6; ++r) minv_out[kMinvValues * static_cast<size_t>(i) + minv_index(r, c)] = static_cast<R>(col[r]);
 }
 
 template <class R>

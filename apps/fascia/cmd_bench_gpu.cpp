@@ -81,7 +81,7 @@ const Switch kSwitches[] = {
      "grouped pass: w and g from the groups' classes and maps (1, where the model has them) or read per pair (0, "
      "the default)"},
     {"--frame-threads", "frame_threads", &gpu::DeviceOptions::frame_threads,
-     "launched row passes: one thread per frame (1, the default) or per frame row (0)"},
+     "launched frame pass of the tangent product: one thread per frame (1, the default) or per frame row (0)"},
     {"--prefetch-frames", "prefetch_frames", &gpu::DeviceOptions::prefetch_frames,
      "launched dense tangent product with 2 or 4 held entries: the next pairs' frames read with the held entries "
      "(1) or with their own entries (0, the default)"},

@@ -339,8 +339,8 @@ TEST_CASE("launched row passes that loop and reduce over many chunks equal the C
   // the chunks, and the row passes loop over their work in at most the blocks that fit on the
   // device at once. 34 x 17 x 9 hexahedra, 6,300 frames. One thread per frame row, one frame per
   // chunk (row_frames 1): 6,300 chunks, more than fit (at most 32 blocks per multiprocessor), in
-  // more than 256 blocks. One thread per frame: 50 blocks of frames in 7 thread blocks. Grouped
-  // and coalesced passes, both precisions. Cells of 5.6 to 5.9 mm, positions perturbed by at most
+  // more than 256 blocks. With the frame pass's one thread per frame, at most 7 blocks: 50 blocks
+  // of frames and 6,300 chunks in 7. Grouped and coalesced passes, both precisions. Cells of 5.6 to 5.9 mm, positions perturbed by at most
   // 0.9 mm: the strains of the 4 x 3 x 2-cell box's tests (16 % of the thinnest cell), no cell
   // inverted.
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);
@@ -357,12 +357,12 @@ TEST_CASE("launched row passes that loop and reduce over many chunks equal the C
   const double e = launched_step_difference(model, 47, options, [&](const DeviceElasticity& dev) {
     REQUIRE(dev.group_samples() == grouped);
     const LaunchGrids grids = dev.launch_grids();
-    std::printf("[gpu] row passes: %d blocks of work in %d and %d blocks\n", grids.row_work, grids.frame_rows_grid,
-                grids.update_rows_grid);
-    // Each pass loops more than once in some blocks; one thread per row, its reduction spans
+    std::printf("[gpu] row passes: %d and %d blocks of work in %d and %d blocks\n", grids.frame_work,
+                grids.update_work, grids.frame_rows_grid, grids.update_rows_grid);
+    // Each pass loops more than once in some blocks; without the limit, the reductions span
     // several chunks.
-    CHECK(grids.frame_rows_grid < grids.row_work);
-    CHECK(grids.update_rows_grid < grids.row_work);
+    CHECK(grids.frame_rows_grid < grids.frame_work);
+    CHECK(grids.update_rows_grid < grids.update_work);
     if (!frame_threads) {
       CHECK(grids.frame_rows_grid > grids.reduce_chunk);
       CHECK(grids.update_rows_grid > grids.reduce_chunk);
@@ -455,10 +455,10 @@ DeviceOptions dense_options(Precision precision, int keep) {
 
 }  // namespace
 
-TEST_CASE("row passes with one thread per frame give the values of one thread per row", "[gpu]") {
-  // The same arithmetic per row (slot sums in slot order, M^-1 r in column order): the tangent
-  // product's frame pass gives the same bits; a PCG step's dot products add in another order, so
-  // its increment agrees within the bounds above (and with the CPU reference elsewhere).
+TEST_CASE("the frame pass with one thread per frame gives the values of one thread per row", "[gpu]") {
+  // The same arithmetic per row (slot sums in slot order): the tangent product gives the same
+  // bits; in a PCG step p . A p adds in another order, so the increment agrees within the bounds
+  // above (and with the CPU reference elsewhere).
   const CellType type = GENERATE(CellType::tetrahedron, CellType::hexahedron);
   const bool grouped = GENERATE(false, true);
   const Precision precision = GENERATE(Precision::double_precision, Precision::single_precision);

@@ -507,7 +507,7 @@ TEST_CASE("kernel bodies stepped on the host reproduce the CPU reference", "[ker
   std::vector<double> F(9 * static_cast<size_t>(model.sample_count()));
   const std::vector<double> fg = dev.fused<Pass::gradient>(d, &F);
   CHECK(relative_difference(fg, g) < 1e-12);
-  std::vector<double> geo(9 * n), jw(9 * n), minv(36 * n), diag(36 * n);
+  std::vector<double> geo(9 * n), jw(9 * n), minv(kMinvValues * n), diag(36 * n);
   for (int i = 0; i < n; ++i) frame_prepare(dev.view, dev.frames, F.data(), true, 0.0, i, geo.data(), jw.data(), minv.data(), diag.data());
   CHECK(relative_difference(diag, blocks) < 1e-12);
   std::vector<double> fk = dev.fused<Pass::tangent>(d, nullptr);
