@@ -317,6 +317,7 @@ class System final : public DeviceElasticity::Impl {
     m_F.resize(9 * static_cast<size_t>(m_s));
     m_geo.resize(9 * static_cast<size_t>(m_n));
     m_inertia_world.resize(9 * static_cast<size_t>(m_n));
+    m_step_block.resize(9 * static_cast<size_t>(m_n));
     m_minv.resize(kMinvValues * static_cast<size_t>(m_n));
     m_diag.resize(36 * static_cast<size_t>(m_n));
     m_prepare_sums.resize(kPrepareSums * static_cast<size_t>(m_n));
@@ -902,7 +903,7 @@ class System final : public DeviceElasticity::Impl {
     check_launch();
     k_frame_finish<R><<<grid_for(m_n, kFinishFrames), 6 * kFinishFrames, 0, m_stream>>>(
         m_view, m_frame_view, m_prepare_sums.data(), inv_h2, m_geo.data(), m_inertia_world.data(), m_minv.data(),
-        diag ? m_diag.data() : nullptr, k_scale, load_rot, precondition);
+        diag ? m_diag.data() : nullptr, k_scale, load_rot, precondition, m_step_block.data());
     check_launch();
   }
 
@@ -911,6 +912,12 @@ class System final : public DeviceElasticity::Impl {
     const double h = m_step.dt;
     return FrameTermsFlags{(1.0 + m_step.rayleigh_mass * h) / (h * h), true, 1.0 + m_step.rayleigh_stiffness / h};
   }
+
+  // The frame terms of the launched frame pass: in the PCG the step's rotational block with the
+  // inertia added (m_step_block, k_frame_finish: k_scale Kr + L + (1 + alpha h)/h^2 R I_0 R^T, 9
+  // values per frame instead of 18) and no inertia; else the rotational block and the inertia.
+  const R* frame_block(bool pcg) const { return pcg ? m_step_block.data() : m_geo.data(); }
+  const R* frame_inertia(bool pcg) const { return pcg ? nullptr : m_inertia_world.data(); }
 
   // The frame pass of the launched tangent product (k_frame_rows, or k_frame_sums with
   // DeviceOptions::frame_threads): out = H d from the slot partials and the frame terms; in the
@@ -968,7 +975,7 @@ class System final : public DeviceElasticity::Impl {
                                                                              m_stream>>>(
             m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes);
         check_launch();
-        enqueue_frame_rows(m_group_view, m_group_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out,
+        enqueue_frame_rows(m_group_view, m_group_partials.data(), frame_block(pcg), frame_inertia(pcg), flags, d, out,
                            pcg, z);
         return;
       }
@@ -998,7 +1005,7 @@ class System final : public DeviceElasticity::Impl {
             m_view, m_frame_view, m_F.data(), m_cache.data(), pcg ? z : d, pcg ? d : nullptr, m_partials.data(), sc,
             m_lanes);
       check_launch();
-      enqueue_frame_rows(m_view, m_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, pcg, z);
+      enqueue_frame_rows(m_view, m_partials.data(), frame_block(pcg), frame_inertia(pcg), flags, d, out, pcg, z);
     } else {
       k_paper_tangent<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(
           m_view, m_frame_view, m_F.data(), m_cache.data(), m_a.data(), d, m_partials.data(), sc);
@@ -1287,6 +1294,7 @@ class System final : public DeviceElasticity::Impl {
   DeviceBuffer<double> m_positions, m_orientations, m_velocities, m_external, m_load_rot, m_diag;
   DeviceBuffer<double> m_prepare_sums;  // k_frame_columns -> k_frame_finish: [N][kPrepareSums]
   DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_a, m_partials, m_geo, m_inertia_world, m_minv;
+  DeviceBuffer<R> m_step_block;  // [N][9] the PCG's rotational frame block (frame_block)
   DeviceBuffer<R> m_grad, m_d, m_out, m_cx, m_cr, m_cz, m_cp, m_cAp;
   // Reductions.
   DeviceBuffer<double> m_red_partials;

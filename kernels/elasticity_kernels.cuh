@@ -905,7 +905,7 @@ __global__ void __launch_bounds__(kColumnParts * kColumnFrames)
 template <class R>
 __global__ void k_frame_finish(ModelView<R> m, FrameView<R> f, const double* sums, double inv_h2, R* geo,
                                R* inertia_world, R* minv, double* diag, double k_scale, const double* load_rot,
-                               bool precondition) {
+                               bool precondition, R* step_block) {
   const int t = static_cast<int>(threadIdx.x), c = t % 6;
   const int i = static_cast<int>(blockIdx.x) * kFinishFrames + t / 6;
   if (t >= 6 * kFinishFrames || i >= m.frames) return;
@@ -914,7 +914,7 @@ __global__ void k_frame_finish(ModelView<R> m, FrameView<R> f, const double* sum
   unpack_prepare_sums(sums + kPrepareSums * static_cast<size_t>(i), K, Kr);
   const bool lead = c == 0;
   frame_prepare_blocks(m, f, i, K, Kr, inv_h2, lead ? geo : nullptr, lead ? inertia_world : nullptr,
-                       lead ? diag : nullptr, k_scale, load_rot, precondition);
+                       lead ? diag : nullptr, k_scale, load_rot, precondition, lead ? step_block : nullptr);
   const unsigned char* fixed = m.fixed + 6 * i;
   const BlockJacobiFactor factor = precondition ? block_jacobi_factor(fixed, K) : BlockJacobiFactor{};
   frame_preconditioner_column(fixed, K, factor, precondition, i, c, minv);

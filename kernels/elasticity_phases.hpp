@@ -1142,7 +1142,7 @@ FASCIA_HD void frame_prepare_pairs(const ModelView<R>& m, const FrameView<R>& f,
 template <class R>
 FASCIA_HD void frame_prepare_blocks(const ModelView<R>& m, const FrameView<R>& f, int i, double* K, const Mat3& Kr,
                                     double inv_h2, R* geo_out, R* inertia_out, double* diag_out, double k_scale,
-                                    const double* load_rot, bool precondition) {
+                                    const double* load_rot, bool precondition, R* step_block_out = nullptr) {
   const Mat3 Ri = ldm(f.rotations + 9 * i);
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) K[6 * (3 + r) + 3 + c] += Kr.m[r][c];
@@ -1151,6 +1151,7 @@ FASCIA_HD void frame_prepare_blocks(const ModelView<R>& m, const FrameView<R>& f
   if (load_rot) frame_block += load_mat3(load_rot + 9 * i);
   if (geo_out) stm(geo_out + 9 * i, frame_block);
   if (inertia_out) stm(inertia_out + 9 * i, J);
+  if (step_block_out) stm(step_block_out + 9 * i, frame_block + inv_h2 * J);
   if (diag_out)
     for (int k = 0; k < 36; ++k) diag_out[36 * i + k] = K[k];
   if (precondition) {
