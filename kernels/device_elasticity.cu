@@ -610,7 +610,8 @@ class System final : public DeviceElasticity::Impl {
     return true;
   }
 
-  // The grouped pass's w and g per (block, frame, thread) entry, [4][E] (group_data_index).
+  // The grouped pass's w and g per (block, frame, thread) entry (group_data_index,
+  // group_data_offset: [E][4] in float, [4][E] in double).
   void upload_group_data(const Model& model, const GroupLayout& G) {
     const NeighbourTable& nb = model.neighbours;
     const BlockLayout& L = G.slots;
@@ -621,9 +622,10 @@ class System final : public DeviceElasticity::Impl {
         for (int s = G.group_samples[g]; s < G.group_samples[g + 1]; ++s) {
           const int t = (g - L.block_samples[b]) * kGroupLanes + (s - G.group_samples[g]);
           for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-            const size_t e = static_cast<size_t>(group_data_index(b, G.pair_entry[p], t));
-            data[e] = nb.weights[p];
-            for (int k = 0; k < 3; ++k) data[(k + 1) * E + e] = nb.weight_gradients[3 * static_cast<size_t>(p) + k];
+            const long long e = group_data_index(b, G.pair_entry[p], t), En = static_cast<long long>(E);
+            data[group_data_offset<R>(e, 0, En)] = nb.weights[p];
+            for (int k = 0; k < 3; ++k)
+              data[group_data_offset<R>(e, k + 1, En)] = nb.weight_gradients[3 * static_cast<size_t>(p) + k];
           }
         }
     m_group_data.upload(data);

@@ -114,7 +114,7 @@ struct ModelView {
   // [Q] where slot q's partials are stored: frame-major, so that each frame's slots are contiguous
   // and frame_slots (then null) is not read (k_frame_rows: one dependent load fewer).
   const int* slot_store = nullptr;
-  const R* group_data = nullptr;               // [4][group_entries] w, g (1/m) per block, frame k, thread
+  const R* group_data = nullptr;  // w, g (1/m) per block, frame k, thread (group_data_offset)
   // Mapped grouped pass (group_classes.hpp): w and g from the group's class and map instead.
   const int* group_class = nullptr;            // [G]
   const R* group_maps = nullptr;               // [9][G] A_g row-major, component-major over groups

@@ -153,8 +153,15 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
       group_class_entry(class_pairs, A, lane, k, wk, gk);
     } else {
       const long long e = group_data_index(b, k, t);
-      wk = m.group_data[e];
-      gk = Vec3T<R>{m.group_data[E + e], m.group_data[2 * E + e], m.group_data[3 * E + e]};
+      if constexpr (sizeof(R) == sizeof(float)) {
+        R v[4];
+        load_aligned<4>(m.group_data + group_data_offset<R>(e, 0, E), v);
+        wk = v[0];
+        gk = Vec3T<R>{v[1], v[2], v[3]};
+      } else {
+        wk = m.group_data[e];
+        gk = Vec3T<R>{m.group_data[E + e], m.group_data[2 * E + e], m.group_data[3 * E + e]};
+      }
     }
   };
   Mat3T<R> F = zero3<R>();

@@ -96,9 +96,18 @@ FASCIA_HD void group_class_entry(const R* pairs, const Mat3T<R>& A, int lane, in
   g = A * Vec3T<R>{ref[1], ref[2], ref[3]};
 }
 
-// Index of component c of entry (block b, frame k, block thread t) in group_data's rows.
+// Index of entry (block b, frame k, block thread t) of group_data.
 FASCIA_HD long long group_data_index(int b, int k, int t) {
   return (static_cast<long long>(b) * kGroupLanes + k) * kGroupThreads + t;
+}
+
+// Where component c (w, g_x, g_y, g_z) of entry e of E lies in group_data: in float each entry's 4
+// values together (one 16-byte load per pair), in double in component rows (two 16-byte loads
+// per entry would not be coalesced better, and measured slower with the entries together).
+template <class R>
+FASCIA_HD long long group_data_offset(long long e, int c, long long E) {
+  if constexpr (sizeof(R) == sizeof(float)) return 4 * e + c;
+  return c * E + e;
 }
 
 }  // namespace fascia::gpu
