@@ -125,8 +125,9 @@ __device__ inline void finish_scalars(double total, Finish finish, double tolera
 // Grid reduction, deterministic: each block writes its sum (thread 0's v after block_sum); the
 // last block of each chunk of kReduceChunk blocks (counted by the chunk's counter) sums the
 // chunk's partials in block order; the last chunk (the grid's counter) sums the chunks' partials
-// in chunk order and applies `finish`. At the end of a 13,005-block grid two round trips to the
-// L2 instead of 7 with one level. Each counter is reset by the block that completes it.
+// in chunk order and applies `finish`. At the end of a 32,676-block grid of 128 threads (the force
+// pass at 4.18 M samples) two round trips to the L2 instead of 32 rounds with one level. Each
+// counter is reset by the block that completes it.
 __device__ inline void reduce_and_finish(double v, const Reduction& red, Finish finish, double tolerance) {
   __shared__ bool is_last;
   const double block = block_sum(v);
