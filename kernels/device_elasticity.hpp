@@ -135,11 +135,12 @@ struct DeviceOptions {
   // single 0.575 -> 0.636, double 1.120 -> 1.421) though it moves a third of the bytes: the pass is
   // bound by latency, and the classes' table loads and maps add work and registers.
   bool group_classes = false;
-  // Frames per thread block of the launched frame-row passes (k_frame_rows, k_update_rows): 6 threads
-  // per frame, 1..85. Each pass ends in a grid reduction whose last block sums one partial per
-  // block, so larger blocks shorten it. Measured on an H200 (docs/benchmarks.md): 42 against 16
+  // Frames per chunk of the launched frame-row passes (k_frame_rows, k_update_rows; one chunk per
+  // thread block at a time): 6 threads per frame, 1..85. Measured on an H200 (docs/benchmarks.md),
+  // when each chunk was a block of its own and the grid reductions had one level: 42 against 16
   // took 4.18 M x 8 from 1.92 to 1.73 ms per CG iteration (single) and 34,848 samples from 27.2
-  // to 25.5 us (launches); 85 is within 1.5 % of 42.
+  // to 25.5 us (launches); 85 was within 1.5 % of 42. Not measured again since the passes loop
+  // over their chunks and the reductions have two levels (twelfth round).
   int row_frames = 42;
   // Launched frame pass of the tangent product: one thread per frame, reading its frame's
   // directions and slot partials in vector loads (k_frame_sums), instead of one thread per frame
