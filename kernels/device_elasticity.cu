@@ -123,8 +123,10 @@ class System final : public DeviceElasticity::Impl {
     // The grouped pass needs each group's samples consecutive: group order, from the Morton order.
     const bool want_groups =
         opts.group_samples && opts.design == Design::fused && opts.sample_pass == SamplePass::coalesced;
+    // Models whose groups average fewer than kMinGroupSamples samples are refused here, before
+    // they are put in group order and their group layout is built.
     if (want_groups) grouped_refusal = group_refusal(input);
-    const bool group_order = want_groups && grouped_refusal.empty();
+    bool group_order = want_groups && grouped_refusal.empty();
     std::vector<int> order;
     if (opts.reorder_samples) order = spatial_sample_order(input);
     if (group_order) {
@@ -132,7 +134,19 @@ class System final : public DeviceElasticity::Impl {
         order.resize(input.sample_count());
         std::iota(order.begin(), order.end(), 0);
       }
-      order = group_sample_order(input, order);
+      double mean = 0;
+      std::vector<int> grouped_order = group_sample_order(input, order, &mean);
+      if (mean < kMinGroupSamples) {
+        char text[160];
+        std::snprintf(text, sizeof text,
+                      "its groups of samples with the same frames average %.2f samples (at least %.0f needed)", mean,
+                      kMinGroupSamples);
+        grouped_refusal = text;
+        group_order = false;
+        if (!opts.reorder_samples) order.clear();
+      } else {
+        order = std::move(grouped_order);
+      }
     }
     const Model model = order.empty() ? input : reorder_samples(input, order);
     design = opts.design;
@@ -225,8 +239,10 @@ class System final : public DeviceElasticity::Impl {
       if (group_order) {
         if (pass != SamplePass::coalesced)
           grouped_refusal = "the coalesced pass is not in use";
-        else
-          grouped = upload_groups(model);
+        else {
+          upload_groups(model);
+          grouped = true;
+        }
       }
       for (const void* k : {reinterpret_cast<const void*>(&k_records_tangent<R, 1, 128>),
                             reinterpret_cast<const void*>(&k_records_tangent<R, 2, 128>),
@@ -580,20 +596,11 @@ class System final : public DeviceElasticity::Impl {
     return true;
   }
 
-  // The grouped pass's tables (group_layout.hpp) for a model in group order: groups, their frames
-  // and entry positions, w and g per (block, frame, thread), the slot tables of its blocks; false,
-  // with nothing uploaded and the reason in grouped_refusal, where the groups average fewer than
-  // kMinGroupSamples samples (the pass would run most of its threads idle).
-  static constexpr double kMinGroupSamples = 2.0;
-  bool upload_groups(const Model& model) {
+  // The grouped pass's tables (group_layout.hpp) for a model in group order whose groups average
+  // kMinGroupSamples samples at least (the constructor refuses others): groups, their frames and
+  // entry positions, w and g per (block, frame, thread), the slot tables of its blocks.
+  void upload_groups(const Model& model) {
     const GroupLayout G = build_group_layout(model);
-    if (G.mean_group_samples() < kMinGroupSamples) {
-      char text[160];
-      std::snprintf(text, sizeof text, "its groups of samples with the same frames average %.2f samples (at least %.0f needed)",
-                    G.mean_group_samples(), kMinGroupSamples);
-      grouped_refusal = text;
-      return false;
-    }
     const BlockLayout& L = G.slots;
     m_group_blocks = L.block_count();
     m_group_count = G.group_count();
@@ -607,7 +614,6 @@ class System final : public DeviceElasticity::Impl {
     m_group_frame_slot_offsets.upload(L.frame_slot_offsets);
     m_group_slot_store.upload(G.slot_store);
     m_group_partials.resize(6 * static_cast<size_t>(L.slot_count()));
-    return true;
   }
 
   // The grouped pass's w and g per (block, frame, thread) entry (group_data_index,

@@ -40,7 +40,7 @@ std::string group_refusal(const Model& model) {
   return {};
 }
 
-std::vector<int> group_sample_order(const Model& model, const std::vector<int>& order) {
+std::vector<int> group_sample_order(const Model& model, const std::vector<int>& order, double* mean_group_samples) {
   const NeighbourTable& nb = model.neighbours;
   const int S = model.sample_count();
   std::vector<FrameSet> keys(S);
@@ -59,6 +59,11 @@ std::vector<int> group_sample_order(const Model& model, const std::vector<int>& 
   std::vector<int> offsets(groups + 1, 0), members(S);
   for (int s = 0; s < S; ++s) ++offsets[group[s] + 1];
   std::partial_sum(offsets.begin(), offsets.end(), offsets.begin());
+  if (mean_group_samples) {
+    long long split = 0;  // build_group_layout's groups: each set's samples in runs of kGroupLanes
+    for (int g = 0; g < groups; ++g) split += (offsets[g + 1] - offsets[g] + kGroupLanes - 1) / kGroupLanes;
+    *mean_group_samples = split > 0 ? static_cast<double>(S) / static_cast<double>(split) : 0.0;
+  }
   std::vector<int> cursor(offsets.begin(), offsets.end() - 1);
   for (int s : order) members[cursor[group[s]]++] = s;
   // Within a group, samples by their weights in frame order (then in `order`'s): the samples at

@@ -31,9 +31,16 @@ std::string group_refusal(const Model& model);
 // sample result[k]. Samples are visited in `order`; a sample whose group has not been placed yet
 // places its whole group there (its samples ordered by their weights in frame order, then in
 // `order`'s order). A group of more than kGroupLanes
-// samples is split, by build_group_layout, into consecutive groups of at most kGroupLanes.
+// samples is split, by build_group_layout, into consecutive groups of at most kGroupLanes. With
+// `mean_group_samples`, also the mean samples per group of that split (GroupLayout's
+// mean_group_samples of the model in this order), known before the model is reordered.
 // Requires group_refusal(model) to be empty.
-std::vector<int> group_sample_order(const Model& model, const std::vector<int>& order);
+std::vector<int> group_sample_order(const Model& model, const std::vector<int>& order,
+                                    double* mean_group_samples = nullptr);
+
+// The fewest samples per group on average for which the grouped pass runs: below it most of its
+// threads would be idle.
+constexpr double kMinGroupSamples = 2.0;
 
 struct GroupLayout {
   std::vector<int> group_samples;  // [G+1] first sample of each group (its samples are consecutive)

@@ -29,7 +29,8 @@ TEST_CASE("group order is a permutation that puts samples with the same frames t
   const Model input = kernels_test_model(cell, MaterialLaw::stvk, 5, 4, 3);
   REQUIRE(group_refusal(input).empty());
   const std::vector<int> morton = spatial_sample_order(input);
-  const std::vector<int> order = group_sample_order(input, morton);
+  double mean = 0;
+  const std::vector<int> order = group_sample_order(input, morton, &mean);
   std::vector<int> sorted = order;
   std::sort(sorted.begin(), sorted.end());
   std::vector<int> identity(input.sample_count());
@@ -37,6 +38,8 @@ TEST_CASE("group order is a permutation that puts samples with the same frames t
   REQUIRE(sorted == identity);
   const Model model = reorder_samples(input, order);
   const GroupLayout G = build_group_layout(model);
+  // The mean known before reordering is the layout's (the same counts, divided the same way).
+  REQUIRE(mean == G.mean_group_samples());
   const NeighbourTable& nb = model.neighbours;
   REQUIRE(G.group_samples.front() == 0);
   REQUIRE(G.group_samples.back() == model.sample_count());
@@ -112,6 +115,40 @@ TEST_CASE("blocks of groups list every entry once, at a slot-major position in i
       ++stored[k];
     }
   REQUIRE(std::all_of(stored.begin(), stored.end(), [](int c) { return c == 1; }));
+}
+
+TEST_CASE("group order reports the mean group size of models whose samples share no frames", "[kernels][layout]") {
+  // Each frame set's first sample only: every group holds one sample (the device refuses the
+  // grouped pass below kMinGroupSamples before reordering). With each set's sample repeated
+  // kGroupLanes + 1 times, every set splits into a group of kGroupLanes and one of 1.
+  const Model model = kernels_test_model(CellType::tetrahedron, MaterialLaw::stvk);
+  std::vector<int> firsts;
+  {
+    std::vector<std::vector<int>> seen;
+    for (int s = 0; s < model.sample_count(); ++s) {
+      const std::vector<int> f = sorted_frames(model.neighbours, s);
+      if (std::find(seen.begin(), seen.end(), f) == seen.end()) {
+        seen.push_back(f);
+        firsts.push_back(s);
+      }
+    }
+  }
+  const Model singles = reorder_samples(model, firsts);
+  std::vector<int> identity(singles.sample_count());
+  std::iota(identity.begin(), identity.end(), 0);
+  double mean = 0;
+  group_sample_order(singles, identity, &mean);
+  CHECK(mean == 1.0);
+  CHECK(mean < kMinGroupSamples);
+  std::vector<int> repeated;
+  for (int s : firsts)
+    for (int k = 0; k <= kGroupLanes; ++k) repeated.push_back(s);
+  const Model many = reorder_samples(model, repeated);
+  std::vector<int> order(many.sample_count());
+  std::iota(order.begin(), order.end(), 0);
+  const std::vector<int> grouped = group_sample_order(many, order, &mean);
+  CHECK(mean == static_cast<double>(kGroupLanes + 1) / 2.0);
+  CHECK(mean == build_group_layout(reorder_samples(many, grouped)).mean_group_samples());
 }
 
 TEST_CASE("the grouped pass refuses samples it cannot hold", "[kernels][layout]") {
