@@ -606,14 +606,6 @@ class System final : public DeviceElasticity::Impl {
     m_group_count = G.group_count();
     group_mapped = options.group_classes && upload_group_classes(model, G);
     if (!group_mapped) upload_group_data(model, G);
-    // k_group_tangent's shared memory and grid: one block per tile, or, prefetching, the blocks
-    // that fit on the device at once (resident_blocks), each looping over tiles.
-    const void* kernel = group_mapped ? reinterpret_cast<const void*>(&k_group_tangent<R, true>)
-                                      : reinterpret_cast<const void*>(&k_group_tangent<R, false>);
-    const size_t shared = group_mapped ? group_shared_bytes<R, true>() : group_shared_bytes<R, false>();
-    FASCIA_CUDA(cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared)));
-    const bool prefetch = group_mapped ? group_prefetches<R, true>() : group_prefetches<R, false>();
-    m_group_grid = prefetch ? resident_blocks(kernel, kGroupThreads, m_group_blocks, shared) : m_group_blocks;
     m_group_samples.upload(G.group_samples);
     m_group_frames.upload(G.group_frames);
     m_group_pos.upload(std::vector<unsigned short>(G.entry_pos.begin(), G.entry_pos.end()));
@@ -987,12 +979,9 @@ class System final : public DeviceElasticity::Impl {
       if (grouped) {
         const R* pd = z ? z : d;
         const R* pold = z ? d : nullptr;
-        if (group_mapped)
-          k_group_tangent<R, true><<<m_group_grid, kGroupThreads, group_shared_bytes<R, true>(), m_stream>>>(
-              m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes);
-        else
-          k_group_tangent<R, false><<<m_group_grid, kGroupThreads, group_shared_bytes<R, false>(), m_stream>>>(
-              m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes);
+        (group_mapped ? k_group_tangent<R, true> : k_group_tangent<R, false>)<<<m_group_blocks, kGroupThreads, 0,
+                                                                             m_stream>>>(
+            m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes);
         check_launch();
         enqueue_frame_rows(m_group_view, m_group_partials.data(), frame_block(pcg), frame_inertia(pcg), flags, d, out,
                            pcg, z);
@@ -1165,13 +1154,12 @@ class System final : public DeviceElasticity::Impl {
     return reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>);
   }
 
-  // Blocks of `kernel` (`threads` each, `shared` bytes of dynamic shared memory) that fit on the
-  // device at once, at most `blocks`.
-  static int resident_blocks(const void* kernel, int threads, int blocks, size_t shared = 0) {
+  // Blocks of `kernel` (`threads` each) that fit on the device at once, at most `blocks`.
+  static int resident_blocks(const void* kernel, int threads, int blocks) {
     int dev = 0, sms = 0, per_sm = 0;
     FASCIA_CUDA(cudaGetDevice(&dev));
     FASCIA_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
-    FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel, threads, shared));
+    FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel, threads, 0));
     return std::max(1, std::min(blocks, std::max(1, per_sm) * sms));
   }
 
@@ -1304,7 +1292,6 @@ class System final : public DeviceElasticity::Impl {
   DeviceBuffer<R> m_shape_maps, m_class_pairs;
   // Grouped pass (upload_groups).
   int m_group_blocks = 0, m_group_count = 0;
-  int m_group_grid = 0;  // k_group_tangent's blocks
   DeviceBuffer<int> m_group_samples, m_group_frames, m_group_block_slots, m_group_slot_pair_offsets,
       m_group_frame_slot_offsets, m_group_slot_store;
   DeviceBuffer<unsigned short> m_group_pos;

@@ -781,26 +781,6 @@ FASCIA_HD void load_shared(const R* src, R* dst) {
 #endif
 }
 
-// n values into a 16-byte-aligned record in shared memory, as load_shared reads them.
-template <int n, class R>
-FASCIA_HD void store_shared(const R* src, R* dst) {
-#ifdef __CUDA_ARCH__
-  using Vec = std::conditional_t<sizeof(R) == sizeof(double), double2, std::conditional_t<n % 4 == 0, float4, float2>>;
-  constexpr int width = sizeof(Vec) / sizeof(R);
-  Vec* v = reinterpret_cast<Vec*>(dst);
-#pragma unroll
-  for (int k = 0; k < n / width; ++k) {
-    Vec t;
-    R* c = reinterpret_cast<R*>(&t);
-#pragma unroll
-    for (int l = 0; l < width; ++l) c[l] = src[width * k + l];
-    v[k] = t;
-  }
-#else
-  for (int k = 0; k < n; ++k) dst[k] = src[k];
-#endif
-}
-
 // ELL entry e with its block-local slot in place of the frame (EllEntry::i).
 template <class R>
 FASCIA_HD EllEntry<R> ell_entry_slot(const ModelView<R>& m, int e) {
@@ -825,12 +805,14 @@ FASCIA_HD void ell_pair_dF_in_slot(const EllPair<R>& q, const R* records, Mat3T<
   dF += pair_lever_differential(Vec3T<R>{di[0], di[1], di[2]}, Vec3T<R>{di[3], di[4], di[5]}, q.g, q.M);
 }
 
-// F and the material cache of sample s, of material mat, from its H = F - I: StVK rebuilds S from
-// H (eq. 5, 19: E = sym(H) + H^T H / 2), neo-Hookean reads its cache from `state` ([kSampleState]
-// [samples]).
+// F and the material cache of sample s, of material mat, from its stored H = F - I: StVK rebuilds
+// S from H (eq. 5, 19: E = sym(H) + H^T H / 2), neo-Hookean reads its cache.
 template <class R>
-FASCIA_HD void sample_material_from_H(const Mat3T<R>& H, const Material& mat, const R* state, int samples, int s,
-                                      Mat3T<R>& F, MaterialCacheT<R>& c) {
+FASCIA_HD void ell_sample_material(const ModelView<R>& m, const R* state, int s, const Material& mat, Mat3T<R>& F,
+                                   MaterialCacheT<R>& c) {
+  Mat3T<R> H;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) H.m[r][k] = sample_value(state, m.samples, 4 + 3 * r + k, s);
   F = identity3<R>() + H;
   if (mat.law == MaterialLaw::stvk) {
     const Mat3T<R> E = symmetric_part(H) + R(0.5) * (transpose(H) * H);
@@ -838,18 +820,9 @@ FASCIA_HD void sample_material_from_H(const Mat3T<R>& H, const Material& mat, co
     c.c = 0;
   } else {
     for (int r = 0; r < 3; ++r)
-      for (int k = 0; k < 3; ++k) c.a.m[r][k] = sample_value(state, samples, 13 + 3 * r + k, s);
-    c.c = sample_value(state, samples, 22, s);
+      for (int k = 0; k < 3; ++k) c.a.m[r][k] = sample_value(state, m.samples, 13 + 3 * r + k, s);
+    c.c = sample_value(state, m.samples, 22, s);
   }
-}
-// The same with H read from the state (kSampleState's components 4-12).
-template <class R>
-FASCIA_HD void ell_sample_material(const ModelView<R>& m, const R* state, int s, const Material& mat, Mat3T<R>& F,
-                                   MaterialCacheT<R>& c) {
-  Mat3T<R> H;
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k) H.m[r][k] = sample_value(state, m.samples, 4 + 3 * r + k, s);
-  sample_material_from_H(H, mat, state, m.samples, s, F, c);
 }
 
 // The same with the sample's material read from the model.

@@ -208,10 +208,9 @@ struct HostDevice {
   }
 
   // The grouped tangent pass as k_group_tangent runs it (the model in group order): per group its
-  // frames' records, per sample dF, P = v dP and u = P g per pair, each (group, frame) entry's
-  // sums over the group's samples in the kernel's order (group_frame_add) at its slot-major
-  // position, slot sums with `slot_lanes` lanes; then the frame gather over the blocks of groups'
-  // slots. With
+  // frames' records, per sample dF, dP and the pair outputs, each (group, frame) entry's sum over
+  // the group's threads in the kernel's order (group_lane_sum) at its slot-major position, slot
+  // sums with `slot_lanes` lanes; then the frame gather over the blocks of groups' slots. With
   // `mapped`, w and g come from the groups' classes and maps (group_classes.hpp).
   std::vector<double> grouped(const std::vector<double>& d, const std::vector<double>& F,
                               const std::vector<double>& cache, int slot_lanes, bool mapped = false) {
@@ -240,11 +239,7 @@ struct HostDevice {
         for (int k = 0; k < count; ++k)
           group_frame_record(&levers[kLeverRecord * static_cast<size_t>(frames_g[k])], &d[6 * static_cast<size_t>(frames_g[k])],
                              rec.data() + k * kGroupRecord);
-        const int ns = G.group_samples[g + 1] - G.group_samples[g];
-        std::vector<Mat3> P(kGroupLanes, zero3());
-        std::vector<Vec3> pos(kGroupLanes, Vec3{0, 0, 0});
-        double pair_w[kGroupLanes][kGroupLanes] = {};  // [sample][frame]
-        Vec3 pair_u[kGroupLanes][kGroupLanes] = {};
+        double o[kGroupLanes][kGroupLanes][6] = {};  // [thread][frame][value]
         for (int s = G.group_samples[g]; s < G.group_samples[g + 1]; ++s) {
           const int lane = s - G.group_samples[g];
           const Vec3 ps{sample_value(state.data(), S, 0, s), sample_value(state.data(), S, 1, s),
@@ -264,24 +259,16 @@ struct HostDevice {
           }
           Mat3 dF = zero3();
           for (int k = 0; k < count; ++k) group_pair_dF(rec.data() + k * kGroupRecord, ps, w[k], gr[k], dF);
-          P[lane] = sample_value(state.data(), S, 3, s) * ell_sample_dP(view, state.data(), s, dF);
-          pos[lane] = ps;
-          for (int k = 0; k < count; ++k) {
-            pair_u[lane][k] = P[lane] * gr[k];
-            pair_w[lane][k] = w[k];
+          const Mat3 vdP = sample_value(state.data(), S, 3, s) * ell_sample_dP(view, state.data(), s, dF);
+          for (int k = 0; k < count; ++k) group_pair_output(rec.data() + k * kGroupRecord, ps, w[k], gr[k], vdP, o[lane][k]);
+        }
+        for (int k = 0; k < count; ++k)
+          for (int c = 0; c < 6; ++c) {
+            double lanes[kGroupLanes];
+            for (int l = 0; l < kGroupLanes; ++l) lanes[l] = o[l][k][c];
+            outs[c * static_cast<size_t>(stride) + G.entry_pos[kGroupLanes * static_cast<size_t>(g) + k]] =
+                group_lane_sum(lanes);
           }
-        }
-        // Each frame's sums over the group's samples in sample order (the kernel's frame threads).
-        for (int k = 0; k < count; ++k) {
-          Vec3 xbar, f{0, 0, 0};
-          Mat3 Ri, B = zero3();
-          group_record_lever(rec.data() + k * kGroupRecord, xbar, Ri);
-          for (int j = 0; j < ns; ++j) group_frame_add(pair_u[j][k], pair_w[j][k], P[j], pos[j], xbar, f, B);
-          double o[6];
-          group_frame_output(Ri, f, B, o);
-          for (int c = 0; c < 6; ++c)
-            outs[c * static_cast<size_t>(stride) + G.entry_pos[kGroupLanes * static_cast<size_t>(g) + k]] = o[c];
-        }
       }
       for (int q = q0; q < L.block_slots[b + 1]; ++q)
         for (int c = 0; c < 6; ++c)
