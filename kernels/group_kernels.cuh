@@ -33,15 +33,13 @@ __device__ inline void group_exchange(const R* lower, const R* upper, bool upper
 template <class R>
 __device__ inline void group_data_entry(const ModelView<R>& m, int b, int k, int t, R& w, Vec3T<R>& g) {
   const long long e = group_data_index(b, k, t), E = m.group_entries;
-  if constexpr (sizeof(R) == sizeof(float)) {
-    R v[4];
-    load_aligned<4>(m.group_data + group_data_offset<R>(e, 0, E), v);
-    w = v[0];
-    g = Vec3T<R>{v[1], v[2], v[3]};
-  } else {
-    w = m.group_data[e];
-    g = Vec3T<R>{m.group_data[E + e], m.group_data[2 * E + e], m.group_data[3 * E + e]};
-  }
+  R v[4];
+  if constexpr (sizeof(R) == sizeof(float))
+    load_aligned<4>(m.group_data + group_data_offset<R>(e, 0, E), v);  // the entry's 4 values together
+  else
+    for (int c = 0; c < 4; ++c) v[c] = m.group_data[group_data_offset<R>(e, c, E)];
+  w = v[0];
+  g = Vec3T<R>{v[1], v[2], v[3]};
 }
 
 // A block's slots [q0, q1) and its outputs' first slot-major position (base) and count (stride).
@@ -130,7 +128,7 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
   // theirs: its exit also reads `token`, never INT_MIN, which keeps those loads before it (a
   // finished PCG then reads them for nothing, a few bytes per thread). Float tests the flag
   // first. Measured at 4.18 M x 8 on an H100 (docs/benchmarks.md, thirteenth round): double
-  // 1.094 -> 1.083 ms per CG iteration, single 0.538 -> 0.545 with the same exit.
+  // 1.094 -> 1.085-1.088 ms per CG iteration; single 0.538 -> 0.545 with the same exit.
   bool done = finished(sc);
   if constexpr (sizeof(R) == sizeof(double)) {
     const int token = frame | s0 | s1;
