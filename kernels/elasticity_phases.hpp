@@ -601,10 +601,15 @@ FASCIA_HD void pack_sample_state(const ModelView<R>& m, const R* F, const R* cac
   for (int k = 0; k < 10; ++k) state[(13 + k) * S + s] = cache[10 * static_cast<size_t>(s) + k];
 }
 
-// Component k of sample s's state.
-template <class R>
+// Component k of sample s's state. Once: the pass reads it once (the grouped pass), so on the
+// device it is loaded evict-first (ld.global.cs) and leaves the caches to the data that is reused.
+template <bool Once = false, class R>
 FASCIA_HD R sample_value(const R* state, int samples, int k, int s) {
-  return state[static_cast<size_t>(k) * static_cast<size_t>(samples) + static_cast<size_t>(s)];
+  const size_t at = static_cast<size_t>(k) * static_cast<size_t>(samples) + static_cast<size_t>(s);
+#ifdef __CUDA_ARCH__
+  if constexpr (Once) return __ldcs(state + at);
+#endif
+  return state[at];
 }
 
 // One ELL entry: the pair's frame, w and g (1/m), read once per tangent product and kept in
@@ -807,12 +812,13 @@ FASCIA_HD void ell_pair_dF_in_slot(const EllPair<R>& q, const R* records, Mat3T<
 
 // F and the material cache of sample s, of material mat, from its stored H = F - I: StVK rebuilds
 // S from H (eq. 5, 19: E = sym(H) + H^T H / 2), neo-Hookean reads its cache.
-template <class R>
+// Once: as sample_value.
+template <bool Once = false, class R>
 FASCIA_HD void ell_sample_material(const ModelView<R>& m, const R* state, int s, const Material& mat, Mat3T<R>& F,
                                    MaterialCacheT<R>& c) {
   Mat3T<R> H;
   for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k) H.m[r][k] = sample_value(state, m.samples, 4 + 3 * r + k, s);
+    for (int k = 0; k < 3; ++k) H.m[r][k] = sample_value<Once>(state, m.samples, 4 + 3 * r + k, s);
   F = identity3<R>() + H;
   if (mat.law == MaterialLaw::stvk) {
     const Mat3T<R> E = symmetric_part(H) + R(0.5) * (transpose(H) * H);
@@ -820,8 +826,8 @@ FASCIA_HD void ell_sample_material(const ModelView<R>& m, const R* state, int s,
     c.c = 0;
   } else {
     for (int r = 0; r < 3; ++r)
-      for (int k = 0; k < 3; ++k) c.a.m[r][k] = sample_value(state, m.samples, 13 + 3 * r + k, s);
-    c.c = sample_value(state, m.samples, 22, s);
+      for (int k = 0; k < 3; ++k) c.a.m[r][k] = sample_value<Once>(state, m.samples, 13 + 3 * r + k, s);
+    c.c = sample_value<Once>(state, m.samples, 22, s);
   }
 }
 

@@ -178,17 +178,22 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
     else
       group_data_entry(m, b, k, t, wk, gk);
   };
+  // Double reads the samples' state evict-first (sample_value<true>: each value is read once per
+  // pass). Measured at 4.18 M x 8 on an H100 (docs/benchmarks.md, fourteenth round): double 1.084
+  // -> 1.075 ms per CG iteration; single 0.537 -> 0.539, so it keeps the default loads.
+  constexpr bool kStateOnce = sizeof(R) == sizeof(double);
   Mat3T<R> F = zero3<R>();
   MaterialCacheT<R> cache{};
   const Material* mat = nullptr;
   if (active) {
-    ps = Vec3T<R>{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
-                  sample_value(f.sample_state, m.samples, 2, s)};
+    ps = Vec3T<R>{sample_value<kStateOnce>(f.sample_state, m.samples, 0, s),
+                  sample_value<kStateOnce>(f.sample_state, m.samples, 1, s),
+                  sample_value<kStateOnce>(f.sample_state, m.samples, 2, s)};
 #pragma unroll
     for (int k = 0; k < kGroupLanes; ++k)
       if (k < n) load_entry(k, w[k], gr[k]);
     mat = &m.materials[m.sample_materials[s]];
-    ell_sample_material(m, f.sample_state, s, *mat, F, cache);
+    ell_sample_material<kStateOnce>(m, f.sample_state, s, *mat, F, cache);
   }
   if (frame >= 0) group_frame_record(lever, di, rec + lane * kGroupRecord);
   __syncwarp();
@@ -197,7 +202,7 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
 #pragma unroll
     for (int k = 0; k < kGroupLanes; ++k)
       if (k < n) group_pair_dF(rec + k * kGroupRecord, ps, w[k], gr[k], dF);
-    dP = sample_value(f.sample_state, m.samples, 3, s) * pk1_differential(*mat, F, cache, dF);
+    dP = sample_value<kStateOnce>(f.sample_state, m.samples, 3, s) * pk1_differential(*mat, F, cache, dF);
   }
   if constexpr (!kPreload) bs = block_slot_range(m, b);
   const int stride = bs.stride;
