@@ -13,6 +13,8 @@
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
+#include <set>
+#include <string>
 #include <vector>
 
 namespace fascia::app {
@@ -87,16 +89,22 @@ const Switch kSwitches[] = {
      "(1) or with their own entries (0, the default)"},
 };
 
+// Prints "<what> not used: <why>" to stderr once per run for each distinct reason (every size and
+// precision of a sweep would otherwise repeat it); nothing where `why` is empty.
+void note_refusal(const char* what, const std::string& why) {
+  static std::set<std::string> printed;
+  if (why.empty()) return;
+  const std::string line = std::string(what) + " not used: " + why;
+  if (printed.insert(line).second) std::fprintf(stderr, "%s\n", line.c_str());
+}
+
 // The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) on the device.
 Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInfo& info, bool tangent) {
   const gpu::DeviceOptions& options = c.device;
   gpu::DeviceElasticity dev(model, options);
-  if (!dev.shape_classes_refusal().empty())
-    std::fprintf(stderr, "shape classes not used: %s\n", dev.shape_classes_refusal().c_str());
-  if (!dev.group_samples_refusal().empty())
-    std::fprintf(stderr, "grouped pass not used: %s\n", dev.group_samples_refusal().c_str());
-  if (dev.group_samples() && !dev.group_classes_refusal().empty())
-    std::fprintf(stderr, "group classes not used: %s\n", dev.group_classes_refusal().c_str());
+  note_refusal("shape classes", dev.shape_classes_refusal());
+  note_refusal("grouped pass", dev.group_samples_refusal());
+  if (dev.group_samples()) note_refusal("group classes", dev.group_classes_refusal());
   const State start = rest_state(model);
   dev.set_state(start);
   gpu::StepOptions so = gpu::make_step_options(model, bench_step_loads(), start, kBenchStepDt, 0, 0,
