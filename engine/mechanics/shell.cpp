@@ -1,6 +1,5 @@
 #include "mechanics/shell.hpp"
 
-#include "core/jet.hpp"
 #include "core/rotation.hpp"
 
 #include <omp.h>
@@ -12,129 +11,13 @@
 namespace fascia {
 namespace {
 
-// Drilling penalty k_d = kDrillingFactor Y t A (see shell.hpp).
-constexpr double kDrillingFactor = 1e-3;
-constexpr int kElementDofs = 18;
-using ElementJet = Jet<kElementDofs>;
-
-// 3-vectors of a generic scalar (double or Jet) for the element energy.
-template <class T>
-struct V {
-  T x, y, z;
-};
-template <class T>
-V<T> vadd(const V<T>& a, const V<T>& b) {
-  return {a.x + b.x, a.y + b.y, a.z + b.z};
-}
-template <class T>
-V<T> vsub(const V<T>& a, const V<T>& b) {
-  return {a.x - b.x, a.y - b.y, a.z - b.z};
-}
-template <class T>
-V<T> vscale(double s, const V<T>& a) {
-  return {s * a.x, s * a.y, s * a.z};
-}
-template <class T>
-V<T> vmul(const T& s, const V<T>& a) {
-  return {s * a.x, s * a.y, s * a.z};
-}
-template <class T>
-T vdot(const V<T>& a, const V<T>& b) {
-  return a.x * b.x + a.y * b.y + a.z * b.z;
-}
-template <class T>
-V<T> vcross(const V<T>& a, const V<T>& b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-// a x c with a constant c (scalar products only).
-template <class T>
-V<T> vcross(const V<T>& a, const Vec3& c) {
-  return {c.z * a.y - c.y * a.z, c.x * a.z - c.z * a.x, c.y * a.x - c.x * a.y};
-}
-
-struct Moduli {
-  double thickness, mu, lambda, young;
-};
-
-// W_e of shell.hpp. x: node positions; d[i][k] = R_i e_k (rest corotational axes turned by the
-// node's rotation).
-template <class T>
-T element_energy(const ShellElementRest& e, const Moduli& m, const V<T> x[3], const V<T> d[3][3]) {
-  using std::sqrt;
-  const V<T> a = vsub(x[1], x[0]), b = vsub(x[2], x[0]);
-  // Membrane in displacement form: U = [u1-u0, u2-u0] Dm^{-1}, E = sym(F0^T U) + U^T U / 2.
-  V<T> u[3];
-  for (int i = 0; i < 3; ++i) u[i] = {x[i].x - e.rest[i].x, x[i].y - e.rest[i].y, x[i].z - e.rest[i].z};
-  const V<T> du1 = vsub(u[1], u[0]), du2 = vsub(u[2], u[0]);
-  const V<T> U0 = vadd(vscale(e.dm_inverse[0][0], du1), vscale(e.dm_inverse[1][0], du2));
-  const V<T> U1 = vadd(vscale(e.dm_inverse[0][1], du1), vscale(e.dm_inverse[1][1], du2));
-  auto along = [](const Vec3& c, const V<T>& v) { return c.x * v.x + c.y * v.y + c.z * v.z; };
-  const T e00 = along(e.axes[0], U0) + 0.5 * vdot(U0, U0);
-  const T e11 = along(e.axes[1], U1) + 0.5 * vdot(U1, U1);
-  const T e01 = 0.5 * (along(e.axes[0], U1) + along(e.axes[1], U0) + vdot(U0, U1));
-  const T tr = e00 + e11;
-  T w = (e.area * m.thickness) * (m.mu * (e00 * e00 + 2.0 * (e01 * e01) + e11 * e11) + (0.5 * m.lambda) * (tr * tr));
-  // Corotational frame: e1 along x1 - x0, e3 normal.
-  const V<T> n = vcross(a, b);
-  const V<T> e3 = vmul(reciprocal(sqrt(vdot(n, n))), n);
-  const V<T> e1 = vmul(reciprocal(sqrt(vdot(a, a))), a);
-  const V<T> e2 = vcross(e3, e1);
-  // Bending: nodal slopes beta_i = -(e1 . d_i3, e2 . d_i3), W_b = beta^T K_b beta / 2.
-  T beta[6];
-  for (int i = 0; i < 3; ++i) {
-    beta[2 * i] = -vdot(e1, d[i][2]);
-    beta[2 * i + 1] = -vdot(e2, d[i][2]);
-  }
-  for (int r = 0; r < 6; ++r) {
-    T kb = e.bending[r][0] * beta[0];
-    for (int c = 1; c < 6; ++c) kb = kb + e.bending[r][c] * beta[c];
-    w = w + 0.5 * (kb * beta[r]);
-  }
-  // Drilling penalty.
-  const double k_drill = kDrillingFactor * m.young * m.thickness * e.area;
-  for (int i = 0; i < 3; ++i) {
-    const T psi = 0.5 * (vdot(e2, d[i][0]) - vdot(e1, d[i][1]));
-    w = w + (0.5 * k_drill) * (psi * psi);
-  }
-  return w;
-}
-
-double element_value(const ShellElementRest& e, const Moduli& m, const State& state) {
-  V<double> x[3], d[3][3];
+// Node positions and rotations of triangle e.
+void load_element(const ShellElementRest& e, const State& state, Vec3 x[3], Mat3 R[3]) {
   for (int i = 0; i < 3; ++i) {
     const int node = e.nodes[i];
-    const Vec3 p = load3(&state.positions[3 * node]);
-    x[i] = {p.x, p.y, p.z};
-    const Mat3 R = rotation_matrix(load_quat(&state.orientations[4 * node]));
-    for (int k = 0; k < 3; ++k) {
-      const Vec3 v = R * e.axes[k];
-      d[i][k] = {v.x, v.y, v.z};
-    }
+    x[i] = load3(&state.positions[3 * node]);
+    R[i] = rotation_matrix(load_quat(&state.orientations[4 * node]));
   }
-  return element_energy(e, m, x, d);
-}
-
-// The element energy as a jet in the 18 increments theta = [dx_0, dr_0, dx_1, ...] at theta = 0:
-// x_i + dx_i and exp([dr_i]x) R_i, with exp to second order (exact for value, gradient and
-// Hessian at theta = 0).
-ElementJet element_jet(const ShellElementRest& e, const Moduli& m, const State& state) {
-  V<ElementJet> x[3], d[3][3];
-  for (int i = 0; i < 3; ++i) {
-    const int node = e.nodes[i];
-    const double* p = &state.positions[3 * node];
-    x[i] = {ElementJet::variable(p[0], 6 * i), ElementJet::variable(p[1], 6 * i + 1),
-            ElementJet::variable(p[2], 6 * i + 2)};
-    const V<ElementJet> omega{ElementJet::variable(0, 6 * i + 3), ElementJet::variable(0, 6 * i + 4),
-                              ElementJet::variable(0, 6 * i + 5)};
-    const Mat3 R = rotation_matrix(load_quat(&state.orientations[4 * node]));
-    for (int k = 0; k < 3; ++k) {
-      const Vec3 a = R * e.axes[k];
-      const V<ElementJet> wa = vcross(omega, a);
-      const V<ElementJet> a_jet{ElementJet(a.x), ElementJet(a.y), ElementJet(a.z)};
-      d[i][k] = vadd(vadd(a_jet, wa), vscale(0.5, vcross(omega, wa)));
-    }
-  }
-  return element_energy(e, m, x, d);
 }
 
 }  // namespace
@@ -218,17 +101,17 @@ ShellElementRest make_shell_element(const double* rest_positions, int n0, int n1
 }
 
 ShellForceField::ShellForceField(const Model& model, const Shell& shell, int threads)
-    : m_shell(shell), m_threads(threads > 0 ? threads : omp_get_max_threads()) {
-  const double Y = shell.young, nu = shell.poisson;
-  m_mu = Y / (2 * (1 + nu));
-  m_lambda = Y * nu / (1 - nu * nu);
+    : m_shell(shell),
+      m_moduli(make_shell_moduli(shell.young, shell.poisson, shell.thickness)),
+      m_threads(threads > 0 ? threads : omp_get_max_threads()) {
   const int t_count = static_cast<int>(shell.triangles.size() / 3);
   m_elements.reserve(t_count);
   for (int t = 0; t < t_count; ++t)
     m_elements.push_back(make_shell_element(model.frame_rest_positions.data(), shell.triangles[3 * t],
                                             shell.triangles[3 * t + 1], shell.triangles[3 * t + 2], shell));
-  m_hessians.assign(static_cast<size_t>(t_count) * kElementDofs * kElementDofs, 0.0);
-  m_element_gradients.assign(static_cast<size_t>(t_count) * kElementDofs, 0.0);
+  m_hessians.assign(static_cast<size_t>(t_count) * kShellElementDofs * kShellElementDofs, 0.0);
+  m_element_gradients.assign(static_cast<size_t>(t_count) * kShellElementDofs, 0.0);
+  m_element_energies.assign(t_count, 0.0);
 }
 
 double ShellForceField::bending_stiffness() const {
@@ -236,60 +119,64 @@ double ShellForceField::bending_stiffness() const {
 }
 
 double ShellForceField::energy(const State& state) {
-  const Moduli m{m_shell.thickness, m_mu, m_lambda, m_shell.young};
   const int t_count = element_count();
-  std::vector<double> values(t_count);
 #pragma omp parallel for schedule(static) num_threads(m_threads)
-  for (int t = 0; t < t_count; ++t) values[t] = element_value(m_elements[t], m, state);
+  for (int t = 0; t < t_count; ++t) {
+    Vec3 x[3];
+    Mat3 R[3];
+    load_element(m_elements[t], state, x, R);
+    m_element_energies[t] = shell_element_energy(m_elements[t], m_moduli, x, R);
+  }
   double w = 0;
-  for (double v : values) w += v;  // fixed order: independent of the thread count
+  for (double v : m_element_energies) w += v;  // fixed order: independent of the thread count
   return w;
 }
 
 double ShellForceField::add_gradient(const State& state, double* gradient) {
-  const Moduli m{m_shell.thickness, m_mu, m_lambda, m_shell.young};
   const int t_count = element_count();
-  std::vector<double> values(t_count);
-#pragma omp parallel for schedule(dynamic, 16) num_threads(m_threads)
+#pragma omp parallel for schedule(static) num_threads(m_threads)
   for (int t = 0; t < t_count; ++t) {
-    const ElementJet j = element_jet(m_elements[t], m, state);
-    values[t] = j.v;
-    for (int k = 0; k < kElementDofs; ++k) m_element_gradients[kElementDofs * t + k] = j.g[k];
+    Vec3 x[3];
+    Mat3 R[3];
+    load_element(m_elements[t], state, x, R);
+    m_element_energies[t] =
+        shell_element_gradient(m_elements[t], m_moduli, x, R, &m_element_gradients[kShellElementDofs * t]);
   }
   double w = 0;
   for (int t = 0; t < t_count; ++t) {  // serial scatter: deterministic
-    w += values[t];
+    w += m_element_energies[t];
     for (int i = 0; i < 3; ++i)
       for (int k = 0; k < 6; ++k)
-        gradient[6 * m_elements[t].nodes[i] + k] += m_element_gradients[kElementDofs * t + 6 * i + k];
+        gradient[6 * m_elements[t].nodes[i] + k] += m_element_gradients[kShellElementDofs * t + 6 * i + k];
   }
   return w;
 }
 
 void ShellForceField::prepare(const State& state) {
-  const Moduli m{m_shell.thickness, m_mu, m_lambda, m_shell.young};
   const int t_count = element_count();
-#pragma omp parallel for schedule(dynamic, 16) num_threads(m_threads)
+#pragma omp parallel for schedule(static) num_threads(m_threads)
   for (int t = 0; t < t_count; ++t) {
-    const ElementJet j = element_jet(m_elements[t], m, state);
-    double* H = &m_hessians[static_cast<size_t>(t) * kElementDofs * kElementDofs];
-    for (int r = 0; r < kElementDofs; ++r)
-      for (int c = 0; c < kElementDofs; ++c) H[kElementDofs * r + c] = 0.5 * (j.h[r][c] + j.h[c][r]);
+    Vec3 x[3];
+    Mat3 R[3];
+    load_element(m_elements[t], state, x, R);
+    double g[kShellElementDofs];
+    shell_element_hessian(m_elements[t], m_moduli, x, R, g,
+                          &m_hessians[static_cast<size_t>(t) * kShellElementDofs * kShellElementDofs]);
   }
 }
 
 void ShellForceField::add_tangent(const double* d, double* out) const {
   for (int t = 0; t < element_count(); ++t) {
     const ShellElementRest& e = m_elements[t];
-    const double* H = &m_hessians[static_cast<size_t>(t) * kElementDofs * kElementDofs];
-    double de[kElementDofs];
+    const double* H = &m_hessians[static_cast<size_t>(t) * kShellElementDofs * kShellElementDofs];
+    double de[kShellElementDofs];
     for (int i = 0; i < 3; ++i)
       for (int k = 0; k < 6; ++k) de[6 * i + k] = d[6 * e.nodes[i] + k];
     for (int i = 0; i < 3; ++i)
       for (int k = 0; k < 6; ++k) {
-        const double* row = H + kElementDofs * (6 * i + k);
+        const double* row = H + kShellElementDofs * (6 * i + k);
         double s = 0;
-        for (int c = 0; c < kElementDofs; ++c) s += row[c] * de[c];
+        for (int c = 0; c < kShellElementDofs; ++c) s += row[c] * de[c];
         out[6 * e.nodes[i] + k] += s;
       }
   }
@@ -298,10 +185,10 @@ void ShellForceField::add_tangent(const double* d, double* out) const {
 void ShellForceField::add_diagonal_blocks(double* blocks) const {
   for (int t = 0; t < element_count(); ++t) {
     const ShellElementRest& e = m_elements[t];
-    const double* H = &m_hessians[static_cast<size_t>(t) * kElementDofs * kElementDofs];
+    const double* H = &m_hessians[static_cast<size_t>(t) * kShellElementDofs * kShellElementDofs];
     for (int i = 0; i < 3; ++i)
       for (int r = 0; r < 6; ++r)
-        for (int c = 0; c < 6; ++c) blocks[36 * e.nodes[i] + 6 * r + c] += H[kElementDofs * (6 * i + r) + 6 * i + c];
+        for (int c = 0; c < 6; ++c) blocks[36 * e.nodes[i] + 6 * r + c] += H[kShellElementDofs * (6 * i + r) + 6 * i + c];
   }
 }
 
@@ -309,12 +196,12 @@ void ShellForceField::add_triplets(std::vector<Eigen::Triplet<double>>& triplets
   triplets.reserve(triplets.size() + m_hessians.size());
   for (int t = 0; t < element_count(); ++t) {
     const ShellElementRest& e = m_elements[t];
-    const double* H = &m_hessians[static_cast<size_t>(t) * kElementDofs * kElementDofs];
+    const double* H = &m_hessians[static_cast<size_t>(t) * kShellElementDofs * kShellElementDofs];
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b)
         for (int r = 0; r < 6; ++r)
           for (int c = 0; c < 6; ++c)
-            triplets.emplace_back(6 * e.nodes[a] + r, 6 * e.nodes[b] + c, H[kElementDofs * (6 * a + r) + 6 * b + c]);
+            triplets.emplace_back(6 * e.nodes[a] + r, 6 * e.nodes[b] + c, H[kShellElementDofs * (6 * a + r) + 6 * b + c]);
   }
 }
 

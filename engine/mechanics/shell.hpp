@@ -22,26 +22,18 @@
 //    have no physical stiffness in a Kirchhoff shell; a small penalty W_d = k_d/2 sum psi_i^2,
 //    k_d = 1e-3 Y t A, removes the singular direction (ignorable next to membrane and bending).
 // The rest state is stress free for curved surfaces (each triangle measures slopes against its
-// own rest normal). Gradient and Hessian of theta -> W(q (+) theta) are exact: the element energy
-// is evaluated with second-order forward differentiation (core/jet.hpp) in the 18 increments.
+// own rest normal). Gradient and Hessian of theta -> W(q (+) theta) are exact and in closed form
+// (mechanics/shell_element.hpp, which holds the per-triangle body shared with CUDA drivers).
 #pragma once
 
 #include "core/small_math.hpp"
 #include "mechanics/force_field.hpp"
+#include "mechanics/shell_element.hpp"
 #include "model/model.hpp"
 
 #include <vector>
 
 namespace fascia {
-
-struct ShellElementRest {
-  int nodes[3];
-  double dm_inverse[2][2];  // Dm^{-1}, Dm = [P1 - P0, P2 - P0] in rest in-plane coordinates, 1/m
-  double area;              // m^2
-  Vec3 axes[3];             // rest corotational frame e1, e2, e3 (world)
-  Vec3 rest[3];             // rest node positions, m
-  double bending[6][6];     // DKT K_b on (beta_0x, beta_0y, beta_1x, ...), J
-};
 
 // Rest data of one triangle (throws std::invalid_argument on a degenerate triangle).
 ShellElementRest make_shell_element(const double* rest_positions, int n0, int n1, int n2, const Shell& shell);
@@ -65,10 +57,11 @@ class ShellForceField : public ForceField {
  private:
   std::vector<ShellElementRest> m_elements;
   Shell m_shell;
-  double m_mu, m_lambda;  // plane-stress Lame constants, Pa
+  ShellModuli m_moduli;
   int m_threads;
-  std::vector<double> m_hessians;  // [T][18][18] prepared element Hessians
+  std::vector<double> m_hessians;           // [T][18][18] prepared element Hessians
   std::vector<double> m_element_gradients;  // [T][18] scratch
+  std::vector<double> m_element_energies;   // [T] scratch
 };
 
 // Lumped shell masses: each triangle gives rho t A / 3 to each vertex, and rotational inertia

@@ -1,0 +1,390 @@
+// Energy, gradient and Hessian of one corotational shell triangle (the element of mechanics/shell.hpp),
+// in closed form, written once for the CPU driver (mechanics/shell.cpp) and CUDA drivers: FASCIA_HD
+// functions on fixed-size arrays, no allocation.
+//
+// Unknowns of a triangle: theta = [dx_0, dr_0, dx_1, dr_1, dx_2, dr_2] (18, m and rad), the increments
+// x_i + dx_i, R_i <- exp([dr_i]x) R_i. The gradient and Hessian are those of theta -> W(q (+) theta) at
+// theta = 0 (DESIGN.md), symmetric.
+//
+// Derivation. W = W_m(x) + Phi(s), where
+//  * W_m is the membrane (shell.hpp): with f_c = e_c + U_c the deformed columns of F (c = 0, 1) and
+//    S = 2 mu E + lambda* tr(E) I the plane-stress second Piola-Kirchhoff stress,
+//      dW_m/dU_c = A t sum_d S_cd f_d,
+//      d2W_m/dU_c dU_d = A t [S_cd I + C-terms]:  (0,0): (2mu+l) f0 f0^T + mu f1 f1^T,
+//      (0,1): l f0 f1^T + mu f1 f0^T,  (1,1): (2mu+l) f1 f1^T + mu f0 f0^T  (l = lambda*),
+//    and U_c = sum_i c_ci u_i with the constant weights c_ci of Dm^{-1} (dU_c/dx_i = c_ci I).
+//  * s = (beta_0x, beta_0y, beta_1x, ..., psi_0, psi_1, psi_2) are 9 scalars, each of the form
+//    s = e1 . c1 + e2 . c2 with c1, c2 linear in the directors d_ik = R_i E_k of one node i
+//    (E_k the rest corotational axes): beta_ix: c1 = -d_i2; beta_iy: c2 = -d_i2;
+//    psi_i: c1 = -d_i1 / 2, c2 = d_i0 / 2. Phi(s) = beta^T K_b beta / 2 + k_d / 2 sum psi_i^2 is
+//    quadratic: Phi' = (K_b beta, k_d psi), Phi'' = diag(K_b, k_d I).
+//    Hessian = G^T Phi'' G + sum_m Phi'_m Hess(s_m), with G = ds/dtheta (9 x 18); the second part is
+//    the Hessian of e1 . C1 + e2 . C2 with the multipliers frozen, C_a = sum_m Phi'_m c_a,m.
+//  * The corotational axes depend on a = x1 - x0 and b = x2 - x0 only: e1 = a/|a|,
+//    e3 = n/|n| with n = a x b, e2 = e3 x e1. For a unit vector e = v/|v| and a constant c:
+//      d(c . e)/dv = P c / |v|, P = I - e e^T,
+//      d2(c . e)/dv2 = -[c e^T + e c^T + (c . e)(I - 3 e e^T)] / |v|^2,
+//    n is bilinear in (a, b) (dn = -[b]x da + [a]x db; its second derivative puts -[g]x in the
+//    (a, b) block of g . n), and c . e2 = e3 . (e1 x c) = e1 . (c x e3) adds the product term
+//    de3 . (de1' x c) + de3' . (de1 x c).
+//  * The directors turn with exp([dr]x) = I + [dr]x + [dr]x^2 / 2 + O(dr^3):
+//      d(e . d_ik)/d dr_i = d_ik x e,  d2(e . d_ik)/d dr_i^2 = sym(e d_ik^T) - (e . d_ik) I,
+//    and the mixed (x, dr_i) derivative of e . d is (de/dx)^T (-[d]x).
+// All terms are exact at theta = 0 (no truncation); tests/mechanics/test_shell.cpp checks them
+// against central differences of the energy.
+#pragma once
+
+#include "core/small_math.hpp"
+
+namespace fascia {
+
+// Degrees of freedom of one triangle: 3 nodes x [dx (3), dr (3)].
+constexpr int kShellElementDofs = 18;
+
+// Drilling penalty k_d = kShellDrillingFactor Y t A (mechanics/shell.hpp).
+constexpr double kShellDrillingFactor = 1e-3;
+
+struct ShellElementRest {
+  int nodes[3];
+  double dm_inverse[2][2];  // Dm^{-1}, Dm = [P1 - P0, P2 - P0] in rest in-plane coordinates, 1/m
+  double area;              // m^2
+  Vec3 axes[3];             // rest corotational frame e1, e2, e3 (world)
+  Vec3 rest[3];             // rest node positions, m
+  double bending[6][6];     // DKT K_b on (beta_0x, beta_0y, beta_1x, ...), J
+};
+
+// Constants of one shell, shared by its triangles.
+struct ShellModuli {
+  double thickness;  // t, m
+  double mu;         // plane-stress shear modulus Y / (2 (1 + nu)), Pa
+  double lambda;     // plane-stress lambda* = Y nu / (1 - nu^2), Pa
+  double drilling;   // k_d / A = kShellDrillingFactor Y t, Pa m
+};
+
+// Y in Pa, -1 < nu < 0.5, t in m.
+FASCIA_HD ShellModuli make_shell_moduli(double young, double poisson, double thickness) {
+  return ShellModuli{thickness, young / (2 * (1 + poisson)), young * poisson / (1 - poisson * poisson),
+                     kShellDrillingFactor * young * thickness};
+}
+
+namespace shell_detail {
+
+// Membrane strain and stress of one triangle (displacement form, shell.hpp).
+struct Membrane {
+  double energy;   // W_m, J
+  Vec3 f[2];       // deformed in-plane columns of F, f_c = E_c + U_c
+  double S[2][2];  // plane-stress S, Pa
+  double c[2][3];  // dU_c / du_i (the columns of Dm^{-1} with node 0 = -(node 1 + node 2)), 1/m
+};
+
+FASCIA_HD Membrane membrane(const ShellElementRest& e, const ShellModuli& m, const Vec3 x[3]) {
+  Membrane r;
+  const Vec3 u0 = x[0] - e.rest[0], u1 = x[1] - e.rest[1], u2 = x[2] - e.rest[2];
+  const Vec3 du1 = u1 - u0, du2 = u2 - u0;
+  const Vec3 U0 = e.dm_inverse[0][0] * du1 + e.dm_inverse[1][0] * du2;
+  const Vec3 U1 = e.dm_inverse[0][1] * du1 + e.dm_inverse[1][1] * du2;
+  // E = sym(F0^T U) + U^T U / 2: no cancellation for small strains.
+  const double e00 = dot(e.axes[0], U0) + 0.5 * dot(U0, U0);
+  const double e11 = dot(e.axes[1], U1) + 0.5 * dot(U1, U1);
+  const double e01 = 0.5 * (dot(e.axes[0], U1) + dot(e.axes[1], U0) + dot(U0, U1));
+  const double tr = e00 + e11;
+  r.energy = (e.area * m.thickness) * (m.mu * (e00 * e00 + 2.0 * (e01 * e01) + e11 * e11) + (0.5 * m.lambda) * (tr * tr));
+  r.f[0] = e.axes[0] + U0;
+  r.f[1] = e.axes[1] + U1;
+  r.S[0][0] = 2 * m.mu * e00 + m.lambda * tr;
+  r.S[1][1] = 2 * m.mu * e11 + m.lambda * tr;
+  r.S[0][1] = r.S[1][0] = 2 * m.mu * e01;
+  for (int col = 0; col < 2; ++col) {
+    r.c[col][1] = e.dm_inverse[0][col];
+    r.c[col][2] = e.dm_inverse[1][col];
+    r.c[col][0] = -(e.dm_inverse[0][col] + e.dm_inverse[1][col]);
+  }
+  return r;
+}
+
+// Corotational axes of the deformed triangle and the 9 scalars s of the bending and drilling terms.
+struct Bending {
+  Vec3 a, b;            // x1 - x0, x2 - x0, m
+  double la, ln;        // |a| (m), |a x b| (m^2)
+  Vec3 e1, e2, e3;      // corotational axes
+  Vec3 d[3][3];         // directors d[i][k] = R_i E_k
+  double s[9];          // beta (6), psi (3)
+  double phi1[9];       // Phi' = (K_b beta, k_d psi)
+  double energy;        // Phi(s) = W_b + W_d, J
+  double k_drill;       // k_d, J
+};
+
+FASCIA_HD Bending bending(const ShellElementRest& e, const ShellModuli& m, const Vec3 x[3], const Mat3 R[3]) {
+  Bending r;
+  r.a = x[1] - x[0];
+  r.b = x[2] - x[0];
+  const Vec3 n = cross(r.a, r.b);
+  r.ln = norm(n);
+  r.la = norm(r.a);
+  r.e3 = (1 / r.ln) * n;
+  r.e1 = (1 / r.la) * r.a;
+  r.e2 = cross(r.e3, r.e1);
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) r.d[i][k] = R[i] * e.axes[k];
+  for (int i = 0; i < 3; ++i) {
+    r.s[2 * i] = -dot(r.e1, r.d[i][2]);
+    r.s[2 * i + 1] = -dot(r.e2, r.d[i][2]);
+    r.s[6 + i] = 0.5 * (dot(r.e2, r.d[i][0]) - dot(r.e1, r.d[i][1]));
+  }
+  r.k_drill = m.drilling * e.area;
+  r.energy = 0;
+  for (int row = 0; row < 6; ++row) {
+    double kb = 0;
+    for (int col = 0; col < 6; ++col) kb += e.bending[row][col] * r.s[col];
+    r.phi1[row] = kb;
+    r.energy += 0.5 * kb * r.s[row];
+  }
+  for (int i = 0; i < 3; ++i) {
+    r.phi1[6 + i] = r.k_drill * r.s[6 + i];
+    r.energy += 0.5 * r.k_drill * r.s[6 + i] * r.s[6 + i];
+  }
+  return r;
+}
+
+// A linear form on (a, b): the pair of its 3-vector parts.
+struct FormAB {
+  Vec3 a, b;
+};
+
+// d(c . e1)/d(a, b) for a constant c.
+FASCIA_HD FormAB grad_e1(const Bending& g, const Vec3& c) {
+  return {(1 / g.la) * (c - dot(c, g.e1) * g.e1), Vec3{0, 0, 0}};
+}
+// d(c . e3)/d(a, b): with gn = P3 c / |n|, dn = -[b]x da + [a]x db.
+FASCIA_HD FormAB grad_e3(const Bending& g, const Vec3& c) {
+  const Vec3 gn = (1 / g.ln) * (c - dot(c, g.e3) * g.e3);
+  return {cross(g.b, gn), cross(gn, g.a)};
+}
+// d(c . e2)/d(a, b), c . e2 = e3 . (e1 x c) = e1 . (c x e3).
+FASCIA_HD FormAB grad_e2(const Bending& g, const Vec3& c) {
+  const FormAB f3 = grad_e3(g, cross(g.e1, c)), f1 = grad_e1(g, cross(c, g.e3));
+  return {f3.a + f1.a, f3.b + f1.b};
+}
+
+// Second derivative of c . v/|v| in v (the unit-vector formula of the header).
+FASCIA_HD Mat3 unit_vector_hessian(const Vec3& c, const Vec3& e, double length) {
+  const double ce = dot(c, e);
+  Mat3 h = (3 * ce) * outer(e, e) - (outer(c, e) + outer(e, c));
+  for (int k = 0; k < 3; ++k) h.m[k][k] -= ce;
+  return (1 / (length * length)) * h;
+}
+
+FASCIA_HD Vec3 unit(int k) { return Vec3{k == 0 ? 1.0 : 0.0, k == 1 ? 1.0 : 0.0, k == 2 ? 1.0 : 0.0}; }
+
+// Row m of G = ds/dtheta in the 15 variables (a, b, dr_0, dr_1, dr_2): the (a, b) part and the
+// rotation part of its node m % 3 ... (node = m / 2 for beta, m - 6 for psi).
+struct ScalarGradient {
+  FormAB ab;
+  Vec3 r;
+  int node;
+};
+
+FASCIA_HD ScalarGradient scalar_gradient(const Bending& g, int m) {
+  ScalarGradient out;
+  if (m < 6) {
+    const int i = m / 2;
+    const Vec3& n = g.d[i][2];
+    const Vec3& e = (m % 2 == 0) ? g.e1 : g.e2;
+    const FormAB f = (m % 2 == 0) ? grad_e1(g, n) : grad_e2(g, n);
+    out.ab = {-f.a, -f.b};
+    out.r = -cross(n, e);
+    out.node = i;
+  } else {
+    const int i = m - 6;
+    const FormAB f2 = grad_e2(g, g.d[i][0]), f1 = grad_e1(g, g.d[i][1]);
+    out.ab = {0.5 * (f2.a - f1.a), 0.5 * (f2.b - f1.b)};
+    out.r = 0.5 * (cross(g.d[i][0], g.e2) - cross(g.d[i][1], g.e1));
+    out.node = i;
+  }
+  return out;
+}
+
+// The 15-vector of a ScalarGradient: [a (3), b (3), dr_0, dr_1, dr_2].
+FASCIA_HD void scalar_gradient_vector(const ScalarGradient& s, double* v) {
+  for (int k = 0; k < 15; ++k) v[k] = 0;
+  store3(v, s.ab.a);
+  store3(v + 3, s.ab.b);
+  store3(v + 6 + 3 * s.node, s.r);
+}
+
+FASCIA_HD void add_block(double (*h)[15], int row, int col, const Mat3& block) {
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) h[row + r][col + c] += block.m[r][c];
+}
+
+// Hessian of Phi(s) in the 15 variables (a, b, dr_0, dr_1, dr_2), h[15][15] (overwritten).
+FASCIA_HD void bending_hessian(const ShellElementRest& e, const Bending& g, double (*h)[15]) {
+  for (int r = 0; r < 15; ++r)
+    for (int c = 0; c < 15; ++c) h[r][c] = 0;
+  // G^T Phi'' G.
+  double G[9][15];
+  for (int m = 0; m < 9; ++m) scalar_gradient_vector(scalar_gradient(g, m), G[m]);
+  for (int m = 0; m < 9; ++m) {
+    double y[15];  // (Phi'' G)_m
+    if (m < 6) {
+      for (int k = 0; k < 15; ++k) {
+        double s = 0;
+        for (int l = 0; l < 6; ++l) s += e.bending[m][l] * G[l][k];
+        y[k] = s;
+      }
+    } else {
+      for (int k = 0; k < 15; ++k) y[k] = g.k_drill * G[m][k];
+    }
+    for (int r = 0; r < 15; ++r) {
+      if (G[m][r] == 0) continue;
+      for (int c = 0; c < 15; ++c) h[r][c] += G[m][r] * y[c];
+    }
+  }
+  // sum_m Phi'_m Hess(s_m) = Hess(e1 . C1 + e2 . C2) with C_a = sum_i C_a,i frozen.
+  Vec3 C1i[3], C2i[3];
+  Vec3 C1{0, 0, 0}, C2{0, 0, 0};
+  for (int i = 0; i < 3; ++i) {
+    const double kbx = g.phi1[2 * i], kby = g.phi1[2 * i + 1], kpsi = g.phi1[6 + i];
+    C1i[i] = (-kbx) * g.d[i][2] - (0.5 * kpsi) * g.d[i][1];
+    C2i[i] = (-kby) * g.d[i][2] + (0.5 * kpsi) * g.d[i][0];
+    C1 += C1i[i];
+    C2 += C2i[i];
+  }
+  // (a, b) x (a, b): e1 . C1 + e1 . (C2 x e3) + e3 . (e1 x C2) + the product term of e2.
+  add_block(h, 0, 0, unit_vector_hessian(C1 + cross(C2, g.e3), g.e1, g.la));
+  {
+    const Vec3 c3 = cross(g.e1, C2);
+    const Mat3 Hn = unit_vector_hessian(c3, g.e3, g.ln);
+    const Mat3 Sa = skew(g.a), Sb = skew(g.b);
+    const Vec3 gn = (1 / g.ln) * (c3 - dot(c3, g.e3) * g.e3);
+    add_block(h, 0, 0, (-1.0) * (Sb * Hn * Sb));
+    add_block(h, 0, 3, Sb * Hn * Sa - skew(gn));
+    add_block(h, 3, 0, Sa * Hn * Sb + skew(gn));
+    add_block(h, 3, 3, (-1.0) * (Sa * Hn * Sa));
+  }
+  // Product term M + M^T, M = J3^T (-[C2]x) J1: column j of M (j in a) = grad_e3((J1 e_j) x C2).
+  for (int j = 0; j < 3; ++j) {
+    const Vec3 p = (1 / g.la) * (unit(j) - dot(unit(j), g.e1) * g.e1);  // J1 e_j = P1 e_j / |a|
+    const FormAB col = grad_e3(g, cross(p, C2));
+    const double v[6] = {col.a.x, col.a.y, col.a.z, col.b.x, col.b.y, col.b.z};
+    for (int r = 0; r < 6; ++r) {
+      h[r][j] += v[r];
+      h[j][r] += v[r];
+    }
+  }
+  // (a, b) x dr_i: -J1^T [C1,i]x - J2^T [C2,i]x; column k = grad_e1(E_k x C1,i) + grad_e2(E_k x C2,i).
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const FormAB f1 = grad_e1(g, cross(unit(k), C1i[i])), f2 = grad_e2(g, cross(unit(k), C2i[i]));
+      const double v[6] = {f1.a.x + f2.a.x, f1.a.y + f2.a.y, f1.a.z + f2.a.z,
+                           f1.b.x + f2.b.x, f1.b.y + f2.b.y, f1.b.z + f2.b.z};
+      const int col = 6 + 3 * i + k;
+      for (int r = 0; r < 6; ++r) {
+        h[r][col] += v[r];
+        h[col][r] += v[r];
+      }
+    }
+  // dr_i x dr_i: sum_a sym(e_a C_a,i^T) - (e_a . C_a,i) I.
+  for (int i = 0; i < 3; ++i) {
+    Mat3 K = 0.5 * (outer(g.e1, C1i[i]) + outer(C1i[i], g.e1) + outer(g.e2, C2i[i]) + outer(C2i[i], g.e2));
+    const double diag = dot(g.e1, C1i[i]) + dot(g.e2, C2i[i]);
+    for (int k = 0; k < 3; ++k) K.m[k][k] -= diag;
+    add_block(h, 6 + 3 * i, 6 + 3 * i, K);
+  }
+}
+
+}  // namespace shell_detail
+
+// W_e of one triangle (J). x: node positions (m); R: node rotations.
+FASCIA_HD double shell_element_energy(const ShellElementRest& e, const ShellModuli& m, const Vec3 x[3], const Mat3 R[3]) {
+  return shell_detail::membrane(e, m, x).energy + shell_detail::bending(e, m, x, R).energy;
+}
+
+// W_e and its gradient g[18] in theta (overwritten; J/m for dx, J/rad for dr).
+FASCIA_HD double shell_element_gradient(const ShellElementRest& e, const ShellModuli& m, const Vec3 x[3], const Mat3 R[3],
+                                        double* g) {
+  using namespace shell_detail;
+  const Membrane mem = membrane(e, m, x);
+  const Bending bend = bending(e, m, x, R);
+  const double at = e.area * m.thickness;
+  const Vec3 P0 = at * (mem.S[0][0] * mem.f[0] + mem.S[0][1] * mem.f[1]);  // dW_m/dU_0
+  const Vec3 P1 = at * (mem.S[1][0] * mem.f[0] + mem.S[1][1] * mem.f[1]);  // dW_m/dU_1
+  Vec3 ga{0, 0, 0}, gb{0, 0, 0}, gr[3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+  for (int s = 0; s < 9; ++s) {
+    const ScalarGradient sg = scalar_gradient(bend, s);
+    ga += bend.phi1[s] * sg.ab.a;
+    gb += bend.phi1[s] * sg.ab.b;
+    gr[sg.node] += bend.phi1[s] * sg.r;
+  }
+  const Vec3 gx[3] = {-(ga + gb), ga, gb};  // a = x1 - x0, b = x2 - x0
+  for (int i = 0; i < 3; ++i) {
+    store3(g + 6 * i, mem.c[0][i] * P0 + mem.c[1][i] * P1 + gx[i]);
+    store3(g + 6 * i + 3, gr[i]);
+  }
+  return mem.energy + bend.energy;
+}
+
+// W_e, its gradient g[18] and its symmetric Hessian H[18][18] (row-major), both overwritten.
+FASCIA_HD double shell_element_hessian(const ShellElementRest& e, const ShellModuli& m, const Vec3 x[3], const Mat3 R[3],
+                                       double* g, double* H) {
+  using namespace shell_detail;
+  const double w = shell_element_gradient(e, m, x, R, g);
+  const Membrane mem = membrane(e, m, x);
+  const Bending bend = bending(e, m, x, R);
+  // Membrane blocks in U: HU[c][d] (3x3 each).
+  const double at = e.area * m.thickness, l = m.lambda, mu = m.mu;
+  const Vec3 f0 = mem.f[0], f1 = mem.f[1];
+  Mat3 HU[2][2];
+  HU[0][0] = at * ((2 * mu + l) * outer(f0, f0) + mu * outer(f1, f1));
+  HU[1][1] = at * ((2 * mu + l) * outer(f1, f1) + mu * outer(f0, f0));
+  HU[0][1] = at * (l * outer(f0, f1) + mu * outer(f1, f0));
+  HU[1][0] = transpose(HU[0][1]);
+  for (int c = 0; c < 2; ++c)
+    for (int d = 0; d < 2; ++d)
+      for (int k = 0; k < 3; ++k) HU[c][d].m[k][k] += at * mem.S[c][d];
+  // Bending and drilling in (a, b, dr_0, dr_1, dr_2).
+  double hb[15][15];
+  bending_hessian(e, bend, hb);
+  // theta index -> (variable of hb, coefficient): x_0 = -(a + b), x_1 = a, x_2 = b, dr_i.
+  for (int p = 0; p < kShellElementDofs; ++p) {
+    const int np = p / 6, kp = p % 6;
+    for (int q = 0; q < kShellElementDofs; ++q) {
+      const int nq = q / 6, kq = q % 6;
+      double v = 0;
+      if (kp < 3 && kq < 3) {
+        for (int c = 0; c < 2; ++c)
+          for (int d = 0; d < 2; ++d) v += mem.c[c][np] * mem.c[d][nq] * HU[c][d].m[kp][kq];
+      }
+      // Variables of hb with their coefficients for p and q.
+      int vp[2], vq[2];
+      double cp[2], cq[2];
+      int np_count, nq_count;
+      if (kp < 3) {
+        np_count = np == 0 ? 2 : 1;
+        vp[0] = np == 2 ? 3 + kp : kp, cp[0] = np == 0 ? -1.0 : 1.0;
+        vp[1] = 3 + kp, cp[1] = -1.0;
+      } else {
+        np_count = 1, vp[0] = 6 + 3 * np + kp - 3, cp[0] = 1.0;
+      }
+      if (kq < 3) {
+        nq_count = nq == 0 ? 2 : 1;
+        vq[0] = nq == 2 ? 3 + kq : kq, cq[0] = nq == 0 ? -1.0 : 1.0;
+        vq[1] = 3 + kq, cq[1] = -1.0;
+      } else {
+        nq_count = 1, vq[0] = 6 + 3 * nq + kq - 3, cq[0] = 1.0;
+      }
+      for (int s = 0; s < np_count; ++s)
+        for (int t = 0; t < nq_count; ++t) v += cp[s] * cq[t] * hb[vp[s]][vq[t]];
+      H[kShellElementDofs * p + q] = v;
+    }
+  }
+  // K_b is symmetric only to round-off: make H exactly symmetric.
+  for (int p = 0; p < kShellElementDofs; ++p)
+    for (int q = 0; q < p; ++q) {
+      const double v = 0.5 * (H[kShellElementDofs * p + q] + H[kShellElementDofs * q + p]);
+      H[kShellElementDofs * p + q] = H[kShellElementDofs * q + p] = v;
+    }
+  return w;
+}
+
+}  // namespace fascia
