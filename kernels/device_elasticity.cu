@@ -1,39 +1,21 @@
 #include "device_buffers.cuh"
 #include "device_elasticity.hpp"
 #include "elasticity_kernels.cuh"
-#include "group_classes.hpp"
 #include "group_kernels.cuh"
 #include "group_layout.hpp"
 #include "sample_layout.hpp"
-#include "shape_classes.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <numeric>
-#include <optional>
 
 namespace fascia::gpu {
 
 const char* to_string(Precision precision) {
   return precision == Precision::double_precision ? "double" : "single";
 }
-const char* to_string(Design design) { return design == Design::paper ? "paper" : "fused"; }
-const char* to_string(SamplePass pass) {
-  switch (pass) {
-    case SamplePass::records:
-      return "records";
-    case SamplePass::lanes:
-      return "lanes";
-    case SamplePass::staged:
-      return "staged";
-    case SamplePass::coalesced:
-      return "coalesced";
-  }
-  return "?";
-}
-
 DeviceInfo device_info() {
   DeviceInfo info;
   int count = 0;
@@ -60,9 +42,22 @@ DeviceInfo device_info() {
 
 namespace {
 
-constexpr int kThreads = 128;      // frame and sample kernels
-constexpr int kPaperGather = 96;   // paper §3.3: 6 threads per frame, 96 per block
+constexpr int kThreads = 128;  // the per-frame and per-sample kernels
+// Samples per block of the force and tangent passes: one thread each, the block size the dense
+// tangent kernels and the resident PCG are compiled for (kDenseThreads, kResidentThreads).
+constexpr int kBlockSamples = 128;
+// Pairs and distinct frames per block at most: they bound the shared memory of a block's pair
+// outputs and of the resident PCG's staged frame records.
 constexpr int kMaxBlockPairs = 1024;
+constexpr int kMaxBlockSlots = 256;
+// Lanes that sum one slot of a block's pair outputs in the launched tangent kernels (a power of
+// two <= 32): two halve the chain of dependent adds of one lane and keep the stores coalesced.
+constexpr int kSlotLanes = 2;
+// Frames per chunk of the launched PCG update (k_update_rows: 6 threads per frame, 252 per block).
+constexpr int kRowFrames = 42;
+// The persistent PCG runs while the model needs at most this many thread blocks per
+// multiprocessor: its grid barriers and every block's sum of all partials grow with the grid.
+constexpr int kPersistentBlocksPerSM = 4;
 
 int grid_for(long long count, int threads) { return static_cast<int>(std::max<long long>(1, (count + threads - 1) / threads)); }
 
@@ -82,31 +77,17 @@ struct DeviceElasticity::Impl {
   virtual double tangent_bytes() const = 0;
   virtual KernelResources tangent_kernel_resources() const = 0;
   virtual LaunchGrids launch_grids() const = 0;
+  virtual void limit_row_blocks(int blocks) = 0;
   // Stepper.
   virtual void configure_step(const StepOptions& options) = 0;
   virtual StepReport step() = 0;
   virtual void last_increment(double* delta) const = 0;
-  // Whether the configured persistent PCG is the resident kernel with staged frames.
-  virtual bool resident_frames() const = 0;
   virtual double time_step_ms(int repeats) = 0;
   virtual double time_cg_iteration_ms(int repeats) = 0;
 
   DeviceOptions options;
-  Design design = Design::fused;
-  SamplePass pass = SamplePass::records;  // fused design
-  bool staged = false;                    // pass == SamplePass::staged
-  int lanes = 1;                          // fused design, records and lanes passes
-  bool dense = false;                     // coalesced pass: the dense tangent kernel
-  bool mapped = false;                    // coalesced pass: w and g from shape classes
-  bool slot_frames = false;               // coalesced pass: the block's frames staged in shared memory
-  bool direction_pass = false;            // coalesced pass, launched PCG: p formed by k_pcg_direction
-  bool hold_pairs = false;                // coalesced pass: the dense kernel holds its kept pairs' levers
-  bool prefetch_frames = false;           // coalesced pass: the dense kernel prefetches its next pairs' frames
-  bool grouped = false;                   // coalesced pass: the launched tangent product runs the grouped pass
-  bool group_mapped = false;              // ... with w and g from the groups' classes
-  std::string mapped_refusal;             // why not, where DeviceOptions::shape_classes asked for them
-  std::string grouped_refusal;            // why not, where DeviceOptions::group_samples asked for it
-  std::string group_classes_refusal;      // why not, where DeviceOptions::group_classes asked for them
+  bool grouped = false;         // the launched tangent product runs the grouped pass
+  std::string grouped_refusal;  // why not
 };
 
 namespace {
@@ -116,24 +97,19 @@ class System final : public DeviceElasticity::Impl {
  public:
   System(const Model& input, const DeviceOptions& opts) {
     options = opts;
+    validate(input);
+    if (!offsets_are_rest_differences(input))
+      throw std::invalid_argument(
+          "DeviceElasticity: the model's rest offsets are not p_s - x_i (eq. 2 with rest orientation I)");
     FASCIA_CUDA(cudaStreamCreateWithFlags(&m_stream, cudaStreamNonBlocking));
     FASCIA_CUDA(cudaEventCreate(&m_start));
     FASCIA_CUDA(cudaEventCreate(&m_stop));
-    validate(input);
-    // The grouped pass needs each group's samples consecutive: group order, from the Morton order.
-    const bool want_groups =
-        opts.group_samples && opts.design == Design::fused && opts.sample_pass == SamplePass::coalesced;
-    // Models whose groups average fewer than kMinGroupSamples samples are refused here, before
-    // they are put in group order and their group layout is built.
-    if (want_groups) grouped_refusal = group_refusal(input);
-    bool group_order = want_groups && grouped_refusal.empty();
-    std::vector<int> order;
-    if (opts.reorder_samples) order = spatial_sample_order(input);
-    if (group_order) {
-      if (order.empty()) {
-        order.resize(input.sample_count());
-        std::iota(order.begin(), order.end(), 0);
-      }
+    // Samples in Morton order; in group order from it where the model allows the grouped pass,
+    // which needs each group's samples consecutive. Models whose groups average fewer than
+    // kMinGroupSamples samples are refused before they are put in group order.
+    std::vector<int> order = spatial_sample_order(input);
+    grouped_refusal = group_refusal(input);
+    if (grouped_refusal.empty()) {
       double mean = 0;
       std::vector<int> grouped_order = group_sample_order(input, order, &mean);
       if (mean < kMinGroupSamples) {
@@ -142,21 +118,16 @@ class System final : public DeviceElasticity::Impl {
                       "its groups of samples with the same frames average %.2f samples (at least %.0f needed)", mean,
                       kMinGroupSamples);
         grouped_refusal = text;
-        group_order = false;
-        if (!opts.reorder_samples) order.clear();
       } else {
         order = std::move(grouped_order);
       }
     }
-    const Model model = order.empty() ? input : reorder_samples(input, order);
-    design = opts.design;
-    if (design == Design::fused && !offsets_are_rest_differences(model)) design = Design::paper;
+    const Model model = reorder_samples(input, order);
     m_n = model.frame_count();
     m_s = model.sample_count();
     m_p = model.pair_count();
     m_locked = model.rotations_locked;
     m_max_neighbours = model.max_neighbours();
-    m_row_frames = opts.row_frames;
 
     // Origin: centre of the rest bounding box of the frames.
     for (int k = 0; k < 3; ++k) {
@@ -176,7 +147,6 @@ class System final : public DeviceElasticity::Impl {
     m_frames.upload(nb.frames);
     m_weights.upload(nb.weights);
     m_gradients.upload(nb.weight_gradients);
-    m_rest_offsets.upload(nb.rest_offsets);
     m_rev_offsets.upload(model.reverse.offsets);
     m_rev_pairs.upload(model.reverse.pairs);
     m_pair_samples.upload(model.reverse.pair_samples);
@@ -192,73 +162,29 @@ class System final : public DeviceElasticity::Impl {
     m_inertias.upload(inertias);
     m_fixed.upload(model.fixed_dofs);
 
-    if (design == Design::fused) {
-      // At most kMappedSlots frames per block, so that the mapped pass's 1-byte block-local slot
-      // index fits (rarely binding: 128 hexahedron samples touch about 50 frames).
-      BlockLayout L = build_block_layout(model, opts.block_samples, kMaxBlockPairs, kMappedSlots);
-      m_blocks = L.block_count();
-      m_slots = L.slot_count();
-      m_shared_bytes = static_cast<size_t>(L.max_block_pairs) * 6 * sizeof(R);
-      m_block_samples.upload(L.block_samples);
-      m_block_slots.upload(L.block_slots);
-      m_slot_frames.upload(L.slot_frames);
-      m_slot_pair_offsets.upload(L.slot_pair_offsets);
-      m_slot_pairs.upload(L.slot_pairs);
-      m_frame_slot_offsets.upload(L.frame_slot_offsets);
-      m_frame_slots.upload(L.frame_slots);
-      m_partials.resize(6 * static_cast<size_t>(m_slots));
-      m_cache.resize(10 * static_cast<size_t>(m_s));
-      // One thread per sample: the staged pass needs every sample of a block in one thread block.
-      pass = opts.sample_pass;
-      if (pass == SamplePass::staged &&
-          !(opts.lanes <= 1 && opts.block_samples <= kLaneThreadsMax && upload_staged(model, L)))
-        pass = SamplePass::lanes;
-      if (pass == SamplePass::coalesced && !upload_coalesced(model, L)) pass = SamplePass::lanes;
-      staged = pass == SamplePass::staged;
-      m_lanes = staged ? 1 : pass_lanes(pass, opts.lanes, model.max_neighbours());
-      lanes = m_lanes;
-      if (pass == SamplePass::records) upload_records(model, sample_rest);
-      // Coalesced pass: ELL entries kept per lane (more are read again): 2 in double, where 4
-      // spills and was measured slower (DeviceOptions::coalesced_keep); in single the smaller of
-      // 2 and 4 that holds the largest sample's pairs.
-      m_keep = opts.record_keep;
-      if (pass == SamplePass::coalesced) {
-        const int per_lane = (model.max_neighbours() + m_lanes - 1) / m_lanes;
-        m_keep = opts.coalesced_keep > 0                      ? opts.coalesced_keep
-                 : per_lane <= 2 || std::is_same_v<R, double> ? 2
-                                                              : 4;
-      }
-      m_lane_threads = staged ? opts.block_samples
-                              : std::max(32, std::min({kLaneThreadsMax, opts.lane_threads, opts.block_samples * m_lanes}));
-      dense = pass == SamplePass::coalesced && opts.dense_tangent && m_lane_threads == kDenseThreads;
-      slot_frames = dense && !mapped && opts.slot_frames && m_slot_frame_bytes > 0;
-      m_ell_tangent_bytes = slot_frames ? m_slot_frame_bytes : m_ell_bytes;
-      direction_pass = pass == SamplePass::coalesced && opts.direction_pass;
-      hold_pairs = dense && !mapped && !slot_frames && opts.hold_pairs && m_keep <= 4;
-      prefetch_frames = dense && !mapped && !slot_frames && !hold_pairs && opts.prefetch_frames && m_keep <= 4;
-      if (group_order) {
-        if (pass != SamplePass::coalesced)
-          grouped_refusal = "the coalesced pass is not in use";
-        else {
-          upload_groups(model);
-          grouped = true;
-        }
-      }
-      for (const void* k : {reinterpret_cast<const void*>(&k_records_tangent<R, 1, 128>),
-                            reinterpret_cast<const void*>(&k_records_tangent<R, 2, 128>),
-                            reinterpret_cast<const void*>(&k_records_tangent<R, 2, kLaneThreadsMax>)})
-        FASCIA_CUDA(cudaFuncSetAttribute(k, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_shared_bytes)));
-      const int max_shared = static_cast<int>(m_shared_bytes);
-      FASCIA_CUDA(cudaFuncSetAttribute(k_lanes_tangent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize, max_shared));
-      FASCIA_CUDA(cudaFuncSetAttribute(k_fused_samples<Pass::gradient, R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                       max_shared));
-      FASCIA_CUDA(cudaFuncSetAttribute(k_fused_samples<Pass::tangent, R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                       max_shared));
-    } else {
-      m_partials.resize(6 * static_cast<size_t>(m_p));
-      m_cache.resize(10 * static_cast<size_t>(m_s));
-      m_a.resize(3 * static_cast<size_t>(m_p));
+    BlockLayout L = build_block_layout(model, kBlockSamples, kMaxBlockPairs, kMaxBlockSlots);
+    m_blocks = L.block_count();
+    m_slots = L.slot_count();
+    m_shared_bytes = static_cast<size_t>(L.max_block_pairs) * 6 * sizeof(R);
+    m_block_samples.upload(L.block_samples);
+    m_block_slots.upload(L.block_slots);
+    m_slot_frames.upload(L.slot_frames);
+    m_slot_pair_offsets.upload(L.slot_pair_offsets);
+    m_slot_pairs.upload(L.slot_pairs);
+    m_frame_slot_offsets.upload(L.frame_slot_offsets);
+    m_frame_slots.upload(L.frame_slots);
+    m_partials.resize(6 * static_cast<size_t>(m_slots));
+    m_cache.resize(10 * static_cast<size_t>(m_s));
+    upload_coalesced(model, L);
+    // ELL entries held in registers per sample (more are read again): 2 in double, where 4 spills,
+    // and where samples have at most 2 pairs; else 4 in single.
+    m_keep = m_max_neighbours <= 2 || std::is_same_v<R, double> ? 2 : 4;
+    if (grouped_refusal.empty()) {
+      upload_groups(model);
+      grouped = true;
     }
+    FASCIA_CUDA(cudaFuncSetAttribute(k_fused_samples<R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                     static_cast<int>(m_shared_bytes)));
 
     m_view.samples = m_s;
     m_view.frames = m_n;
@@ -267,7 +193,6 @@ class System final : public DeviceElasticity::Impl {
     m_view.frame_of = m_frames.data();
     m_view.weights = m_weights.data();
     m_view.gradients = m_gradients.data();
-    m_view.rest_offsets = m_rest_offsets.data();
     m_view.rev_offsets = m_rev_offsets.data();
     m_view.rev_pairs = m_rev_pairs.data();
     m_view.pair_samples = m_pair_samples.data();
@@ -292,22 +217,14 @@ class System final : public DeviceElasticity::Impl {
     m_view.ell_offsets = m_ell_offsets.data();
     m_view.ell_slot = m_ell_slot.data();
     m_view.ell_data = m_ell_data.data();
-    m_view.slot_ell = m_slot_ell.data();
     m_view.ell_frame = m_ell_frame.data();
     m_view.ell_pos = m_ell_pos.data();
-    m_view.ell_slot_rank = m_ell_slot_rank.data();
-    m_view.shape_class = m_shape_class.data();
-    m_view.shape_maps = m_shape_maps.data();
-    m_view.class_offsets = m_class_offsets.data();
-    m_view.class_pairs = m_class_pairs.data();
-    m_view.pair_records = m_pair_records.data();
-    m_view.sample_records = m_sample_records.data();
     if (grouped) {
       m_group_view = m_view;
       m_group_view.blocks = m_group_blocks;
       m_group_view.block_samples = nullptr;  // block b's groups are [kGroupBlock b, ...) (group_layout.hpp)
       m_group_view.block_slots = m_group_block_slots.data();
-      m_group_view.slot_frames = nullptr;  // neither the grouped kernel nor k_frame_rows reads them
+      m_group_view.slot_frames = nullptr;  // neither the grouped kernel nor k_frame_sums reads them
       m_group_view.slot_pair_offsets = m_group_slot_pair_offsets.data();
       m_group_view.slot_pairs = nullptr;
       m_group_view.frame_slot_offsets = m_group_frame_slot_offsets.data();
@@ -317,10 +234,7 @@ class System final : public DeviceElasticity::Impl {
       m_group_view.group_samples = m_group_samples.data();
       m_group_view.group_frames = m_group_frames.data();
       m_group_view.group_pos = m_group_pos.data();
-      m_group_view.group_data = m_group_data.size() ? m_group_data.data() : nullptr;
-      m_group_view.group_class = group_mapped ? m_group_class.data() : nullptr;
-      m_group_view.group_maps = group_mapped ? m_group_maps.data() : nullptr;
-      m_group_view.group_class_pairs = group_mapped ? m_group_class_pairs.data() : nullptr;
+      m_group_view.group_data = m_group_data.data();
       m_group_view.group_entries = static_cast<long long>(m_group_data.size() / 4);
     }
 
@@ -339,65 +253,22 @@ class System final : public DeviceElasticity::Impl {
     m_prepare_sums.resize(kPrepareSums * static_cast<size_t>(m_n));
     for (auto* v : {&m_grad, &m_d, &m_out, &m_cx, &m_cr, &m_cz, &m_cp, &m_cAp}) v->resize(dofs);
     // The partials and counters of every kernel that reduces (reduce_and_finish).
-    const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(m_n, kThreads), grid_for(m_n, m_row_frames),
-                                   grid_for(6LL * m_n, kPaperGather), m_blocks, m_group_blocks, 1});
+    const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(m_n, kThreads), grid_for(m_n, kRowFrames),
+                                   m_blocks, m_group_blocks, 1});
     m_red_partials.resize(reduce_partial_count(max_grid));
     m_counter.resize(reduce_counter_count(max_grid));
     m_counter.zero();
     m_scalars.resize(1);
     m_scalars.zero();
-    // The launched row passes loop over their chunks (or frames) in the blocks that fit at once.
-    const int chunks = grid_for(m_n, m_row_frames);
-    m_rows_grid = options.frame_threads
-                      ? resident_blocks(reinterpret_cast<const void*>(&k_frame_sums<R>), kFrameThreads,
-                                        grid_for(m_n, kFrameThreads))
-                      : resident_blocks(reinterpret_cast<const void*>(&k_frame_rows<R>), 6 * m_row_frames, chunks);
-    m_update_grid = resident_blocks(reinterpret_cast<const void*>(&k_update_rows<R>), 6 * m_row_frames, chunks);
-    if (options.row_blocks > 0) {
-      m_rows_grid = std::min(m_rows_grid, options.row_blocks);
-      m_update_grid = std::min(m_update_grid, options.row_blocks);
-    }
+    // The launched row passes loop over their frames (or chunks) in the blocks that fit at once.
+    m_rows_grid = resident_blocks(reinterpret_cast<const void*>(&k_frame_sums<R>), kFrameThreads,
+                                  grid_for(m_n, kFrameThreads));
+    m_update_grid =
+        resident_blocks(reinterpret_cast<const void*>(&k_update_rows<R>), 6 * kRowFrames, grid_for(m_n, kRowFrames));
     m_frame_view.rotations = m_rot.data();
     m_frame_view.positions = m_x.data();
-    m_frame_view.records = m_records.size() ? m_records.data() : nullptr;
-    m_frame_view.levers = m_levers.size() ? m_levers.data() : nullptr;
-    m_frame_view.sample_state = m_sample_state.size() ? m_sample_state.data() : nullptr;
-  }
-
-  // Threads per sample when DeviceOptions::lanes is 0, measured on an H200 (docs/benchmarks.md).
-  // records: enough lanes that each keeps at most kKeep pairs in registers; coalesced: one;
-  // lanes: 2 in double above 4 neighbours, else 1.
-  static int default_lanes(SamplePass pass, int neighbours) {
-    if (pass == SamplePass::records) return (neighbours + kKeep - 1) / kKeep;
-    if (pass == SamplePass::coalesced) return 1;
-    return neighbours > 4 && sizeof(R) == sizeof(double) ? 2 : 1;
-  }
-
-  // Threads per sample of a lane-parallel pass: DeviceOptions::lanes (`requested`) or, where 0,
-  // default_lanes, rounded up to a power of two, at most 32.
-  static int pass_lanes(SamplePass pass, int requested, int neighbours) {
-    const int wanted = requested > 0 ? std::min(requested, 32) : default_lanes(pass, neighbours);
-    int lanes = 1;
-    while (lanes < wanted) lanes *= 2;
-    return lanes;
-  }
-
-  // The record pass's packed pair and sample records (kPairRecord, kSampleRecord) and the frame
-  // records' storage (written by k_kinematics).
-  void upload_records(const Model& model, const std::vector<double>& sample_rest) {
-    const NeighbourTable& nb = model.neighbours;
-    std::vector<double> pairs(kPairRecord * static_cast<size_t>(m_p)), samples(kSampleRecord * static_cast<size_t>(m_s));
-    for (int p = 0; p < m_p; ++p) {
-      for (int k = 0; k < 3; ++k) pairs[kPairRecord * static_cast<size_t>(p) + k] = nb.weight_gradients[3 * static_cast<size_t>(p) + k];
-      pairs[kPairRecord * static_cast<size_t>(p) + 3] = nb.weights[p];
-    }
-    for (int t = 0; t < m_s; ++t) {
-      for (int k = 0; k < 3; ++k) samples[kSampleRecord * static_cast<size_t>(t) + k] = sample_rest[3 * static_cast<size_t>(t) + k];
-      samples[kSampleRecord * static_cast<size_t>(t) + 3] = model.samples.volumes[t];
-    }
-    m_pair_records.upload(pairs);
-    m_sample_records.upload(samples);
-    m_records.resize(kFrameRecord * static_cast<size_t>(m_n));
+    m_frame_view.levers = m_levers.data();
+    m_frame_view.sample_state = m_sample_state.data();
   }
 
   ~System() override {
@@ -473,127 +344,60 @@ class System final : public DeviceElasticity::Impl {
     const double r = sizeof(R), P = m_p, S = m_s, N = m_n;
     // Frames: rotation, position, d (read), out (write), geometric block (read), fixed flags.
     const double frames = N * (9 * r + 3 * r + 6 * r + 6 * r + 9 * r + 6);
-    if (design == Design::fused && pass == SamplePass::records) {
-      // Pair records and frame indices, sample records, offsets and materials, frame records
-      // (instead of rotation and position), slot tables, slot partials out and in.
-      const double Q = m_slots;
-      return P * (4 * r + 4) + S * (4 * r + 4 + 4) + N * (16 * r - 12 * r) + Q * 4 * 2 + N * 4 + m_blocks * 8 +
-             Q * 6 * r * 2 + frames;
-    }
-    if (design == Design::fused && grouped) {
+    if (grouped) {
       // Per pair w and g; per group its frames, entry positions and first sample; per sample its
       // state (StVK: 13 values), material and offset; lever records (instead of rotation and
       // position), read once per group but counted once; the slot tables of the blocks of groups
       // and their slot partials out and in.
-      // Mapped: per group its class and map instead, and the classes' tables (counted once).
       const double Q = static_cast<double>(m_group_partials.size()) / 6, G = m_group_count;
-      const double entries = group_mapped ? G * (9 * r + 4) + m_group_class_pairs.size() * r : P * 4 * r;
-      return entries + G * (kGroupLanes * 6 + 4) + S * (13 * r + 4 + 4) + N * (kLeverRecord * r - 12 * r) + Q * 4 +
+      return P * 4 * r + G * (kGroupLanes * 6 + 4) + S * (13 * r + 4 + 4) + N * (kLeverRecord * r - 12 * r) + Q * 4 +
              N * 4 + m_group_blocks * 8 + Q * 6 * r * 2 + frames;
     }
-    if (design == Design::fused && pass == SamplePass::coalesced) {
-      // ELL entries (frame, w, g), per-sample state and offsets and materials, lever records
-      // (instead of rotation and position), slot tables, slot partials out and in.
-      // StVK reads 13 state values per sample (elasticity_phases.hpp, kSampleState).
-      // Mapped: per entry its packed slot and rank, per sample A_s and its class, per slot its
-      // table entry, and the class table (cache-resident, counted once).
-      const double Q = m_slots, E = m_ell_entries;
-      const double entries =
-          mapped ? E * 2 + S * (9 * r + 4) + Q * 8 + m_class_pairs.size() * r : E * (4 * r + 4 + 2);
-      return entries + S * (13 * r + 4 + 4) + N * (kLeverRecord * r - 12 * r) + Q * 4 + N * 4 + m_blocks * 12 +
-             Q * 6 * r * 2 + frames;
-    }
-    if (design == Design::fused && staged) {
-      const double Q = m_slots, E = m_ell_entries;
-      return E * (4 * r + 2) + P * 4 + S * (3 * r + 9 * r + 10 * r + r + 4 + 4)  // ELL table, samples
-             + Q * 4 + m_blocks * 12                                              // slot and block tables
-             + Q * 6 * r * 2 + N * 4 + frames;  // slot partials out and in, frame slot lists
-    }
-    if (design == Design::fused) {
-      const double Q = m_slots;
-      return P * (4 + r + 3 * r) + S * (3 * r + r + 4 + 4 + 19 * r) + N * 3 * r  // tables, F, cache
-             + P * 4 + Q * 4 * 2 + N * 4 + m_blocks * 8                  // slot tables
-             + Q * 6 * r * 2 + frames;                                    // slot partials out and in
-    }
-    // Paper: pair table with a = R l, F and cache per sample, the pair buffer written and read.
-    return P * (4 + r + 3 * r + 3 * r) + S * (9 * r + 10 * r + r + 4 + 4) + P * 6 * r * 2 + P * 4 + N * 4 + frames;
-  }
-
-  // The staged tangent pass's tables (build_ell_order) and shared-memory size; false, with
-  // nothing uploaded, where its largest block would not fit in a thread block's shared memory.
-  bool upload_staged(const Model& model, BlockLayout& L) {
-    build_ell_order(model, L);
-    size_t values = 0;
-    for (int b = 0; b < L.block_count(); ++b) {
-      const size_t ns = L.block_samples[b + 1] - L.block_samples[b];
-      const size_t nq = L.block_slots[b + 1] - L.block_slots[b];
-      const size_t Eb = L.ell_offsets[b + 1] - L.ell_offsets[b];
-      values = std::max(values, kSlotStride * nq + std::max(kSampleStride * ns, 6 * Eb));
-    }
-    int shared_limit = 0, dev = 0;
-    FASCIA_CUDA(cudaGetDevice(&dev));
-    FASCIA_CUDA(cudaDeviceGetAttribute(&shared_limit, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
-    if (values * sizeof(R) > static_cast<size_t>(shared_limit)) return false;
-    m_staged_bytes = values * sizeof(R);
-    upload_ell(model, L, false);
-    FASCIA_CUDA(cudaFuncSetAttribute(k_staged_tangent<R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                     static_cast<int>(m_staged_bytes)));
-    return true;
+    // ELL entries (frame, w, g), per-sample state and offsets and materials, lever records
+    // (instead of rotation and position), slot tables, slot partials out and in.
+    // StVK reads 13 state values per sample (elasticity_phases.hpp, kSampleState).
+    const double Q = m_slots, E = m_ell_entries;
+    return E * (4 * r + 4 + 2) + S * (13 * r + 4 + 4) + N * (kLeverRecord * r - 12 * r) + Q * 4 + N * 4 +
+           m_blocks * 12 + Q * 6 * r * 2 + frames;
   }
 
   // The coalesced tangent pass's tables (build_ell_order, the entries' frames), the storage of
   // lever records and samples' state, and its shared-memory size (6 values per ELL entry of the
-  // largest block); false, with nothing uploaded, where that would not fit in a thread block.
-  bool upload_coalesced(const Model& model, BlockLayout& L) {
-    // Positions interleaved for the lanes the pass will run.
-    build_ell_order(model, L, pass_lanes(SamplePass::coalesced, options.lanes, model.max_neighbours()));
+  // largest block).
+  void upload_coalesced(const Model& model, BlockLayout& L) {
+    build_ell_order(model, L);
     const size_t pairs = static_cast<size_t>(L.max_block_pairs);
     int shared_limit = 0, dev = 0;
     FASCIA_CUDA(cudaGetDevice(&dev));
     FASCIA_CUDA(cudaDeviceGetAttribute(&shared_limit, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
-    if (6 * pairs * sizeof(R) > static_cast<size_t>(shared_limit) || pairs > 65535) return false;
+    // A block holds more than kMaxBlockPairs pairs only where one sample has that many.
+    if (6 * pairs * sizeof(R) > static_cast<size_t>(shared_limit))
+      throw std::invalid_argument("DeviceElasticity: a sample has " + std::to_string(pairs) +
+                                  " neighbour frames, more than a thread block's shared memory holds (" +
+                                  std::to_string(shared_limit / (6 * sizeof(R))) + ")");
     m_ell_bytes = 6 * pairs * sizeof(R);
-    upload_ell(model, L, true);
+    upload_ell(model, L);
     m_ell_pos.upload(std::vector<unsigned short>(L.ell_pos.begin(), L.ell_pos.end()));
     m_levers.resize(kLeverRecord * static_cast<size_t>(m_n));
     m_sample_state.resize(kSampleState * static_cast<size_t>(m_s));
-    mapped = options.shape_classes && upload_shape_classes(model, L);
-    // Slot frames: the slot records after the pair outputs (0 where they would not fit).
+    // The resident kernel's staged frames after the outputs: lever records, directions and frame
+    // indices (0 where they would not fit).
     int max_slots = 0;
     for (int b = 0; b < L.block_count(); ++b) max_slots = std::max(max_slots, L.block_slots[b + 1] - L.block_slots[b]);
-    const size_t slot_bytes = (static_cast<size_t>(slot_records_offset(static_cast<int>(pairs))) +
-                               kSlotFrameRecord * static_cast<size_t>(max_slots)) *
-                              sizeof(R);
-    m_slot_frame_bytes = slot_bytes <= static_cast<size_t>(shared_limit) ? slot_bytes : 0;
-    // The resident kernel's staged frames (DeviceOptions::resident_frames) after the outputs: lever
-    // records, directions and frame indices.
     const size_t lever_bytes = (static_cast<size_t>(slot_records_offset(static_cast<int>(pairs))) +
                                 (kLeverRecord + 6) * static_cast<size_t>(max_slots)) *
                                    sizeof(R) +
                                sizeof(int) * static_cast<size_t>(max_slots);
     m_resident_frames_bytes = lever_bytes <= static_cast<size_t>(shared_limit) ? lever_bytes : 0;
-    if (m_slot_frame_bytes > 0)
-      for (int keep : {2, 4, 8})
-        FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep, true, false, true)),
-                                         cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                         static_cast<int>(m_slot_frame_bytes)));
-    for (int keep : {2, 4, 8})
-      for (bool dense_kernel : {false, true})
-        for (bool mapped_kernel : {false, true})
-          FASCIA_CUDA(cudaFuncSetAttribute(
-              reinterpret_cast<const void*>(ell_tangent_kernel(keep, dense_kernel, mapped_kernel)),
-              cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
-    for (int keep : {2, 4})
-      for (bool prefetch : {false, true})
-        FASCIA_CUDA(cudaFuncSetAttribute(
-            reinterpret_cast<const void*>(ell_tangent_kernel(keep, true, false, false, !prefetch, prefetch)),
-            cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
-    for (const void* k : {reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>),
-                          reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>),
-                          reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>),
-                          resident_kernel(4), resident_kernel(8)})
-      FASCIA_CUDA(cudaFuncSetAttribute(k, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
-    return true;
+    for (int keep : {2, 4, 8}) {
+      FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep)),
+                                       cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
+      FASCIA_CUDA(cudaFuncSetAttribute(two_barrier_kernel(keep), cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                       static_cast<int>(m_ell_bytes)));
+    }
+    for (int pairs_max : {4, kResidentPairs})
+      FASCIA_CUDA(cudaFuncSetAttribute(resident_kernel(pairs_max), cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                       static_cast<int>(m_ell_bytes)));
   }
 
   // The grouped pass's tables (group_layout.hpp) for a model in group order whose groups average
@@ -604,8 +408,7 @@ class System final : public DeviceElasticity::Impl {
     const BlockLayout& L = G.slots;
     m_group_blocks = L.block_count();
     m_group_count = G.group_count();
-    group_mapped = options.group_classes && upload_group_classes(model, G);
-    if (!group_mapped) upload_group_data(model, G);
+    upload_group_data(model, G);
     m_group_samples.upload(G.group_samples);
     m_group_frames.upload(G.group_frames);
     m_group_pos.upload(std::vector<unsigned short>(G.entry_pos.begin(), G.entry_pos.end()));
@@ -637,98 +440,23 @@ class System final : public DeviceElasticity::Impl {
     m_group_data.upload(data);
   }
 
-  // The groups' classes and maps (group_classes.hpp) for the mapped grouped pass; false, with
-  // nothing uploaded and the reason in group_classes_refusal, where the model has none, or so many
-  // that they would not save memory traffic (more than one class per kGroupClassGroups groups).
-  static constexpr int kMaxGroupClasses = 4096;
-  static constexpr int kGroupClassGroups = 4;
-  bool upload_group_classes(const Model& model, const GroupLayout& G) {
-    std::string why;
-    const std::optional<GroupClasses> classes = find_group_classes(model, G, kMaxGroupClasses, &why);
-    if (!classes) {
-      group_classes_refusal = why;
-      return false;
-    }
-    if (static_cast<long long>(classes->class_count()) * kGroupClassGroups > G.group_count()) {
-      group_classes_refusal = std::to_string(classes->class_count()) + " classes for " +
-                              std::to_string(G.group_count()) + " groups";
-      return false;
-    }
-    const size_t groups = static_cast<size_t>(G.group_count());
-    std::vector<double> maps(9 * groups);  // component-major
-    for (size_t g = 0; g < groups; ++g)
-      for (int k = 0; k < 9; ++k) maps[k * groups + g] = classes->group_maps[9 * g + k];
-    m_group_maps.upload(maps);
-    m_group_class.upload(classes->group_class);
-    m_group_class_pairs.upload(classes->class_pairs);
-    return true;
-  }
-
-  // The samples' shape classes (shape_classes.hpp) for the mapped coalesced pass: per sample its
-  // class and map A_s ([9][S]), per class its reference pairs, per ELL entry its block-local slot
-  // and rank in the slot (1 byte each). False, with nothing uploaded, where the model has none, or
-  // so many that they would not save memory traffic (more than one class per kShapeClassSamples
-  // samples), or a block has more than kMappedSlots slots or a slot 256 pairs or more.
-  static constexpr int kMaxShapeClasses = 4096;
-  static constexpr int kShapeClassSamples = 4;
-  bool upload_shape_classes(const Model& model, const BlockLayout& L) {
-    std::vector<unsigned short> slot_rank(static_cast<size_t>(L.ell_count()), 0);
-    for (int b = 0; b < L.block_count(); ++b) {
-      const int q0 = L.block_slots[b], base = L.slot_pair_offsets[q0];
-      if (L.block_slots[b + 1] - q0 > kMappedSlots) {
-        mapped_refusal = "a thread block touches more than " + std::to_string(kMappedSlots) + " frames";
-        return false;
-      }
-      for (int e = L.ell_offsets[b]; e < L.ell_offsets[b + 1]; ++e) {
-        const int q = L.ell_slot[e], rank = L.ell_pos[e] - (L.slot_pair_offsets[q0 + q] - base);
-        if (rank < 0 || rank > 255) {
-          mapped_refusal = "a frame has 256 or more pairs in one thread block";
-          return false;
-        }
-        slot_rank[e] = static_cast<unsigned short>(q | rank << 8);
-      }
-    }
-    const std::optional<ShapeClasses> c = find_shape_classes(model.neighbours, kMaxShapeClasses);
-    if (!c) {
-      mapped_refusal = "the samples' weights and gradients fit no " + std::to_string(kMaxShapeClasses) +
-                       " shape classes (as with meshless shape functions)";
-      return false;
-    }
-    if (static_cast<long long>(c->class_count()) * kShapeClassSamples > m_s) {
-      mapped_refusal = std::to_string(c->class_count()) + " shape classes for " + std::to_string(m_s) +
-                       " samples: more than one per " + std::to_string(kShapeClassSamples);
-      return false;
-    }
-    m_ell_slot_rank.upload(slot_rank);
-    const size_t S = static_cast<size_t>(m_s);
-    std::vector<double> maps(9 * S);
-    for (size_t t = 0; t < S; ++t)
-      for (size_t k = 0; k < 9; ++k) maps[k * S + t] = c->sample_maps[9 * t + k];
-    m_shape_class.upload(c->sample_class);
-    m_shape_maps.upload(maps);
-    m_class_offsets.upload(c->class_offsets);
-    m_class_pairs.upload(c->class_pairs);
-    return true;
-  }
-
   // The ELL tables of a layout with build_ell_order's order: entry offsets, slots, w and g
-  // ([4][E]), and with `frames` each entry's frame.
-  void upload_ell(const Model& model, const BlockLayout& L, bool frames) {
+  // ([4][E]) and each entry's frame.
+  void upload_ell(const Model& model, const BlockLayout& L) {
     const NeighbourTable& nb = model.neighbours;
     const int E = L.ell_count();
     std::vector<double> ell(4 * static_cast<size_t>(E), 0.0);  // [4][E]: w, g
-    std::vector<int> ell_frame(frames ? E : 0, 0);
+    std::vector<int> ell_frame(E, 0);
     for (int p = 0; p < model.pair_count(); ++p) {
       const int e = L.pair_ell[p];
       ell[e] = nb.weights[p];
       for (int k = 0; k < 3; ++k) ell[static_cast<size_t>(k + 1) * E + e] = nb.weight_gradients[3 * p + k];
-      if (frames) ell_frame[e] = nb.frames[p];
+      ell_frame[e] = nb.frames[p];
     }
     m_ell_offsets.upload(L.ell_offsets);
-    m_ell_slot.upload(L.ell_slot);
-    m_slot_ell.upload(L.slot_ell);
+    m_ell_slot.upload(std::vector<unsigned short>(L.ell_slot.begin(), L.ell_slot.end()));
     m_ell_data.upload(ell);
-    if (frames) m_ell_frame.upload(ell_frame);
+    m_ell_frame.upload(ell_frame);
     m_ell_entries = E;
   }
 
@@ -763,36 +491,20 @@ class System final : public DeviceElasticity::Impl {
   }
 
   StepReport step() override {
-    const bool fixed_count = m_step.cg_tolerance <= 0;
     if (use_persistent()) {
-      if (m_step.use_graphs) {
-        launch_graph(m_graph_begin, [&] { enqueue_step_begin(); });
-        enqueue_persistent_pcg();
-        launch_graph(m_graph_end, [&] { enqueue_step_end(); });
-      } else {
+      launch_graph(m_graph_begin, [&] { enqueue_step_begin(); });
+      enqueue_persistent_pcg();
+      launch_graph(m_graph_end, [&] { enqueue_step_end(); });
+    } else if (m_step.cg_tolerance <= 0) {
+      launch_graph(m_graph_full, [&] {
         enqueue_step_begin();
-        enqueue_persistent_pcg();
-        enqueue_step_end();
-      }
-    } else if (m_step.use_graphs) {
-      if (fixed_count) {
-        launch_graph(m_graph_full, [&] {
-          enqueue_step_begin();
-          for (int k = 0; k < m_step.max_cg_iterations; ++k) enqueue_cg_iteration();
-          enqueue_step_end();
-        });
-      } else {
-        launch_graph(m_graph_begin, [&] { enqueue_step_begin(); });
-        run_tolerance_loop();
-        launch_graph(m_graph_end, [&] { enqueue_step_end(); });
-      }
-    } else {
-      enqueue_step_begin();
-      if (fixed_count)
         for (int k = 0; k < m_step.max_cg_iterations; ++k) enqueue_cg_iteration();
-      else
-        run_tolerance_loop();
-      enqueue_step_end();
+        enqueue_step_end();
+      });
+    } else {
+      launch_graph(m_graph_begin, [&] { enqueue_step_begin(); });
+      run_tolerance_loop();
+      launch_graph(m_graph_end, [&] { enqueue_step_end(); });
     }
     const Scalars sc = read_scalars();
     StepReport report;
@@ -814,16 +526,10 @@ class System final : public DeviceElasticity::Impl {
     FASCIA_CUDA(cudaEventRecord(m_start, m_stream));
     for (int k = 0; k < repeats; ++k) {
       if (use_persistent()) {
-        if (m_step.use_graphs) {
-          FASCIA_CUDA(cudaGraphLaunch(m_graph_begin, m_stream));
-          enqueue_persistent_pcg();
-          FASCIA_CUDA(cudaGraphLaunch(m_graph_end, m_stream));
-        } else {
-          enqueue_step_begin();
-          enqueue_persistent_pcg();
-          enqueue_step_end();
-        }
-      } else if (m_step.use_graphs && m_step.cg_tolerance <= 0) {
+        FASCIA_CUDA(cudaGraphLaunch(m_graph_begin, m_stream));
+        enqueue_persistent_pcg();
+        FASCIA_CUDA(cudaGraphLaunch(m_graph_end, m_stream));
+      } else if (m_step.cg_tolerance <= 0) {
         FASCIA_CUDA(cudaGraphLaunch(m_graph_full, m_stream));
       } else {
         enqueue_step_begin();
@@ -861,6 +567,24 @@ class System final : public DeviceElasticity::Impl {
     return total / (repeats * static_cast<double>(iterations));
   }
 
+  LaunchGrids launch_grids() const override {
+    return LaunchGrids{grid_for(m_n, kFrameThreads), grid_for(m_n, kRowFrames), m_rows_grid, m_update_grid,
+                       kReduceChunk};
+  }
+
+  void limit_row_blocks(int blocks) override {
+    if (blocks < 1) throw std::invalid_argument("DeviceElasticity::limit_row_blocks: blocks must be >= 1");
+    m_rows_grid = std::min(m_rows_grid, blocks);
+    m_update_grid = std::min(m_update_grid, blocks);
+    destroy_graphs();
+  }
+
+  KernelResources tangent_kernel_resources() const override {
+    cudaFuncAttributes attr{};
+    FASCIA_CUDA(cudaFuncGetAttributes(&attr, tangent_sample_kernel()));
+    return KernelResources{attr.numRegs, static_cast<long long>(attr.localSizeBytes)};
+  }
+
  private:
   Reduction reduction() { return Reduction{m_red_partials.data(), m_counter.data(), m_scalars.data()}; }
 
@@ -873,41 +597,25 @@ class System final : public DeviceElasticity::Impl {
 
   void check_launch() { FASCIA_CUDA(cudaGetLastError()); }
 
-  // Kinematics and the force pass: energy into the scalars, gradient into m_grad when `gather`
-  // (always for the fused design's F), F (and the paper's cache and a) stored.
+  // Kinematics and the force pass: energy into the scalars, F, the material cache and the samples'
+  // state of the tangent product stored, the gradient into m_grad when `gather`.
   void enqueue_gradient_pass(bool gather) {
-    k_kinematics<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(m_n, m_positions.data(), m_orientations.data(),
-                                                                         m_origin, m_x.data(), m_rot.data(),
-                                                                         m_frame_rest.data(),
-                                                                         m_records.size() ? m_records.data() : nullptr,
-                                                                         m_levers.size() ? m_levers.data() : nullptr);
+    k_kinematics<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
+        m_n, m_positions.data(), m_orientations.data(), m_origin, m_x.data(), m_rot.data(), m_frame_rest.data(),
+        m_levers.data());
     check_launch();
-    const FrameTermsFlags none{0.0, false};
-    if (design == Design::fused) {
-      // The coalesced pass's sample state is packed by the same kernel.
-      k_fused_samples<Pass::gradient, R><<<m_blocks, options.block_samples, m_shared_bytes, m_stream>>>(
-          m_view, m_frame_view, nullptr, m_F.data(), m_cache.data(), m_partials.data(), reduction(), nullptr,
-          pass == SamplePass::coalesced ? m_sample_state.data() : nullptr);
-      check_launch();
-      if (gather) {
-        enqueue_frame_rows(m_view, m_partials.data(), nullptr, nullptr, none, nullptr, m_grad.data(), false, nullptr);
-      }
-    } else {
-      k_paper_gradient<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(
-          m_view, m_frame_view, m_F.data(), m_cache.data(), m_a.data(), m_partials.data(), reduction());
-      check_launch();
-      if (gather) {
-        k_paper_gather<R><<<grid_for(6LL * m_n, kPaperGather), kPaperGather, 0, m_stream>>>(
-            m_view, m_partials.data(), nullptr, nullptr, none, m_d.data(), m_grad.data(), reduction(), false);
-        check_launch();
-      }
-    }
+    k_fused_samples<R><<<m_blocks, kBlockSamples, m_shared_bytes, m_stream>>>(
+        m_view, m_frame_view, m_F.data(), m_cache.data(), m_partials.data(), reduction(), m_sample_state.data());
+    check_launch();
+    if (gather)
+      enqueue_frame_rows(m_view, m_partials.data(), nullptr, nullptr, FrameTermsFlags{0.0, false}, nullptr,
+                         m_grad.data(), false, nullptr);
   }
 
   void enqueue_frame_prepare(double inv_h2, bool diag, double k_scale = 1.0, const double* load_rot = nullptr,
                              bool precondition = true) {
     k_frame_columns<R><<<grid_for(m_n, kColumnFrames), kColumnParts * kColumnFrames, 0, m_stream>>>(
-        m_view, m_frame_view, m_F.data(), design == Design::fused, precondition || diag, m_prepare_sums.data());
+        m_view, m_frame_view, m_F.data(), precondition || diag, m_prepare_sums.data());
     check_launch();
     k_frame_finish<R><<<grid_for(m_n, kFinishFrames), 6 * kFinishFrames, 0, m_stream>>>(
         m_view, m_frame_view, m_prepare_sums.data(), inv_h2, m_geo.data(), m_inertia_world.data(), m_minv.data(),
@@ -927,101 +635,41 @@ class System final : public DeviceElasticity::Impl {
   const R* frame_block(bool pcg) const { return pcg ? m_step_block.data() : m_geo.data(); }
   const R* frame_inertia(bool pcg) const { return pcg ? nullptr : m_inertia_world.data(); }
 
-  // The frame pass of the launched tangent product (k_frame_rows, or k_frame_sums with
-  // DeviceOptions::frame_threads): out = H d from the slot partials and the frame terms; in the
-  // PCG (`pcg`) also alpha, with p = z + beta p formed where z is set.
+  // The frame pass of the launched tangent product (k_frame_sums): out = H d from the slot
+  // partials and the frame terms; in the PCG (`pcg`) also alpha, with p = z + beta p formed where
+  // z is set.
   void enqueue_frame_rows(const ModelView<R>& view, const R* partials, const R* geo, const R* inertia,
                           FrameTermsFlags flags, R* d, R* out, bool pcg, const R* z) {
-    if (options.frame_threads)
-      k_frame_sums<R><<<m_rows_grid, kFrameThreads, 0, m_stream>>>(view, partials, geo, inertia, flags, d, out,
-                                                                   reduction(), pcg, z);
-    else
-      k_frame_rows<R><<<m_rows_grid, 6 * m_row_frames, 0, m_stream>>>(view, partials, geo, inertia, flags, d, out,
-                                                                      reduction(), pcg, z);
+    k_frame_sums<R><<<m_rows_grid, kFrameThreads, 0, m_stream>>>(view, partials, geo, inertia, flags, d, out,
+                                                                 reduction(), pcg, z);
     check_launch();
   }
 
   // The launched tangent product's sample kernel in use (enqueue_tangent's choice).
   const void* tangent_sample_kernel() const {
-    if (design != Design::fused) return reinterpret_cast<const void*>(&k_paper_tangent<R>);
-    if (grouped)
-      return group_mapped ? reinterpret_cast<const void*>(&k_group_tangent<R, true>)
-                          : reinterpret_cast<const void*>(&k_group_tangent<R, false>);
-    if (pass == SamplePass::coalesced) return reinterpret_cast<const void*>(ell_tangent_kernel());
-    if (pass == SamplePass::records) {
-      if (m_lane_threads > 128) return reinterpret_cast<const void*>(&k_records_tangent<R, 2, kLaneThreadsMax>);
-      if (options.record_keep == 1) return reinterpret_cast<const void*>(&k_records_tangent<R, 1, 128>);
-      return reinterpret_cast<const void*>(&k_records_tangent<R, 2, 128>);
-    }
-    if (staged) return reinterpret_cast<const void*>(&k_staged_tangent<R>);
-    return reinterpret_cast<const void*>(&k_lanes_tangent<R>);
+    if (grouped) return reinterpret_cast<const void*>(&k_group_tangent<R>);
+    return reinterpret_cast<const void*>(ell_tangent_kernel(m_keep));
   }
 
-  LaunchGrids launch_grids() const override {
-    const int chunks = grid_for(m_n, m_row_frames);
-    return LaunchGrids{options.frame_threads ? grid_for(m_n, kFrameThreads) : chunks, chunks, m_rows_grid,
-                       m_update_grid, kReduceChunk};
-  }
-
-  KernelResources tangent_kernel_resources() const override {
-    cudaFuncAttributes attr{};
-    FASCIA_CUDA(cudaFuncGetAttributes(&attr, tangent_sample_kernel()));
-    return KernelResources{attr.numRegs, static_cast<long long>(attr.localSizeBytes)};
-  }
-
-  // out = (K + M/h^2) d with the given flags; in the PCG (`pcg`) also alpha = rz / d.out.
-  // Fused design in the PCG: d is the direction p, first set to z + beta p (z = m_cz).
+  // out = (K + M/h^2) d with the given flags; in the PCG (`pcg`) also alpha = rz / d.out, with d
+  // the direction p, set to z + beta p (z = m_cz) by the passes.
   void enqueue_tangent(R* d, R* out, FrameTermsFlags flags, bool pcg) {
     const Scalars* sc = pcg ? m_scalars.data() : nullptr;
-    if (design == Design::fused) {
-      // With the direction pass p is already formed: the passes read it instead of z and p.
-      const R* z = pcg && !direction_pass ? m_cz.data() : nullptr;
-      if (grouped) {
-        const R* pd = z ? z : d;
-        const R* pold = z ? d : nullptr;
-        (group_mapped ? k_group_tangent<R, true> : k_group_tangent<R, false>)<<<m_group_blocks, kGroupThreads, 0,
-                                                                             m_stream>>>(
-            m_group_view, m_frame_view, pd, pold, m_group_partials.data(), sc, options.slot_lanes);
-        check_launch();
-        enqueue_frame_rows(m_group_view, m_group_partials.data(), frame_block(pcg), frame_inertia(pcg), flags, d, out,
-                           pcg, z);
-        return;
-      }
-      if (pass == SamplePass::coalesced) {
-        const R* pd = z ? z : d;
-        const R* pold = z ? d : nullptr;
-        ell_tangent_kernel()<<<m_blocks, m_lane_threads, m_ell_tangent_bytes, m_stream>>>(
-            m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes, options.slot_lanes);
-      } else if (pass == SamplePass::records) {
-        const R* pd = pcg ? z : d;
-        const R* pold = pcg ? d : nullptr;
-        if (m_lane_threads > 128)
-          k_records_tangent<R, 2, kLaneThreadsMax><<<m_blocks, m_lane_threads, m_shared_bytes, m_stream>>>(
-              m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes);
-        else if (options.record_keep == 1)
-          k_records_tangent<R, 1, 128><<<m_blocks, m_lane_threads, m_shared_bytes, m_stream>>>(
-              m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes);
-        else
-          k_records_tangent<R, 2, 128><<<m_blocks, m_lane_threads, m_shared_bytes, m_stream>>>(
-              m_view, m_frame_view, pd, pold, m_partials.data(), sc, m_lanes);
-      }
-      else if (staged)
-        k_staged_tangent<R><<<m_blocks, m_lane_threads, m_staged_bytes, m_stream>>>(
-            m_view, m_frame_view, m_F.data(), m_cache.data(), pcg ? z : d, pcg ? d : nullptr, m_partials.data(), sc);
-      else
-        k_lanes_tangent<R><<<m_blocks, m_lane_threads, m_shared_bytes, m_stream>>>(
-            m_view, m_frame_view, m_F.data(), m_cache.data(), pcg ? z : d, pcg ? d : nullptr, m_partials.data(), sc,
-            m_lanes);
+    const R* z = pcg ? m_cz.data() : nullptr;
+    const R* pd = z ? z : d;
+    const R* pold = z ? d : nullptr;
+    if (grouped) {
+      k_group_tangent<R><<<m_group_blocks, kGroupThreads, 0, m_stream>>>(m_group_view, m_frame_view, pd, pold,
+                                                                         m_group_partials.data(), sc, kSlotLanes);
       check_launch();
-      enqueue_frame_rows(m_view, m_partials.data(), frame_block(pcg), frame_inertia(pcg), flags, d, out, pcg, z);
-    } else {
-      k_paper_tangent<R><<<grid_for(m_s, kThreads), kThreads, 0, m_stream>>>(
-          m_view, m_frame_view, m_F.data(), m_cache.data(), m_a.data(), d, m_partials.data(), sc);
-      check_launch();
-      k_paper_gather<R><<<grid_for(6LL * m_n, kPaperGather), kPaperGather, 0, m_stream>>>(
-          m_view, m_partials.data(), m_geo.data(), m_inertia_world.data(), flags, d, out, reduction(), pcg);
+      enqueue_frame_rows(m_group_view, m_group_partials.data(), frame_block(pcg), frame_inertia(pcg), flags, d, out,
+                         pcg, z);
+      return;
     }
+    ell_tangent_kernel(m_keep)<<<m_blocks, kDenseThreads, m_ell_bytes, m_stream>>>(
+        m_view, m_frame_view, pd, pold, m_partials.data(), sc, kSlotLanes);
     check_launch();
+    enqueue_frame_rows(m_view, m_partials.data(), frame_block(pcg), frame_inertia(pcg), flags, d, out, pcg, z);
   }
 
   void enqueue_step_begin() {
@@ -1037,27 +685,21 @@ class System final : public DeviceElasticity::Impl {
     check_launch();
   }
 
+  // One launched CG iteration: the tangent product forms p = z + beta p and alpha, the update x,
+  // r, z and beta.
   void enqueue_cg_iteration() {
     enqueue_tangent(m_cp.data(), m_cAp.data(), step_flags(), true);
-    k_update_rows<R><<<m_update_grid, 6 * m_row_frames, 0, m_stream>>>(
+    k_update_rows<R><<<m_update_grid, 6 * kRowFrames, 0, m_stream>>>(
         m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
         m_step.cg_tolerance);
     check_launch();
-    if (design != Design::fused || direction_pass) {  // else the fused passes form p = z + beta p themselves
-      k_pcg_direction<R><<<grid_for(6LL * m_n, kThreads), kThreads, 0, m_stream>>>(6 * m_n, m_cz.data(), m_cp.data(),
-                                                                                    m_scalars.data());
-      check_launch();
-    }
   }
 
-  // The PCG loop as one cooperative kernel (k_pcg_persistent), up to max_cg_iterations.
+  // The PCG loop as one cooperative kernel (k_pcg_resident or k_pcg_two_barrier), up to
+  // max_cg_iterations.
   void enqueue_persistent_pcg() {
     ModelView<R> view = m_view;
     FrameView<R> frames = m_frame_view;
-    const R* F = m_F.data();
-    const R* cache = m_cache.data();
-    int lanes = m_lanes;
-    SamplePass use_pass = pass;
     const R* geo = m_geo.data();
     const R* inertia = m_inertia_world.data();
     FrameTermsFlags flags = step_flags();
@@ -1071,87 +713,59 @@ class System final : public DeviceElasticity::Impl {
     if (m_resident) {
       void* args[] = {&view, &frames, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
                       &slots, &partials, &scalars, &iterations, &tolerance};
-      FASCIA_CUDA(cudaLaunchCooperativeKernel(persistent_kernel(), dim3(m_persistent_grid), dim3(m_lane_threads), args,
-                                              persistent_shared_bytes(), m_stream));
+      FASCIA_CUDA(cudaLaunchCooperativeKernel(persistent_kernel(), dim3(m_persistent_grid), dim3(kResidentThreads),
+                                              args, persistent_shared_bytes(), m_stream));
       return;
     }
-    if (pass == SamplePass::coalesced) {
-      int slot_lanes = options.slot_lanes;
-      void* args[] = {&view, &frames, &lanes, &slot_lanes, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
-                      &slots, &partials, &scalars, &iterations, &tolerance};
-      FASCIA_CUDA(cudaLaunchCooperativeKernel(persistent_kernel(), dim3(m_persistent_grid), dim3(m_lane_threads), args,
-                                              persistent_shared_bytes(), m_stream));
-      return;
-    }
-    void* args[] = {&view, &frames, &F, &cache, &lanes, &use_pass, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
+    int slot_lanes = kSlotLanes;
+    void* args[] = {&view, &frames, &slot_lanes, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
                     &slots, &partials, &scalars, &iterations, &tolerance};
-    FASCIA_CUDA(cudaLaunchCooperativeKernel(persistent_kernel(), dim3(m_persistent_grid), dim3(m_lane_threads), args,
+    FASCIA_CUDA(cudaLaunchCooperativeKernel(persistent_kernel(), dim3(m_persistent_grid), dim3(kBlockSamples), args,
                                             persistent_shared_bytes(), m_stream));
   }
 
   bool use_persistent() const { return m_step.persistent && m_persistent_grid > 0; }
   size_t persistent_shared_bytes() const {
-    if (m_resident && resident_staged()) return m_resident_frames_bytes;
-    return staged ? m_staged_bytes : pass == SamplePass::coalesced ? m_ell_bytes : m_shared_bytes;
+    return m_resident && resident_staged() ? m_resident_frames_bytes : m_ell_bytes;
   }
 
-  // The coalesced tangent kernel for `keep` held entries (2, 4, else 8), dense or not, mapped or
-  // not; without arguments the one in use (m_keep, Impl::dense, Impl::mapped).
-  using EllTangentKernel = void (*)(ModelView<R>, FrameView<R>, const R*, const R*, R*, const Scalars*, int, int);
-  template <bool Dense, bool Mapped>
+  // The launched coalesced tangent kernel for `keep` held ELL entries per sample (2, 4, else 8).
+  using EllTangentKernel = void (*)(ModelView<R>, FrameView<R>, const R*, const R*, R*, const Scalars*, int);
   static EllTangentKernel ell_tangent_kernel(int keep) {
-    return keep == 2   ? &k_ell_tangent<R, 2, Dense, Mapped>
-           : keep == 4 ? &k_ell_tangent<R, 4, Dense, Mapped>
-                       : &k_ell_tangent<R, 8, Dense, Mapped>;
+    return keep == 2 ? &k_ell_tangent<R, 2> : keep == 4 ? &k_ell_tangent<R, 4> : &k_ell_tangent<R, 8>;
   }
-  static EllTangentKernel ell_tangent_kernel(int keep, bool dense_kernel, bool mapped_kernel,
-                                             bool slot_frames_kernel = false, bool hold_pairs_kernel = false,
-                                             bool prefetch_frames_kernel = false) {
-    if (hold_pairs_kernel)  // keep 2 or 4
-      return keep == 2 ? &k_ell_tangent<R, 2, true, false, false, true> : &k_ell_tangent<R, 4, true, false, false, true>;
-    if (prefetch_frames_kernel)  // keep 2 or 4
-      return keep == 2 ? &k_ell_tangent<R, 2, true, false, false, false, true>
-                       : &k_ell_tangent<R, 4, true, false, false, false, true>;
-    if (slot_frames_kernel)
-      return keep == 2   ? &k_ell_tangent<R, 2, true, false, true>
-             : keep == 4 ? &k_ell_tangent<R, 4, true, false, true>
-                         : &k_ell_tangent<R, 8, true, false, true>;
-    if (dense_kernel)
-      return mapped_kernel ? ell_tangent_kernel<true, true>(keep) : ell_tangent_kernel<true, false>(keep);
-    return mapped_kernel ? ell_tangent_kernel<false, true>(keep) : ell_tangent_kernel<false, false>(keep);
-  }
-  EllTangentKernel ell_tangent_kernel() const {
-    return ell_tangent_kernel(m_keep, dense, mapped, slot_frames, hold_pairs, prefetch_frames);
+  // k_pcg_two_barrier for `keep` held entries.
+  static const void* two_barrier_kernel(int keep) {
+    return keep == 2   ? reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>)
+           : keep == 4 ? reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>)
+                       : reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>);
   }
 
-  // k_pcg_resident for samples of at most `pairs` (4 or 8) pairs; the invariants in registers in
-  // single precision, partly in shared memory in double (in registers they would not leave room
-  // for three blocks per multiprocessor).
-  // Staged: the double kernel for 4 pairs with the slots' lever records and directions in shared
-  // memory (DeviceOptions::resident_frames). The single kernel, which holds its levers in
-  // registers, staging the directions alone was measured no faster (docs/benchmarks.md, eighth
-  // round), so single precision does not use it.
+  // Most pairs per sample of the resident kernel: 8 in single precision; 4 in double, where the
+  // kernel for 8 needs local memory and k_pcg_two_barrier is the faster.
+  static constexpr int kResidentPairs = sizeof(R) == sizeof(float) ? 8 : 4;
+
+  // k_pcg_resident for samples of at most `pairs` (4 or kResidentPairs) pairs: the invariants in
+  // registers in single precision, partly in shared memory in double (in registers they would not
+  // leave room for three blocks per multiprocessor). Staged: the double kernel with the slots'
+  // lever records and directions in shared memory; single precision holds its levers in registers
+  // and does not stage.
   static const void* resident_kernel(int pairs, bool staged = false) {
     constexpr bool in_registers = sizeof(R) == sizeof(float);
-    if (staged && !in_registers && pairs <= 4)
-      return reinterpret_cast<const void*>(&k_pcg_resident<R, 4, in_registers, !in_registers>);
+    if constexpr (!in_registers)
+      if (staged) return reinterpret_cast<const void*>(&k_pcg_resident<R, 4, false, true>);
     return pairs <= 4 ? reinterpret_cast<const void*>(&k_pcg_resident<R, 4, in_registers>)
-                      : reinterpret_cast<const void*>(&k_pcg_resident<R, 8, in_registers>);
+                      : reinterpret_cast<const void*>(&k_pcg_resident<R, kResidentPairs, in_registers>);
   }
   bool resident_staged() const {
-    return std::is_same_v<R, double> && options.resident_frames && m_max_neighbours <= 4 &&
-           m_resident_frames_bytes > 0 && m_resident_try_staged;
+    return std::is_same_v<R, double> && m_max_neighbours <= 4 && m_resident_frames_bytes > 0 && m_resident_try_staged;
   }
-  bool resident_frames() const override { return use_persistent() && m_resident && resident_staged(); }
 
-  // The persistent PCG kernel of the sample pass in use: k_pcg_resident or k_pcg_two_barrier
-  // (two grid barriers per iteration) for the coalesced pass, k_pcg_persistent (three) otherwise.
+  // The persistent PCG kernel: k_pcg_resident, else k_pcg_two_barrier (two grid barriers per
+  // iteration, the invariants read again each iteration).
   const void* persistent_kernel() const {
     if (m_resident) return resident_kernel(m_max_neighbours, resident_staged());
-    if (pass != SamplePass::coalesced) return reinterpret_cast<const void*>(&k_pcg_persistent<R>);
-    if (m_keep == 2) return reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>);
-    if (m_keep == 4) return reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>);
-    return reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>);
+    return two_barrier_kernel(m_keep);
   }
 
   // Blocks of `kernel` (`threads` each) that fit on the device at once, at most `blocks`.
@@ -1163,50 +777,43 @@ class System final : public DeviceElasticity::Impl {
     return std::max(1, std::min(blocks, std::max(1, per_sm) * sms));
   }
 
-  // Grid of the persistent PCG: every block resident (cooperative launch), no more blocks than
-  // sample blocks or frame blocks need. 0 where it cannot run (paper design, no cooperative launch).
+  // Grid of the persistent PCG: every block resident (cooperative launch), one block per sample
+  // block and per chunk of frame rows; 0 where it cannot run (no cooperative launch, or the model
+  // needs more than kPersistentBlocksPerSM blocks per multiprocessor).
   int persistent_grid() {
     m_resident = false;
-    if (design != Design::fused) return 0;
     int dev = 0, coop = 0, sms = 0, per_sm = 0;
     FASCIA_CUDA(cudaGetDevice(&dev));
     FASCIA_CUDA(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, dev));
     FASCIA_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
     if (!coop) return 0;
-    // Resident: one block per sample block and per frame chunk, all co-resident.
-    if (pass == SamplePass::coalesced && options.resident && m_lanes == 1 && m_max_neighbours <= 8 &&
-        m_lane_threads == kResidentThreads) {
-      const int wanted = std::max(m_blocks, grid_for(m_n, m_lane_threads / 6));
+    const int wanted = std::max(m_blocks, grid_for(m_n, kBlockSamples / 6));
+    if (wanted > kPersistentBlocksPerSM * sms) return 0;
+    // The resident kernel for samples of at most kResidentPairs pairs, all blocks co-resident (in
+    // double where the compiled kernel needs no local memory). Its static shared memory (double) plus the
+    // pair outputs can pass 48 KB, hence the opt-in before the occupancy query. In double with
+    // staged lever records first, then without, where the larger shared memory leaves too few
+    // blocks per multiprocessor.
+    if (m_max_neighbours <= kResidentPairs) {
       m_resident = true;
-      // In double only with DeviceOptions::resident_double and where the compiled kernel needs no
-      // local memory (4 pairs per sample; with 8 it spills): one that spilled was measured slower
-      // than k_pcg_two_barrier on an H100 (docs/benchmarks.md). Its static shared memory (double)
-      // plus the pair outputs can pass 48 KB, hence the opt-in before the occupancy query. With
-      // staged lever records (DeviceOptions::resident_frames) first, then without, where the
-      // larger shared memory leaves too few blocks per multiprocessor.
       for (bool try_staged : {true, false}) {
         m_resident_try_staged = try_staged;
         cudaFuncAttributes attr{};
         FASCIA_CUDA(cudaFuncGetAttributes(&attr, persistent_kernel()));
         FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
                                          static_cast<int>(persistent_shared_bytes())));
-        FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), m_lane_threads,
+        FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), kResidentThreads,
                                                                   persistent_shared_bytes()));
-        if ((sizeof(R) == sizeof(float) || (options.resident_double && attr.localSizeBytes == 0)) && per_sm > 0 &&
-            wanted <= per_sm * sms && wanted <= options.persistent_blocks_per_sm * sms)
+        if ((sizeof(R) == sizeof(float) || attr.localSizeBytes == 0) && per_sm > 0 && wanted <= per_sm * sms)
           return wanted;
       }
       m_resident = false;
     }
     FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
                                      static_cast<int>(persistent_shared_bytes())));
-    FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), m_lane_threads,
+    FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), kBlockSamples,
                                                               persistent_shared_bytes()));
     if (per_sm < 1) return 0;
-    // Only for small grids (grid barriers and every block's sum of all partials grow with the
-    // grid): DeviceOptions::persistent_blocks_per_sm, measured on an H200 (docs/benchmarks.md).
-    const int wanted = std::max(m_blocks, grid_for(m_n, m_lane_threads / 6));
-    if (wanted > options.persistent_blocks_per_sm * sms) return 0;
     return std::max(1, std::min(wanted, per_sm * sms));
   }
 
@@ -1216,20 +823,16 @@ class System final : public DeviceElasticity::Impl {
     check_launch();
   }
 
-  // Runs the PCG in chunks of check_every iterations (graphs when enabled), reading the flag once
-  // per chunk: no host round trip per iteration.
+  // Runs the PCG in graphs of check_every iterations, reading the flag once per graph: no host
+  // round trip per iteration.
   void run_tolerance_loop() {
     int done_iterations = 0;
     while (done_iterations < m_step.max_cg_iterations) {
       const int chunk = std::min(m_step.check_every, m_step.max_cg_iterations - done_iterations);
-      if (m_step.use_graphs) {
-        cudaGraphExec_t& g = chunk == m_step.check_every ? m_graph_chunk : m_graph_tail;
-        launch_graph(g, [&] {
-          for (int k = 0; k < chunk; ++k) enqueue_cg_iteration();
-        });
-      } else {
+      cudaGraphExec_t& g = chunk == m_step.check_every ? m_graph_chunk : m_graph_tail;
+      launch_graph(g, [&] {
         for (int k = 0; k < chunk; ++k) enqueue_cg_iteration();
-      }
+      });
       done_iterations += chunk;
       if (read_scalars().done) break;
     }
@@ -1256,19 +859,16 @@ class System final : public DeviceElasticity::Impl {
     }
   }
 
-  int m_row_frames = 42;
-  // Grids of the launched row passes (k_frame_rows, k_update_rows): the blocks that fit at once
+  // Grids of the launched row passes (k_frame_sums, k_update_rows): the blocks that fit at once
   // (resident_blocks).
   int m_rows_grid = 1, m_update_grid = 1;
-  int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0, m_lanes = 1, m_lane_threads = 128;
+  int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0;
   bool m_locked = false;
   int m_ell_entries = 0, m_keep = 2, m_max_neighbours = 0;
   bool m_resident = false;  // the persistent PCG is k_pcg_resident
-  size_t m_shared_bytes = 0, m_staged_bytes = 0, m_ell_bytes = 0;
-  size_t m_slot_frame_bytes = 0;   // the slot-frames kernel's: pair outputs and slot records
+  size_t m_shared_bytes = 0, m_ell_bytes = 0;
   size_t m_resident_frames_bytes = 0;  // the resident double kernel's with staged frames
   bool m_resident_try_staged = true;   // persistent_grid: the staged kernel is still a candidate
-  size_t m_ell_tangent_bytes = 0;  // the launched coalesced tangent kernel's
   Origin m_origin{};
   cudaStream_t m_stream = nullptr;
   cudaEvent_t m_start = nullptr, m_stop = nullptr;
@@ -1281,27 +881,23 @@ class System final : public DeviceElasticity::Impl {
 
   // Model.
   DeviceBuffer<int> m_offsets, m_frames, m_rev_offsets, m_rev_pairs, m_pair_samples, m_sample_materials;
-  DeviceBuffer<R> m_weights, m_gradients, m_rest_offsets, m_volumes, m_sample_rest, m_frame_rest, m_masses, m_inertias;
+  DeviceBuffer<R> m_weights, m_gradients, m_volumes, m_sample_rest, m_frame_rest, m_masses, m_inertias;
   DeviceBuffer<Material> m_materials;
   DeviceBuffer<unsigned char> m_fixed;
   DeviceBuffer<int> m_block_samples, m_block_slots, m_slot_frames, m_slot_pair_offsets, m_slot_pairs,
-      m_frame_slot_offsets, m_frame_slots, m_ell_offsets, m_slot_ell, m_ell_frame;
-  DeviceBuffer<unsigned short> m_ell_slot, m_ell_pos, m_ell_slot_rank;
-  DeviceBuffer<R> m_ell_data, m_pair_records, m_sample_records, m_records, m_levers, m_sample_state;
-  DeviceBuffer<int> m_shape_class, m_class_offsets;
-  DeviceBuffer<R> m_shape_maps, m_class_pairs;
+      m_frame_slot_offsets, m_frame_slots, m_ell_offsets, m_ell_frame;
+  DeviceBuffer<unsigned short> m_ell_slot, m_ell_pos;
+  DeviceBuffer<R> m_ell_data, m_levers, m_sample_state;
   // Grouped pass (upload_groups).
   int m_group_blocks = 0, m_group_count = 0;
   DeviceBuffer<int> m_group_samples, m_group_frames, m_group_block_slots, m_group_slot_pair_offsets,
       m_group_frame_slot_offsets, m_group_slot_store;
   DeviceBuffer<unsigned short> m_group_pos;
   DeviceBuffer<R> m_group_data, m_group_partials;
-  DeviceBuffer<int> m_group_class;
-  DeviceBuffer<R> m_group_maps, m_group_class_pairs;
   // State (double) and per-iteration data (R).
   DeviceBuffer<double> m_positions, m_orientations, m_velocities, m_external, m_load_rot, m_diag;
   DeviceBuffer<double> m_prepare_sums;  // k_frame_columns -> k_frame_finish: [N][kPrepareSums]
-  DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_a, m_partials, m_geo, m_inertia_world, m_minv;
+  DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_partials, m_geo, m_inertia_world, m_minv;
   DeviceBuffer<R> m_step_block;  // [N][9] the PCG's rotational frame block (frame_block)
   DeviceBuffer<R> m_grad, m_d, m_out, m_cx, m_cr, m_cz, m_cp, m_cAp;
   // Reductions.
@@ -1315,19 +911,6 @@ class System final : public DeviceElasticity::Impl {
 // ---- public classes ------------------------------------------------------------------------------
 
 DeviceElasticity::DeviceElasticity(const Model& model, const DeviceOptions& options) {
-  if (options.block_samples < 32 || options.block_samples % 32 != 0 || options.block_samples > 1024)
-    throw std::invalid_argument("DeviceOptions: block_samples must be a multiple of 32 in [32, 1024]");
-  if (options.lane_threads < 32 || options.lane_threads % 32 != 0 || options.lane_threads > kLaneThreadsMax)
-    throw std::invalid_argument("DeviceOptions: lane_threads must be a multiple of 32 in [32, 512]");
-  if (options.row_frames < 1 || 6 * options.row_frames > kLaneThreadsMax)
-    throw std::invalid_argument("DeviceOptions: row_frames must be in [1, 85]");
-  if (options.record_keep < 1 || options.record_keep > 2)
-    throw std::invalid_argument("DeviceOptions: record_keep must be 1 or 2");
-  if (options.coalesced_keep != 0 && options.coalesced_keep != 2 && options.coalesced_keep != 4 &&
-      options.coalesced_keep != 8)
-    throw std::invalid_argument("DeviceOptions: coalesced_keep must be 0, 2, 4 or 8");
-  if (options.slot_lanes < 1 || options.slot_lanes > 32 || (options.slot_lanes & (options.slot_lanes - 1)) != 0)
-    throw std::invalid_argument("DeviceOptions: slot_lanes must be a power of two in [1, 32]");
   if (options.precision == Precision::double_precision)
     m_impl = std::make_unique<System<double>>(model, options);
   else
@@ -1342,27 +925,15 @@ double DeviceElasticity::gradient(double* g) { return m_impl->gradient(g); }
 double DeviceElasticity::prepare() { return m_impl->prepare(); }
 void DeviceElasticity::apply_tangent(const double* d, double* out) { m_impl->apply_tangent(d, out); }
 void DeviceElasticity::tangent_diagonal_blocks(double* blocks) { m_impl->diagonal_blocks(blocks); }
-Design DeviceElasticity::design() const { return m_impl->design; }
-SamplePass DeviceElasticity::sample_pass() const { return m_impl->pass; }
-int DeviceElasticity::lanes() const { return m_impl->lanes; }
-bool DeviceElasticity::dense_tangent() const { return m_impl->dense; }
-const std::string& DeviceElasticity::shape_classes_refusal() const { return m_impl->mapped_refusal; }
-bool DeviceElasticity::slot_frames() const { return m_impl->slot_frames; }
-bool DeviceElasticity::direction_pass() const { return m_impl->direction_pass; }
-bool DeviceElasticity::hold_pairs() const { return m_impl->hold_pairs; }
-bool DeviceElasticity::prefetch_frames() const { return m_impl->prefetch_frames; }
-bool DeviceElasticity::resident_frames() const { return m_impl->resident_frames(); }
-bool DeviceElasticity::shape_classes() const { return m_impl->mapped; }
 bool DeviceElasticity::group_samples() const { return m_impl->grouped; }
 const std::string& DeviceElasticity::group_samples_refusal() const { return m_impl->grouped_refusal; }
-bool DeviceElasticity::group_classes() const { return m_impl->group_mapped; }
-const std::string& DeviceElasticity::group_classes_refusal() const { return m_impl->group_classes_refusal; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }
 const DeviceOptions& DeviceElasticity::options() const { return m_impl->options; }
 double DeviceElasticity::time_tangent_ms(int repeats) { return m_impl->time_tangent_ms(std::max(1, repeats)); }
 double DeviceElasticity::tangent_bytes() const { return m_impl->tangent_bytes(); }
 KernelResources DeviceElasticity::tangent_kernel_resources() const { return m_impl->tangent_kernel_resources(); }
 LaunchGrids DeviceElasticity::launch_grids() const { return m_impl->launch_grids(); }
+void DeviceElasticity::limit_row_blocks(int blocks) { m_impl->limit_row_blocks(blocks); }
 
 struct DeviceBackwardEuler::Impl {
   DeviceElasticity::Impl* system;

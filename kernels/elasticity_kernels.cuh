@@ -163,37 +163,17 @@ struct Origin {
   double x[3];
 };
 
-// Frame kinematics, and the frame records of the record tangent pass when `records` is set, the
-// lever records of the coalesced pass when `levers` is set.
+// Frame kinematics and the frames' lever records of the tangent passes.
 template <class R>
 __global__ void k_kinematics(int n, const double* positions, const double* orientations, Origin origin, R* x_out,
-                             R* r_out, const R* frame_rest, R* records, R* levers) {
+                             R* r_out, const R* frame_rest, R* levers) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   double x[3], r[9];
   frame_kinematics(i, positions, orientations, origin.x, x, r);
   for (int k = 0; k < 3; ++k) x_out[3 * i + k] = static_cast<R>(x[k]);
   for (int k = 0; k < 9; ++k) r_out[9 * i + k] = static_cast<R>(r[k]);
-  if (records) write_frame_record(x, r, frame_rest, i, records);
-  if (levers) write_lever_record(r, frame_rest, i, levers);
-}
-
-// ---- paper design ----
-
-template <class R>
-__global__ void k_paper_gradient(ModelView<R> m, FrameView<R> f, R* F, R* cache, R* a, R* partials, Reduction red) {
-  const int s = blockIdx.x * blockDim.x + threadIdx.x;
-  double e = 0;
-  if (s < m.samples) e = paper_gradient_sample(m, f, s, F, cache, a, partials);
-  reduce_and_finish(e, red, Finish::energy, 0);
-}
-
-template <class R>
-__global__ void k_paper_tangent(ModelView<R> m, FrameView<R> f, const R* F, const R* cache, const R* a, const R* d,
-                                R* partials, const Scalars* sc) {
-  if (finished(sc)) return;
-  const int s = blockIdx.x * blockDim.x + threadIdx.x;
-  if (s < m.samples) paper_tangent_sample(m, f, F, cache, a, d, s, partials);
+  write_lever_record(r, frame_rest, i, levers);
 }
 
 struct FrameTermsFlags {
@@ -202,174 +182,40 @@ struct FrameTermsFlags {
   double k_scale = 1.0;   // 1 + beta/h
 };
 
-// Kernel 2 of the paper: 6 threads per frame (one per component), 96 threads per block. With
-// `red.scalars` set (PCG), also reduces d . out and finishes alpha.
+// ---- force pass ----
+
+// One block of consecutive samples (ModelView::block_samples), one thread per sample (fused_sample);
+// dynamic shared memory holds one 6-vector per pair of the block, summed per slot. Each thread
+// also packs its sample's state for the tangent passes (pack_sample_state, component-major) from
+// the F and cache it has just stored.
 template <class R>
-__global__ void k_paper_gather(ModelView<R> m, const R* partials, const R* geo, const R* inertia_world,
-                               FrameTermsFlags flags, const R* d, R* out, Reduction red, bool pcg) {
-  if (pcg && finished(red.scalars)) return;
-  const int t = blockIdx.x * blockDim.x + threadIdx.x;
-  const int i = t / 6, k = t % 6;
-  double dot = 0;
-  if (i < m.frames) {
-    const double acc = frame_row(m, geo, inertia_world, flags.inv_h2, flags.project, d, i, k,
-                                 paper_gather(m, partials, i, k), flags.k_scale);
-    out[6 * i + k] = static_cast<R>(acc);
-    if (pcg) dot = static_cast<double>(d[6 * i + k]) * static_cast<double>(static_cast<R>(acc));
-  }
-  if (pcg) reduce_and_finish(dot, red, Finish::alpha, 0);
-}
-
-// ---- fused design ----
-
-// One block of consecutive samples (ModelView::block_samples); dynamic shared memory holds one
-// 6-vector per pair of the block. `state_out` (gradient pass, nullable): each thread also packs
-// its sample's state for the coalesced tangent pass (pack_sample_state, component-major) from the
-// F and cache it has just stored.
-template <Pass pass, class R>
-__global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, const R* d, R* F_out, R* cache_out, R* slot_partials,
-                                Reduction red, const Scalars* sc, R* state_out = nullptr) {
+__global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, R* F_out, R* cache_out, R* slot_partials,
+                                Reduction red, R* state_out) {
   extern __shared__ unsigned char shared_raw[];
   R* local = reinterpret_cast<R*>(shared_raw);
-  if (pass == Pass::tangent && finished(sc)) return;
   const int b = blockIdx.x;
   const int s0 = m.block_samples[b], s1 = m.block_samples[b + 1];
   const int pair_base = m.offsets[s0];
   const int s = s0 + static_cast<int>(threadIdx.x);
   double e = 0;
   if (s < s1) {
-    e = fused_sample<pass>(m, f, d, s, pair_base, local, F_out, static_cast<const R*>(nullptr), 0.0, cache_out);
-    if (pass == Pass::gradient && state_out) pack_sample_state(m, F_out, cache_out, s, state_out);
+    e = fused_sample(m, f, s, pair_base, local, F_out, cache_out);
+    pack_sample_state(m, F_out, cache_out, s, state_out);
   }
   __syncthreads();
   for (int q = m.block_slots[b] + threadIdx.x; q < m.block_slots[b + 1]; q += blockDim.x)
     fused_slot_sum(m, local, q, slot_partials);
-  if (pass == Pass::gradient) reduce_and_finish(e, red, Finish::energy, 0);
+  reduce_and_finish(e, red, Finish::energy, 0);
 }
 
-// Tangent sample pass of block b with `lanes` threads per sample (a power of two <= 32 that
-// divides blockDim.x; groups of lanes loop over the block's samples). Lane l of sample s takes the
-// pairs offsets[s] + l, + 2 l, ...; dF is summed over the lanes with an xor butterfly (a + b and
-// b + a are the same bits, so every lane holds the same dF), each lane forms dP = C[dF] from the
-// stored F and material cache and writes its pairs' v B_p^T dP to `local`. Then the block sums
-// its slots (fused_slot_sum). d = z + beta p_old is formed on the fly when p_old is set. Every
-// thread of the block must call it (shuffles with the full mask, __syncthreads).
-template <class R>
-__device__ void lanes_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* F, const R* cache,
-                                    const R* d, const R* p_old, double beta, int b, int lanes, R* local,
-                                    R* slot_partials) {
-  const int s0 = m.block_samples[b], s1 = m.block_samples[b + 1];
-  const int pair_base = m.offsets[s0];
-  const int lane = static_cast<int>(threadIdx.x) & (lanes - 1);
-  const int group = static_cast<int>(threadIdx.x) / lanes, groups = static_cast<int>(blockDim.x) / lanes;
-  for (int base = s0; base < s1; base += groups) {  // the same trip count in every thread
-    const int s = base + group;
-    const bool active = s < s1;
-    int begin = 0, end = 0;
-    Vec3 ps{0, 0, 0};
-    Mat3 dF = zero3();
-    LanePair first{};
-    if (active) {
-      begin = m.offsets[s];
-      end = m.offsets[s + 1];
-      ps = ld3(m.sample_rest + 3 * s);
-      for (int p = begin + lane; p < end; p += lanes) {
-        const LanePair q = lane_pair(m, f, ps, p);
-        if (p == begin + lane) first = q;
-        dF += lane_pair_dF(q, d, p_old, beta);
-      }
-    }
-    for (int o = 1; o < lanes; o <<= 1)
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) dF.m[r][c] += __shfl_xor_sync(0xffffffffu, dF.m[r][c], o);
-    if (active && begin + lane < end) {
-      const Material mat = m.materials[m.sample_materials[s]];
-      MaterialCache mc;
-      mc.a = ldm(cache + 10 * s);
-      mc.c = static_cast<double>(cache[10 * s + 9]);
-      const Mat3 dP = pk1_differential(mat, ldm(F + 9 * s), mc, dF);
-      const double v = static_cast<double>(m.volumes[s]);
-      for (int p = begin + lane; p < end; p += lanes) {
-        const LanePair q = p == begin + lane ? first : lane_pair(m, f, ps, p);
-        double out[6];
-        pair_virtual_work(dP, q.a, q.g, q.w, q.R, v, out);
-        R* dst = local + 6 * (p - pair_base);
-        for (int k = 0; k < 6; ++k) dst[k] = static_cast<R>(out[k]);
-      }
-    }
-  }
-  __syncthreads();
-  for (int q = m.block_slots[b] + threadIdx.x; q < m.block_slots[b + 1]; q += blockDim.x)
-    fused_slot_sum(m, local, q, slot_partials);
-}
-
-// Record tangent pass of block b (elasticity_phases.hpp, "record tangent pass"), `lanes` threads
-// per sample as lanes_tangent_block: lane l of sample s takes the pairs offsets[s] + l + k lanes.
-// The first kKeep of them keep their lever in registers; further ones (more than kKeep lanes
-// worth of neighbours) are read again for the outputs. F and dF are summed over the lanes with one
-// xor butterfly, so every lane holds the same bits and forms the same dP. Outputs [6][pairs of the
-// block] in `local`, then the block sums its slots (record_slot_sum). Every thread must call it.
-constexpr int kKeep = 2;
-
-template <class R, int Keep = kKeep>
-__device__ void records_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
-                                      double beta, int b, int lanes, R* local, R* slot_partials) {
-  const int s0 = m.block_samples[b], s1 = m.block_samples[b + 1];
-  const int pair_base = m.offsets[s0], stride = m.offsets[s1] - pair_base;
-  const int lane = static_cast<int>(threadIdx.x) & (lanes - 1);
-  const int group = static_cast<int>(threadIdx.x) / lanes, groups = static_cast<int>(blockDim.x) / lanes;
-  for (int base = s0; base < s1; base += groups) {  // the same trip count in every thread
-    const int s = base + group;
-    const bool active = s < s1;
-    int begin = 0, end = 0;
-    double sr[kSampleRecord] = {0, 0, 0, 0};
-    Mat3 F = zero3(), dF = zero3();
-    RecordPair kept[Keep] = {};
-    if (active) {
-      begin = m.offsets[s];
-      end = m.offsets[s + 1];
-      load_aligned<kSampleRecord>(m.sample_records + kSampleRecord * s, sr);
-      const Vec3 ps{sr[0], sr[1], sr[2]};
-#pragma unroll
-      for (int k = 0; k < Keep; ++k) {
-        const int p = begin + lane + k * lanes;
-        if (p < end) kept[k] = record_pair(m, f.records, ps, p, d, p_old, beta, F, dF);
-      }
-      for (int p = begin + lane + Keep * lanes; p < end; p += lanes) record_pair(m, f.records, ps, p, d, p_old, beta, F, dF);
-    }
-    for (int o = 1; o < lanes; o <<= 1)
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) {
-          F.m[r][c] += __shfl_xor_sync(0xffffffffu, F.m[r][c], o);
-          dF.m[r][c] += __shfl_xor_sync(0xffffffffu, dF.m[r][c], o);
-        }
-    if (active && begin + lane < end) {
-      const Mat3 dP = record_sample_dP(m, s, F, dF);
-      const Vec3 ps{sr[0], sr[1], sr[2]};
-#pragma unroll
-      for (int k = 0; k < Keep; ++k) {
-        const int p = begin + lane + k * lanes;
-        if (p < end) record_pair_output(kept[k], dP, sr[3], p - pair_base, stride, local);
-      }
-      Mat3 unused_F = zero3(), unused_dF = zero3();
-      for (int p = begin + lane + Keep * lanes; p < end; p += lanes)
-        record_pair_output(record_pair(m, f.records, ps, p, d, p_old, beta, unused_F, unused_dF), dP, sr[3],
-                           p - pair_base, stride, local);
-    }
-  }
-  __syncthreads();
-  for (int q = m.block_slots[b] + threadIdx.x; q < m.block_slots[b + 1]; q += blockDim.x)
-    record_slot_sum(m, local, stride, q, slot_partials);
-}
+// ---- tangent product ----
 
 // The slot sums of block b's outputs [6][stride] in slot-major order (the coalesced pass):
 // `slot_lanes` lanes per slot (a power of two <= 32; 1: a thread per slot), lane l of a slot's
 // group adds its positions l, l + slot_lanes, ... per component, an xor butterfly within the
 // group combines the lanes (slot_tree_sum's order, so the host emulation has the same bits), and
 // the group's lanes 0..5 write the six components (lane 0 all six when slot_lanes < 6). Every
-// thread of the block must call it (blockDim.x a multiple of 32). (Storing each warp's slots as one
-// contiguous range through warp shuffles instead was measured slower on an H100: docs/benchmarks.md,
-// eighth round.)
+// thread of the block must call it (blockDim.x a multiple of 32).
 // One slot's sum by its group of `slot_lanes` lanes (warp_slot_sums' arithmetic): positions [a, e)
 // of outs [6][stride], the six components into dst where `valid`. Every lane of the warp must call it.
 template <class R>
@@ -412,142 +258,48 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
   }
 }
 
-// Coalesced tangent pass of block b (elasticity_phases.hpp, "coalesced tangent pass") with
-// `lanes` threads per sample as lanes_tangent_block: lane l of block-local sample t takes its
-// pairs j = l, l + lanes, ... at ELL entries e0 + j ns + t. The first Keep of them have their ELL
-// entries loaded at once (independent loads in flight together) and kept in registers for the
-// output half; further ones are read again. The frames' lever records are gathered in each half
-// (the second read hits the cache). dF is summed over the lanes with an xor butterfly (every lane
-// holds the same bits and forms the same dP); outputs [6][P_b] in slot-major order in `local`,
-// then `slot_lanes` lanes per slot sum it (warp_slot_sums). All arithmetic in R. Every thread of the block
-// must call it. Returns this thread's share of v dF : dP over its samples (lane 0 of each sample), the
-// sample terms of p . K p for the persistent PCG. Mapped: each sample reads its shape map once and
-// its pairs' w and g come from its class (ell_entry_mapped) instead of ell_data. SlotFrames: the
-// block's frames (lever records and directions) are staged in shared memory after the pair outputs
-// (stage_slot_frame_value) and read there by slot, with the same bits. HoldPairs: the held entries'
-// pairs (levers M, g, frame) are kept in registers from the dF half to the output half, which then
-// gathers no lever record for them (the same bits; more registers). PrefetchFrames: the frames of
-// the next Keep pairs are read together with the held entries and kept in registers, so that
-// those pairs' lever records and directions are gathered without waiting for their entries first,
-// in both halves (the same bits; more registers).
-template <class R, int Keep, bool Mapped = false, bool SlotFrames = false, bool HoldPairs = false,
-          bool PrefetchFrames = false>
+// Coalesced tangent pass of block b (elasticity_phases.hpp, "coalesced tangent pass"), one thread
+// per sample: block-local sample t has its pairs j at ELL entries e0 + j ns + t. The first Keep of
+// them have their ELL entries loaded at once (independent loads in flight together) and kept in
+// registers for the output half; further ones are read again. The frames' lever records are
+// gathered in each half (the second read hits the cache). Outputs [6][P_b] in slot-major order in
+// `local`, then `slot_lanes` lanes per slot sum it (warp_slot_sums). All arithmetic in R. Every
+// thread of the block must call it. Returns this thread's v dF : dP, the sample terms of p . K p
+// for the persistent PCG.
+template <class R, int Keep>
 __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
-                                    double beta, int b, int lanes, int slot_lanes, R* local, R* slot_partials) {
-  static_assert(!(Mapped && SlotFrames), "the mapped pass reads frames by its own slot table");
-  static_assert(!(HoldPairs && (Mapped || SlotFrames)), "held pairs are for the gathering pass");
-  static_assert(!(PrefetchFrames && (Mapped || SlotFrames || HoldPairs)), "prefetched frames: the gathering pass");
+                                    double beta, int b, int slot_lanes, R* local, R* slot_partials) {
   const int s0 = m.block_samples[b], ns = m.block_samples[b + 1] - s0;
   const int e0 = m.ell_offsets[b];
   const int stride = m.offsets[s0 + ns] - m.offsets[s0];  // the block's pairs
-  const int lane = static_cast<int>(threadIdx.x) & (lanes - 1);
-  const int group = static_cast<int>(threadIdx.x) / lanes, groups = static_cast<int>(blockDim.x) / lanes;
-  // Mapped: the block's slot table (frames, first positions), kMappedSlots entries at most.
-  __shared__ int slot_table[Mapped ? 2 * kMappedSlots : 1];
-  if constexpr (Mapped) {
-    const int nq = m.block_slots[b + 1] - m.block_slots[b];
-    for (int k = static_cast<int>(threadIdx.x); k < nq; k += static_cast<int>(blockDim.x))
-      mapped_slot_table(m, b, k, &slot_table[k], &slot_table[kMappedSlots + k]);
-    __syncthreads();
-  }
-  R* records = local + slot_records_offset(stride);
-  if constexpr (SlotFrames) {
-    const int values = kSlotFrameValues * (m.block_slots[b + 1] - m.block_slots[b]);
-    for (int idx = static_cast<int>(threadIdx.x); idx < values; idx += static_cast<int>(blockDim.x))
-      stage_slot_frame_value(m, f, d, p_old, beta, b, idx, records);
-    __syncthreads();
-  }
+  const int groups = static_cast<int>(blockDim.x);
   double work = 0;
   for (int base = 0; base < ns; base += groups) {  // the same trip count in every thread
-    const int t = base + group, s = s0 + t;
-    const bool active = t < ns;
-    int count = 0;
-    Vec3T<R> ps{0, 0, 0};
+    const int t = base + static_cast<int>(threadIdx.x), s = s0 + t;
+    if (t >= ns) continue;
+    const int count = m.offsets[s + 1] - m.offsets[s];
+    const Vec3T<R> ps{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
+                      sample_value(f.sample_state, m.samples, 2, s)};
     Mat3T<R> dF = zero3<R>();
     EllEntry<R> kept[Keep] = {};
-    EllPair<R> kept_pairs[HoldPairs ? Keep : 1];
-    int next_frames[PrefetchFrames ? Keep : 1] = {};  // frames of pairs Keep .. 2 Keep - 1 of the lane
-    ShapeMap<R> held;
-    const ShapeMap<R>* map = Mapped ? &held : nullptr;
-    // The entry, its pair and its dF term, from the slot records or gathered per pair.
-    const auto entry = [&](int e, int j) {
-      if constexpr (SlotFrames) return ell_entry_slot(m, e);
-      else return ell_entry_at(m, e, map, j);
-    };
-    const auto pair_of = [&](const EllEntry<R>& en) {
-      if constexpr (SlotFrames) return ell_pair_in_slot(en, records, ps);
-      else return ell_pair_of(en, f.levers, ps);
-    };
-    const auto add_dF = [&](const EllPair<R>& q) {
-      if constexpr (SlotFrames) ell_pair_dF_in_slot(q, records, dF);
-      else ell_pair_dF(q, d, p_old, beta, dF);
-    };
-    if (active) {
-      count = m.offsets[s + 1] - m.offsets[s];
-      ps = Vec3T<R>{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
-                    sample_value(f.sample_state, m.samples, 2, s)};
-      if constexpr (Mapped) held = shape_map(m, s, slot_table, slot_table + kMappedSlots);
-      if constexpr (PrefetchFrames) {
 #pragma unroll
-        for (int k = 0; k < Keep; ++k) {
-          const int j = lane + (Keep + k) * lanes;
-          if (j < count) next_frames[k] = m.ell_frame[e0 + j * ns + t];
-        }
-      }
+    for (int k = 0; k < Keep; ++k)
+      if (k < count) kept[k] = ell_entry(m, e0 + k * ns + t);
 #pragma unroll
-      for (int k = 0; k < Keep; ++k) {
-        const int j = lane + k * lanes;
-        if (j < count) kept[k] = entry(e0 + j * ns + t, j);
-      }
-#pragma unroll
-      for (int k = 0; k < Keep; ++k)
-        if (lane + k * lanes < count) {
-          if constexpr (HoldPairs) {
-            kept_pairs[k] = pair_of(kept[k]);
-            add_dF(kept_pairs[k]);
-          } else {
-            add_dF(pair_of(kept[k]));
-          }
-        }
-      int rest = lane + Keep * lanes;  // the first pair read in full
-      if constexpr (PrefetchFrames) {
-#pragma unroll
-        for (int k = 0; k < Keep; ++k) {
-          const int j = lane + (Keep + k) * lanes;
-          if (j < count) add_dF(pair_of(ell_entry_with_frame(m, e0 + j * ns + t, next_frames[k])));
-        }
-        rest = lane + 2 * Keep * lanes;
-      }
-      for (int j = rest; j < count; j += lanes) add_dF(pair_of(entry(e0 + j * ns + t, j)));
-    }
-    for (int o = 1; o < lanes; o <<= 1)
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) dF.m[r][c] += __shfl_xor_sync(0xffffffffu, dF.m[r][c], o);
-    if (active && lane < count) {
+    for (int k = 0; k < Keep; ++k)
+      if (k < count) ell_pair_dF(ell_pair_of(kept[k], f.levers, ps), d, p_old, beta, dF);
+    for (int j = Keep; j < count; ++j)
+      ell_pair_dF(ell_pair_of(ell_entry(m, e0 + j * ns + t), f.levers, ps), d, p_old, beta, dF);
+    if (count > 0) {
       const Mat3T<R> dP = ell_sample_dP(m, f.sample_state, s, dF);
       const R v = sample_value(f.sample_state, m.samples, 3, s);
-      if (lane == 0) work += static_cast<double>(v) * static_cast<double>(ddot(dF, dP));
+      work += static_cast<double>(v) * static_cast<double>(ddot(dF, dP));
 #pragma unroll
       for (int k = 0; k < Keep; ++k)
-        if (lane + k * lanes < count) {
-          if constexpr (HoldPairs) ell_pair_output(kept_pairs[k], dP, v, kept[k].pos, stride, local);
-          else ell_pair_output(pair_of(kept[k]), dP, v, kept[k].pos, stride, local);
-        }
-      int rest = lane + Keep * lanes;
-      if constexpr (PrefetchFrames) {
-#pragma unroll
-        for (int k = 0; k < Keep; ++k) {
-          const int j = lane + (Keep + k) * lanes;
-          if (j < count) {
-            const EllEntry<R> en = ell_entry_with_frame(m, e0 + j * ns + t, next_frames[k]);
-            ell_pair_output(pair_of(en), dP, v, en.pos, stride, local);
-          }
-        }
-        rest = lane + 2 * Keep * lanes;
-      }
-      for (int j = rest; j < count; j += lanes) {
-        const EllEntry<R> en = entry(e0 + j * ns + t, j);
-        ell_pair_output(pair_of(en), dP, v, en.pos, stride, local);
+        if (k < count) ell_pair_output(ell_pair_of(kept[k], f.levers, ps), dP, v, kept[k].pos, stride, local);
+      for (int j = Keep; j < count; ++j) {
+        const EllEntry<R> en = ell_entry(m, e0 + j * ns + t);
+        ell_pair_output(ell_pair_of(en, f.levers, ps), dP, v, en.pos, stride, local);
       }
     }
   }
@@ -556,182 +308,33 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
   return work;
 }
 
-constexpr int kLaneThreadsMax = 512;
+// Most threads per block of the kernels with one thread per frame row (k_update_rows,
+// k_pcg_two_barrier): the size of their per-row shared arrays.
+constexpr int kRowThreadsMax = 512;
 
-// Threads per block of the dense coalesced tangent kernels, and their blocks per multiprocessor:
+// Threads per block of the launched coalesced tangent kernel, and its blocks per multiprocessor:
 // the most whose register budget (65,536 / (128 blocks)) the pass fits without local memory, as
-// ptxas -v reports for sm_90. Registers used for 2, 4 and 8 held entries: float 64, 79, 128
-// (mapped: 80, 96, 128), double 128, 156, 200 (mapped: 152, 166, 216). More resident warps keep
-// more loads in flight in this memory-bound pass.
+// ptxas -v reports for sm_90 (registers for 2, 4 and 8 held entries: float 64, 79, 128, double
+// 128, 156, 200). More resident warps keep more loads in flight in this latency-bound pass.
 constexpr int kDenseThreads = 128;
-// Held pairs (HoldPairs; keep 2 and 4 only): float 80 and 128 registers, double 166 and 218.
-// Prefetched frames (keep 2 and 4): as without, except float with 4, which spills 16 bytes at 80
-// registers (6 blocks) and so gets 5 blocks.
 template <class R>
-constexpr int dense_blocks_per_sm(int keep, bool mapped, bool hold_pairs = false, bool prefetch = false) {
-  if (hold_pairs) return sizeof(R) == sizeof(float) ? (keep == 2 ? 6 : 4) : (keep == 2 ? 3 : 2);
-  if (prefetch && sizeof(R) == sizeof(float) && keep == 4) return 5;
-  if (sizeof(R) == sizeof(float)) return keep == 2 ? (mapped ? 6 : 8) : keep == 4 ? (mapped ? 5 : 6) : 4;
-  return keep == 2 ? (mapped ? 3 : 4) : keep == 4 ? 3 : 2;
+constexpr int dense_blocks_per_sm(int keep) {
+  if (sizeof(R) == sizeof(float)) return keep == 2 ? 8 : keep == 4 ? 6 : 4;
+  return keep == 2 ? 4 : keep == 4 ? 3 : 2;
 }
 
-// Coalesced tangent pass, one block per sample block (as k_lanes_tangent). Dense: compiled for
-// kDenseThreads threads per block and dense_blocks_per_sm blocks per multiprocessor; otherwise for
-// up to kLaneThreadsMax threads. Mapped: w and g from the samples' shape classes.
-template <class R, int Keep, bool Dense, bool Mapped, bool SlotFrames = false, bool HoldPairs = false,
-          bool PrefetchFrames = false>
-__global__ void __launch_bounds__(Dense ? kDenseThreads : kLaneThreadsMax,
-                                  Dense ? dense_blocks_per_sm<R>(Keep, Mapped, HoldPairs, PrefetchFrames) : 1)
+// Coalesced tangent pass, one block of kDenseThreads threads per sample block. In the PCG (p_old
+// set) the direction is p = z + beta p_old with z = d and beta from the scalars; k_frame_sums
+// stores it.
+template <class R, int Keep>
+__global__ void __launch_bounds__(kDenseThreads, dense_blocks_per_sm<R>(Keep))
     k_ell_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
-                  int lanes, int slot_lanes) {
+                  int slot_lanes) {
   extern __shared__ unsigned char shared_raw[];
   R* local = reinterpret_cast<R*>(shared_raw);
   if (finished(sc)) return;
   const double beta = p_old ? sc->beta : 0.0;
-  ell_tangent_block<R, Keep, Mapped, SlotFrames, HoldPairs, PrefetchFrames>(
-      m, f, d, p_old, beta, static_cast<int>(blockIdx.x), lanes, slot_lanes, local, slot_partials);
-}
-
-// Tangent sample pass of the fused design, one block per sample block. In the PCG (p_old set) the
-// direction is p = z + beta p_old with z = d and beta from the scalars; k_frame_rows stores it.
-template <class R>
-__global__ void __launch_bounds__(kLaneThreadsMax) k_lanes_tangent(ModelView<R> m, FrameView<R> f, const R* F,
-                                                                   const R* cache, const R* d, const R* p_old,
-                                                                   R* slot_partials, const Scalars* sc, int lanes) {
-  extern __shared__ unsigned char shared_raw[];
-  R* local = reinterpret_cast<R*>(shared_raw);
-  if (finished(sc)) return;
-  const double beta = p_old ? sc->beta : 0.0;
-  lanes_tangent_block(m, f, F, cache, d, p_old, beta, static_cast<int>(blockIdx.x), lanes, local, slot_partials);
-}
-
-// Record tangent pass, one block per sample block (as k_lanes_tangent), at most MaxThreads threads
-// per block (the register budget: 128 threads allow 255 registers per thread, 512 allow 128).
-template <class R, int Keep, int MaxThreads>
-__global__ void __launch_bounds__(MaxThreads) k_records_tangent(ModelView<R> m, FrameView<R> f, const R* d,
-                                                                const R* p_old, R* slot_partials, const Scalars* sc,
-                                                                int lanes) {
-  extern __shared__ unsigned char shared_raw[];
-  R* local = reinterpret_cast<R*>(shared_raw);
-  if (finished(sc)) return;
-  const double beta = p_old ? sc->beta : 0.0;
-  records_tangent_block<R, Keep>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), lanes, local, slot_partials);
-}
-
-// Staged tangent pass of sample block b, one thread per sample (blockDim.x >= the block's
-// samples). The block's slots (R_i, x_i - origin and d_i, with d = z + beta p_old formed here
-// when p_old is set) and its samples' rest positions, F and material caches are copied to shared
-// memory with coalesced loads (elasticity_phases.hpp, kSlotStride / kSampleStride); each thread
-// forms dP = C[dF] of its sample from shared memory and its pairs' ELL entries, a barrier lets
-// the pair outputs [6][E_b] overwrite the sample area, each thread writes its pairs' v B_p^T dP,
-// and the block sums them per slot. Every thread of the block must call it.
-template <class R>
-__device__ void staged_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* F, const R* cache,
-                                     const R* d, const R* p_old, double beta, int b, R* smem, R* slot_partials) {
-  const int s0 = m.block_samples[b], ns = m.block_samples[b + 1] - s0;
-  const int q0 = m.block_slots[b], nq = m.block_slots[b + 1] - q0;
-  const int e0 = m.ell_offsets[b], E = m.ell_offsets[b + 1] - e0;
-  R* slots = smem;
-  R* samples = smem + kSlotStride * nq;  // later the pair outputs [6][E]
-  const int tid = static_cast<int>(threadIdx.x), nt = static_cast<int>(blockDim.x);
-  for (int idx = tid; idx < 18 * nq; idx += nt) {
-    const int j = idx / 18, k = idx - 18 * j;
-    const int i = m.slot_frames[q0 + j];
-    R v;
-    if (k < 9)
-      v = f.rotations[9 * i + k];
-    else if (k < 12)
-      v = m.frame_rest[3 * i + k - 9];
-    else
-      v = p_old ? next_direction(d, p_old, beta, 6 * i + k - 12) : d[6 * i + k - 12];
-    slots[kSlotStride * j + k] = v;
-  }
-  for (int idx = tid; idx < 3 * ns; idx += nt) {
-    const int t = idx / 3;
-    samples[kSampleStride * t + idx - 3 * t] = m.sample_rest[3 * s0 + idx];
-  }
-  for (int idx = tid; idx < 9 * ns; idx += nt) {
-    const int t = idx / 9;
-    samples[kSampleStride * t + 3 + idx - 9 * t] = F[9 * static_cast<long long>(s0) + idx];
-  }
-  for (int idx = tid; idx < 10 * ns; idx += nt) {
-    const int t = idx / 10;
-    samples[kSampleStride * t + 12 + idx - 10 * t] = cache[10 * static_cast<long long>(s0) + idx];
-  }
-  __syncthreads();
-  const bool active = tid < ns;
-  Vec3 ps{0, 0, 0};
-  Mat3 dP = zero3();
-  if (active) {
-    ps = ld3(samples + kSampleStride * tid);
-    dP = staged_sample_dP(m, s0 + tid, tid, ns, e0, slots, samples + kSampleStride * tid);
-  }
-  __syncthreads();
-  if (active) staged_sample_outputs(m, s0 + tid, tid, ns, e0, E, slots, ps, dP, samples);
-  __syncthreads();
-  for (int j = tid; j < nq; j += nt) staged_slot_sum(m, samples, E, q0 + j, slot_partials);
-}
-
-template <class R>
-__global__ void __launch_bounds__(kLaneThreadsMax) k_staged_tangent(ModelView<R> m, FrameView<R> f, const R* F,
-                                                                    const R* cache, const R* d, const R* p_old,
-                                                                    R* slot_partials, const Scalars* sc) {
-  extern __shared__ unsigned char shared_raw[];
-  R* smem = reinterpret_cast<R*>(shared_raw);
-  if (finished(sc)) return;
-  const double beta = p_old ? sc->beta : 0.0;
-  staged_tangent_block(m, f, F, cache, d, p_old, beta, static_cast<int>(blockIdx.x), smem, slot_partials);
-}
-
-// Row k of frame i's slot partials, summed in slot order (fused_gather's order) in double: loads
-// in rounds of 4 issued together. Slots in frame order where m.frame_slots is null (the grouped
-// pass's frame-major store).
-template <class R>
-__device__ double frame_slot_sum(const ModelView<R>& m, const R* slot_partials, int i, int k) {
-  constexpr int kRound = 4;
-  double acc = 0;
-  const int q1 = m.frame_slot_offsets[i + 1];
-  for (int q = m.frame_slot_offsets[i]; q < q1; q += kRound) {
-    int slot[kRound];
-    R part[kRound];
-#pragma unroll
-    for (int u = 0; u < kRound; ++u) slot[u] = q + u < q1 ? (m.frame_slots ? m.frame_slots[q + u] : q + u) : -1;
-#pragma unroll
-    for (int u = 0; u < kRound; ++u) part[u] = slot[u] >= 0 ? slot_partials[6 * slot[u] + k] : R(0);
-#pragma unroll
-    for (int u = 0; u < kRound; ++u)
-      if (slot[u] >= 0) acc += static_cast<double>(part[u]);
-  }
-  return acc;
-}
-
-// Frame pass with one thread per frame row: chunk c covers frames [c fpc, (c + 1) fpc), fpc =
-// blockDim.x / 6. With z set (PCG) the direction p = z + beta p is formed (every thread of a frame
-// has read the old p before the barrier) and stored; out = H d from the block slots' sums (in
-// fused_gather's order) and frame_row's terms. Returns this thread's d_k out_k. With d null (a
-// gather of the sample terms alone: no geo, inertia or projection) d is taken as 0. Every thread
-// of the block must call it.
-template <class R>
-__device__ double frame_rows_chunk(const ModelView<R>& m, const R* slot_partials, const R* geo,
-                                   const R* inertia_world, const FrameTermsFlags& flags, R* d, R* out, const R* z,
-                                   double beta, int chunk) {
-  __shared__ double dir[kLaneThreadsMax];
-  const int fpc = static_cast<int>(blockDim.x) / 6;
-  const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
-  const bool active = t < 6 * fpc && i < m.frames;
-  if (active) dir[t] = z ? static_cast<double>(next_direction(z, d, beta, 6 * i + k)) : d ? static_cast<double>(d[6 * i + k]) : 0.0;
-  __syncthreads();
-  double dot = 0;
-  if (active) {
-    if (z) d[6 * i + k] = static_cast<R>(dir[t]);
-    const double acc = frame_slot_sum(m, slot_partials, i, k);
-    const double v =
-        frame_row_of(m, geo, inertia_world, flags.inv_h2, flags.project, dir + (t - k), i, k, acc, flags.k_scale);
-    out[6 * i + k] = static_cast<R>(v);
-    dot = dir[t] * static_cast<double>(static_cast<R>(v));
-  }
-  __syncthreads();
-  return dot;
+  ell_tangent_block<R, Keep>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), slot_lanes, local, slot_partials);
 }
 
 // The end of a chunk's PCG row update (update_rows_chunk, frame_update_chunk): row j = 6 i + k
@@ -760,12 +363,13 @@ __device__ double store_and_precondition_row(bool active, const UpdatedRow<R>& u
   return dot;
 }
 
-// PCG update with one thread per frame row (chunks as frame_rows_chunk): x += alpha p,
-// r -= alpha Ap, z = M^-1 r (block_jacobi's order); returns this thread's r_k z_k.
+// PCG update with one thread per frame row, chunk c: frames [c fpc, (c + 1) fpc), fpc =
+// blockDim.x / 6: x += alpha p, r -= alpha Ap, z = M^-1 r (block_jacobi's order); returns this
+// thread's r_k z_k.
 template <class R>
 __device__ double update_rows_chunk(int n, const R* minv, const R* p, const R* Ap, R* x, R* r, R* z, double alpha,
                                     int chunk) {
-  __shared__ double res[kLaneThreadsMax];
+  __shared__ double res[kRowThreadsMax];
   const int fpc = static_cast<int>(blockDim.x) / 6;
   const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
   const bool active = t < 6 * fpc && i < n;
@@ -781,21 +385,10 @@ __device__ inline int frame_chunks(int n) {
   return (n + fpc - 1) / fpc;
 }
 
-// Launch-per-phase forms of the two row passes: each block takes chunks blockIdx.x, + gridDim.x,
+// The launched PCG update (update_rows_chunk): each block takes chunks blockIdx.x, + gridDim.x,
 // ... (a grid of the blocks that fit on the device at once: each block's share of the grid
-// reduction, a fence and an atomic, is paid once per block instead of once per chunk); with
-// `pcg`, the dot products are reduced into alpha and beta.
-template <class R>
-__global__ void k_frame_rows(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
-                             FrameTermsFlags flags, R* d, R* out, Reduction red, bool pcg, const R* z) {
-  if (pcg && finished(red.scalars)) return;
-  const double beta = z ? red.scalars->beta : 0.0;
-  double dot = 0;
-  for (int c = static_cast<int>(blockIdx.x); c < frame_chunks(m.frames); c += static_cast<int>(gridDim.x))
-    dot += frame_rows_chunk(m, slot_partials, geo, inertia_world, flags, d, out, z, beta, c);
-  if (pcg) reduce_and_finish(dot, red, Finish::alpha, 0);
-}
-
+// reduction, a fence and an atomic, is paid once per block instead of once per chunk); r . z is
+// reduced into beta and the stopping test.
 template <class R>
 __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* x, R* r, R* z, Reduction red,
                               double tolerance) {
@@ -807,17 +400,16 @@ __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* 
   reduce_and_finish(dot, red, Finish::beta, tolerance);
 }
 
-// The frame pass with one thread per frame (DeviceOptions::frame_threads): frames
-// blockIdx.x blockDim.x + threadIdx.x, + gridDim.x blockDim.x, ... Each thread reads its frame's
-// directions and each of its slots' 6 partials in vector loads, with no block barrier. The same
-// arithmetic per row as frame_rows_chunk (the slot sums in slot order), so the same values; p . A p
-// adds a frame's six rows first. Measured on an H100 at 4.18 M x 8 (Nsight Compute, base clocks):
-// 70.5 us against k_frame_rows' 83.1 in single. The update with one thread per frame (its M^-1
-// block as 9 vector loads) took 110 us against k_update_rows' 76, so the update keeps one thread
-// per row (docs/benchmarks.md, twelfth round).
+// The frame pass of the launched tangent product, one thread per frame: frames
+// blockIdx.x blockDim.x + threadIdx.x, + gridDim.x blockDim.x, ... (a grid of the blocks that fit
+// on the device at once). Each thread reads its frame's directions and each of its slots' 6
+// partials in vector loads, with no block barrier, and sums the slots in slot order; out = H d
+// (frame_row_of). With z set (PCG) the direction p = z + beta p is formed and stored, and p . A p
+// (a frame's six rows added first) reduced into alpha. With d null (the force pass's gather: no
+// frame terms) d is taken as 0. The update keeps one thread per row (k_update_rows): its M^-1
+// block read per row is the cheaper.
 constexpr int kFrameThreads = 128;  // threads per block of k_frame_sums
 
-// k_frame_rows with one thread per frame.
 template <class R>
 __global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
                              FrameTermsFlags flags, R* d, R* out, Reduction red, bool pcg, const R* z) {
@@ -875,22 +467,21 @@ __global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* ge
 // row-major, then Kr row-major). k_frame_finish: 6 threads per frame; thread c forms the frame's
 // blocks and Cholesky factor itself (the same bits in each) and solves for column c of the
 // preconditioner (frame_prepare_finish's arithmetic, column by column); thread 0 stores the blocks.
-// In one kernel (196 registers, 2 blocks per SM, one thread per frame factorising while its
-// block's other 23 waited) the preparation took 71 us of a 34,848-sample step on an H100, as
-// these two 21 + 10 us (Nsight Compute, base clocks; docs/benchmarks.md, ninth round).
+// Two kernels, so that the pair sums run with many threads per frame and the factorisation with
+// few registers per thread.
 constexpr int kColumnParts = 4;    // k_frame_columns: threads per frame
 constexpr int kColumnFrames = 16;  // k_frame_columns: frames per block, 64 threads (blocks spread evenly)
 constexpr int kFinishFrames = 21;  // k_frame_finish: frames per block, 126 threads
 
 template <class R>
 __global__ void __launch_bounds__(kColumnParts * kColumnFrames)
-    k_frame_columns(ModelView<R> m, FrameView<R> f, const R* F, bool fused, bool with_K, double* sums) {
+    k_frame_columns(ModelView<R> m, FrameView<R> f, const R* F, bool with_K, double* sums) {
   __shared__ double part_sums[kPrepareSums][kColumnParts * kColumnFrames];  // one column per thread
   const int t = static_cast<int>(threadIdx.x), part = t % kColumnParts;
   const int first = static_cast<int>(blockIdx.x) * kColumnFrames, i = first + t / kColumnParts;
   for (int k = 0; k < kPrepareSums; ++k) part_sums[k][t] = 0;
   if (i < m.frames)
-    frame_prepare_pairs(m, f, F, fused, i, part, kColumnParts, with_K,
+    frame_prepare_pairs(m, f, F, i, part, kColumnParts, with_K,
                         [&](int k, double value) { part_sums[k][t] += value; });
   __syncthreads();
   // Entry e of frame first + e / kPrepareSums, summed over the frame's parts in part order.
@@ -961,16 +552,7 @@ __global__ void k_pcg_init(ModelView<R> m, const R* gradient, const R* inertia_w
   reduce_and_finish(dot, red, Finish::init, 0);
 }
 
-// p = z + beta p.
-template <class R>
-__global__ void k_pcg_direction(int count, const R* z, R* p, const Scalars* sc) {
-  if (finished(sc)) return;
-  const double beta = sc->beta;
-  const int j = blockIdx.x * blockDim.x + threadIdx.x;
-  if (j < count) p[j] = next_direction(z, p, beta, j);
-}
-
-// ---- persistent PCG (fused design) ----
+// ---- persistent PCG ----
 
 // Sum over the whole grid of every thread's v, returned to every thread of every block. Each
 // block writes its shuffle-tree sum to partials[blockIdx.x]; after the grid barrier every block
@@ -1014,9 +596,8 @@ __device__ inline double grid_sum(double v, double* partials, cooperative_groups
 #pragma unroll
         for (int w = 0; w < kWarpsMax; ++w) s[w] += round[j][w];
     }
-    // Thread 0 arrives from the grid barrier's spin: without reconverging the warp first, the
-    // shuffles can take their diverged-warp path, measured 2.6 us per iteration slower at some
-    // sizes (docs/benchmarks.md, ninth round).
+    // Thread 0 arrives from the grid barrier's spin: the warp reconverges first, so that the
+    // shuffles do not take their slower diverged-warp path.
     __syncwarp();
     for (int o = 16; o > 0; o >>= 1)
 #pragma unroll
@@ -1033,73 +614,23 @@ __device__ inline double grid_sum(double v, double* partials, cooperative_groups
   return total;
 }
 
-// The whole PCG loop of a step in one cooperative launch: per iteration three phases separated by
-// grid barriers, no launches and no host round trips. (1) sample pass of the tangent product on
-// p = z + beta p_old formed on the fly; (2) frame pass: writes p, Ap = H p and reduces p.Ap -> alpha;
-// (3) x += alpha p, r -= alpha Ap, z = M^-1 r, reduces r.z -> beta and the stopping test. Every
-// block computes the scalars from the same partials, so all take the same branches. Same
-// arithmetic as the launch-per-phase PCG (the sample pass's kernel, k_frame_rows,
-// k_update_rows); the frame phases run one thread per frame row in chunks of blockDim.x / 6
-// frames. `partials` holds 2 gridDim.x doubles. Starts from k_pcg_init's scalars.
-template <class R>
-__global__ void __launch_bounds__(kLaneThreadsMax)
-    k_pcg_persistent(ModelView<R> m, FrameView<R> f, const R* F, const R* cache, int lanes, SamplePass pass,
-                     const R* geo, const R* inertia_world, FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, R* Ap,
-                     R* slot_partials, double* partials, Scalars* scalars, int max_iterations, double tolerance) {
-  cooperative_groups::grid_group grid = cooperative_groups::this_grid();
-  extern __shared__ unsigned char shared_raw[];
-  R* local = reinterpret_cast<R*>(shared_raw);
-  const double rz0 = scalars->rz0;
-  double rz = scalars->rz, beta = 0;
-  int done = scalars->done, it = 0;
-  const int fpc = static_cast<int>(blockDim.x) / 6, chunks = (m.frames + fpc - 1) / fpc;
-  const int tid = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x);
-  while (done == 0 && it < max_iterations) {
-    // (1) samples.
-    for (int b = blockIdx.x; b < m.blocks; b += gridDim.x) {
-      if (pass == SamplePass::records)
-        records_tangent_block(m, f, z, p, beta, b, lanes, local, slot_partials);
-      else if (pass == SamplePass::staged)
-        staged_tangent_block(m, f, F, cache, z, p, beta, b, local, slot_partials);
-      else
-        lanes_tangent_block(m, f, F, cache, z, p, beta, b, lanes, local, slot_partials);
-      __syncthreads();
-    }
-    grid.sync();
-    // (2) frames: p, Ap, p.Ap, one thread per frame row.
-    double dot = 0;
-    for (int c = blockIdx.x; c < chunks; c += gridDim.x)
-      dot += frame_rows_chunk(m, slot_partials, geo, inertia_world, flags, p, Ap, z, beta, c);
-    const double pAp = grid_sum<kLaneThreadsMax>(dot, partials, grid);
-    if (!(pAp > 0 && pAp < HUGE_VAL)) {
-      done = 2;
-      break;
-    }
-    const double alpha = rz / pAp;
-    // (3) update and preconditioner.
-    dot = 0;
-    for (int c = blockIdx.x; c < chunks; c += gridDim.x)
-      dot += update_rows_chunk(m.frames, minv, p, Ap, x, r, z, alpha, c);
-    const double rz_new = grid_sum<kLaneThreadsMax>(dot, partials + gridDim.x, grid);
-    end_iteration(rz_new, rz0, tolerance, rz, beta, it, done);
-  }
-  if (tid == 0) store_progress(scalars, rz, beta, it, done);
-}
+// The whole PCG loop of a step in one cooperative launch, no launches and no host round trips.
 
-// ---- persistent PCG with two grid barriers per iteration (coalesced pass) ----
+// ---- persistent PCG with two grid barriers per iteration ----
 
 // a b rounded once, never contracted with a following addition into a fused multiply-add, so
 // that every kernel summing the same products gets the same bits.
 __device__ inline double product_rn(double a, double b) { return __dmul_rn(a, b); }
 
-// Frame terms of p . A p for one chunk of frame rows (chunks as frame_rows_chunk): p_k (D p)_k with
+// Frame terms of p . A p for one chunk of frame rows (chunk c: frames [c fpc, (c + 1) fpc), fpc =
+// blockDim.x / 6, one thread per row): p_k (D p)_k with
 // p = z + beta p_old formed as next_direction and D p = frame_row_of without sample terms (the
 // rotational geometric and load blocks, inertia; 0 on fixed DOFs). Every thread must call it.
 template <class R>
 __device__ double frame_quadratic_chunk(const ModelView<R>& m, const R* geo, const R* inertia_world,
                                         const FrameTermsFlags& flags, const R* z, const R* p_old, double beta,
                                         int chunk) {
-  __shared__ double dir[kLaneThreadsMax];
+  __shared__ double dir[kRowThreadsMax];
   const int fpc = static_cast<int>(blockDim.x) / 6;
   const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
   const bool active = t < 6 * fpc && i < m.frames;
@@ -1113,16 +644,16 @@ __device__ double frame_quadratic_chunk(const ModelView<R>& m, const R* geo, con
   return q;
 }
 
-// Frame phase of the two-barrier PCG, one thread per frame row (chunks as frame_rows_chunk): p =
-// z + beta p stored, Ap = H p (frame_rows_chunk's arithmetic), then x += alpha p, r -= alpha Ap,
-// z = M^-1 r (update_rows_chunk's arithmetic). Returns this thread's r_k z_k. Every thread of the
+// Frame phase of the two-barrier PCG, one thread per frame row (chunks as frame_quadratic_chunk):
+// p = z + beta p stored, Ap = H p (k_frame_sums' arithmetic per row), then x += alpha p,
+// r -= alpha Ap, z = M^-1 r (update_rows_chunk's arithmetic). Returns this thread's r_k z_k. Every thread of the
 // block must call it.
 template <class R>
 __device__ double frame_update_chunk(const ModelView<R>& m, const R* slot_partials, const R* geo,
                                      const R* inertia_world, const FrameTermsFlags& flags, const R* minv, R* x, R* r,
                                      R* z, R* p, R* Ap, double beta, double alpha, int chunk) {
-  __shared__ double dir[kLaneThreadsMax];
-  __shared__ double res[kLaneThreadsMax];
+  __shared__ double dir[kRowThreadsMax];
+  __shared__ double res[kRowThreadsMax];
   const int fpc = static_cast<int>(blockDim.x) / 6;
   const int t = static_cast<int>(threadIdx.x), i = chunk * fpc + t / 6, k = t - 6 * (t / 6);
   const bool active = t < 6 * fpc && i < m.frames;
@@ -1144,7 +675,7 @@ __device__ double frame_update_chunk(const ModelView<R>& m, const R* slot_partia
 }
 
 // The PCG loop of the coalesced pass in one cooperative launch with two grid barriers per
-// iteration instead of k_pcg_persistent's three. p . A p is summed in the sample phase, as
+// iteration. p . A p is summed in the sample phase, as
 // k_scale sum_s v dF : dP (the coalesced pass returns it per sample) plus the frame terms
 // frame_quadratic_chunk: equal to p . (A p) in exact arithmetic, since A p = k_scale sum_s v B_s^T dP_s
 // plus the frame terms, and p is zero on fixed DOFs (z is, and p starts as z). So alpha is known
@@ -1155,8 +686,8 @@ __device__ double frame_update_chunk(const ModelView<R>& m, const R* slot_partia
 // same scalars and take the same branches; results are deterministic. `partials` holds 2
 // gridDim.x doubles. Starts from k_pcg_init's scalars.
 template <class R, int Keep>
-__global__ void __launch_bounds__(kLaneThreadsMax)
-    k_pcg_two_barrier(ModelView<R> m, FrameView<R> f, int lanes, int slot_lanes, const R* geo, const R* inertia_world,
+__global__ void __launch_bounds__(kRowThreadsMax)
+    k_pcg_two_barrier(ModelView<R> m, FrameView<R> f, int slot_lanes, const R* geo, const R* inertia_world,
                       FrameTermsFlags flags, const R* minv, R* x, R* r, R* z, R* p, R* Ap, R* slot_partials,
                       double* partials, Scalars* scalars, int max_iterations, double tolerance) {
   cooperative_groups::grid_group grid = cooperative_groups::this_grid();
@@ -1170,12 +701,12 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
     // (1) samples and the frame terms of p . A p.
     double part = 0;
     for (int b = blockIdx.x; b < m.blocks; b += gridDim.x) {
-      part += flags.k_scale * ell_tangent_block<R, Keep>(m, f, z, p, beta, b, lanes, slot_lanes, local, slot_partials);
+      part += flags.k_scale * ell_tangent_block<R, Keep>(m, f, z, p, beta, b, slot_lanes, local, slot_partials);
       __syncthreads();
     }
     for (int c = blockIdx.x; c < chunks; c += gridDim.x)
       part += frame_quadratic_chunk(m, geo, inertia_world, flags, z, p, beta, c);
-    const double pAp = grid_sum<kLaneThreadsMax>(part, partials, grid);
+    const double pAp = grid_sum<kRowThreadsMax>(part, partials, grid);
     if (!(pAp > 0 && pAp < HUGE_VAL)) {
       done = 2;
       break;
@@ -1185,7 +716,7 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
     double dot = 0;
     for (int c = blockIdx.x; c < chunks; c += gridDim.x)
       dot += frame_update_chunk(m, slot_partials, geo, inertia_world, flags, minv, x, r, z, p, Ap, beta, alpha, c);
-    const double rz_new = grid_sum<kLaneThreadsMax>(dot, partials + gridDim.x, grid);
+    const double rz_new = grid_sum<kRowThreadsMax>(dot, partials + gridDim.x, grid);
     end_iteration(rz_new, rz0, tolerance, rz, beta, it, done);
   }
   if (blockIdx.x == 0 && threadIdx.x == 0) store_progress(scalars, rz, beta, it, done);
@@ -1193,7 +724,7 @@ __global__ void __launch_bounds__(kLaneThreadsMax)
 
 // ---- persistent PCG with the loop invariants in registers (coalesced pass, small models) ----
 
-// Threads per block of k_pcg_resident (the fused design's 128-sample blocks, one lane), and the
+// Threads per block of k_pcg_resident (the 128-sample blocks, one thread per sample), and the
 // blocks per multiprocessor its registers must allow: 34,848 samples need 336 blocks, 3 per SM on
 // a 132-SM device (at most 170 registers per thread).
 constexpr int kResidentThreads = 128;
@@ -1216,9 +747,9 @@ constexpr int kResidentSlots = 8;      // slots per frame held in registers (mor
 // slot) and the levers formed from there, and its samples' materials (law, lambda, mu, density)
 // are held there too, instead of each pair gathering them from global memory and each sample
 // reading its material through its index (every grid barrier invalidates the L1, so those loads
-// go to the L2, one after another). The same arithmetic as k_pcg_two_barrier with slot_lanes = 1,
-// so the same results. Requires lanes = 1, at most MaxPairs pairs per sample and grid =
-// max(sample blocks, frame chunks).
+// go to the L2, one after another). The same arithmetic as k_pcg_two_barrier, except that each slot
+// is summed by one thread. Requires at most MaxPairs pairs per sample and grid = max(sample
+// blocks, frame chunks).
 constexpr int kResidentRowTerms = 13;  // [minv row (6), frame block row (3), inertia row (3), mass]
 
 template <class R, int MaxPairs, bool InRegisters, bool StagedFrames = false>

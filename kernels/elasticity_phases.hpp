@@ -7,18 +7,14 @@
 // double registers through the shared mechanics of engine/ (frame_sample.hpp, material.hpp), so
 // the single-precision build loses accuracy only where values are rounded to float in memory.
 //
-// Two designs of the force and tangent-product passes:
-//  - paper: thread per sample writes one 6-vector per sample-frame pair into a buffer; a second
-//    kernel sums each frame's pairs through the reverse table with 6 threads per frame. F, the
-//    material cache and a = R l are precomputed once per Newton iteration.
-//  - fused: the force pass rebuilds F from the frames (a = R (p_s - x_i) from the rest positions)
-//    and stores F and the material cache per sample; the tangent product spreads each sample over
-//    `lanes` threads (one pair each, dF summed with a warp butterfly, dP formed by every lane of the
-//    sample, elasticity_kernels.cuh), its pairs' 6-vectors are summed per frame inside the thread
-//    block in shared memory in a fixed order, and a frame pass sums the few block partials of each
-//    frame. fused_sample below is the one-thread-per-sample form of the same pass (force pass; host
-//    tests).
-// Both are deterministic: every sum runs in an order fixed by the model, with no atomics on data.
+// The passes (docs/gpu.md): the force pass rebuilds F from the frames (a = R (p_s - x_i) from the
+// rest positions, eq. 2 with rest orientation I), one thread per sample (fused_sample), and
+// stores F, the material cache and the samples' state of the tangent product; each pair's
+// 6-vector is summed per frame inside the thread block in shared memory in a fixed order
+// ("slots"), and a frame pass sums the few block partials of each frame. The tangent product runs
+// the coalesced pass (pairs in ELL order, below) or, where the samples share their frames in
+// groups, the grouped pass (group_pass.hpp), with the same block and frame sums.
+// Every sum runs in an order fixed by the model, with no atomics on data: deterministic.
 #pragma once
 
 #include "core/rotation.hpp"
@@ -63,7 +59,6 @@ struct ModelView {
   const int* frame_of = nullptr;    // [P]
   const R* weights = nullptr;       // [P]
   const R* gradients = nullptr;     // [P][3] 1/m
-  const R* rest_offsets = nullptr;  // [P][3] m (paper design only)
   // Reverse table, CSR over frames.
   const int* rev_offsets = nullptr;   // [N+1]
   const int* rev_pairs = nullptr;     // [P]
@@ -78,7 +73,7 @@ struct ModelView {
   const R* inertias = nullptr;     // [N][9] kg m^2 at rest
   const unsigned char* fixed = nullptr;  // [N][6]
   bool rotations_locked = false;
-  // Fused design: blocks of consecutive samples and their distinct frames ("slots").
+  // Blocks of consecutive samples and their distinct frames ("slots").
   int blocks = 0;
   const int* block_samples = nullptr;       // [B+1]
   const int* block_slots = nullptr;         // [B+1] slots of block b: [block_slots[b], block_slots[b+1])
@@ -87,22 +82,13 @@ struct ModelView {
   const int* slot_pairs = nullptr;          // [P] pair index relative to the block's first pair
   const int* frame_slot_offsets = nullptr;  // [N+1]
   const int* frame_slots = nullptr;         // [Q]
-  // Staged tangent pass: the pairs of each block in ELL order (sample_layout.hpp).
+  // Coalesced tangent pass: the pairs of each block in ELL order (sample_layout.hpp).
   int ell_entries = 0;                      // E
   const int* ell_offsets = nullptr;         // [B+1]
   const unsigned short* ell_slot = nullptr; // [E] block-local slot of the entry's pair
   const R* ell_data = nullptr;              // [4][E]: w, then the gradient's x, y, z (1/m); component-major
-  const int* slot_ell = nullptr;            // [P] as slot_pairs, block-local ELL entries
-  const int* ell_frame = nullptr;           // [E] frame of the entry's pair (coalesced pass; 0 on padding)
-  const unsigned short* ell_pos = nullptr;  // [E] slot-major position in the block (coalesced pass)
-  // Mapped coalesced pass (shape_classes.hpp): w and g from the sample's shape class and map, the
-  // frame and slot-major position from the entry's block-local slot and its rank in the slot
-  // (ell_slot_rank: slot | rank << 8, both < 256) and the block's slot table.
-  const unsigned short* ell_slot_rank = nullptr;  // [E]
-  const int* shape_class = nullptr;         // [S] class of each sample
-  const R* shape_maps = nullptr;            // [9][S] A_s row-major, component-major over samples
-  const int* class_offsets = nullptr;       // [C+1] first reference pair of each class
-  const R* class_pairs = nullptr;           // [Pc][4] w, r (1/m); 16-byte aligned
+  const int* ell_frame = nullptr;           // [E] frame of the entry's pair (0 on padding)
+  const unsigned short* ell_pos = nullptr;  // [E] slot-major position in the block
   // Grouped tangent pass (group_layout.hpp, group_pass.hpp), in the view of its own blocks, where
   // `blocks`, block_slots, slot_pair_offsets and frame_slot_offsets are those of its blocks of
   // groups (block b holds groups [kGroupBlock b, kGroupBlock (b + 1))), frame_slots is null
@@ -112,17 +98,10 @@ struct ModelView {
   const int* group_frames = nullptr;           // [G][kGroupLanes] frames, -1 past the group's count
   const unsigned short* group_pos = nullptr;   // [G][kGroupLanes] slot-major position in the block
   // [Q] where slot q's partials are stored: frame-major, so that each frame's slots are contiguous
-  // and frame_slots (then null) is not read (k_frame_rows: one dependent load fewer).
+  // and frame_slots (then null) is not read (k_frame_sums: one dependent load fewer).
   const int* slot_store = nullptr;
   const R* group_data = nullptr;  // w, g (1/m) per block, frame k, thread (group_data_offset)
-  // Mapped grouped pass (group_classes.hpp): w and g from the group's class and map instead.
-  const int* group_class = nullptr;            // [G]
-  const R* group_maps = nullptr;               // [9][G] A_g row-major, component-major over groups
-  const R* group_class_pairs = nullptr;        // [C][kGroupLanes][kGroupLanes][4] w, r (1/m)
   long long group_entries = 0;
-  // Record tangent pass: packed records (kPairRecord, kSampleRecord values each).
-  const R* pair_records = nullptr;          // [P][4]: g (1/m), w
-  const R* sample_records = nullptr;        // [S][4]: p_s - origin (m), v (m^3)
 };
 
 // Frame kinematics of the current state: R_i row-major and x_i - origin.
@@ -130,9 +109,8 @@ template <class R>
 struct FrameView {
   const R* rotations = nullptr;  // [N][9]
   const R* positions = nullptr;  // [N][3]
-  const R* records = nullptr;    // [N][kFrameRecord] (record tangent pass)
-  const R* levers = nullptr;     // [N][kLeverRecord] (coalesced tangent pass)
-  // Coalesced tangent pass: the samples' state of the Newton iteration, [kSampleState][S].
+  const R* levers = nullptr;     // [N][kLeverRecord] (tangent passes)
+  // Tangent passes: the samples' state of the Newton iteration, [kSampleState][S].
   const R* sample_state = nullptr;
 };
 
@@ -162,20 +140,22 @@ FASCIA_HD void frame_kinematics(int i, const double* positions, const double* or
   store_mat3(r_out, Ri);
 }
 
-// ---- paper design ------------------------------------------------------------------------------
+// ---- force pass --------------------------------------------------------------------------------
 
-// Kernel 1 of the force pass: F and P of sample s in registers, one partial 6-vector per pair
-// (eq. 18) into `partials` [P][6]. Stores F [S][9], the material cache [S][10] and a = R l [P][3]
-// that the tangent products of this Newton iteration reuse. Returns v psi(F).
+// One sample of the force pass. F is rebuilt from the frames (eq. 8, l = p_s - x_i, eq. 2 with
+// rest orientation I), P = P(F) (eq. 19); each pair's v B_p^T P (eq. 18) goes to
+// local[6 (p - pair_base) + k] (shared memory on the device). Stores F [S][9] (frame preparation)
+// and the material cache [S][10] (tangent passes). Returns v psi(F).
 template <class R>
-FASCIA_HD double paper_gradient_sample(const ModelView<R>& m, const FrameView<R>& f, int s, R* F_out, R* cache_out,
-                                       R* a_out, R* partials) {
+FASCIA_HD double fused_sample(const ModelView<R>& m, const FrameView<R>& f, int s, int pair_base, R* local, R* F_out,
+                              R* cache_out) {
+  const Vec3 ps = ld3(m.sample_rest + 3 * s);
+  const int begin = m.offsets[s], end = m.offsets[s + 1];
   Mat3 F = zero3();
-  for (int p = m.offsets[s]; p < m.offsets[s + 1]; ++p) {
+  for (int p = begin; p < end; ++p) {
     const int i = m.frame_of[p];
     const Mat3 Ri = ldm(f.rotations + 9 * i);
-    const Vec3 a = Ri * ld3(m.rest_offsets + 3 * p);
-    st3(a_out + 3 * p, a);
+    const Vec3 a = Ri * (ps - ld3(m.frame_rest + 3 * i));
     F += outer(ld3(f.positions + 3 * i) + a, ld3(m.gradients + 3 * p)) + static_cast<double>(m.weights[p]) * Ri;
   }
   const Material mat = m.materials[m.sample_materials[s]];
@@ -185,144 +165,16 @@ FASCIA_HD double paper_gradient_sample(const ModelView<R>& m, const FrameView<R>
   stm(F_out + 9 * s, F);
   stm(cache_out + 10 * s, cache.a);
   cache_out[10 * s + 9] = static_cast<R>(cache.c);
-  for (int p = m.offsets[s]; p < m.offsets[s + 1]; ++p) {
-    const int i = m.frame_of[p];
-    double out[6];
-    pair_virtual_work(P, ld3(a_out + 3 * p), ld3(m.gradients + 3 * p), static_cast<double>(m.weights[p]),
-                      ldm(f.rotations + 9 * i), v, out);
-    for (int k = 0; k < 6; ++k) partials[6 * p + k] = static_cast<R>(out[k]);
-  }
-  return v * energy_density(mat, F);
-}
-
-// Kernel 1 of the tangent product: dF = sum_p B_p d_i (eq. 11), dP = C[dF] (eq. 22-24), one
-// partial B_p^T dP v per pair (eq. 21, 23 with the dF S part of eq. 25-26).
-template <class R>
-FASCIA_HD void paper_tangent_sample(const ModelView<R>& m, const FrameView<R>& f, const R* F, const R* cache,
-                                    const R* a_in, const R* d, int s, R* partials) {
-  Mat3 dF = zero3();
-  for (int p = m.offsets[s]; p < m.offsets[s + 1]; ++p) {
-    const int i = m.frame_of[p];
-    dF += pair_deformation_differential(ld3(d + 6 * i), ld3(d + 6 * i + 3), ld3(a_in + 3 * p),
-                                        ld3(m.gradients + 3 * p), static_cast<double>(m.weights[p]),
-                                        ldm(f.rotations + 9 * i));
-  }
-  const Material mat = m.materials[m.sample_materials[s]];
-  MaterialCache c;
-  c.a = ldm(cache + 10 * s);
-  c.c = static_cast<double>(cache[10 * s + 9]);
-  const Mat3 dP = pk1_differential(mat, ldm(F + 9 * s), c, dF);
-  const double v = static_cast<double>(m.volumes[s]);
-  for (int p = m.offsets[s]; p < m.offsets[s + 1]; ++p) {
-    const int i = m.frame_of[p];
-    double out[6];
-    pair_virtual_work(dP, ld3(a_in + 3 * p), ld3(m.gradients + 3 * p), static_cast<double>(m.weights[p]),
-                      ldm(f.rotations + 9 * i), v, out);
-    for (int k = 0; k < 6; ++k) partials[6 * p + k] = static_cast<R>(out[k]);
-  }
-}
-
-// Kernel 2: component k of frame i's sum over its pairs, in reverse-table order.
-template <class R>
-FASCIA_HD double paper_gather(const ModelView<R>& m, const R* partials, int i, int k) {
-  double acc = 0;
-  for (int q = m.rev_offsets[i]; q < m.rev_offsets[i + 1]; ++q)
-    acc += static_cast<double>(partials[6 * m.rev_pairs[q] + k]);
-  return acc;
-}
-
-// ---- fused design ------------------------------------------------------------------------------
-
-enum class Pass { gradient = 0, tangent = 1 };
-
-// One sample of the fused pass. F is rebuilt from the frames (eq. 8, l = p_s - x_i, eq. 2 with
-// rest orientation I); in the gradient pass T = P (and F is stored for the frame preparation), in
-// the tangent pass T = dP[dF]. Each pair's v B_p^T T goes to local[6 (p - pair_base) + k]
-// (shared memory on the device). Returns v psi(F) in the gradient pass, 0 otherwise.
-// With `p_old` set (persistent PCG), the direction is formed on the fly: d_i = z_i + beta p_old_i
-// with d = z (next_direction), so the direction update needs no pass of its own.
-// `cache_out` [S][10] (gradient pass, nullable) receives the material cache for the tangent passes.
-template <Pass pass, class R>
-FASCIA_HD double fused_sample(const ModelView<R>& m, const FrameView<R>& f, const R* d, int s, int pair_base,
-                              R* local, R* F_out, const R* p_old = nullptr, double beta = 0,
-                              R* cache_out = nullptr) {
-  const Vec3 ps = ld3(m.sample_rest + 3 * s);
-  const int begin = m.offsets[s], end = m.offsets[s + 1];
-  Mat3 F = zero3();
-  Mat3 dF = zero3();
-  for (int p = begin; p < end; ++p) {
-    const int i = m.frame_of[p];
-    const Mat3 Ri = ldm(f.rotations + 9 * i);
-    const Vec3 a = Ri * (ps - ld3(m.frame_rest + 3 * i));
-    const Vec3 g = ld3(m.gradients + 3 * p);
-    const double w = static_cast<double>(m.weights[p]);
-    F += outer(ld3(f.positions + 3 * i) + a, g) + w * Ri;
-    if (pass == Pass::tangent) {
-      if (p_old) {
-        R di[6];
-        for (int k = 0; k < 6; ++k) di[k] = next_direction(d, p_old, beta, 6 * i + k);
-        dF += pair_deformation_differential(ld3(di), ld3(di + 3), a, g, w, Ri);
-      } else {
-        dF += pair_deformation_differential(ld3(d + 6 * i), ld3(d + 6 * i + 3), a, g, w, Ri);
-      }
-    }
-  }
-  const Material mat = m.materials[m.sample_materials[s]];
-  const double v = static_cast<double>(m.volumes[s]);
-  MaterialCache cache;
-  Mat3 T = first_piola(mat, F, cache);
-  double energy = 0;
-  if (pass == Pass::gradient) {
-    energy = v * energy_density(mat, F);
-    if (F_out) stm(F_out + 9 * s, F);
-    if (cache_out) {
-      stm(cache_out + 10 * s, cache.a);
-      cache_out[10 * s + 9] = static_cast<R>(cache.c);
-    }
-  } else {
-    T = pk1_differential(mat, F, cache, dF);
-  }
   for (int p = begin; p < end; ++p) {
     const int i = m.frame_of[p];
     const Mat3 Ri = ldm(f.rotations + 9 * i);
     const Vec3 a = Ri * (ps - ld3(m.frame_rest + 3 * i));
     double out[6];
-    pair_virtual_work(T, a, ld3(m.gradients + 3 * p), static_cast<double>(m.weights[p]), Ri, v, out);
+    pair_virtual_work(P, a, ld3(m.gradients + 3 * p), static_cast<double>(m.weights[p]), Ri, v, out);
     R* dst = local + 6 * (p - pair_base);
     for (int k = 0; k < 6; ++k) dst[k] = static_cast<R>(out[k]);
   }
-  return energy;
-}
-
-// One pair of the lane-parallel tangent pass (elasticity_kernels.cuh, lanes_tangent_block): the
-// pair's frame data and a = R_i (p_s - x_i), and its share of dF for the direction d_i (formed as
-// z + beta p_old when p_old is set, as fused_sample).
-struct LanePair {
-  Mat3 R;
-  Vec3 a, g;
-  double w;
-  int i;
-};
-
-template <class R>
-FASCIA_HD LanePair lane_pair(const ModelView<R>& m, const FrameView<R>& f, const Vec3& ps, int p) {
-  LanePair q;
-  q.i = m.frame_of[p];
-  q.R = ldm(f.rotations + 9 * q.i);
-  q.a = q.R * (ps - ld3(m.frame_rest + 3 * q.i));
-  q.g = ld3(m.gradients + 3 * p);
-  q.w = static_cast<double>(m.weights[p]);
-  return q;
-}
-
-template <class R>
-FASCIA_HD Mat3 lane_pair_dF(const LanePair& q, const R* d, const R* p_old, double beta) {
-  if (p_old) {
-    R di[6];
-    for (int k = 0; k < 6; ++k) di[k] = next_direction(d, p_old, beta, 6 * q.i + k);
-    return pair_deformation_differential(ld3(di), ld3(di + 3), q.a, q.g, q.w, q.R);
-  }
-  return pair_deformation_differential(ld3(d + 6 * q.i), ld3(d + 6 * q.i + 3), q.a, q.g, q.w, q.R);
+  return v * energy_density(mat, F);
 }
 
 // Sum of the pairs of block slot q (one frame of one block), in increasing pair order.
@@ -346,87 +198,7 @@ FASCIA_HD void fused_gather(const ModelView<R>& m, const R* partials, int i, dou
   }
 }
 
-// ---- staged tangent pass (fused design) ---------------------------------------------------------
-// The tangent product of one block of samples from data staged in shared memory
-// (elasticity_kernels.cuh, staged_tangent_block): per block slot j, kSlotStride values
-// [R_i row-major (9), x_i - origin (3), d_i (6)]; per block sample t, kSampleStride values
-// [p_s - origin (3), F (9), material cache (10)]; the pairs' w and g from the ELL table (global,
-// coalesced); the pairs' 6-vectors written [6][E_b] in ELL order. Same arithmetic as fused_sample.
-// Both strides are odd, so threads reading consecutive slots or samples hit distinct banks.
-constexpr int kSlotStride = 19;
-constexpr int kSampleStride = 23;
-
-template <class R>
-FASCIA_HD Vec3 ell_gradient(const ModelView<R>& m, int e) {
-  const int E = m.ell_entries;
-  return Vec3{static_cast<double>(m.ell_data[E + e]), static_cast<double>(m.ell_data[2 * E + e]),
-              static_cast<double>(m.ell_data[3 * E + e])};
-}
-
-// dP = C[dF] (eq. 22-24) of sample s, local index t of a block of ns samples whose ELL entries
-// start at e0, with dF = sum_p B_p d_i (eq. 11) over its pairs in neighbour order.
-template <class R>
-FASCIA_HD Mat3 staged_sample_dP(const ModelView<R>& m, int s, int t, int ns, int e0, const R* slots,
-                                const R* sample) {
-  const int count = m.offsets[s + 1] - m.offsets[s];
-  const Vec3 ps = ld3(sample);
-  Mat3 dF = zero3();
-  for (int j = 0; j < count; ++j) {
-    const int e = e0 + j * ns + t;
-    const R* sl = slots + kSlotStride * m.ell_slot[e];
-    const Mat3 Ri = ldm(sl);
-    const Vec3 a = Ri * (ps - ld3(sl + 9));
-    dF += pair_deformation_differential(ld3(sl + 12), ld3(sl + 15), a, ell_gradient(m, e),
-                                        static_cast<double>(m.ell_data[e]), Ri);
-  }
-  const Material mat = m.materials[m.sample_materials[s]];
-  MaterialCache c;
-  c.a = ldm(sample + 12);
-  c.c = static_cast<double>(sample[21]);
-  return pk1_differential(mat, ldm(sample + 3), c, dF);
-}
-
-// Each pair's v B_p^T dP (eq. 21, 23, 25-26) of sample s into outs[k E + e - e0] (E entries in
-// the block), ps = p_s - origin.
-template <class R>
-FASCIA_HD void staged_sample_outputs(const ModelView<R>& m, int s, int t, int ns, int e0, int E, const R* slots,
-                                     const Vec3& ps, const Mat3& dP, R* outs) {
-  const int count = m.offsets[s + 1] - m.offsets[s];
-  const double v = static_cast<double>(m.volumes[s]);
-  for (int j = 0; j < count; ++j) {
-    const int e = e0 + j * ns + t;
-    const R* sl = slots + kSlotStride * m.ell_slot[e];
-    const Mat3 Ri = ldm(sl);
-    const Vec3 a = Ri * (ps - ld3(sl + 9));
-    double out[6];
-    pair_virtual_work(dP, a, ell_gradient(m, e), static_cast<double>(m.ell_data[e]), Ri, v, out);
-    for (int k = 0; k < 6; ++k) outs[k * E + (e - e0)] = static_cast<R>(out[k]);
-  }
-}
-
-// Sum of the pairs of block slot q from the staged outputs [6][E], in increasing pair order.
-template <class R>
-FASCIA_HD void staged_slot_sum(const ModelView<R>& m, const R* outs, int E, int q, R* partials) {
-  double acc[6] = {0, 0, 0, 0, 0, 0};
-  for (int k = m.slot_pair_offsets[q]; k < m.slot_pair_offsets[q + 1]; ++k) {
-    const int e = m.slot_ell[k];
-    for (int j = 0; j < 6; ++j) acc[j] += static_cast<double>(outs[j * E + e]);
-  }
-  for (int j = 0; j < 6; ++j) partials[6 * q + j] = static_cast<R>(acc[j]);
-}
-
-// ---- record tangent pass (fused design, default) ----------------------------------------------
-// The tangent product's sample pass without per-sample state in memory: F is rebuilt from the
-// frames in the same loop that forms dF (eq. 2 and its differential share R_i, a and g), the
-// material cache from F (first_piola), so a sample reads only its record [p_s, v], its pairs'
-// records [g, w] and their frames' records [R_i, x_i, x̄_i] plus the direction — each a packed,
-// 16-byte-aligned record read with vector loads (load_aligned). A pair's lever M = a g^T + w R
-// (pair_lever) is kept in registers between the dF and output halves, so no frame is read twice.
-// Pair outputs go to shared memory component-major, [6][pairs of the block], summed per slot by
-// record_slot_sum in fused_slot_sum's order.
-constexpr int kFrameRecord = 16;   // [R_i row-major (9), x_i - origin (3) m, x̄_i - origin (3) m, 0]
-constexpr int kPairRecord = 4;     // [g (3) 1/m, w]
-constexpr int kSampleRecord = 4;   // [p_s - origin (3) m, v m^3]
+// ---- vector loads ------------------------------------------------------------------------------
 
 // n values (a multiple of 4 floats or 2 doubles) from a 16-byte-aligned address into registers
 // of type D (double, or the storage type): 16-byte loads through the read-only cache on the
@@ -483,81 +255,7 @@ FASCIA_HD void load_six(const float* src, int i, D* dst) {
 #endif
 }
 
-// Frame i's record from its kinematics (k_kinematics): R row-major, x - origin, x̄ - origin.
-template <class R>
-FASCIA_HD void write_frame_record(const double* x, const double* rot, const R* frame_rest, int i, R* records) {
-  R* rec = records + kFrameRecord * i;
-  for (int k = 0; k < 9; ++k) rec[k] = static_cast<R>(rot[k]);
-  for (int k = 0; k < 3; ++k) rec[9 + k] = static_cast<R>(x[k]);
-  for (int k = 0; k < 3; ++k) rec[12 + k] = frame_rest[3 * i + k];
-  rec[15] = R(0);
-}
-
-// One pair of the record pass as kept between its two halves.
-struct RecordPair {
-  Mat3 M;  // lever a g^T + w R_i (pair_lever)
-  Vec3 g;  // 1/m
-  int i;   // frame
-};
-
-// Pair p of the sample at ps (p_s - origin): adds its terms of F (eq. 2) and of dF (eq. 11) for the
-// direction d (d_i = z_i + beta p_old_i, rounded as next_direction, when p_old is set) and
-// returns its lever.
-template <class R>
-FASCIA_HD RecordPair record_pair(const ModelView<R>& m, const R* frame_records, const Vec3& ps, int p, const R* d,
-                                 const R* p_old, double beta, Mat3& F, Mat3& dF) {
-  RecordPair q;
-  q.i = m.frame_of[p];
-  double fr[kFrameRecord], pr[kPairRecord], di[6];
-  load_aligned<kFrameRecord>(frame_records + kFrameRecord * q.i, fr);
-  load_aligned<kPairRecord>(m.pair_records + kPairRecord * p, pr);
-  load_six(d, q.i, di);
-  if (p_old) {
-    double po[6];
-    load_six(p_old, q.i, po);
-    for (int k = 0; k < 6; ++k)
-      di[k] = static_cast<double>(direction_value(static_cast<R>(di[k]), static_cast<R>(po[k]), beta));
-  }
-  Mat3 Ri;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) Ri.m[r][c] = fr[3 * r + c];
-  const Vec3 a = Ri * (ps - Vec3{fr[12], fr[13], fr[14]});
-  q.g = Vec3{pr[0], pr[1], pr[2]};
-  F += outer(Vec3{fr[9], fr[10], fr[11]} + a, q.g) + pr[3] * Ri;
-  dF += pair_deformation_differential(Vec3{di[0], di[1], di[2]}, Vec3{di[3], di[4], di[5]}, a, q.g, pr[3], Ri);
-  q.M = pair_lever(a, q.g, pr[3], Ri);
-  return q;
-}
-
-// dP = C[dF] (eq. 22-24) of sample s at F, the material cache rebuilt from F.
-template <class R>
-FASCIA_HD Mat3 record_sample_dP(const ModelView<R>& m, int s, const Mat3& F, const Mat3& dF) {
-  const Material mat = m.materials[m.sample_materials[s]];
-  MaterialCache cache;
-  first_piola(mat, F, cache);
-  return pk1_differential(mat, F, cache, dF);
-}
-
-// The pair's v B_p^T dP (eq. 21, 23, 25-26) into outs[k * stride + j], j its index in the block.
-template <class R>
-FASCIA_HD void record_pair_output(const RecordPair& q, const Mat3& dP, double v, int j, int stride, R* outs) {
-  double out[6];
-  pair_lever_virtual_work(dP, q.g, q.M, out);
-  for (int k = 0; k < 6; ++k) outs[k * stride + j] = static_cast<R>(v * out[k]);
-}
-
-// Sum of the pairs of block slot q from outputs [6][stride], in increasing pair order.
-template <class R>
-FASCIA_HD void record_slot_sum(const ModelView<R>& m, const R* outs, int stride, int q, R* partials) {
-  double acc[6] = {0, 0, 0, 0, 0, 0};
-  for (int k = m.slot_pair_offsets[q]; k < m.slot_pair_offsets[q + 1]; ++k) {
-    const int j = m.slot_pairs[k];
-    for (int c = 0; c < 6; ++c) acc[c] += static_cast<double>(outs[c * stride + j]);
-  }
-  for (int c = 0; c < 6; ++c) partials[6 * q + c] = static_cast<R>(acc[c]);
-}
-
-// ---- coalesced tangent pass (fused design) -----------------------------------------------------
+// ---- coalesced tangent pass ---------------------------------------------------------------------
 // The tangent product's sample pass with every per-sample and per-pair load coalesced and all
 // arithmetic in the storage precision R (float in single precision: twice the FP32 rate of FP64
 // and half the bytes):
@@ -622,69 +320,12 @@ struct EllEntry {
   Vec3T<R> g;
 };
 
-// ELL entry e whose frame (m.ell_frame[e]) was read before.
-template <class R>
-FASCIA_HD EllEntry<R> ell_entry_with_frame(const ModelView<R>& m, int e, int frame) {
-  const size_t E = static_cast<size_t>(m.ell_entries);
-  return EllEntry<R>{frame, static_cast<int>(m.ell_pos[e]), m.ell_data[e],
-                     Vec3T<R>{m.ell_data[E + e], m.ell_data[2 * E + e], m.ell_data[3 * E + e]}};
-}
-
+// ELL entry e.
 template <class R>
 FASCIA_HD EllEntry<R> ell_entry(const ModelView<R>& m, int e) {
-  return ell_entry_with_frame(m, e, m.ell_frame[e]);
-}
-
-// The mapped coalesced pass (ModelView::shape_class set): sample s's map A_s and its class's
-// first reference pair, read once per sample; its pairs' w and g = A_s r_a (shape_classes.hpp)
-// then come from the class table (a few kilobytes, cache-resident) instead of ell_data, and their
-// frames and positions from 2 bytes per pair and the block's slot table: `slot_frames` and
-// `slot_starts` (the slot's first slot-major position in the block), indexed by block-local slot
-// (in shared memory on the device, mapped_slot_table).
-constexpr int kMappedSlots = 256;  // slots per block at most (1-byte slot index)
-
-template <class R>
-struct ShapeMap {
-  Mat3T<R> A = zero3<R>();
-  int first = 0;
-  const int* slot_frames = nullptr;
-  const int* slot_starts = nullptr;
-};
-
-template <class R>
-FASCIA_HD ShapeMap<R> shape_map(const ModelView<R>& m, int s, const int* slot_frames, const int* slot_starts) {
-  ShapeMap<R> map;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) map.A.m[r][c] = sample_value(m.shape_maps, m.samples, 3 * r + c, s);
-  map.first = m.class_offsets[m.shape_class[s]];
-  map.slot_frames = slot_frames;
-  map.slot_starts = slot_starts;
-  return map;
-}
-
-// Entry k (block-local slot q0 + k) of block b's slot table: its frame and its first slot-major
-// position.
-template <class R>
-FASCIA_HD void mapped_slot_table(const ModelView<R>& m, int b, int k, int* frame, int* start) {
-  const int q0 = m.block_slots[b];
-  *frame = m.slot_frames[q0 + k];
-  *start = m.slot_pair_offsets[q0 + k] - m.slot_pair_offsets[q0];
-}
-
-// ELL entry e, pair j of its sample, with w and g = A_s r_j from the sample's class.
-template <class R>
-FASCIA_HD EllEntry<R> ell_entry_mapped(const ModelView<R>& m, int e, const ShapeMap<R>& map, int j) {
-  R ref[4];
-  load_aligned<4>(m.class_pairs + 4 * static_cast<size_t>(map.first + j), ref);
-  const int packed = m.ell_slot_rank[e], q = packed & 0xff;
-  return EllEntry<R>{map.slot_frames[q], map.slot_starts[q] + (packed >> 8), ref[0],
-                     map.A * Vec3T<R>{ref[1], ref[2], ref[3]}};
-}
-
-// ELL entry e, pair j of its sample: from the class table when `map` is set, else from ell_data.
-template <class R>
-FASCIA_HD EllEntry<R> ell_entry_at(const ModelView<R>& m, int e, const ShapeMap<R>* map, int j) {
-  return map ? ell_entry_mapped(m, e, *map, j) : ell_entry(m, e);
+  const size_t E = static_cast<size_t>(m.ell_entries);
+  return EllEntry<R>{m.ell_frame[e], static_cast<int>(m.ell_pos[e]), m.ell_data[e],
+                     Vec3T<R>{m.ell_data[E + e], m.ell_data[2 * E + e], m.ell_data[3 * E + e]}};
 }
 
 // One pair of the coalesced pass: its frame, gradient and lever.
@@ -718,13 +359,6 @@ FASCIA_HD EllPair<R> ell_pair_of(const EllEntry<R>& en, const R* levers, const V
   return ell_pair_from_record(en, rec, ps);
 }
 
-// The pair at ELL entry e (pair j of its sample; `map` as ell_entry_at).
-template <class R>
-FASCIA_HD EllPair<R> ell_pair(const ModelView<R>& m, const R* levers, const Vec3T<R>& ps, int e,
-                              const ShapeMap<R>* map = nullptr, int j = 0) {
-  return ell_pair_of(ell_entry_at(m, e, map, j), levers, ps);
-}
-
 // Adds the pair's dF_p = dx g^T + [dr]x M (eq. 11) for the direction d_i, formed as
 // z_i + beta p_old_i with next_direction's rounding when p_old is set.
 template <class R>
@@ -739,32 +373,9 @@ FASCIA_HD void ell_pair_dF(const EllPair<R>& q, const R* d, const R* p_old, doub
   dF += pair_lever_differential(Vec3T<R>{di[0], di[1], di[2]}, Vec3T<R>{di[3], di[4], di[5]}, q.g, q.M);
 }
 
-// ---- slot frames (coalesced pass, DeviceOptions::slot_frames) ----------------------------------
-// Each block stages its slots' frames once in shared memory, [R_i (9), x̄_i - origin (3), p_i (6),
-// 2 unused] per slot (p_i the direction, formed as z_i + beta p_old_i with next_direction's
-// rounding), and its pairs read them there by block-local slot (ell_slot) instead of gathering
-// 18 values per pair from global memory: a block of 128 hexahedron samples has 1024 pairs on about
-// 50 frames. The values, and so the results, are the same bits as the gathered ones.
-constexpr int kSlotFrameRecord = 20;  // a multiple of 16 bytes in float and in double
-constexpr int kSlotFrameValues = kLeverRecord + 6;
-
-// The first element of the slot records in a block's shared memory after its pair outputs
-// [6][pairs], rounded up to 16 bytes.
+// The first element of the records a kernel stages in a block's shared memory after its pair
+// outputs [6][pairs], rounded up to 16 bytes.
 FASCIA_HD int slot_records_offset(int pairs) { return (6 * pairs + 3) / 4 * 4; }
-
-// Value k of slot j's record of block b (idx = kSlotFrameValues j + k; one thread per value).
-template <class R>
-FASCIA_HD void stage_slot_frame_value(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
-                                      double beta, int b, int idx, R* records) {
-  const int j = idx / kSlotFrameValues, k = idx - kSlotFrameValues * j;
-  const size_t i = static_cast<size_t>(m.slot_frames[m.block_slots[b] + j]);
-  R v;
-  if (k < kLeverRecord)
-    v = f.levers[kLeverRecord * i + k];
-  else
-    v = p_old ? next_direction(d, p_old, beta, static_cast<int>(6 * i) + k - kLeverRecord) : d[6 * i + k - kLeverRecord];
-  records[kSlotFrameRecord * j + k] = v;
-}
 
 // n values of a 16-byte-aligned record in shared memory (plain vector loads: __ldg is for global
 // memory only): 16-byte vectors where n fills them, else 2-value ones.
@@ -784,30 +395,6 @@ FASCIA_HD void load_shared(const R* src, R* dst) {
 #else
   for (int k = 0; k < n; ++k) dst[k] = src[k];
 #endif
-}
-
-// ELL entry e with its block-local slot in place of the frame (EllEntry::i).
-template <class R>
-FASCIA_HD EllEntry<R> ell_entry_slot(const ModelView<R>& m, int e) {
-  const size_t E = static_cast<size_t>(m.ell_entries);
-  return EllEntry<R>{static_cast<int>(m.ell_slot[e]), static_cast<int>(m.ell_pos[e]), m.ell_data[e],
-                     Vec3T<R>{m.ell_data[E + e], m.ell_data[2 * E + e], m.ell_data[3 * E + e]}};
-}
-
-// The pair of an ELL entry of ell_entry_slot, from its slot's staged record.
-template <class R>
-FASCIA_HD EllPair<R> ell_pair_in_slot(const EllEntry<R>& en, const R* records, const Vec3T<R>& ps) {
-  R rec[kLeverRecord];
-  load_shared<kLeverRecord>(records + kSlotFrameRecord * en.i, rec);
-  return ell_pair_from_record(en, rec, ps);
-}
-
-// ell_pair_dF with the direction from the pair's slot record.
-template <class R>
-FASCIA_HD void ell_pair_dF_in_slot(const EllPair<R>& q, const R* records, Mat3T<R>& dF) {
-  R di[6];
-  load_shared<6>(records + kSlotFrameRecord * q.i + kLeverRecord, di);
-  dF += pair_lever_differential(Vec3T<R>{di[0], di[1], di[2]}, Vec3T<R>{di[3], di[4], di[5]}, q.g, q.M);
 }
 
 // F and the material cache of sample s, of material mat, from its stored H = F - I: StVK rebuilds
@@ -855,26 +442,21 @@ FASCIA_HD void ell_pair_output(const EllPair<R>& q, const Mat3T<R>& dP, R v, int
   for (int k = 0; k < 6; ++k) outs[k * stride + pos] = v * out[k];
 }
 
-// The coalesced pass of one sample with one lane (host emulation and the reference for the
-// lane-parallel block in elasticity_kernels.cuh): dF from every pair, dP, outputs [6][stride].
-// With the block's slot table (mapped_slot_table) given, the pass is mapped: the pairs' w and g
-// come from the sample's shape class (m.shape_class set), frames and positions from ell_slot_rank.
+// The coalesced pass of one sample (host emulation of ell_tangent_block in
+// elasticity_kernels.cuh): dF from every pair, dP, outputs [6][stride].
 template <class R>
 FASCIA_HD void ell_sample(const ModelView<R>& m, const FrameView<R>& f, const R* d, int s, int t, int ns, int e0,
-                          int stride, R* outs, const int* slot_frames = nullptr, const int* slot_starts = nullptr) {
+                          int stride, R* outs) {
   const int count = m.offsets[s + 1] - m.offsets[s];
   const Vec3T<R> ps{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
                     sample_value(f.sample_state, m.samples, 2, s)};
-  ShapeMap<R> held;
-  if (slot_frames) held = shape_map(m, s, slot_frames, slot_starts);
-  const ShapeMap<R>* map = slot_frames ? &held : nullptr;
   Mat3T<R> dF = zero3<R>();
   for (int j = 0; j < count; ++j)
-    ell_pair_dF(ell_pair(m, f.levers, ps, e0 + j * ns + t, map, j), d, static_cast<const R*>(nullptr), 0.0, dF);
+    ell_pair_dF(ell_pair_of(ell_entry(m, e0 + j * ns + t), f.levers, ps), d, static_cast<const R*>(nullptr), 0.0, dF);
   const Mat3T<R> dP = ell_sample_dP(m, f.sample_state, s, dF);
   const R v = sample_value(f.sample_state, m.samples, 3, s);
   for (int j = 0; j < count; ++j) {
-    const EllEntry<R> en = ell_entry_at(m, e0 + j * ns + t, map, j);
+    const EllEntry<R> en = ell_entry(m, e0 + j * ns + t);
     ell_pair_output(ell_pair_of(en, f.levers, ps), dP, v, en.pos, stride, outs);
   }
 }
@@ -914,7 +496,7 @@ FASCIA_HD UpdatedRow<R> update_row(R x, R r, double alpha, double p, double ap) 
 
 // Frame i's preconditioner block M_i^-1 (symmetric) is stored packed: its lower triangle row by
 // row, 21 values per frame ([N][kMinvValues]); entry (a, b) at kMinvValues i + minv_index(a, b).
-// Against the full 36 values, 33 MB less read per CG iteration at 4.18 M samples in single.
+// Against the full 36 values, 15 values fewer read per frame and CG iteration.
 constexpr int kMinvValues = 21;
 FASCIA_HD int minv_index(int a, int b) {
   const int hi = a > b ? a : b, lo = a > b ? b : a;
@@ -1100,19 +682,18 @@ FASCIA_HD void unpack_prepare_sums(const double* sums, double* K, Mat3& Kr) {
 // Frame i's 6x6 diagonal block K_ii (material + geometric, the sample terms) and its rotational
 // geometric block Kr (frame_sample.hpp), summed over the frame's reverse pairs rev_offsets[i] +
 // part, + part + parts, ... in order, from F [S][9] of the gradient pass: every column from one
-// gather and one first Piola stress per pair. `fused` selects a = R (p_s - x_i) (fused design) or
-// a = R l from the table (paper design). `add(k, value)` receives each pair's terms in pair order,
+// gather and one first Piola stress per pair, a = R_i (p_s - x_i). `add(k, value)` receives each pair's terms in pair order,
 // k < 36 for K_ii[k] (row-major: column c of row r at 6 r + c, the column of the unit displacement
 // (c < 3) or rotation (c >= 3) along axis c % 3), 36 + 3 r + c for Kr[r][c]; without `with_K`
 // (plain CG without the diagonal blocks) only Kr's.
 template <class R, class Add>
-FASCIA_HD void frame_prepare_pairs(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, int i,
-                                   int part, int parts, bool with_K, Add&& add) {
+FASCIA_HD void frame_prepare_pairs(const ModelView<R>& m, const FrameView<R>& f, const R* F, int i, int part,
+                                   int parts, bool with_K, Add&& add) {
   const Mat3 Ri = ldm(f.rotations + 9 * i);
   for (int q = m.rev_offsets[i] + part; q < m.rev_offsets[i + 1]; q += parts) {
     const int p = m.rev_pairs[q];
     const int s = m.pair_samples[p];
-    const Vec3 l = fused ? ld3(m.sample_rest + 3 * s) - ld3(m.frame_rest + 3 * i) : ld3(m.rest_offsets + 3 * p);
+    const Vec3 l = ld3(m.sample_rest + 3 * s) - ld3(m.frame_rest + 3 * i);
     const Vec3 a = Ri * l;
     const Vec3 g = ld3(m.gradients + 3 * p);
     const double w = static_cast<double>(m.weights[p]);
@@ -1201,11 +782,11 @@ FASCIA_HD void frame_prepare_finish(const ModelView<R>& m, const FrameView<R>& f
 // frame_prepare_finish); the device spreads the pairs over threads (elasticity_kernels.cuh,
 // k_frame_columns and k_frame_finish).
 template <class R>
-FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const R* F, bool fused, double inv_h2, int i,
+FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const R* F, double inv_h2, int i,
                              R* geo_out, R* inertia_out, R* minv_out, double* diag_out, double k_scale = 1.0,
                              const double* load_rot = nullptr, bool precondition = true) {
   double sums[kPrepareSums] = {};
-  frame_prepare_pairs(m, f, F, fused, i, 0, 1, true, [&](int k, double value) { sums[k] += value; });
+  frame_prepare_pairs(m, f, F, i, 0, 1, true, [&](int k, double value) { sums[k] += value; });
   double K[36];
   Mat3 Kr;
   unpack_prepare_sums(sums, K, Kr);

@@ -92,9 +92,8 @@ __device__ void group_slot_sums(const ModelView<R>& m, const R* outs, int stride
 // dP and pair outputs; the outputs of each frame summed across the group's threads by a
 // reduce-scatter (exchanges at distance 4, 2, 1: group_lane_sum's order), in two halves of 4
 // frames (24 values live); each (group, frame) entry's sum into shared memory at its slot-major
-// position, then `slot_lanes` lanes per slot sum the block's slots (group_slot_sums). Mapped: w and
-// g from the group's class and map (group_classes.hpp) instead of group_data.
-template <class R, bool Mapped>
+// position, then `slot_lanes` lanes per slot sum the block's slots (group_slot_sums).
+template <class R>
 __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
     k_group_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
                     int slot_lanes) {
@@ -126,9 +125,8 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
   const double beta = p_old ? sc->beta : 0.0;
   // Double tests the scalars' flag together with the loads above, so that its latency overlaps
   // theirs: its exit also reads `token`, never INT_MIN, which keeps those loads before it (a
-  // finished PCG then reads them for nothing, a few bytes per thread). Float tests the flag
-  // first. Measured at 4.18 M x 8 on an H100 (docs/benchmarks.md, thirteenth round): double
-  // 1.094 -> 1.085-1.088 ms per CG iteration; single 0.538 -> 0.545 with the same exit.
+  // finished PCG then reads them for nothing, a few bytes per thread). Float, with more blocks
+  // per multiprocessor to hide the wait, tests the flag first.
   bool done = finished(sc);
   if constexpr (sizeof(R) == sizeof(double)) {
     const int token = frame | s0 | s1;
@@ -161,26 +159,10 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
   Vec3T<R> ps{0, 0, 0};
   R w[kGroupLanes];
   Vec3T<R> gr[kGroupLanes];
-  // Mapped: the group's map A_g and its class's table (group_class_entry).
-  Mat3T<R> A = zero3<R>();
-  const R* class_pairs = nullptr;
-  if constexpr (Mapped) {
-    if (group_active) {
-      const size_t G = static_cast<size_t>(m.group_count);
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) A.m[r][c] = m.group_maps[(3 * r + c) * G + g];
-      class_pairs = m.group_class_pairs + 4 * kGroupLanes * kGroupLanes * static_cast<size_t>(m.group_class[g]);
-    }
-  }
-  const auto load_entry = [&](int k, R& wk, Vec3T<R>& gk) {
-    if constexpr (Mapped)
-      group_class_entry(class_pairs, A, lane, k, wk, gk);
-    else
-      group_data_entry(m, b, k, t, wk, gk);
-  };
+  const auto load_entry = [&](int k, R& wk, Vec3T<R>& gk) { group_data_entry(m, b, k, t, wk, gk); };
   // Double reads the samples' state evict-first (sample_value<true>: each value is read once per
-  // pass). Measured at 4.18 M x 8 on an H100 (docs/benchmarks.md, fourteenth round): double 1.084
-  // -> 1.075 ms per CG iteration; single 0.537 -> 0.539, so it keeps the default loads.
+  // pass), which leaves the caches to the frame records and w and g; single keeps the default
+  // loads, with which it is the faster.
   constexpr bool kStateOnce = sizeof(R) == sizeof(double);
   Mat3T<R> F = zero3<R>();
   MaterialCacheT<R> cache{};

@@ -67,8 +67,7 @@ std::vector<int> group_sample_order(const Model& model, const std::vector<int>& 
   std::vector<int> cursor(offsets.begin(), offsets.end() - 1);
   for (int s : order) members[cursor[group[s]]++] = s;
   // Within a group, samples by their weights in frame order (then in `order`'s): the samples at
-  // one quadrature point of like elements take the same thread in every group, so that like
-  // groups have like tables of w and g (group_classes.hpp).
+  // one quadrature point of like elements take the same thread in every group.
   const auto weights = [&](int s) {
     std::array<double, kGroupLanes> w;
     w.fill(0.0);

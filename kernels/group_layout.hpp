@@ -50,7 +50,7 @@ struct GroupLayout {
   // entries (g, k) (group g, its k-th frame) in place of pairs: slots.block_samples holds the
   // blocks' first groups, slots.slot_pairs the block-local entries in CSR order (a group's entries
   // follow the previous groups' in the block), and slots.frame_slot_offsets / frame_slots the
-  // frames' slots, as k_frame_rows reads them.
+  // frames' slots, as k_frame_sums reads them.
   BlockLayout slots;
   // [Q] the slots in frame-major order: slot q's partials are stored at slot_store[q], so that
   // frame i's are at [slots.frame_slot_offsets[i], [i + 1]), in slots.frame_slots' order.

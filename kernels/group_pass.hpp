@@ -86,16 +86,6 @@ FASCIA_HD R group_lane_sum(const R* o) {
   return ((o[0] + o[4]) + (o[2] + o[6])) + ((o[1] + o[5]) + (o[3] + o[7]));
 }
 
-// w and g of thread `lane`'s pair with frame k of a mapped group: w = w_c(lane, k), g = A r_c(lane, k)
-// (group_classes.hpp), from its class's table `pairs` (class_pairs of the class).
-template <class R>
-FASCIA_HD void group_class_entry(const R* pairs, const Mat3T<R>& A, int lane, int k, R& w, Vec3T<R>& g) {
-  R ref[4];
-  load_aligned<4>(pairs + 4 * (kGroupLanes * lane + k), ref);
-  w = ref[0];
-  g = A * Vec3T<R>{ref[1], ref[2], ref[3]};
-}
-
 // Index of entry (block b, frame k, block thread t) of group_data.
 FASCIA_HD long long group_data_index(int b, int k, int t) {
   return (static_cast<long long>(b) * kGroupLanes + k) * kGroupThreads + t;
@@ -103,7 +93,7 @@ FASCIA_HD long long group_data_index(int b, int k, int t) {
 
 // Where component c (w, g_x, g_y, g_z) of entry e of E lies in group_data: in float each entry's 4
 // values together (one 16-byte load per pair), in double in component rows (two 16-byte loads
-// per entry would not be coalesced better, and measured slower with the entries together).
+// per entry would not be coalesced better).
 template <class R>
 FASCIA_HD long long group_data_offset(long long e, int c, long long E) {
   if constexpr (sizeof(R) == sizeof(float)) return 4 * e + c;

@@ -22,21 +22,18 @@ std::uint64_t spread_bits(std::uint64_t v) {
 }
 
 // Calls visit(e) for the ELL entries that one warp of the coalesced pass stores together, group
-// by group, calling end_group() after each: pass k of 32 / lanes consecutive block-local samples
-// (thread g lanes + l of the warp takes pair j = k lanes + l of its sample).
+// by group, calling end_group() after each: pair j of 32 consecutive block-local samples (one
+// thread each).
 template <class Visit, class EndGroup>
-void for_each_store_group(const NeighbourTable& nb, const BlockLayout& L, int b, int lanes, Visit visit,
-                          EndGroup end_group) {
-  const int s0 = L.block_samples[b], ns = L.block_samples[b + 1] - s0, per_warp = 32 / lanes;
-  for (int t0 = 0; t0 < ns; t0 += per_warp) {
-    const int t1 = std::min(ns, t0 + per_warp);
+void for_each_store_group(const NeighbourTable& nb, const BlockLayout& L, int b, Visit visit, EndGroup end_group) {
+  const int s0 = L.block_samples[b], ns = L.block_samples[b + 1] - s0;
+  for (int t0 = 0; t0 < ns; t0 += 32) {
+    const int t1 = std::min(ns, t0 + 32);
     int width = 0;
     for (int t = t0; t < t1; ++t) width = std::max(width, nb.offsets[s0 + t + 1] - nb.offsets[s0 + t]);
-    for (int j0 = 0; j0 < width; j0 += lanes) {
-      for (int t = t0; t < t1; ++t) {
-        const int count = nb.offsets[s0 + t + 1] - nb.offsets[s0 + t];
-        for (int j = j0; j < std::min(count, j0 + lanes); ++j) visit(L.pair_ell[nb.offsets[s0 + t] + j]);
-      }
+    for (int j = 0; j < width; ++j) {
+      for (int t = t0; t < t1; ++t)
+        if (j < nb.offsets[s0 + t + 1] - nb.offsets[s0 + t]) visit(L.pair_ell[nb.offsets[s0 + t] + j]);
       end_group();
     }
   }
@@ -47,7 +44,7 @@ void for_each_store_group(const NeighbourTable& nb, const BlockLayout& L, int b,
 // take distinct residues modulo 32 (distinct banks) where their slots' free positions allow,
 // greedily in the groups' order: each pair takes the free residue nearest after its slot's next
 // position in sequence, else the free position whose residue the group holds least often.
-void interleave_positions(const NeighbourTable& nb, BlockLayout& L, int b, int lanes) {
+void interleave_positions(const NeighbourTable& nb, BlockLayout& L, int b) {
   const int q0 = L.block_slots[b], nq = L.block_slots[b + 1] - q0, k0 = L.slot_pair_offsets[q0];
   std::vector<std::array<int, 32>> taken(nq);  // per slot and residue: positions given so far
   std::vector<int> given(nq, 0);               // per slot: positions given so far
@@ -59,7 +56,7 @@ void interleave_positions(const NeighbourTable& nb, BlockLayout& L, int b, int l
     return p < e ? p : -1;
   };
   for_each_store_group(
-      nb, L, b, lanes,
+      nb, L, b,
       [&](int e) {
         const int q = L.ell_slot[e];
         const int a = L.slot_pair_offsets[q0 + q] - k0;
@@ -210,9 +207,7 @@ BlockLayout build_block_layout(const Model& model, int max_samples, int max_pair
   return L;
 }
 
-void build_ell_order(const Model& model, BlockLayout& L, int lanes) {
-  if (lanes < 1 || lanes > 32 || (lanes & (lanes - 1)) != 0)
-    throw std::invalid_argument("build_ell_order: lanes must be a power of two in [1, 32]");
+void build_ell_order(const Model& model, BlockLayout& L) {
   const NeighbourTable& nb = model.neighbours;
   const int blocks = L.block_count();
   L.ell_offsets.assign(1, 0);
@@ -228,25 +223,21 @@ void build_ell_order(const Model& model, BlockLayout& L, int lanes) {
   }
   L.ell_slot.assign(L.ell_count(), 0);
   L.ell_pos.assign(L.ell_count(), 0);
-  L.slot_ell.assign(L.slot_pairs.size(), 0);
   for (int b = 0; b < blocks; ++b) {
-    const int p0 = nb.offsets[L.block_samples[b]], e0 = L.ell_offsets[b], q0 = L.block_slots[b];
+    const int p0 = nb.offsets[L.block_samples[b]], q0 = L.block_slots[b];
     for (int q = q0; q < L.block_slots[b + 1]; ++q)
-      for (int k = L.slot_pair_offsets[q]; k < L.slot_pair_offsets[q + 1]; ++k) {
-        const int e = L.pair_ell[p0 + L.slot_pairs[k]];
-        L.ell_slot[e] = q - q0;
-        L.slot_ell[k] = e - e0;
-      }
-    interleave_positions(nb, L, b, lanes);
+      for (int k = L.slot_pair_offsets[q]; k < L.slot_pair_offsets[q + 1]; ++k)
+        L.ell_slot[L.pair_ell[p0 + L.slot_pairs[k]]] = q - q0;
+    interleave_positions(nb, L, b);
   }
 }
 
-long long coalesced_store_wavefronts(const Model& model, const BlockLayout& L, int lanes) {
+long long coalesced_store_wavefronts(const Model& model, const BlockLayout& L) {
   long long wavefronts = 0;
   std::array<int, 32> held{};
   for (int b = 0; b < L.block_count(); ++b)
     for_each_store_group(
-        model.neighbours, L, b, lanes, [&](int e) { ++held[L.ell_pos[e] % 32]; },
+        model.neighbours, L, b, [&](int e) { ++held[L.ell_pos[e] % 32]; },
         [&] {
           wavefronts += *std::max_element(held.begin(), held.end());
           held.fill(0);

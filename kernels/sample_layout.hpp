@@ -3,11 +3,11 @@
 //    samples of one thread block touch few, nearby frames and neighbouring threads read nearby
 //    memory (the device results are per frame and do not depend on the sample order beyond
 //    rounding);
-//  - the block tables of the fused design (elasticity_phases.hpp): consecutive samples grouped
+//  - the block tables of the force and tangent passes (elasticity_phases.hpp): consecutive samples grouped
 //    into blocks, each block's distinct frames ("slots") with the block-local pairs that touch
 //    them, and per frame the slots that hold its partial sums. Every list is in increasing order,
 //    which fixes the summation order and makes the device results bitwise reproducible;
-//  - the staged tangent pass's per-block ELL order of pairs: pair j of the block's sample t sits at
+//  - the coalesced tangent pass's per-block ELL order of pairs: pair j of the block's sample t sits at
 //    j * ns + t (ns samples in the block, width = the block's largest neighbour count), so that
 //    thread t reading its j-th pair and the warp's threads reading neighbouring words coincide:
 //    every per-pair load and shared-memory store of that pass is coalesced.
@@ -27,7 +27,7 @@ std::vector<int> spatial_sample_order(const Model& model);
 Model reorder_samples(const Model& model, const std::vector<int>& order);
 
 // True when every rest offset l_p equals p_s - x_i up to rel_tol times the model's extent: the
-// fused design rebuilds l_p from rest positions (eq. 2 with rest orientation I).
+// device passes rebuild l_p from rest positions (eq. 2 with rest orientation I).
 bool offsets_are_rest_differences(const Model& model, double rel_tol = 1e-12);
 
 struct BlockLayout {
@@ -39,12 +39,11 @@ struct BlockLayout {
   std::vector<int> slot_pairs;          // [P] pair index minus the block's first pair
   std::vector<int> frame_slot_offsets;  // [N+1]
   std::vector<int> frame_slots;         // [Q]
-  // Staged tangent pass (build_ell_order; ELL order within each block, entries past a sample's
-  // count are padding). Empty unless built.
+  // Coalesced tangent pass (build_ell_order; ELL order within each block, entries past a
+  // sample's count are padding). Empty unless built.
   std::vector<int> ell_offsets;         // [B+1] first ELL entry of each block; block b has ns_b * width_b
   std::vector<int> pair_ell;            // [P] ELL entry of each pair (global)
   std::vector<int> ell_slot;            // [E] slot of the entry's pair minus the block's first slot (0 on padding)
-  std::vector<int> slot_ell;            // [P] as slot_pairs, the ELL entry minus the block's first entry
   // [E] the entry's position in the block's slot-major pair order (0 on padding): the coalesced
   // pass writes its outputs there, so each slot's pairs are contiguous for its sum, which adds
   // them in position order. Within its slot's range [slot_pair_offsets[q], [q + 1]) (minus the
@@ -61,16 +60,15 @@ struct BlockLayout {
 // neighbours).
 BlockLayout build_block_layout(const Model& model, int max_samples, int max_pairs, int max_slots);
 
-// Fills the ELL tables of the staged tangent pass into a layout of build_block_layout: pair j of
-// a block's local sample t at entry j * ns + t. `lanes` (a power of two <= 32): the coalesced
-// pass's threads per sample, for which the slot-major positions are interleaved.
-void build_ell_order(const Model& model, BlockLayout& layout, int lanes = 1);
+// Fills the ELL tables of the coalesced tangent pass into a layout of build_block_layout: pair j
+// of a block's local sample t at entry j * ns + t, and the slot-major positions, interleaved for
+// one thread per sample.
+void build_ell_order(const Model& model, BlockLayout& layout);
 
 // Shared-memory wavefronts of one component of the coalesced pass's pair-output stores over the
-// whole layout, with `lanes` threads per sample: for each warp and pass (the pairs j in
-// [k lanes, (k + 1) lanes) of 32 / lanes consecutive block-local samples), the most threads whose
-// positions fall in one of the 32 four-byte banks (float outputs; a store of only distinct banks
-// takes one wavefront).
-long long coalesced_store_wavefronts(const Model& model, const BlockLayout& layout, int lanes = 1);
+// whole layout, one thread per sample: for each warp and pair j of its 32 consecutive
+// block-local samples, the most threads whose positions fall in one of the 32 four-byte banks
+// (float outputs; a store of only distinct banks takes one wavefront).
+long long coalesced_store_wavefronts(const Model& model, const BlockLayout& layout);
 
 }  // namespace fascia::gpu

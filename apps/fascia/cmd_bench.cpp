@@ -27,7 +27,6 @@ struct BenchOptions {
   std::string linear = "cg";
   std::string backend = "cpu";
   std::string precision = "double";  // cuda only
-  std::string design = "fused";      // cuda only
   int repeats = 10;                  // cuda only
 };
 
@@ -44,17 +43,17 @@ int run_step(const BenchOptions& o) {
   }
   const LinearMethod linear = parse_linear_method(o.linear);
   if (!o.json)
-    std::printf("CUDA (%s, %s, %s): ms per full implicit step (1 Newton iteration, %d %s iterations), mean\n",
-                gpu_name.c_str(), o.precision.c_str(), o.design.c_str(), o.cg_iterations, o.linear.c_str());
+    std::printf("CUDA (%s, %s): ms per full implicit step (1 Newton iteration, %d %s iterations), mean\n",
+                gpu_name.c_str(), o.precision.c_str(), o.cg_iterations, o.linear.c_str());
   for (const PaperTiming& p : paper_table3()) {
     if (!o.sizes.empty() && std::find(o.sizes.begin(), o.sizes.end(), p.samples) == o.sizes.end()) continue;
     const Model model = bench_beam_model(p.samples, 4);
-    const double ms = time_cuda_step(model, linear, o.cg_iterations, o.precision, o.design, o.repeats);
+    const double ms = time_cuda_step(model, linear, o.cg_iterations, o.precision, o.repeats);
     if (o.json) {
       nlohmann::json j = {{"backend", "cuda"},          {"gpu", gpu_name},
                           {"samples", model.sample_count()}, {"frames", model.frame_count()},
                           {"neighbours", model.max_neighbours()}, {"precision", o.precision},
-                          {"design", o.design},          {"linear", o.linear},
+                          {"linear", o.linear},
                           {"cg_iterations", o.cg_iterations}, {"ms_per_step", ms},
                           {"paper_gpu_ms", p.gpu_ms},    {"paper_samples", p.samples}};
       std::cout << j.dump() << std::endl;
@@ -133,7 +132,6 @@ void register_bench(CLI::App& app, Action& action) {
       ->check(CLI::PositiveNumber);
   step->add_option("--precision", step_options->precision, "cuda: double | single")
       ->check(CLI::IsMember({"double", "single"}));
-  step->add_option("--design", step_options->design, "cuda: fused | paper")->check(CLI::IsMember({"fused", "paper"}));
   step->add_option("--repeats", step_options->repeats, "cuda: timed steps per size")->check(CLI::PositiveNumber);
   step->callback([step_options, &action] { action = [step_options] { return run_step(*step_options); }; });
   add_bench_discretise(*bench, action);

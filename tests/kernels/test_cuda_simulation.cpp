@@ -58,17 +58,13 @@ Model study_beam_model(const BeamSettings& s) {
 }  // namespace
 
 TEST_CASE("backward Euler on a tissue block: CUDA backend equals the CPU engine", "[gpu]") {
-  const Design design = GENERATE(Design::fused, Design::paper);
   const LinearMethod method = GENERATE(LinearMethod::pcg, LinearMethod::cholmod);
   Model model = small_box_model(CellType::hexahedron, MaterialLaw::neo_hookean, 4, 3, 2);
   fix_frames(model, [](double x, double, double) { return x < 1e-9; });
-  DeviceOptions options;
-  options.design = design;
-  options.block_samples = 32;  // several blocks on the small model
   char label[64];
-  std::snprintf(label, sizeof label, "gpu block %s %s", to_string(design), to_string(method));
+  std::snprintf(label, sizeof label, "gpu block %s", to_string(method));
   const double worst = check_backends_agree(label, model, gravity(), comparison_settings(Integrator::backward_euler, method),
-                                            cuda_elasticity_factory(options), 3);
+                                            cuda_elasticity_factory(), 3);
   CHECK(worst <= 1.0);
 }
 

@@ -1,5 +1,4 @@
 // Host-side checks of the grouped pass's layout (group_layout.hpp): no GPU needed.
-#include "group_classes.hpp"
 #include "group_layout.hpp"
 #include "group_pass.hpp"
 #include "reference_step.hpp"
@@ -8,7 +7,6 @@
 
 #include <algorithm>
 #include <numeric>
-#include <optional>
 
 using namespace fascia;
 using namespace fascia::gpu;
@@ -157,48 +155,4 @@ TEST_CASE("the grouped pass refuses samples it cannot hold", "[kernels][layout]"
   // A sample listing a frame twice.
   model.neighbours.frames[1] = model.neighbours.frames[0];
   CHECK(group_refusal(model).find("lists a frame twice") != std::string::npos);
-}
-
-TEST_CASE("group classes reproduce every pair's w and g through the group's map", "[kernels][layout]") {
-  // Tetrahedra (4 quadrature points each) and hexahedra (2 x 2 x 2) of a box: every element has a
-  // constant Jacobian, so the groups fall into a few classes.
-  const CellType cell = GENERATE(CellType::hexahedron, CellType::tetrahedron);
-  const Model input = kernels_test_model(cell, MaterialLaw::stvk, 5, 4, 3);
-  const Model model = reorder_samples(input, group_sample_order(input, spatial_sample_order(input)));
-  const GroupLayout G = build_group_layout(model);
-  std::string why;
-  const std::optional<GroupClasses> classes = find_group_classes(model, G, 4096, &why);
-  INFO(why);
-  REQUIRE(classes.has_value());
-  INFO("classes " << classes->class_count() << " for " << G.group_count() << " groups");
-  CHECK(classes->class_count() * 4 <= G.group_count());
-  CHECK(classes->max_error <= 1e-12);
-  const NeighbourTable& nb = model.neighbours;
-  double worst = 0;
-  for (int g = 0; g < G.group_count(); ++g) {
-    const double* pairs = &classes->class_pairs[4 * kGroupLanes * kGroupLanes * static_cast<size_t>(classes->group_class[g])];
-    const Mat3 A = ldm(&classes->group_maps[9 * static_cast<size_t>(g)]);
-    for (int s = G.group_samples[g]; s < G.group_samples[g + 1]; ++s)
-      for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-        double w = 0;
-        Vec3 gr{0, 0, 0};
-        group_class_entry(pairs, A, s - G.group_samples[g], G.pair_entry[p], w, gr);
-        CHECK(w == Approx(nb.weights[p]).margin(1e-12));
-        const Vec3 exact = ld3(&nb.weight_gradients[3 * static_cast<size_t>(p)]);
-        worst = std::max(worst, norm(gr - exact) / norm(exact));
-      }
-  }
-  INFO("largest relative gradient error " << worst);
-  CHECK(worst < 1e-12);
-}
-
-TEST_CASE("group classes are refused where a group's gradients are no map of its class's", "[kernels][layout]") {
-  const Model input = kernels_test_model(CellType::hexahedron, MaterialLaw::stvk, 5, 4, 3);
-  Model model = reorder_samples(input, group_sample_order(input, spatial_sample_order(input)));
-  // One gradient of the last sample changed: its group's table is no longer A r of its class.
-  model.neighbours.weight_gradients[model.neighbours.weight_gradients.size() - 1] *= 1.5;
-  const GroupLayout G = build_group_layout(model);
-  std::string why;
-  CHECK_FALSE(find_group_classes(model, G, 4096, &why).has_value());
-  CHECK(why.find("no linear map") != std::string::npos);
 }

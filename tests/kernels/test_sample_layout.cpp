@@ -1,22 +1,21 @@
 // Host-side checks of the device layout (sample_layout.hpp) and of the kernels' per-thread bodies
 // (elasticity_phases.hpp) stepped through on the CPU in the device's order: no GPU needed.
-#include "group_classes.hpp"
 #include "group_pass.hpp"
 #include "reference_step.hpp"
 #include "sample_layout.hpp"
-#include "shape_classes.hpp"
 
 #include <catch2/catch.hpp>
 
 #include <algorithm>
 #include <numeric>
-#include <optional>
 
 using namespace fascia;
 using namespace fascia::gpu;
 using namespace fascia::test;
 
 namespace {
+
+constexpr int kBlockSlots = 256;  // the device's frames per block at most (device_elasticity.cu)
 
 // Host copies of what the device holds, with a ModelView over them.
 struct HostDevice {
@@ -35,7 +34,7 @@ struct HostDevice {
 
   HostDevice(const Model& input, const State& state, int block_samples, int block_pairs, bool grouped = false)
       : model(reorder_samples(input, device_order(input, grouped))),
-        layout(build_block_layout(model, block_samples, block_pairs, kMappedSlots)) {
+        layout(build_block_layout(model, block_samples, block_pairs, kBlockSlots)) {
     build_ell_order(model, layout);
     sample_rest = model.samples.rest_positions;
     frame_rest = model.frame_rest_positions;
@@ -55,7 +54,6 @@ struct HostDevice {
     view.frame_of = nb.frames.data();
     view.weights = nb.weights.data();
     view.gradients = nb.weight_gradients.data();
-    view.rest_offsets = nb.rest_offsets.data();
     view.rev_offsets = model.reverse.offsets.data();
     view.rev_pairs = model.reverse.pairs.data();
     view.pair_samples = model.reverse.pair_samples.data();
@@ -87,55 +85,14 @@ struct HostDevice {
     view.ell_offsets = layout.ell_offsets.data();
     view.ell_slot = ell_slot.data();
     view.ell_data = ell_data.data();
-    view.slot_ell = layout.slot_ell.data();
     frames = FrameView<double>{rot.data(), x.data()};
   }
 
-  // The staged tangent pass as staged_tangent_block runs it: staging, dP per sample, the pair
-  // outputs over the sample area, slot sums; then the frame gather. F and cache from the force pass.
-  std::vector<double> staged(const std::vector<double>& d, const std::vector<double>& F,
-                             const std::vector<double>& cache) {
-    std::vector<double> partials(6 * static_cast<size_t>(layout.slot_count()));
-    for (int b = 0; b < layout.block_count(); ++b) {
-      const int s0 = layout.block_samples[b], ns = layout.block_samples[b + 1] - s0;
-      const int q0 = layout.block_slots[b], nq = layout.block_slots[b + 1] - q0;
-      const int e0 = layout.ell_offsets[b], E = layout.ell_offsets[b + 1] - e0;
-      std::vector<double> smem(kSlotStride * nq + std::max(kSampleStride * ns, 6 * E));
-      double* slots = smem.data();
-      double* samples = slots + kSlotStride * nq;
-      for (int j = 0; j < nq; ++j) {
-        const int i = layout.slot_frames[q0 + j];
-        for (int k = 0; k < 9; ++k) slots[kSlotStride * j + k] = rot[9 * i + k];
-        for (int k = 0; k < 3; ++k) slots[kSlotStride * j + 9 + k] = frame_rest[3 * i + k];
-        for (int k = 0; k < 6; ++k) slots[kSlotStride * j + 12 + k] = d[6 * i + k];
-      }
-      for (int t = 0; t < ns; ++t) {
-        const int s = s0 + t;
-        for (int k = 0; k < 3; ++k) samples[kSampleStride * t + k] = sample_rest[3 * s + k];
-        for (int k = 0; k < 9; ++k) samples[kSampleStride * t + 3 + k] = F[9 * s + k];
-        for (int k = 0; k < 10; ++k) samples[kSampleStride * t + 12 + k] = cache[10 * s + k];
-      }
-      std::vector<Mat3> dP(ns);
-      std::vector<Vec3> ps(ns);
-      for (int t = 0; t < ns; ++t) {
-        ps[t] = ld3(samples + kSampleStride * t);
-        dP[t] = staged_sample_dP(view, s0 + t, t, ns, e0, slots, samples + kSampleStride * t);
-      }
-      std::fill(samples, smem.data() + smem.size(), std::nan(""));  // the outputs must not read the sample area
-      for (int t = 0; t < ns; ++t) staged_sample_outputs(view, s0 + t, t, ns, e0, E, slots, ps[t], dP[t], samples);
-      for (int q = q0; q < q0 + nq; ++q) staged_slot_sum(view, samples, E, q, partials.data());
-    }
-    std::vector<double> out(model.dof_count());
-    for (int i = 0; i < model.frame_count(); ++i) fused_gather(view, partials.data(), i, &out[6 * i]);
-    return out;
-  }
-
-  // The coalesced tangent pass as ell_tangent_block runs it with one lane: lever records from the
-  // kinematics, the samples' state packed component-major from the force pass's F and cache,
-  // outputs [6][E_b] in ELL order, slot sums; then the frame gather.
-  // With `mapped`, w and g come from the samples' shape classes (shape_classes.hpp).
+  // The coalesced tangent pass as ell_tangent_block runs it: lever records from the kinematics,
+  // the samples' state packed component-major from the force pass's F and cache, outputs
+  // [6][E_b] in slot-major order, slot sums with `slot_lanes` lanes; then the frame gather.
   std::vector<double> coalesced(const std::vector<double>& d, const std::vector<double>& F,
-                                const std::vector<double>& cache, int slot_lanes, bool mapped = false) {
+                                const std::vector<double>& cache, int slot_lanes) {
     const int n = model.frame_count(), S = model.sample_count();
     std::vector<double> levers(kLeverRecord * static_cast<size_t>(n), std::nan(""));
     for (int i = 0; i < n; ++i) write_lever_record(&rot[9 * i], frame_rest.data(), i, levers.data());
@@ -147,36 +104,6 @@ struct HostDevice {
     ModelView<double> cv = view;
     cv.ell_frame = ell_frame.data();
     cv.ell_pos = ell_pos.data();
-    std::optional<ShapeClasses> classes;
-    std::vector<double> maps;  // [9][S]
-    std::vector<unsigned short> slot_rank;
-    if (mapped) {
-      classes = find_shape_classes(model.neighbours, 4096);
-      REQUIRE(classes.has_value());
-      maps.resize(9 * static_cast<size_t>(S));
-      for (int s = 0; s < S; ++s)
-        for (int k = 0; k < 9; ++k)
-          maps[static_cast<size_t>(k) * S + s] = classes->sample_maps[9 * static_cast<size_t>(s) + k];
-      cv.shape_class = classes->sample_class.data();
-      cv.shape_maps = maps.data();
-      cv.class_offsets = classes->class_offsets.data();
-      cv.class_pairs = classes->class_pairs.data();
-      slot_rank.resize(layout.ell_count());
-      for (int b = 0; b < layout.block_count(); ++b) {
-        const int q0 = layout.block_slots[b], base = layout.slot_pair_offsets[q0];
-        for (int e = layout.ell_offsets[b]; e < layout.ell_offsets[b + 1]; ++e) {
-          const int q = layout.ell_slot[e];
-          const int rank = layout.ell_pos[e] - (layout.slot_pair_offsets[q0 + q] - base);
-          REQUIRE((q < 256 && rank >= 0 && rank < 256));
-          slot_rank[e] = static_cast<unsigned short>(q | rank << 8);
-        }
-      }
-      cv.ell_slot_rank = slot_rank.data();
-      // The mapped pass must not read w, g, frames or positions per pair.
-      cv.ell_data = nullptr;
-      cv.ell_frame = nullptr;
-      cv.ell_pos = nullptr;
-    }
     FrameView<double> cf = frames;
     cf.levers = levers.data();
     cf.sample_state = state.data();
@@ -186,16 +113,7 @@ struct HostDevice {
       const int e0 = layout.ell_offsets[b];
       const int stride = model.neighbours.offsets[s0 + ns] - model.neighbours.offsets[s0];
       std::vector<double> outs(6 * static_cast<size_t>(stride), std::nan(""));
-      std::vector<int> slot_frames, slot_starts;  // the block's slot table (mapped pass)
-      if (mapped)
-        for (int k = 0; k < layout.block_slots[b + 1] - layout.block_slots[b]; ++k) {
-          slot_frames.push_back(0);
-          slot_starts.push_back(0);
-          mapped_slot_table(cv, b, k, &slot_frames.back(), &slot_starts.back());
-        }
-      for (int t = 0; t < ns; ++t)
-        ell_sample(cv, cf, d.data(), s0 + t, t, ns, e0, stride, outs.data(), mapped ? slot_frames.data() : nullptr,
-                   mapped ? slot_starts.data() : nullptr);
+      for (int t = 0; t < ns; ++t) ell_sample(cv, cf, d.data(), s0 + t, t, ns, e0, stride, outs.data());
       const int q0 = layout.block_slots[b], base = layout.slot_pair_offsets[q0];
       for (int q = q0; q < layout.block_slots[b + 1]; ++q)
         for (int c = 0; c < 6; ++c)
@@ -210,10 +128,9 @@ struct HostDevice {
   // The grouped tangent pass as k_group_tangent runs it (the model in group order): per group its
   // frames' records, per sample dF, dP and the pair outputs, each (group, frame) entry's sum over
   // the group's threads in the kernel's order (group_lane_sum) at its slot-major position, slot
-  // sums with `slot_lanes` lanes; then the frame gather over the blocks of groups' slots. With
-  // `mapped`, w and g come from the groups' classes and maps (group_classes.hpp).
+  // sums with `slot_lanes` lanes; then the frame gather over the blocks of groups' slots.
   std::vector<double> grouped(const std::vector<double>& d, const std::vector<double>& F,
-                              const std::vector<double>& cache, int slot_lanes, bool mapped = false) {
+                              const std::vector<double>& cache, int slot_lanes) {
     const int n = model.frame_count(), S = model.sample_count();
     const NeighbourTable& nb = model.neighbours;
     std::vector<double> levers(kLeverRecord * static_cast<size_t>(n), std::nan(""));
@@ -221,11 +138,6 @@ struct HostDevice {
     std::vector<double> state(kSampleState * static_cast<size_t>(S), std::nan(""));
     for (int s = 0; s < S; ++s) pack_sample_state(view, F.data(), cache.data(), s, state.data());
     const GroupLayout G = build_group_layout(model);
-    std::optional<GroupClasses> classes;
-    if (mapped) {
-      classes = find_group_classes(model, G, 4096);
-      REQUIRE(classes.has_value());
-    }
     const BlockLayout& L = G.slots;
     std::vector<double> partials(6 * static_cast<size_t>(L.slot_count()));
     for (int b = 0; b < L.block_count(); ++b) {
@@ -248,14 +160,8 @@ struct HostDevice {
           std::vector<Vec3> gr(kGroupLanes, Vec3{0, 0, 0});
           for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
             const int k = G.pair_entry[p];
-            if (mapped) {
-              const double* pairs =
-                  &classes->class_pairs[4 * kGroupLanes * kGroupLanes * static_cast<size_t>(classes->group_class[g])];
-              group_class_entry(pairs, ldm(&classes->group_maps[9 * static_cast<size_t>(g)]), lane, k, w[k], gr[k]);
-            } else {
-              w[k] = nb.weights[p];
-              gr[k] = ld3(&nb.weight_gradients[3 * static_cast<size_t>(p)]);
-            }
+            w[k] = nb.weights[p];
+            gr[k] = ld3(&nb.weight_gradients[3 * static_cast<size_t>(p)]);
           }
           Mat3 dF = zero3();
           for (int k = 0; k < count; ++k) group_pair_dF(rec.data() + k * kGroupRecord, ps, w[k], gr[k], dF);
@@ -283,57 +189,18 @@ struct HostDevice {
     return out;
   }
 
-  // The record tangent pass as records_tangent_block runs it with one lane: frame records from
-  // the kinematics, F and dF per sample from its pairs, dP with the cache rebuilt from F, outputs
-  // [6][pairs of the block], slot sums; then the frame gather. No F or cache from the force pass.
-  std::vector<double> records(const std::vector<double>& d) {
-    const int n = model.frame_count(), S = model.sample_count(), P = model.pair_count();
-    const NeighbourTable& nb = model.neighbours;
-    std::vector<double> frame_records(kFrameRecord * static_cast<size_t>(n), std::nan(""));
-    for (int i = 0; i < n; ++i) write_frame_record(&x[3 * i], &rot[9 * i], frame_rest.data(), i, frame_records.data());
-    std::vector<double> pair_records(kPairRecord * static_cast<size_t>(P)), sample_records(kSampleRecord * static_cast<size_t>(S));
-    for (int p = 0; p < P; ++p) {
-      for (int k = 0; k < 3; ++k) pair_records[4 * p + k] = nb.weight_gradients[3 * p + k];
-      pair_records[4 * p + 3] = nb.weights[p];
-    }
-    for (int t = 0; t < S; ++t) {
-      for (int k = 0; k < 3; ++k) sample_records[4 * t + k] = sample_rest[3 * t + k];
-      sample_records[4 * t + 3] = model.samples.volumes[t];
-    }
-    ModelView<double> rv = view;
-    rv.pair_records = pair_records.data();
-    rv.sample_records = sample_records.data();
+  // The force pass as the device runs it: blocks, shared-memory slots, frame gather; F and the
+  // material cache into F and cache, the energy into `energy`.
+  std::vector<double> force(std::vector<double>& F, std::vector<double>& cache, double& energy) {
     std::vector<double> partials(6 * static_cast<size_t>(layout.slot_count()));
-    for (int b = 0; b < layout.block_count(); ++b) {
-      const int s0 = layout.block_samples[b], s1 = layout.block_samples[b + 1];
-      const int base = nb.offsets[s0], stride = nb.offsets[s1] - base;
-      std::vector<double> outs(6 * static_cast<size_t>(stride), std::nan(""));
-      for (int s = s0; s < s1; ++s) {
-        const Vec3 ps = ld3(&sample_records[4 * s]);
-        Mat3 F = zero3(), dF = zero3();
-        std::vector<RecordPair> kept;
-        for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p)
-          kept.push_back(record_pair(rv, frame_records.data(), ps, p, d.data(), static_cast<const double*>(nullptr), 0.0, F, dF));
-        const Mat3 dP = record_sample_dP(rv, s, F, dF);
-        for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p)
-          record_pair_output(kept[p - nb.offsets[s]], dP, sample_records[4 * s + 3], p - base, stride, outs.data());
-      }
-      for (int q = layout.block_slots[b]; q < layout.block_slots[b + 1]; ++q) record_slot_sum(rv, outs.data(), stride, q, partials.data());
-    }
-    std::vector<double> out(model.dof_count());
-    for (int i = 0; i < n; ++i) fused_gather(view, partials.data(), i, &out[6 * i]);
-    return out;
-  }
-
-  // The fused pass as the device runs it: blocks, shared-memory slots, frame gather.
-  template <Pass pass>
-  std::vector<double> fused(const std::vector<double>& d, std::vector<double>* F) {
-    std::vector<double> partials(6 * static_cast<size_t>(layout.slot_count()));
+    F.assign(9 * static_cast<size_t>(model.sample_count()), 0.0);
+    cache.assign(10 * static_cast<size_t>(model.sample_count()), 0.0);
+    energy = 0;
     for (int b = 0; b < layout.block_count(); ++b) {
       const int s0 = layout.block_samples[b];
       std::vector<double> local(6 * static_cast<size_t>(layout.max_block_pairs));
       for (int s = s0; s < layout.block_samples[b + 1]; ++s)
-        fused_sample<pass>(view, frames, d.data(), s, model.neighbours.offsets[s0], local.data(), F ? F->data() : nullptr);
+        energy += fused_sample(view, frames, s, model.neighbours.offsets[s0], local.data(), F.data(), cache.data());
       for (int q = layout.block_slots[b]; q < layout.block_slots[b + 1]; ++q) fused_slot_sum(view, local.data(), q, partials.data());
     }
     std::vector<double> out(model.dof_count());
@@ -370,7 +237,7 @@ TEST_CASE("block layout lists every pair once, per frame, in increasing order", 
   const int block_pairs = GENERATE(8, 1024);  // 8: a block per sample (8 neighbours each)
   // 12: binding (a 2x2x2 cell group touches 27 frames); 6: below one sample's 8 frames, so every
   // sample gets a block of its own.
-  const int block_slots = GENERATE(6, 12, kMappedSlots);
+  const int block_slots = GENERATE(6, 12, kBlockSlots);
   const BlockLayout L = build_block_layout(model, block_samples, block_pairs, block_slots);
   REQUIRE(L.block_samples.front() == 0);
   REQUIRE(L.block_samples.back() == model.sample_count());
@@ -410,7 +277,7 @@ TEST_CASE("block layout lists every pair once, per frame, in increasing order", 
 TEST_CASE("ELL order holds every pair of a block once, with its block slot and slot-major position", "[kernels][layout]") {
   const Model model = kernels_test_model(CellType::tetrahedron, MaterialLaw::stvk, 4, 3, 3);
   const int block_samples = GENERATE(32, 128);
-  BlockLayout L = build_block_layout(model, block_samples, 1024, kMappedSlots);
+  BlockLayout L = build_block_layout(model, block_samples, 1024, kBlockSlots);
   build_ell_order(model, L);
   const NeighbourTable& nb = model.neighbours;
   std::vector<int> owner(L.ell_count(), -1);
@@ -433,7 +300,7 @@ TEST_CASE("ELL order holds every pair of a block once, with its block slot and s
     std::vector<int> at(k1 - k0, 0);
     for (int q = L.block_slots[b]; q < L.block_slots[b + 1]; ++q)
       for (int k = L.slot_pair_offsets[q]; k < L.slot_pair_offsets[q + 1]; ++k) {
-        REQUIRE(L.slot_ell[k] == L.pair_ell[p0 + L.slot_pairs[k]] - e0);
+        REQUIRE(L.ell_slot[L.pair_ell[p0 + L.slot_pairs[k]]] == q - L.block_slots[b]);
         // The slot-major position of the entry lies in its slot's range, once per position.
         const int pos = L.ell_pos[L.pair_ell[p0 + L.slot_pairs[k]]];
         REQUIRE(pos >= L.slot_pair_offsets[q] - k0);
@@ -450,11 +317,10 @@ TEST_CASE("interleaved slot-major positions spread each warp's output stores ove
   // Hexahedra (2x2x2 samples per cell, 8 neighbours: the 8 samples of a cell store to the same
   // slot in each pass) and tetrahedra (4 neighbours).
   const CellType cell = GENERATE(CellType::hexahedron, CellType::tetrahedron);
-  const int lanes = GENERATE(1, 2, 4);
   const Model input = kernels_test_model(cell, MaterialLaw::stvk, 25, 7, 7);
   const Model model = reorder_samples(input, spatial_sample_order(input));
-  BlockLayout L = build_block_layout(model, 128, 1024, kMappedSlots);
-  build_ell_order(model, L, lanes);
+  BlockLayout L = build_block_layout(model, 128, 1024, kBlockSlots);
+  build_ell_order(model, L);
   // The positions in slot-list order (each slot's pairs in increasing pair order), as a reference.
   BlockLayout sorted = L;
   const NeighbourTable& nb = model.neighbours;
@@ -464,20 +330,19 @@ TEST_CASE("interleaved slot-major positions spread each warp's output stores ove
     for (int k = k0; k < L.slot_pair_offsets[L.block_slots[b + 1]]; ++k)
       sorted.ell_pos[L.pair_ell[p0 + L.slot_pairs[k]]] = k - k0;
     const int s0 = L.block_samples[b], ns = L.block_samples[b + 1] - s0;
-    for (int t0 = 0; t0 < ns; t0 += 32 / lanes) {
+    for (int t0 = 0; t0 < ns; t0 += 32) {
       int width = 0;
-      for (int s = s0 + t0; s < s0 + std::min(ns, t0 + 32 / lanes); ++s)
-        width = std::max(width, nb.offsets[s + 1] - nb.offsets[s]);
-      groups += (width + lanes - 1) / lanes;
+      for (int s = s0 + t0; s < s0 + std::min(ns, t0 + 32); ++s) width = std::max(width, nb.offsets[s + 1] - nb.offsets[s]);
+      groups += width;
     }
   }
-  const long long interleaved = coalesced_store_wavefronts(model, L, lanes);
-  const long long in_order = coalesced_store_wavefronts(model, sorted, lanes);
-  INFO("cell " << static_cast<int>(cell) << " lanes " << lanes << ": store groups " << groups << ", wavefronts "
-               << in_order << " in pair order, " << interleaved << " interleaved");
+  const long long interleaved = coalesced_store_wavefronts(model, L);
+  const long long in_order = coalesced_store_wavefronts(model, sorted);
+  INFO("cell " << static_cast<int>(cell) << ": store groups " << groups << ", wavefronts " << in_order
+               << " in pair order, " << interleaved << " interleaved");
   // One wavefront per store group at least; interleaving needs fewer than pair order wherever
   // that conflicts. This model (25 x 7 x 7 cells: the Morton cells do not align with the mesh
-  // cells, as in `fascia bench gpu`'s blocks) with one lane: hexahedra 7669 -> 5040 wavefronts for
+  // cells, as in `fascia bench gpu`'s blocks): hexahedra 7669 -> 5040 wavefronts for
   // 2456 store groups, tetrahedra 10902 -> 7505 for 3676. Some conflicts stay, where a group's
   // slots offer too few free residues. Asserted: at least a quarter fewer than pair order (about
   // a third fewer in every case here), never below one per group.
@@ -503,94 +368,37 @@ TEST_CASE("kernel bodies stepped on the host reproduce the CPU reference", "[ker
   for (int j = 0; j < dofs; ++j) d[j] = (j % 6 < 3 ? 0.01 : 1.0) * u(rng);
   el.apply_tangent(d.data(), Kd.data());
 
-  // Fused design.
-  std::vector<double> F(9 * static_cast<size_t>(model.sample_count()));
-  const std::vector<double> fg = dev.fused<Pass::gradient>(d, &F);
+  // Force pass, frame preparation.
+  std::vector<double> F, cache;
+  double energy = 0;
+  const std::vector<double> fg = dev.force(F, cache, energy);
+  CHECK(energy == Approx(w).epsilon(1e-12));
   CHECK(relative_difference(fg, g) < 1e-12);
   std::vector<double> geo(9 * n), jw(9 * n), minv(kMinvValues * n), diag(36 * n);
-  for (int i = 0; i < n; ++i) frame_prepare(dev.view, dev.frames, F.data(), true, 0.0, i, geo.data(), jw.data(), minv.data(), diag.data());
+  for (int i = 0; i < n; ++i) frame_prepare(dev.view, dev.frames, F.data(), 0.0, i, geo.data(), jw.data(), minv.data(), diag.data());
   CHECK(relative_difference(diag, blocks) < 1e-12);
-  std::vector<double> fk = dev.fused<Pass::tangent>(d, nullptr);
-  for (int i = 0; i < n; ++i)
-    for (int k = 0; k < 6; ++k) fk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, fk[6 * i + k]);
-  CHECK(relative_difference(fk, Kd) < 1e-12);
 
-  // Fused design, staged tangent pass (F and material cache from the force pass).
-  {
-    const int S = model.sample_count();
-    std::vector<double> sF(9 * S), cache(10 * S), local(6 * static_cast<size_t>(dev.layout.max_block_pairs));
-    for (int b = 0; b < dev.layout.block_count(); ++b) {
-      const int s0 = dev.layout.block_samples[b];
-      for (int s = s0; s < dev.layout.block_samples[b + 1]; ++s)
-        fused_sample<Pass::gradient>(dev.view, dev.frames, d.data(), s, model.neighbours.offsets[s0], local.data(),
-                                     sF.data(), static_cast<const double*>(nullptr), 0.0, cache.data());
-    }
-    std::vector<double> sk = dev.staged(d, sF, cache);
+  // Coalesced tangent pass, from the force pass's F and material cache, with every slot-sum width.
+  for (int slot_lanes : {1, 2, 4, 8, 32}) {
+    std::vector<double> ck = dev.coalesced(d, F, cache, slot_lanes);
     for (int i = 0; i < n; ++i)
       for (int k = 0; k < 6; ++k)
-        sk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, sk[6 * i + k]);
-    CHECK(relative_difference(sk, Kd) < 1e-12);
-
-    // Coalesced tangent pass, from the same F and material cache, with every slot-sum width.
-    for (int slot_lanes : {1, 2, 4, 8, 32}) {
-      std::vector<double> ck = dev.coalesced(d, sF, cache, slot_lanes);
-      for (int i = 0; i < n; ++i)
-        for (int k = 0; k < 6; ++k)
-          ck[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, ck[6 * i + k]);
-      CHECK(relative_difference(ck, Kd) < 1e-12);
-    }
-
-    // Coalesced pass with w and g from the shape classes (maps rounded, so not the same bits).
-    std::vector<double> mk = dev.coalesced(d, sF, cache, 1, true);
-    for (int i = 0; i < n; ++i)
-      for (int k = 0; k < 6; ++k)
-        mk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, mk[6 * i + k]);
-    CHECK(relative_difference(mk, Kd) < 1e-12);
+        ck[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, ck[6 * i + k]);
+    CHECK(relative_difference(ck, Kd) < 1e-12);
   }
 
   // Grouped tangent pass, samples in group order (F and the material cache from its force pass).
   {
     HostDevice gdev(model, state, 32, 96, true);
-    const int S = model.sample_count();
-    std::vector<double> sF(9 * S), cache(10 * S), local(6 * static_cast<size_t>(gdev.layout.max_block_pairs));
-    for (int b = 0; b < gdev.layout.block_count(); ++b) {
-      const int s0 = gdev.layout.block_samples[b];
-      for (int s = s0; s < gdev.layout.block_samples[b + 1]; ++s)
-        fused_sample<Pass::gradient>(gdev.view, gdev.frames, d.data(), s, gdev.model.neighbours.offsets[s0],
-                                     local.data(), sF.data(), static_cast<const double*>(nullptr), 0.0, cache.data());
+    std::vector<double> gF, gcache;
+    double genergy = 0;
+    gdev.force(gF, gcache, genergy);
+    for (int slot_lanes : {1, 2, 32}) {
+      std::vector<double> gk = gdev.grouped(d, gF, gcache, slot_lanes);
+      for (int i = 0; i < n; ++i)
+        for (int k = 0; k < 6; ++k)
+          gk[6 * i + k] = frame_row(gdev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, gk[6 * i + k]);
+      CHECK(relative_difference(gk, Kd) < 1e-12);
     }
-    for (int slot_lanes : {1, 2, 32})
-      for (bool mapped : {false, true}) {
-        std::vector<double> gk = gdev.grouped(d, sF, cache, slot_lanes, mapped);
-        for (int i = 0; i < n; ++i)
-          for (int k = 0; k < 6; ++k)
-            gk[6 * i + k] = frame_row(gdev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, gk[6 * i + k]);
-        CHECK(relative_difference(gk, Kd) < 1e-12);
-      }
   }
-
-  // Fused design, record tangent pass (F and the material cache rebuilt from the frames).
-  {
-    std::vector<double> rk = dev.records(d);
-    for (int i = 0; i < n; ++i)
-      for (int k = 0; k < 6; ++k)
-        rk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, rk[6 * i + k]);
-    CHECK(relative_difference(rk, Kd) < 1e-12);
-  }
-
-  // Paper design.
-  const int P = model.pair_count(), S = model.sample_count();
-  std::vector<double> pF(9 * S), cache(10 * S), a(3 * P), partials(6 * P), pg(dofs), pk(dofs);
-  double energy = 0;
-  for (int s = 0; s < S; ++s) energy += paper_gradient_sample(dev.view, dev.frames, s, pF.data(), cache.data(), a.data(), partials.data());
-  CHECK(energy == Approx(w).epsilon(1e-12));
-  for (int i = 0; i < n; ++i)
-    for (int k = 0; k < 6; ++k) pg[6 * i + k] = paper_gather(dev.view, partials.data(), i, k);
-  CHECK(relative_difference(pg, g) < 1e-12);
-  for (int i = 0; i < n; ++i) frame_prepare(dev.view, dev.frames, pF.data(), false, 0.0, i, geo.data(), jw.data(), minv.data(), diag.data());
-  for (int s = 0; s < S; ++s) paper_tangent_sample(dev.view, dev.frames, pF.data(), cache.data(), a.data(), d.data(), s, partials.data());
-  for (int i = 0; i < n; ++i)
-    for (int k = 0; k < 6; ++k)
-      pk[6 * i + k] = frame_row(dev.view, geo.data(), jw.data(), 0.0, false, d.data(), i, k, paper_gather(dev.view, partials.data(), i, k));
-  CHECK(relative_difference(pk, Kd) < 1e-12);
 }
