@@ -589,6 +589,7 @@ void finish_scene(const SceneSpec& scene, std::vector<ObjectPart>& parts, BuiltS
   settings.newton.max_backtracks = s.newton_max_backtracks;
   settings.newton.fixed_iterations = s.newton_fixed_iterations;
   settings.newton.linear.method = parse_linear_method(s.linear_method.value);
+  settings.newton.linear.preconditioner = parse_preconditioner(s.linear_preconditioner.value);
   settings.newton.linear.tolerance = s.linear_tolerance;
   settings.newton.linear.max_iterations = s.linear_max_iterations;
   settings.newton.linear.fixed_iterations = s.linear_fixed_iterations;

@@ -318,6 +318,10 @@ ParamSpec build_registry() {
                  {with_default(enumeration("method", {"cg", "pcg", "cholmod"},
                                            "conjugate gradients, block-Jacobi PCG, or CHOLMOD direct"),
                                "pcg"),
+                  with_default(enumeration("preconditioner", {"block_jacobi", "cholmod"},
+                                           "pcg's preconditioner: the 6x6 diagonal blocks, or a sparse "
+                                           "factorisation of the tangent reused across Newton iterations and steps"),
+                               "block_jacobi"),
                   with_default(above(quantity("tolerance", dim::none, "CG relative residual"), 0), "1e-8"),
                   with_default(above(leaf("max_iterations", ParamType::integer, "CG iteration cap"), 1, false),
                                "2000"),

@@ -334,6 +334,7 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   s.newton_fixed_iterations = static_cast<int>(newton.integer_at("fixed_iterations"));
   const Value& linear = solver.at("linear");
   s.linear_method = located_str(linear.at("method"));
+  s.linear_preconditioner = located_str(linear.at("preconditioner"));
   s.linear_tolerance = linear.num("tolerance");
   s.linear_max_iterations = static_cast<int>(linear.integer_at("max_iterations"));
   s.linear_fixed_iterations = linear.flag("fixed_iterations");

@@ -118,6 +118,7 @@ struct SolverSpec {
   double newton_tolerance = 1e-6;
   int newton_max_iterations = 50, newton_max_backtracks = 30, newton_fixed_iterations = 0;
   Located<std::string> linear_method;
+  Located<std::string> linear_preconditioner;
   double linear_tolerance = 1e-8;
   int linear_max_iterations = 2000;
   bool linear_fixed_iterations = false;

@@ -4,6 +4,7 @@
 
 #include "bench/step_bench.hpp"
 #include "cmd_bench_discretise.hpp"
+#include "cmd_bench_scenes.hpp"
 #if FASCIA_WITH_CUDA
 #include "cmd_bench_gpu.hpp"
 #endif
@@ -135,6 +136,7 @@ void register_bench(CLI::App& app, Action& action) {
   step->add_option("--repeats", step_options->repeats, "cuda: timed steps per size")->check(CLI::PositiveNumber);
   step->callback([step_options, &action] { action = [step_options] { return run_step(*step_options); }; });
   add_bench_discretise(*bench, action);
+  add_bench_scenes(*bench, action);
 #if FASCIA_WITH_CUDA
   add_bench_gpu_command(*bench, action);
 #endif

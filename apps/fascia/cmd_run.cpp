@@ -7,6 +7,7 @@
 #include "backend.hpp"
 #include "commands.hpp"
 #include "progress.hpp"
+#include "run_scene.hpp"
 #include "scene_report.hpp"
 
 #include "io/trajectory.hpp"
@@ -33,17 +34,6 @@ namespace fascia::app {
 namespace {
 
 namespace fs = std::filesystem;
-
-struct RunOptions {
-  std::string scene;
-  std::string output;
-  std::vector<std::string> overrides;
-  BackendOptions backend;
-  int threads = -1;
-  bool quiet = false;
-  bool json = false;
-  double status_interval = 10.0;
-};
 
 volatile std::sig_atomic_t g_stop_signal = 0;
 
@@ -209,7 +199,10 @@ bool finite_state(const State& state) {
   return true;
 }
 
-int run(const RunOptions& options) {
+}  // namespace
+
+int run_scene(const RunOptions& options, RunFigures* run_figures) {
+  const auto setup_start = std::chrono::steady_clock::now();
   // The device first: a missing GPU is reported before the scene is discretised.
   Backend backend;
   if (const int code = resolve_backend("run", options.backend, backend); code != kOk) return code;
@@ -233,12 +226,13 @@ int run(const RunOptions& options) {
 
   install_signal_handlers();
   const auto wall_start = std::chrono::steady_clock::now();
+  const int steps = options.max_steps > 0 ? std::min(options.max_steps, built.steps) : built.steps;
   Simulation simulation(built.model, built.loads, built.settings, built.motions);
   StepRecorder recorder(built, out_spec.samples);
   TrajectoryLayout layout = recorder.layout();
   // Rows to preallocate: the initial state, every output step, and one written on a signal. All
   // of them up front: growing datasets later is the one write a kill could corrupt.
-  layout.capacity = 2 + (built.steps + out_spec.every - 1) / out_spec.every;
+  layout.capacity = 2 + (steps + out_spec.every - 1) / out_spec.every;
 
   std::unique_ptr<TrajectoryWriter> writer;
   const std::string xmf = xdmf_path_for(output);
@@ -260,7 +254,7 @@ int run(const RunOptions& options) {
   last.time = simulation.time();
   long total_newton = 0, total_cg = 0;
   ProgressFigures figures;
-  figures.total = built.steps;
+  figures.total = steps;
   std::string status = "completed";
   int exit_code = kOk;
   std::string failure;
@@ -286,7 +280,9 @@ int run(const RunOptions& options) {
     written_times.push_back(initial.time);
     update_xdmf(true);
 
-    for (int k = 1; k <= built.steps; ++k) {
+    const auto steps_start = std::chrono::steady_clock::now();
+    if (run_figures) run_figures->setup_seconds = std::chrono::duration<double>(steps_start - setup_start).count();
+    for (int k = 1; k <= steps; ++k) {
       try {
         last = simulation.step();
       } catch (const SolverError& e) {
@@ -304,10 +300,10 @@ int run(const RunOptions& options) {
       total_newton += last.newton_iterations;
       total_cg += last.cg_iterations;
       const bool stop = g_stop_signal != 0;
-      if (k % out_spec.every == 0 || k == built.steps || stop) {
+      if (k % out_spec.every == 0 || k == steps || stop) {
         writer->append(recorder.record(simulation.state(), last));
         written_times.push_back(last.time);
-        update_xdmf(k == built.steps || stop);
+        update_xdmf(k == steps || stop);
       }
       figures.step = k;
       figures.time = last.time;
@@ -324,6 +320,8 @@ int run(const RunOptions& options) {
     }
     writer->close();  // shrinks the datasets to the written steps
     update_xdmf(true);
+    if (run_figures)
+      run_figures->step_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - steps_start).count();
   } catch (const TrajectoryError& e) {
     std::cerr << "fascia: error: " << e.what() << "\n";
     return kIoError;
@@ -341,7 +339,7 @@ int run(const RunOptions& options) {
         {"status", exit_code == kOk ? "ok" : exit_code == kStoppedOnSignal ? "stopped" : "solver_failed"},
         {"exit_code", exit_code},
         {"steps", figures.step},
-        {"steps_planned", built.steps},
+        {"steps_planned", steps},
         {"steps_written", writer ? writer->steps_written() : 0},
         {"time", figures.time},
         {"newton_iterations", total_newton},
@@ -357,10 +355,16 @@ int run(const RunOptions& options) {
     if (!failure.empty()) summary["message"] = failure;
     std::cout << summary.dump() << "\n";
   }
+  if (run_figures) {
+    run_figures->frames = built.stats.frames;
+    run_figures->samples = built.stats.samples;
+    run_figures->dofs = built.stats.dofs;
+    run_figures->steps = figures.step;
+    run_figures->newton_iterations = total_newton;
+    run_figures->cg_iterations = total_cg;
+  }
   return exit_code;
 }
-
-}  // namespace
 
 void register_run(CLI::App& app, Action& action) {
   auto options = std::make_shared<RunOptions>();
@@ -378,7 +382,7 @@ void register_run(CLI::App& app, Action& action) {
   cmd->add_option("--status-interval", options->status_interval,
                   "Seconds between status lines when stderr is not a terminal")
       ->check(CLI::PositiveNumber);
-  cmd->callback([&action, options] { action = [options] { return run(*options); }; });
+  cmd->callback([&action, options] { action = [options] { return run_scene(*options); }; });
 }
 
 }  // namespace fascia::app

@@ -44,6 +44,7 @@ struct Simulation::Impl {
       : potential(model, loads, settings.threads, settings.elasticity) {}
   StepPotential potential;
   std::unique_ptr<VariationalStep> variational;
+  LinearSolver linear;  // keeps its factorisation from one step to the next
 };
 
 Simulation::Simulation(Model model, ExternalLoads loads, SimulationSettings settings,
@@ -96,8 +97,9 @@ StepReport Simulation::step() {
     State trial = start;
     apply_motions(m_model, m_motions, t_next, trial);
     potential.rigid_mapping().sync(trial);
-    const NewtonResult r = variational ? m_impl->variational->advance(start, trial, m_settings.newton, reference)
-                                       : minimise(potential, trial, m_settings.newton, reference);
+    const NewtonResult r =
+        variational ? m_impl->variational->advance(start, trial, m_settings.newton, reference, &m_impl->linear)
+                    : minimise(potential, trial, m_settings.newton, reference, &m_impl->linear);
     report.newton_iterations = r.iterations;
     report.cg_iterations = r.cg_iterations;
     report.residual = r.residual;
@@ -114,41 +116,24 @@ StepReport Simulation::step() {
     }
     m_state = std::move(trial);
   } else {
-    // Static equilibrium with load stepping: the load factor goes to 1 in increments, halved on
-    // failure (at most max_load_halvings times in a row) and doubled again after a success.
+    // Static equilibrium with load stepping (solve/newton.hpp).
     potential.set_static();
     State trial = start;
     apply_motions(m_model, m_motions, t_next, trial);
     potential.rigid_mapping().sync(trial);
     ExternalLoads& loads = m_loads;
-    double done = 0, increment = 1.0 / std::max(1, m_settings.load_steps);
-    NewtonResult last;
-    int halvings = 0;
-    while (done < 1.0) {
-      const double target = std::min(1.0, done + increment);
-      loads.scale = target;
-      State attempt = trial;
-      const NewtonResult r = minimise(potential, attempt, m_settings.newton, load_force_norm(m_model, loads));
-      report.newton_iterations += r.iterations;
-      report.cg_iterations += r.cg_iterations;
-      if (r.converged && finite_state(attempt)) {
-        trial = std::move(attempt);
-        done = target;
-        last = r;
-        increment = std::min(1.0 - done, 2 * increment);
-        halvings = 0;
-        continue;
-      }
-      increment *= 0.5;
-      if (++halvings > m_settings.max_load_halvings) {
-        loads.scale = 1.0;
-        std::ostringstream msg;
-        msg << "static solve failed at load factor " << target << ": " << r.message;
-        throw SolverError(msg.str());
-      }
-    }
+    LoadStepping stepping;
+    stepping.initial_steps = m_settings.load_steps;
+    stepping.max_halvings = m_settings.max_load_halvings;
+    const NewtonResult r = minimise_load_stepping(potential, trial, m_settings.newton, stepping, [&](double factor) {
+      loads.scale = factor;
+      return load_force_norm(m_model, loads);
+    }, &m_impl->linear);
     loads.scale = 1.0;
-    report.residual = last.residual;
+    report.newton_iterations = r.iterations;
+    report.cg_iterations = r.cg_iterations;
+    if (!r.converged || !finite_state(trial)) throw SolverError(r.converged ? "the state became non-finite (diverged)" : r.message);
+    report.residual = r.residual;
     std::fill(trial.velocities.begin(), trial.velocities.end(), 0.0);
     m_state = std::move(trial);
   }

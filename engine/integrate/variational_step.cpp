@@ -1,6 +1,7 @@
 #include "integrate/variational_step.hpp"
 
 #include "core/rotation.hpp"
+#include "solve/vector_ops.hpp"
 
 #include <Eigen/Dense>
 
@@ -291,11 +292,55 @@ LinearSystem VariationalStep::approximate_jacobian(const State& start, const Sta
   return sys;
 }
 
+namespace {
+
+// newton()'s problem for (4): the residual r(q_{k+1}) / h (N) with the iteration matrix H (the
+// system 4 H solves 4 H d = 4 rhs); no potential, so a step must decrease |r|.
+class VariationalProblem {
+ public:
+  using Ops = HostVectorOps;
+  using Vector = std::vector<double>;
+  using State = fascia::State;
+
+  VariationalProblem(VariationalStep& step, StepPotential& potential, const State& start,
+                     const std::vector<double>& p_start, const std::vector<std::uint8_t>& fixed, double dt,
+                     LinearSolver& solver, const LinearSettings& linear)
+      : m_step(step), m_potential(potential), m_start(start), m_p_start(p_start),
+        m_ops(static_cast<int>(fixed.size()), fixed.data()), m_dt(dt), m_solver(solver), m_linear(linear) {}
+
+  const Ops& ops() const { return m_ops; }
+  bool minimises() const { return false; }
+  double value(const State&) { return 0; }
+  double gradient(const State& end, Vector& g) {
+    const double norm_r = m_step.residual(m_start, end, m_p_start, g);
+    m_ops.scale(1 / m_dt, g);
+    return norm_r;
+  }
+  LinearResult solve(const State& end, const Vector& rhs, Vector& d) {
+    m_rhs = rhs;
+    m_ops.scale(4.0, m_rhs);
+    return m_solver.solve(m_step.iteration_matrix(m_start, end), m_linear, m_rhs, d);
+  }
+  void retract(State& q, const Vector& d, double alpha) { m_potential.retract(q, d.data(), alpha); }
+
+ private:
+  VariationalStep& m_step;
+  StepPotential& m_potential;
+  const State& m_start;
+  const std::vector<double>& m_p_start;
+  HostVectorOps m_ops;
+  double m_dt;
+  LinearSolver& m_solver;
+  const LinearSettings& m_linear;
+  Vector m_rhs;
+};
+
+}  // namespace
+
 NewtonResult VariationalStep::advance(const State& start, State& end, const NewtonSettings& settings,
-                                      double reference_force) {
+                                      double reference_force, LinearSolver* solver) {
   const int n = m_model.frame_count();
   const double h = m_dt;
-  NewtonResult result;
   std::vector<double> p_start;
   momenta(start, p_start);
   // Predictor q_{k+1} = q_k (+) h v_k on the free DOFs of the reduced frames.
@@ -305,59 +350,19 @@ NewtonResult VariationalStep::advance(const State& start, State& end, const Newt
       if (!m_fixed[k]) d[k] = h * start.velocities[k];
     m_potential.retract(end, d.data(), 1.0);
   }
-  std::vector<double> r, r_trial, d(6 * n), rhs(6 * n);
-  double norm_r = residual(start, end, p_start, r);
-  if (!std::isfinite(norm_r)) {
-    result.message = "the predicted state has non-finite energy (inverted element?)";
-    return result;
-  }
-  m_scale = std::max({reference_force, free_norm(p_start, m_fixed) / h, norm_r / h, 1e-300});
-  for (int it = 0; it < settings.max_iterations; ++it) {
-    result.residual = norm_r / h / m_scale;
-    if (result.residual <= settings.tolerance) {
-      result.converged = true;
-      break;
-    }
-    const LinearSystem sys = approximate_jacobian(start, end);
-    for (int k = 0; k < 6 * n; ++k) rhs[k] = m_fixed[k] ? 0.0 : -4 * r[k] / h;
-    const LinearResult lin = solve_linear(sys, settings.linear, rhs, d);
-    result.cg_iterations += lin.iterations;
-    ++result.iterations;
-    // Halve the step until |r| decreases.
-    double alpha = 1.0;
-    bool accepted = false;
-    for (int b = 0; b <= settings.max_backtracks; ++b, alpha *= 0.5) {
-      State trial = end;
-      m_potential.retract(trial, d.data(), alpha);
-      const double norm_trial = residual(start, trial, p_start, r_trial);
-      if (std::isfinite(norm_trial) && norm_trial < norm_r) {
-        end = std::move(trial);
-        r.swap(r_trial);
-        norm_r = norm_trial;
-        accepted = true;
-        break;
-      }
-    }
-    if (!accepted) {
-      std::ostringstream msg;
-      msg << "variational step: no step reduced the residual after " << settings.max_backtracks
-          << " halvings at iteration " << it + 1 << " (relative residual " << result.residual << ")";
-      result.message = msg.str();
-      m_residual_norm = norm_r;
-      return result;
-    }
-  }
-  result.residual = norm_r / h / m_scale;
-  m_residual_norm = norm_r;
+  // The force scale of the relative residual: newton() takes the larger of it and |r_0| / h.
+  std::vector<double> r;
+  const double norm_r0 = residual(start, end, p_start, r);
+  m_scale = std::max({reference_force, free_norm(p_start, m_fixed) / h, 1e-300});
+  if (std::isfinite(norm_r0)) m_scale = std::max(m_scale, norm_r0 / h);
+  LinearSolver local;
+  VariationalProblem problem(*this, m_potential, start, p_start, m_fixed, h, solver ? *solver : local,
+                             settings.linear);
+  NewtonResult result = newton(problem, end, settings, m_scale);
+  m_residual_norm = residual(start, end, p_start, r);
   if (!result.converged) {
-    result.converged = result.residual <= settings.tolerance;
-    if (!result.converged) {
-      std::ostringstream msg;
-      msg << "variational step did not converge in " << settings.max_iterations << " iterations (relative residual "
-          << result.residual << ", tolerance " << settings.tolerance << ")";
-      result.message = msg.str();
-      return result;
-    }
+    result.message = "variational step: " + result.message;
+    return result;
   }
   // (5): momenta at q_{k+1}, then velocities.
   std::vector<double> minus_d1, p_end;

@@ -47,7 +47,7 @@
 // (J^T M J for a body and its attached frames), so the momenta measured from velocities,
 // sum m v and sum x x m v + R J R^T w, are exactly the discrete momenta J(q, p).
 //
-// Solve of (4): Newton-like iterations on the residual r(q_{k+1}) in force units r/h, with the
+// Solve of (4): newton() (solve/newton.hpp) on the residual r(q_{k+1}) in force units r/h, with the
 // symmetric approximation H = M_kin / h^2 + K(q_mid) / 4 of its Jacobian (M_kin: the symmetric part
 // of the kinetic Jacobian, exact for translations, R_k sym(tr(C) I - C) R_k^T / h for rotations;
 // K: the reduced tangent of V at the midpoint), solved by the configured CG/PCG/CHOLMOD. The
@@ -76,7 +76,9 @@ class VariationalStep {
   // motions applied, attached frames synced), leaves as the solution of (4) with velocities from
   // (5). start: q_k with velocities v_k. reference_force: the force scale of the relative residual
   // (N), as for minimise(); |p_k| / h and the first residual are used when larger.
-  NewtonResult advance(const State& start, State& end, const NewtonSettings& settings, double reference_force);
+  // The linear solves use `solver` (kept between steps; null: one for this step only).
+  NewtonResult advance(const State& start, State& end, const NewtonSettings& settings, double reference_force,
+                       LinearSolver* solver = nullptr);
 
   // Discrete action (1), J s. Both states synced.
   double action(const State& start, const State& end);

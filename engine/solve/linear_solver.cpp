@@ -1,213 +1,29 @@
 #include "solve/linear_solver.hpp"
 
-#include <Eigen/CholmodSupport>
-#include <Eigen/Dense>
+#include "solve/block_jacobi.hpp"
+#include "solve/pcg.hpp"
+#include "solve/sparse_cholesky.hpp"
+#include "solve/vector_ops.hpp"
 
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 namespace fascia {
-namespace {
-
-void project(const std::uint8_t* fixed, std::vector<double>& v) {
-  if (!fixed) return;
-  for (size_t k = 0; k < v.size(); ++k)
-    if (fixed[k]) v[k] = 0;
-}
-
-double dot(const std::vector<double>& a, const std::vector<double>& b) {
-  double s = 0;
-  for (size_t k = 0; k < a.size(); ++k) s += a[k] * b[k];
-  return s;
-}
-
-// Inverse 6x6 diagonal blocks; fixed DOFs get identity rows/columns. A block that is not
-// positive definite (possible away from equilibrium: geometric stiffness) is replaced by the
-// inverse of its absolute diagonal, which keeps the preconditioner symmetric positive definite.
-std::vector<double> block_jacobi(const LinearSystem& system) {
-  const int frames = system.size / 6;
-  std::vector<double> blocks(36 * frames);
-  system.diagonal_blocks(blocks.data());
-  for (int i = 0; i < frames; ++i) {
-    Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>> B(&blocks[36 * i]);
-    double largest = 0;
-    for (int k = 0; k < 6; ++k) largest = std::max(largest, std::abs(B(k, k)));
-    if (largest == 0) largest = 1;
-    for (int k = 0; k < 6; ++k)
-      if (system.fixed && system.fixed[6 * i + k]) {
-        B.row(k).setZero();
-        B.col(k).setZero();
-        B(k, k) = largest;
-      }
-    Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt(B);
-    if (llt.info() == Eigen::Success) {
-      B = llt.solve(Eigen::Matrix<double, 6, 6>::Identity());
-    } else {
-      Eigen::Matrix<double, 6, 6> D = Eigen::Matrix<double, 6, 6>::Zero();
-      for (int k = 0; k < 6; ++k) D(k, k) = 1.0 / std::max(std::abs(B(k, k)), 1e-12 * largest);
-      B = D;
-    }
-  }
-  return blocks;
-}
-
-// Preconditioned conjugate gradients on the free DOFs (Saad, Iterative Methods, Alg. 9.1).
-// Stops at |r|_2 <= tol |b|_2, or after exactly max_iterations when fixed_iterations; on
-// non-positive curvature returns the current iterate (or b's preconditioned direction when no
-// step was taken), which is still a descent direction for Newton (Steihaug truncation).
-LinearResult conjugate_gradient(const LinearSystem& system, const LinearSettings& settings,
-                                const std::vector<double>* preconditioner, const std::vector<double>& b_in,
-                                std::vector<double>& x) {
-  const int n = system.size;
-  std::vector<double> b = b_in;
-  project(system.fixed, b);
-  x.assign(n, 0.0);
-  std::vector<double> r = b, z(preconditioner ? n : 0), p(n), hp(n);
-  // Without a preconditioner z = r: refer to r instead of copying it every iteration.
-  const std::vector<double>& zr = preconditioner ? z : r;
-  auto precondition = [&](const std::vector<double>& in, std::vector<double>& out) {
-    if (!preconditioner) return;
-    for (int i = 0; i < n / 6; ++i)
-      for (int a = 0; a < 6; ++a) {
-        double s = 0;
-        for (int c = 0; c < 6; ++c) s += (*preconditioner)[36 * i + 6 * a + c] * in[6 * i + c];
-        out[6 * i + a] = s;
-      }
-    project(system.fixed, out);
-  };
-  LinearResult result;
-  const double b_norm = std::sqrt(dot(b, b));
-  if (b_norm == 0) {
-    result.converged = true;
-    return result;
-  }
-  precondition(r, z);
-  p = zr;
-  double rz = dot(r, zr);
-  for (int k = 0; k < settings.max_iterations; ++k) {
-    system.apply(p.data(), hp.data());
-    // p^T H p, with H p projected onto the free DOFs. The loops below are SIMD reductions: a
-    // fixed summation order for a given build, independent of the thread count.
-    double curvature = 0;
-    double* __restrict hpd = hp.data();
-    const double* __restrict pd = p.data();
-    if (system.fixed) {
-      const std::uint8_t* __restrict fixed = system.fixed;
-#pragma omp simd reduction(+ : curvature)
-      for (int j = 0; j < n; ++j) {
-        hpd[j] = fixed[j] ? 0.0 : hpd[j];
-        curvature += pd[j] * hpd[j];
-      }
-    } else {
-#pragma omp simd reduction(+ : curvature)
-      for (int j = 0; j < n; ++j) curvature += pd[j] * hpd[j];
-    }
-    if (!(curvature > 0)) {
-      result.negative_curvature = true;
-      if (k == 0) x = zr;  // preconditioned steepest descent
-      result.iterations = k;
-      result.relative_residual = std::sqrt(dot(r, r)) / b_norm;
-      result.message = "non-positive curvature in CG; step truncated";
-      return result;
-    }
-    const double alpha = rz / curvature;
-    double rr = 0;
-    double* __restrict xd = x.data();
-    double* __restrict rd = r.data();
-#pragma omp simd reduction(+ : rr)
-    for (int j = 0; j < n; ++j) {
-      xd[j] += alpha * pd[j];
-      rd[j] -= alpha * hpd[j];
-      rr += rd[j] * rd[j];
-    }
-    result.iterations = k + 1;
-    result.relative_residual = std::sqrt(rr) / b_norm;
-    if (!settings.fixed_iterations && result.relative_residual <= settings.tolerance) {
-      result.converged = true;
-      return result;
-    }
-    precondition(r, z);
-    const double rz_new = preconditioner ? dot(r, z) : rr;
-    const double beta = rz_new / rz;
-    rz = rz_new;
-    const double* __restrict zd = zr.data();
-    double* __restrict pw = p.data();
-#pragma omp simd
-    for (int j = 0; j < n; ++j) pw[j] = zd[j] + beta * pw[j];
-  }
-  result.converged = result.relative_residual <= settings.tolerance || settings.fixed_iterations;
-  if (!result.converged) result.message = "CG reached its iteration cap";
-  return result;
-}
-
-LinearResult cholmod_solve(const LinearSystem& system, const std::vector<double>& b,
-                           std::vector<double>& x) {
-  const int n = system.size;
-  std::vector<int> index(n, -1);
-  int free = 0;
-  for (int k = 0; k < n; ++k)
-    if (!(system.fixed && system.fixed[k])) index[k] = free++;
-  const Eigen::SparseMatrix<double> H = system.assemble();
-  std::vector<Eigen::Triplet<double>> t;
-  t.reserve(H.nonZeros());
-  for (int c = 0; c < H.outerSize(); ++c)
-    for (Eigen::SparseMatrix<double>::InnerIterator it(H, c); it; ++it)
-      if (index[it.row()] >= 0 && index[it.col()] >= 0 && index[it.row()] >= index[it.col()])
-        t.emplace_back(index[it.row()], index[it.col()], it.value());
-  Eigen::SparseMatrix<double> reduced(free, free);
-  reduced.setFromTriplets(t.begin(), t.end());
-  Eigen::VectorXd rhs(free);
-  for (int k = 0; k < n; ++k)
-    if (index[k] >= 0) rhs[index[k]] = b[k];
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
-  llt.cholmod().print = 0;  // failures are reported through LinearResult, not on stderr
-  llt.analyzePattern(reduced);
-  llt.factorize(reduced);
-  // Not positive definite (away from equilibrium the geometric stiffness can make H indefinite):
-  // modified Newton, H + tau diag(|H_kk|), tau = 1e-6, 1e-5, ... until the factorisation
-  // succeeds; the result is still a descent direction.
-  double tau = 0;
-  Eigen::VectorXd diag = reduced.diagonal().cwiseAbs();
-  const double mean_diag = diag.size() ? diag.mean() : 1.0;
-  for (int k = 0; k < diag.size(); ++k) diag[k] = std::max(diag[k], 1e-12 * mean_diag);
-  for (tau = 1e-6; llt.info() != Eigen::Success && tau <= 1e3; tau *= 10) {
-    Eigen::SparseMatrix<double> shifted = reduced;
-    for (int k = 0; k < free; ++k) shifted.coeffRef(k, k) += tau * diag[k];
-    llt.factorize(shifted);
-  }
-  if (llt.info() != Eigen::Success) {
-    LinearResult r;
-    r.message = "CHOLMOD: tangent could not be factorised even with a diagonal shift";
-    return r;
-  }
-  const Eigen::VectorXd sol = llt.solve(rhs);
-  x.assign(n, 0.0);
-  for (int k = 0; k < n; ++k)
-    if (index[k] >= 0) x[k] = sol[index[k]];
-  LinearResult r;
-  r.converged = true;
-  r.iterations = 0;
-  if (tau > 1e-6) {
-    r.fell_back = true;
-    r.message = "CHOLMOD: tangent not positive definite, shifted by " + std::to_string(tau / 10) + " diag(H)";
-  }
-  std::vector<double> hx(n);
-  system.apply(x.data(), hx.data());
-  project(system.fixed, hx);
-  double num = 0, den = 0;
-  for (int k = 0; k < n; ++k)
-    if (index[k] >= 0) num += (hx[k] - b[k]) * (hx[k] - b[k]), den += b[k] * b[k];
-  r.relative_residual = den > 0 ? std::sqrt(num / den) : 0;
-  return r;
-}
-
-}  // namespace
 
 const char* to_string(LinearMethod method) {
   switch (method) {
     case LinearMethod::cg: return "cg";
     case LinearMethod::pcg: return "pcg";
     case LinearMethod::cholmod: return "cholmod";
+  }
+  return "?";
+}
+
+const char* to_string(Preconditioner preconditioner) {
+  switch (preconditioner) {
+    case Preconditioner::block_jacobi: return "block_jacobi";
+    case Preconditioner::cholmod: return "cholmod";
   }
   return "?";
 }
@@ -219,17 +35,89 @@ LinearMethod parse_linear_method(const std::string& name) {
   throw std::invalid_argument("unknown linear method '" + name + "' (expected cg, pcg or cholmod)");
 }
 
-LinearResult solve_linear(const LinearSystem& system, const LinearSettings& settings, const std::vector<double>& b,
-                          std::vector<double>& x) {
-  switch (settings.method) {
-    case LinearMethod::cg: return conjugate_gradient(system, settings, nullptr, b, x);
-    case LinearMethod::pcg: {
-      const std::vector<double> pre = block_jacobi(system);
-      return conjugate_gradient(system, settings, &pre, b, x);
-    }
-    case LinearMethod::cholmod: return cholmod_solve(system, b, x);
+Preconditioner parse_preconditioner(const std::string& name) {
+  if (name == "block_jacobi") return Preconditioner::block_jacobi;
+  if (name == "cholmod") return Preconditioner::cholmod;
+  throw std::invalid_argument("unknown preconditioner '" + name + "' (expected block_jacobi or cholmod)");
+}
+
+LinearSolver::LinearSolver() : m_cholesky(std::make_unique<SparseCholesky>()) {}
+LinearSolver::~LinearSolver() = default;
+
+LinearResult LinearSolver::factorise(const LinearSystem& system) {
+  LinearResult r;
+  r.factorised = true;
+  if (!m_cholesky->factorise(system.assemble(), system.fixed)) {
+    r.message = "CHOLMOD: tangent could not be factorised even with a diagonal shift";
+    return r;
   }
-  throw std::logic_error("unreachable");
+  m_stale = false;
+  r.converged = true;
+  if (m_cholesky->shift() > 0) {
+    r.shifted = true;
+    std::ostringstream msg;
+    msg << "CHOLMOD: tangent not positive definite, shifted by " << m_cholesky->shift() << " diag(H)";
+    r.message = msg.str();
+  }
+  return r;
+}
+
+LinearResult LinearSolver::solve(const LinearSystem& system, const LinearSettings& settings,
+                                 const std::vector<double>& b, std::vector<double>& x) {
+  const HostVectorOps ops(system.size, system.fixed);
+  auto apply = [&](const std::vector<double>& p, std::vector<double>& out) { system.apply(p.data(), out.data()); };
+  PcgSettings pcg_settings;
+  pcg_settings.tolerance = settings.tolerance;
+  pcg_settings.max_iterations = settings.max_iterations;
+  pcg_settings.fixed_iterations = settings.fixed_iterations;
+
+  if (settings.method == LinearMethod::cg)
+    return pcg(ops, apply, IdentityPreconditioner<HostVectorOps>{ops}, pcg_settings, b, x);
+
+  if (settings.method == LinearMethod::pcg && settings.preconditioner == Preconditioner::block_jacobi) {
+    std::vector<double> blocks(36 * static_cast<size_t>(system.size / 6));
+    system.diagonal_blocks(blocks.data());
+    const BlockJacobi jacobi(std::move(blocks), system.fixed);
+    return pcg(ops, apply, [&](const std::vector<double>& r, std::vector<double>& z) { jacobi.apply(r, z); },
+               pcg_settings, b, x);
+  }
+
+  if (settings.method == LinearMethod::cholmod) {
+    LinearResult r = factorise(system);
+    if (!m_cholesky->factorised()) return r;
+    std::vector<double> rhs = b;
+    ops.project(rhs);
+    m_cholesky->solve(rhs, x);
+    std::vector<double> hx(x.size());
+    apply(x, hx);
+    ops.project(hx);
+    ops.axpy(-1.0, rhs, hx);
+    const double b_norm = ops.norm(rhs);
+    r.relative_residual = b_norm > 0 ? ops.norm(hx) / b_norm : 0.0;
+    return r;
+  }
+
+  // PCG preconditioned by the reused factorisation: refactorise when stale, and once more when
+  // the reused one could not reach the tolerance within the cap.
+  const bool was_stale = m_stale || !m_cholesky->factorised();
+  LinearResult fresh;
+  if (was_stale) {
+    fresh = factorise(system);
+    if (!m_cholesky->factorised()) return fresh;
+  }
+  auto precondition = [&](const std::vector<double>& r, std::vector<double>& z) { m_cholesky->solve(r, z); };
+  LinearResult r = pcg(ops, apply, precondition, pcg_settings, b, x);
+  if (!r.converged && !was_stale && !settings.fixed_iterations) {
+    const int spent = r.iterations;
+    fresh = factorise(system);
+    if (!m_cholesky->factorised()) return fresh;
+    r = pcg(ops, apply, precondition, pcg_settings, b, x);
+    r.iterations += spent;
+  }
+  r.factorised = was_stale || fresh.factorised;
+  r.shifted = fresh.shifted;
+  if (r.iterations > settings.refactorise_above) m_stale = true;
+  return r;
 }
 
 }  // namespace fascia

@@ -1,29 +1,48 @@
-// Linear solves for the Newton step H d = -g on the free degrees of freedom.
+// Linear solves of the Newton system H d = b on the free degrees of freedom, on the CPU.
 //
-// Fixed DOFs leave the unknowns: CG and PCG project them out (the operator, right-hand side and
-// every iterate have zeros there); CHOLMOD factorises the free-free block of the assembled H.
+// Fixed DOFs leave the unknowns: CG and PCG (solve/pcg.hpp) project them out, the sparse
+// Cholesky factorisation (solve/sparse_cholesky.hpp) factorises the free-free block.
+// Methods (docs/solvers.md):
+//   cg       conjugate gradients, matrix-free
+//   pcg      PCG, matrix-free products, preconditioned by `preconditioner`:
+//              block_jacobi  the inverse 6x6 diagonal blocks (solve/block_jacobi.hpp)
+//              cholmod       a sparse Cholesky factorisation of the assembled H, kept from one
+//                            solve to the next (Newton iterations and steps) and refreshed when
+//                            a solve needed more than `refactorise_above` iterations
+//   cholmod  direct: assemble and factorise H at every solve (symbolic analysis kept)
 #pragma once
+
+#include "solve/linear_result.hpp"
 
 #include <Eigen/SparseCore>
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace fascia {
 
+class SparseCholesky;
+
 enum class LinearMethod { cg, pcg, cholmod };
+enum class Preconditioner { block_jacobi, cholmod };
 
 const char* to_string(LinearMethod method);
-// Parses "cg", "pcg" or "cholmod"; throws std::invalid_argument otherwise.
+const char* to_string(Preconditioner preconditioner);
+// Parse "cg" | "pcg" | "cholmod" and "block_jacobi" | "cholmod"; throw std::invalid_argument
+// otherwise.
 LinearMethod parse_linear_method(const std::string& name);
+Preconditioner parse_preconditioner(const std::string& name);
 
 struct LinearSettings {
   LinearMethod method = LinearMethod::pcg;
-  double tolerance = 1e-8;    // CG/PCG: stop when |r| <= tolerance |b| (preconditioned norm for PCG)
+  Preconditioner preconditioner = Preconditioner::block_jacobi;
+  double tolerance = 1e-8;    // CG/PCG: stop when |r| <= tolerance |b|
   int max_iterations = 2000;  // CG/PCG cap
   bool fixed_iterations = false;  // run exactly max_iterations (the paper's benchmarks: 60)
+  int refactorise_above = 10;     // pcg + cholmod: refresh the factorisation after a solve that took more
 };
 
 // The system's operator H (size n = 6N), its 6x6 diagonal blocks and assembled form on demand.
@@ -35,17 +54,27 @@ struct LinearSystem {
   std::function<Eigen::SparseMatrix<double>()> assemble;        // H, both triangles
 };
 
-struct LinearResult {
-  int iterations = 0;
-  double relative_residual = 0;
-  bool converged = false;
-  bool negative_curvature = false;  // CG met d^T H d <= 0 and stopped there (truncated Newton)
-  bool fell_back = false;           // CHOLMOD found H not positive definite and PCG was used
-  std::string message;
-};
+// Solves with the method of the settings. Keeps the sparse factorisation between solves (pcg +
+// cholmod reuses it as its preconditioner; cholmod reuses the symbolic analysis): one solver per
+// sequence of systems of one model.
+class LinearSolver {
+ public:
+  LinearSolver();
+  ~LinearSolver();
+  LinearSolver(const LinearSolver&) = delete;
+  LinearSolver& operator=(const LinearSolver&) = delete;
 
-// Solves H x = b for x (resized to n). b must be zero at fixed DOFs (it is projected anyway).
-LinearResult solve_linear(const LinearSystem& system, const LinearSettings& settings, const std::vector<double>& b,
-                          std::vector<double>& x);
+  // Solves H x = b for x (resized to n). b is projected onto the free DOFs.
+  LinearResult solve(const LinearSystem& system, const LinearSettings& settings, const std::vector<double>& b,
+                     std::vector<double>& x);
+
+  const SparseCholesky& factorisation() const { return *m_cholesky; }
+
+ private:
+  LinearResult factorise(const LinearSystem& system);
+
+  std::unique_ptr<SparseCholesky> m_cholesky;
+  bool m_stale = true;  // refactorise before the next pcg + cholmod solve
+};
 
 }  // namespace fascia

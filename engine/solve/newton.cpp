@@ -1,7 +1,8 @@
 #include "solve/newton.hpp"
 
+#include "solve/vector_ops.hpp"
+
 #include <cmath>
-#include <sstream>
 
 namespace fascia {
 
@@ -12,92 +13,58 @@ double free_norm(const Model& model, const std::vector<double>& g) {
   return std::sqrt(s);
 }
 
-NewtonResult minimise(Potential& potential, State& state, const NewtonSettings& settings, double reference_force) {
-  const Model& model = potential.model();
-  const int n = model.dof_count();
-  std::vector<double> g(n), d(n), rhs(n);
-  NewtonResult result;
-  double phi = potential.gradient(state, g);
-  if (!std::isfinite(phi)) {
-    result.message = "the starting state has non-finite energy (inverted element?)";
-    return result;
+namespace {
+
+// newton()'s problem for a CPU Potential: host vectors, the model's fixed DOFs (a Potential's
+// reduced gradient is zero on the frames its constraints eliminate), the linear solve by `solver`.
+class HostPotentialProblem {
+ public:
+  using Ops = HostVectorOps;
+  using Vector = std::vector<double>;
+  using State = fascia::State;
+
+  HostPotentialProblem(Potential& potential, LinearSolver& solver, const LinearSettings& linear)
+      : m_potential(potential),
+        m_solver(solver),
+        m_linear(linear),
+        m_ops(potential.model().dof_count(), potential.model().fixed_dofs.data()) {}
+
+  const Ops& ops() const { return m_ops; }
+  bool minimises() const { return true; }
+  double value(const State& q) { return m_potential.value(q); }
+  double gradient(const State& q, Vector& g) {
+    const double phi = m_potential.gradient(q, g);
+    m_ops.project(g);
+    return phi;
   }
-  const double g0 = free_norm(model, g);
-  const double scale = std::max({reference_force, g0, 1e-300});
-  const int iterations = settings.fixed_iterations > 0 ? settings.fixed_iterations : settings.max_iterations;
-  for (int it = 0; it < iterations; ++it) {
-    result.residual = free_norm(model, g) / scale;
-    if (settings.fixed_iterations == 0 && result.residual <= settings.tolerance) {
-      result.converged = true;
-      break;
-    }
-    potential.prepare_hessian(state);
-    for (int k = 0; k < n; ++k) rhs[k] = model.fixed_dofs[k] ? 0.0 : -g[k];
-    const LinearResult lin = solve_linear(potential.system(), settings.linear, rhs, d);
-    result.cg_iterations += lin.iterations;
-    double slope = 0;
-    for (int k = 0; k < n; ++k) slope += g[k] * d[k];
-    if (!(slope < 0)) {  // not a descent direction: use steepest descent
-      for (int k = 0; k < n; ++k) d[k] = rhs[k];
-      slope = -free_norm(model, g) * free_norm(model, g);
-    }
-    ++result.iterations;
-    if (settings.fixed_iterations > 0) {  // one linearised step per iteration, no line search
-      potential.retract(state, d.data(), 1.0);
-      phi = potential.gradient(state, g);
-      continue;
-    }
-    // Backtracking line search with the Armijo condition on Phi.
-    double alpha = 1.0;
-    bool accepted = false;
-    for (int b = 0; b <= settings.max_backtracks; ++b, alpha *= 0.5) {
-      State trial = state;
-      potential.retract(trial, d.data(), alpha);
-      const double phi_trial = potential.value(trial);
-      if (!std::isfinite(phi_trial)) continue;
-      if (phi_trial <= phi + settings.armijo * alpha * slope) {
-        state = std::move(trial);
-        accepted = true;
-        break;
-      }
-      // Near the minimum the predicted decrease falls below the round-off of Phi (a sum of
-      // many terms): there, accept a step that reduces the gradient norm instead.
-      if (std::abs(alpha * slope) <= 1e-10 * std::abs(phi) && std::abs(phi_trial - phi) <= 1e-10 * std::abs(phi)) {
-        std::vector<double> g_trial;
-        potential.gradient(trial, g_trial);
-        if (free_norm(model, g_trial) < free_norm(model, g)) {
-          state = std::move(trial);
-          accepted = true;
-          break;
-        }
-      }
-    }
-    if (!accepted) {
-      // At round-off level the energy cannot decrease any further: accept if the residual is
-      // already small, otherwise report.
-      std::ostringstream msg;
-      msg << "line search failed after " << settings.max_backtracks << " halvings at Newton iteration " << it + 1
-          << " (relative residual " << result.residual << ")";
-      result.message = msg.str();
-      result.value = phi;
-      return result;
-    }
-    phi = potential.gradient(state, g);
+  LinearResult solve(const State& q, const Vector& rhs, Vector& d) {
+    m_potential.prepare_hessian(q);
+    return m_solver.solve(m_potential.system(), m_linear, rhs, d);
   }
-  result.residual = free_norm(model, g) / scale;
-  result.value = phi;
-  if (settings.fixed_iterations > 0) {
-    result.converged = std::isfinite(phi);
-  } else if (!result.converged) {
-    result.converged = result.residual <= settings.tolerance;
-    if (!result.converged) {
-      std::ostringstream msg;
-      msg << "Newton did not converge in " << settings.max_iterations << " iterations (relative residual "
-          << result.residual << ", tolerance " << settings.tolerance << ")";
-      result.message = msg.str();
-    }
-  }
-  return result;
+  void retract(State& q, const Vector& d, double alpha) { m_potential.retract(q, d.data(), alpha); }
+
+ private:
+  Potential& m_potential;
+  LinearSolver& m_solver;
+  const LinearSettings& m_linear;
+  HostVectorOps m_ops;
+};
+
+}  // namespace
+
+NewtonResult minimise(Potential& potential, State& state, const NewtonSettings& settings, double reference_force,
+                      LinearSolver* solver) {
+  LinearSolver local;
+  HostPotentialProblem problem(potential, solver ? *solver : local, settings.linear);
+  return newton(problem, state, settings, reference_force);
+}
+
+NewtonResult minimise_load_stepping(Potential& potential, State& state, const NewtonSettings& settings,
+                                    const LoadStepping& stepping, const std::function<double(double)>& set_load_factor,
+                                    LinearSolver* solver) {
+  LinearSolver local;
+  HostPotentialProblem problem(potential, solver ? *solver : local, settings.linear);
+  return newton_load_stepping(problem, state, settings, stepping, set_load_factor);
 }
 
 }  // namespace fascia

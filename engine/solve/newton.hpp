@@ -1,32 +1,42 @@
-// Newton's method with a backtracking line search on a potential energy (DESIGN.md):
-// minimise Phi(q) over the frame configurations, q_{k+1} = q_k (+) alpha d with H d = -g.
+// Newton's method with a backtracking line search (DESIGN.md), written once over a backend's
+// vector operations (solve/vector_ops.hpp) and a problem that supplies states:
+// q_{k+1} = q_k (+) alpha d with H d = -g.
+//
+// A Problem provides
+//
+//   using Ops = ...;  using Vector = typename Ops::Vector;  using State = ...;
+//   const Ops& ops() const;                  vector operations with the unknowns' fixed DOFs
+//   bool minimises() const;                  true: g is the gradient of a potential Phi and the
+//                                            line search is Armijo's on Phi; false: g is only a
+//                                            residual and a step must decrease |g|
+//   double gradient(const State& q, Vector& g);   g(q) [n], projected; returns Phi(q) when
+//                                            minimises() (else any finite value; non-finite
+//                                            means q is not admissible, e.g. inverted elements)
+//   double value(const State& q);            Phi(q) (called only when minimises())
+//   LinearResult solve(const State& q, const Vector& rhs, Vector& d);
+//                                            d = H(q)^{-1} rhs on the free DOFs (the problem's
+//                                            linear solver: PCG, solve/pcg.hpp, or direct)
+//   void retract(State& q, const Vector& d, double alpha);   q <- q (+) alpha d
+//
+// States are assigned (trial = q) and swapped during the line search.
+//
+// Convergence: |g_free| <= tolerance * max(reference force, |g_free(q_0)|). Line search: halve
+// alpha until Phi(q (+) alpha d) <= Phi(q) + armijo alpha g.d (Nocedal & Wright, eq. 3.4); near
+// the minimum the predicted decrease falls below the round-off of Phi (a sum of many terms), and
+// there, as for residual problems, a step that reduces |g| is accepted.
 #pragma once
 
 #include "model/state.hpp"
 #include "solve/linear_solver.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <sstream>
 #include <string>
+#include <utility>
 
 namespace fascia {
-
-// A potential on frame configurations with gradient and Hessian w.r.t. increments
-// theta (DESIGN.md): Phi(q (+) theta), theta in [N][6].
-class Potential {
- public:
-  virtual ~Potential() = default;
-  virtual const Model& model() const = 0;
-  virtual double value(const State& state) = 0;
-  // Value and gradient at theta = 0.
-  virtual double gradient(const State& state, std::vector<double>& g) = 0;
-  // Prepares the Hessian at state for the system() operator.
-  virtual void prepare_hessian(const State& state) = 0;
-  virtual LinearSystem system() = 0;
-  // q <- q (+) scale d. Potentials whose configuration space is constrained (rigidly mapped
-  // frames) restore their constraints here.
-  virtual void retract(State& state, const double* d, double scale) const {
-    ::fascia::retract(model(), state, d, scale);
-  }
-};
 
 struct NewtonSettings {
   double tolerance = 1e-6;   // converged when |g_free| <= tolerance * reference force
@@ -44,16 +54,185 @@ struct NewtonResult {
   int iterations = 0;
   int cg_iterations = 0;
   double residual = 0;   // |g_free| / reference force at the end
-  double value = 0;      // Phi at the end
+  double value = 0;      // Phi at the end (minimising problems)
   std::string message;   // why it stopped, when not converged
 };
 
-// Minimises potential from state (updated in place). reference_force: the force scale for the
-// relative residual (N), e.g. the norm of the external loads; the initial gradient norm is used
-// when it is larger.
-NewtonResult minimise(Potential& potential, State& state, const NewtonSettings& settings, double reference_force);
+template <class Problem>
+NewtonResult newton(Problem& problem, typename Problem::State& state, const NewtonSettings& settings,
+                    double reference_force) {
+  using Vector = typename Problem::Vector;
+  const auto& ops = problem.ops();
+  const bool minimises = problem.minimises();
+  Vector g, g_trial, d, rhs;
+  ops.resize(g);
+  ops.resize(g_trial);
+  ops.resize(d);
+  ops.resize(rhs);
+  typename Problem::State trial = state;
+  NewtonResult result;
+  double phi = problem.gradient(state, g);
+  double g_norm = ops.norm(g);
+  if (!std::isfinite(phi) || !std::isfinite(g_norm)) {
+    result.message = "the starting state has non-finite energy (inverted element?)";
+    return result;
+  }
+  const double scale = std::max({reference_force, g_norm, 1e-300});
+  const int iterations = settings.fixed_iterations > 0 ? settings.fixed_iterations : settings.max_iterations;
+  for (int it = 0; it < iterations; ++it) {
+    result.residual = g_norm / scale;
+    if (settings.fixed_iterations == 0 && result.residual <= settings.tolerance) {
+      result.converged = true;
+      break;
+    }
+    ops.copy(g, rhs);
+    ops.scale(-1.0, rhs);
+    const LinearResult lin = problem.solve(state, rhs, d);
+    result.cg_iterations += lin.iterations;
+    double slope = ops.dot(g, d);
+    if (!(slope < 0)) {  // not a descent direction: steepest descent
+      ops.copy(rhs, d);
+      slope = -g_norm * g_norm;
+    }
+    ++result.iterations;
+    if (settings.fixed_iterations > 0) {  // one linearised step per iteration, no line search
+      problem.retract(state, d, 1.0);
+      phi = problem.gradient(state, g);
+      g_norm = ops.norm(g);
+      continue;
+    }
+    double alpha = 1.0;
+    bool accepted = false;
+    for (int b = 0; b <= settings.max_backtracks && !accepted; ++b, alpha *= 0.5) {
+      trial = state;
+      problem.retract(trial, d, alpha);
+      if (minimises) {
+        const double phi_trial = problem.value(trial);
+        if (!std::isfinite(phi_trial)) continue;
+        if (phi_trial <= phi + settings.armijo * alpha * slope) {
+          std::swap(state, trial);
+          phi = problem.gradient(state, g);
+          g_norm = ops.norm(g);
+          accepted = true;
+          break;
+        }
+        const bool round_off = std::abs(alpha * slope) <= 1e-10 * std::abs(phi) &&
+                               std::abs(phi_trial - phi) <= 1e-10 * std::abs(phi);
+        if (!round_off) continue;
+      }
+      const double phi_trial = problem.gradient(trial, g_trial);
+      const double trial_norm = ops.norm(g_trial);
+      if (std::isfinite(phi_trial) && std::isfinite(trial_norm) && trial_norm < g_norm) {
+        std::swap(state, trial);
+        std::swap(g, g_trial);
+        phi = phi_trial;
+        g_norm = trial_norm;
+        accepted = true;
+      }
+    }
+    if (!accepted) {
+      std::ostringstream msg;
+      msg << "line search failed after " << settings.max_backtracks << " halvings at Newton iteration " << it + 1
+          << " (relative residual " << result.residual << ")";
+      result.message = msg.str();
+      result.value = phi;
+      return result;
+    }
+  }
+  result.residual = g_norm / scale;
+  result.value = phi;
+  if (settings.fixed_iterations > 0) {
+    result.converged = std::isfinite(phi) && std::isfinite(g_norm);
+  } else if (!result.converged) {
+    result.converged = result.residual <= settings.tolerance;
+    if (!result.converged) {
+      std::ostringstream msg;
+      msg << "Newton did not converge in " << settings.max_iterations << " iterations (relative residual "
+          << result.residual << ", tolerance " << settings.tolerance << ")";
+      result.message = msg.str();
+    }
+  }
+  return result;
+}
 
-// Norm of g over the free DOFs.
+// Static load stepping around newton(): the load factor goes to 1 in increments, halved on
+// failure (at most max_halvings times in a row) and doubled again after a success.
+// set_load_factor(f) applies factor f to the problem's loads and returns the reference force of
+// the residual at that factor (N). On failure the state is left at the last converged factor and
+// the result's message says where it stopped.
+struct LoadStepping {
+  int initial_steps = 1;   // first increment = 1 / initial_steps
+  int max_halvings = 10;
+};
+
+template <class Problem, class SetLoadFactor>
+NewtonResult newton_load_stepping(Problem& problem, typename Problem::State& state, const NewtonSettings& settings,
+                                  const LoadStepping& stepping, SetLoadFactor&& set_load_factor) {
+  double done = 0, increment = 1.0 / std::max(1, stepping.initial_steps);
+  NewtonResult total, last;
+  int halvings = 0;
+  typename Problem::State attempt = state;
+  while (done < 1.0) {
+    const double target = std::min(1.0, done + increment);
+    const double reference = set_load_factor(target);
+    attempt = state;
+    const NewtonResult r = newton(problem, attempt, settings, reference);
+    total.iterations += r.iterations;
+    total.cg_iterations += r.cg_iterations;
+    if (r.converged) {
+      std::swap(state, attempt);
+      done = target;
+      last = r;
+      increment = std::min(1.0 - done, 2 * increment);
+      halvings = 0;
+      continue;
+    }
+    increment *= 0.5;
+    if (++halvings > stepping.max_halvings) {
+      set_load_factor(1.0);
+      std::ostringstream msg;
+      msg << "static solve failed at load factor " << target << ": " << r.message;
+      total.message = msg.str();
+      total.residual = r.residual;
+      return total;
+    }
+  }
+  total.converged = true;
+  total.residual = last.residual;
+  total.value = last.value;
+  return total;
+}
+
+// A potential on frame configurations with gradient and Hessian w.r.t. increments
+// theta (DESIGN.md): Phi(q (+) theta), theta in [N][6]. The CPU's problems (StepPotential).
+class Potential {
+ public:
+  virtual ~Potential() = default;
+  virtual const Model& model() const = 0;
+  virtual double value(const State& state) = 0;
+  // Value and gradient at theta = 0.
+  virtual double gradient(const State& state, std::vector<double>& g) = 0;
+  // Prepares the Hessian at state for the system() operator.
+  virtual void prepare_hessian(const State& state) = 0;
+  virtual LinearSystem system() = 0;
+  // q <- q (+) scale d. Potentials whose configuration space is constrained (rigidly mapped
+  // frames) restore their constraints here.
+  virtual void retract(State& state, const double* d, double scale) const {
+    ::fascia::retract(model(), state, d, scale);
+  }
+};
+
+// newton() on a CPU Potential with HostVectorOps, solving with `solver` (which keeps its
+// factorisation from one call to the next; null: a solver for this call only).
+NewtonResult minimise(Potential& potential, State& state, const NewtonSettings& settings, double reference_force,
+                      LinearSolver* solver = nullptr);
+
+// newton_load_stepping() on a CPU Potential, as minimise().
+NewtonResult minimise_load_stepping(Potential& potential, State& state, const NewtonSettings& settings,
+                                    const LoadStepping& stepping, const std::function<double(double)>& set_load_factor,
+                                    LinearSolver* solver = nullptr);
+
+// Norm of g over the model's free DOFs.
 double free_norm(const Model& model, const std::vector<double>& g);
 
 }  // namespace fascia

@@ -1,6 +1,8 @@
-// CG, block-Jacobi PCG and CHOLMOD solve the same projected system to their tolerances.
+// CG, PCG (block-Jacobi or a reused sparse factorisation) and the CHOLMOD direct solve agree on
+// the same projected system; the reused factorisation keeps its symbolic analysis.
 #include "integrate/step_potential.hpp"
 #include "solve/linear_solver.hpp"
+#include "solve/sparse_cholesky.hpp"
 #include "support/finite_difference.hpp"
 #include "support/fixtures.hpp"
 
@@ -25,27 +27,84 @@ TEST_CASE("CG, PCG and CHOLMOD agree on a backward-Euler Newton system", "[solve
   std::vector<double> b(g.size());
   for (size_t k = 0; k < g.size(); ++k) b[k] = model.fixed_dofs[k] ? 0.0 : -g[k];
 
-  std::vector<double> x_direct, x_cg, x_pcg;
+  std::vector<double> x_direct, x_cg, x_pcg, x_factor;
+  LinearSolver solver;
   LinearSettings settings;
   settings.method = LinearMethod::cholmod;
-  REQUIRE(solve_linear(system, settings, b, x_direct).converged);
+  REQUIRE(solver.solve(system, settings, b, x_direct).converged);
   settings.tolerance = 1e-12;
   settings.max_iterations = 20000;
   settings.method = LinearMethod::cg;
-  const LinearResult cg = solve_linear(system, settings, b, x_cg);
+  const LinearResult cg = solver.solve(system, settings, b, x_cg);
   settings.method = LinearMethod::pcg;
-  const LinearResult pcg = solve_linear(system, settings, b, x_pcg);
+  settings.preconditioner = Preconditioner::block_jacobi;
+  const LinearResult pcg = solver.solve(system, settings, b, x_pcg);
+  settings.preconditioner = Preconditioner::cholmod;
+  const LinearResult factor = solver.solve(system, settings, b, x_factor);
   REQUIRE(cg.converged);
   REQUIRE(pcg.converged);
+  REQUIRE(factor.converged);
   // Block-Jacobi removes the 1/h^2 mass and the frame's own stiffness scale: fewer iterations.
   REQUIRE(pcg.iterations < cg.iterations);
+  // The factorisation of this very H: the preconditioned operator is I up to round-off, so one
+  // iteration reaches 1e-12 or, at worst, a second one mops up the round-off.
+  REQUIRE(factor.iterations <= 2);
   // With |r| <= 1e-12 |b| the error is bounded by cond(H) * 1e-12 relative; cond(H) of these
   // small models is below 1e4 (mass-dominated at h = 10 ms), hence 1e-8.
   for (size_t k = 0; k < b.size(); ++k) {
     REQUIRE(std::abs(x_cg[k] - x_direct[k]) <= 1e-8 * norm(x_direct));
     REQUIRE(std::abs(x_pcg[k] - x_direct[k]) <= 1e-8 * norm(x_direct));
+    REQUIRE(std::abs(x_factor[k] - x_direct[k]) <= 1e-8 * norm(x_direct));
     if (model.fixed_dofs[k]) REQUIRE(x_direct[k] == 0.0);
   }
+  // One symbolic analysis served the direct solve and the preconditioner (same pattern).
+  REQUIRE(solver.factorisation().analyses() == 1);
+}
+
+TEST_CASE("PCG reuses its factorisation at a new state and refreshes it when it stops paying",
+          "[solve]") {
+  Model model = small_box_model(CellType::tetrahedron, MaterialLaw::stvk, 4, 2, 2);
+  fix_frames(model, [](double x, double, double) { return x <= 1e-12; });
+  ExternalLoads loads;
+  loads.gravity = Vec3{0, 0, -9.81};
+  StepPotential potential(model, loads);
+  potential.set_dynamic(rest_state(model), 0.01, 0.0, 0.0);
+  LinearSolver solver;
+  LinearSettings settings;
+  settings.method = LinearMethod::pcg;
+  settings.preconditioner = Preconditioner::cholmod;
+  settings.tolerance = 1e-10;
+  settings.refactorise_above = settings.max_iterations;  // keep the first factorisation throughout
+  std::vector<double> g, x, hx(model.dof_count());
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    const State state = random_state(model, seed, 0.002, 0.05);
+    potential.gradient(state, g);
+    potential.prepare_hessian(state);
+    const LinearSystem system = potential.system();
+    for (size_t k = 0; k < g.size(); ++k) g[k] = model.fixed_dofs[k] ? 0.0 : -g[k];
+    const LinearResult r = solver.solve(system, settings, g, x);
+    INFO("seed " << seed << ": " << r.iterations << " iterations, " << r.message << ", negative curvature "
+                 << r.negative_curvature << ", shifted " << r.shifted);
+    REQUIRE(r.converged);
+    // The first solve factorises; the later ones precondition with that factorisation of
+    // another state's H and must still reach the tolerance: |H x - b| <= 1e-10 |b| on the free DOFs.
+    REQUIRE(r.factorised == (seed == 1));
+    system.apply(x.data(), hx.data());
+    double num = 0, den = 0;
+    for (size_t k = 0; k < g.size(); ++k)
+      if (!model.fixed_dofs[k]) num += (hx[k] - g[k]) * (hx[k] - g[k]), den += g[k] * g[k];
+    REQUIRE(std::sqrt(num / den) <= 1e-10 * (1 + 1e-6));
+  }
+  REQUIRE(solver.factorisation().factorisations() == 1);
+  // A threshold of 0 iterations marks the factorisation stale after any solve that iterates.
+  settings.refactorise_above = 0;
+  const State state = random_state(model, 9, 0.002, 0.05);
+  potential.gradient(state, g);
+  potential.prepare_hessian(state);
+  for (size_t k = 0; k < g.size(); ++k) g[k] = model.fixed_dofs[k] ? 0.0 : -g[k];
+  REQUIRE(!solver.solve(potential.system(), settings, g, x).factorised);
+  REQUIRE(solver.solve(potential.system(), settings, g, x).factorised);
+  REQUIRE(solver.factorisation().analyses() == 1);
 }
 
 TEST_CASE("CG in fixed-iteration mode runs exactly the requested iterations", "[solve]") {
@@ -64,7 +123,8 @@ TEST_CASE("CG in fixed-iteration mode runs exactly the requested iterations", "[
   settings.method = LinearMethod::cg;
   settings.fixed_iterations = true;
   settings.max_iterations = 60;
-  const LinearResult r = solve_linear(potential.system(), settings, g, x);
+  LinearSolver solver;
+  const LinearResult r = solver.solve(potential.system(), settings, g, x);
   REQUIRE(r.iterations == 60);
 }
 
@@ -91,11 +151,12 @@ TEST_CASE("an indefinite tangent makes CHOLMOD shift, and CG truncate at negativ
   std::vector<double> x;
   LinearSettings settings;
   settings.method = LinearMethod::cholmod;
-  const LinearResult direct = solve_linear(system, settings, b, x);
-  REQUIRE(direct.fell_back);
+  LinearSolver solver;
+  const LinearResult direct = solver.solve(system, settings, b, x);
+  REQUIRE(direct.shifted);
   REQUIRE_THAT(direct.message, Catch::Contains("not positive definite"));
   settings.method = LinearMethod::cg;
-  const LinearResult cg = solve_linear(system, settings, b, x);
+  const LinearResult cg = solver.solve(system, settings, b, x);
   REQUIRE(cg.negative_curvature);
   REQUIRE(dot(b, x) > 0);  // still a descent direction for Newton (x solves against -g = b)
 }

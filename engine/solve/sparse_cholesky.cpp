@@ -1,0 +1,86 @@
+#include "solve/sparse_cholesky.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace fascia {
+
+SparseCholesky::SparseCholesky() : m_factor(std::make_unique<Factor>()) {
+  m_factor->cholmod().print = 0;  // failures are reported by factorise(), not on stderr
+}
+
+SparseCholesky::~SparseCholesky() = default;
+
+bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::uint8_t* fixed) {
+  const int n = static_cast<int>(H.rows());
+  std::vector<std::uint8_t> mask(n, 0);
+  if (fixed) std::copy(fixed, fixed + n, mask.begin());
+  if (mask != m_fixed || static_cast<int>(m_index.size()) != n) {
+    m_fixed = mask;
+    m_index.assign(n, -1);
+    int free = 0;
+    for (int k = 0; k < n; ++k)
+      if (!mask[k]) m_index[k] = free++;
+    m_analysed = false;
+  }
+  int free = 0;
+  for (int k = 0; k < n; ++k) free += m_index[k] >= 0;
+  // The lower triangle of the free-free block, with every diagonal entry present (the shift
+  // below writes there without changing the pattern).
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(static_cast<size_t>(H.nonZeros()) / 2 + free);
+  for (int k = 0; k < free; ++k) t.emplace_back(k, k, 0.0);
+  for (int c = 0; c < H.outerSize(); ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(H, c); it; ++it) {
+      const int r = m_index[it.row()], col = m_index[it.col()];
+      if (r >= 0 && col >= 0 && r >= col) t.emplace_back(r, col, it.value());
+    }
+  Eigen::SparseMatrix<double> reduced(free, free);
+  reduced.setFromTriplets(t.begin(), t.end());
+  reduced.makeCompressed();
+  const std::vector<int> outer(reduced.outerIndexPtr(), reduced.outerIndexPtr() + free + 1);
+  const std::vector<int> inner(reduced.innerIndexPtr(), reduced.innerIndexPtr() + reduced.nonZeros());
+  if (!m_analysed || outer != m_outer || inner != m_inner) {
+    m_factor->analyzePattern(reduced);
+    m_outer = outer;
+    m_inner = inner;
+    m_analysed = true;
+    ++m_analyses;
+  }
+  ++m_factorisations;
+  m_shift = 0;
+  m_factor->factorize(reduced);
+  if (m_factor->info() != Eigen::Success) {
+    std::vector<double> diag(free);
+    double mean = 0;
+    for (int k = 0; k < free; ++k) mean += (diag[k] = std::abs(reduced.coeff(k, k)));
+    mean = free > 0 ? mean / free : 1.0;
+    for (double& d : diag) d = std::max(d, 1e-12 * mean);
+    for (double tau = 1e-6; tau <= 1e3 * (1 + 1e-12); tau *= 10) {
+      Eigen::SparseMatrix<double> shifted = reduced;
+      for (int k = 0; k < free; ++k) shifted.coeffRef(k, k) += tau * diag[k];
+      m_factor->factorize(shifted);
+      if (m_factor->info() == Eigen::Success) {
+        m_shift = tau;
+        break;
+      }
+    }
+  }
+  m_factorised = m_factor->info() == Eigen::Success;
+  return m_factorised;
+}
+
+void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x) const {
+  const int n = static_cast<int>(m_index.size());
+  int free = 0;
+  for (int k = 0; k < n; ++k) free += m_index[k] >= 0;
+  Eigen::VectorXd rhs(free);
+  for (int k = 0; k < n; ++k)
+    if (m_index[k] >= 0) rhs[m_index[k]] = b[k];
+  const Eigen::VectorXd sol = m_factor->solve(rhs);
+  x.assign(n, 0.0);
+  for (int k = 0; k < n; ++k)
+    if (m_index[k] >= 0) x[k] = sol[m_index[k]];
+}
+
+}  // namespace fascia

@@ -1,0 +1,50 @@
+// A sparse Cholesky factorisation (CHOLMOD, supernodal) of the free-free block of an assembled
+// symmetric matrix H: the direct solve of the Newton system and the reused preconditioner of PCG.
+//
+// The symbolic analysis (fill-reducing ordering, supernodes) is kept while the free DOFs and the
+// sparsity pattern of H stay the same, which they do across the Newton iterations and steps of
+// one model; only the numeric factorisation is repeated. A matrix that is not positive definite
+// (away from equilibrium the geometric stiffness can make H indefinite) is factorised as
+// H + tau diag|H| with tau = 1e-6, 1e-5, ..., 1e3 until it succeeds (modified Newton: the solve
+// is still a descent direction).
+#pragma once
+
+#include <Eigen/CholmodSupport>
+#include <Eigen/SparseCore>
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace fascia {
+
+class SparseCholesky {
+ public:
+  SparseCholesky();
+  ~SparseCholesky();
+  SparseCholesky(const SparseCholesky&) = delete;
+  SparseCholesky& operator=(const SparseCholesky&) = delete;
+
+  // Factorises the free-free block of H (n x n, both triangles or the lower one; fixed: [n] or
+  // null). Returns false when even the largest shift fails.
+  bool factorise(const Eigen::SparseMatrix<double>& H, const std::uint8_t* fixed);
+  // x = (H_ff + tau D)^{-1} b on the free DOFs, zero at fixed ones; [n] each.
+  void solve(const std::vector<double>& b, std::vector<double>& x) const;
+
+  bool factorised() const { return m_factorised; }
+  double shift() const { return m_shift; }          // tau of the last factorisation (0: none)
+  int analyses() const { return m_analyses; }       // symbolic analyses so far
+  int factorisations() const { return m_factorisations; }
+
+ private:
+  using Factor = Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower>;
+  std::unique_ptr<Factor> m_factor;
+  std::vector<int> m_index;                        // [n] free index of each DOF, -1 if fixed
+  std::vector<std::uint8_t> m_fixed;               // the mask m_index was built from
+  std::vector<int> m_outer, m_inner;               // pattern of the analysed reduced matrix
+  bool m_analysed = false, m_factorised = false;
+  double m_shift = 0;
+  int m_analyses = 0, m_factorisations = 0;
+};
+
+}  // namespace fascia

@@ -1,0 +1,138 @@
+// The one Newton (solve/newton.hpp) on a problem of its own state type, which is what a second
+// backend provides: Phi(x) = sum_k x_k^4 / 4 + a_k x_k^2 / 2 - f b_k x_k, strictly convex, with
+// the exact minimiser known per component (the real root of x^3 + a x = f b).
+#include "solve/newton.hpp"
+#include "solve/vector_ops.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <numeric>
+#include <vector>
+
+using namespace fascia;
+
+namespace {
+
+struct QuarticProblem {
+  using Ops = HostVectorOps;
+  using Vector = std::vector<double>;
+  using State = std::vector<double>;  // x itself: retract is x + alpha d
+
+  std::vector<double> a, b;
+  std::vector<std::uint8_t> fixed;
+  double f = 1;                 // load factor times load scale
+  bool potential = true;        // minimises(): false runs the residual line search
+  int solves = 0;
+  HostVectorOps m_ops;
+
+  QuarticProblem(int n, double load) : a(n), b(n), fixed(n, 0), f(load), m_ops(n, nullptr) {
+    for (int k = 0; k < n; ++k) a[k] = 0.5 + 0.1 * k, b[k] = std::cos(0.7 * k);
+    fixed[2] = 1;
+    m_ops = HostVectorOps(n, fixed.data());
+  }
+  const Ops& ops() const { return m_ops; }
+  bool minimises() const { return potential; }
+  double value(const State& x) const {
+    double s = 0;
+    for (size_t k = 0; k < x.size(); ++k) s += 0.25 * std::pow(x[k], 4) + 0.5 * a[k] * x[k] * x[k] - f * b[k] * x[k];
+    return s;
+  }
+  double gradient(const State& x, Vector& g) const {
+    g.resize(x.size());
+    for (size_t k = 0; k < x.size(); ++k) g[k] = x[k] * x[k] * x[k] + a[k] * x[k] - f * b[k];
+    m_ops.project(g);
+    return value(x);
+  }
+  LinearResult solve(const State& x, const Vector& rhs, Vector& d) {
+    ++solves;
+    d.resize(x.size());
+    for (size_t k = 0; k < x.size(); ++k) d[k] = fixed[k] ? 0.0 : rhs[k] / (3 * x[k] * x[k] + a[k]);
+    LinearResult r;
+    r.converged = true;
+    r.iterations = 1;
+    return r;
+  }
+  void retract(State& x, const Vector& d, double alpha) const {
+    for (size_t k = 0; k < x.size(); ++k) x[k] += alpha * d[k];
+  }
+  // The real root of x^3 + a x - c (Cardano; one real root since a > 0).
+  double root(int k) const {
+    const double p = a[k], q = -f * b[k];
+    const double s = std::sqrt(q * q / 4 + p * p * p / 27);
+    return std::cbrt(-q / 2 + s) + std::cbrt(-q / 2 - s);
+  }
+};
+
+}  // namespace
+
+TEST_CASE("Newton minimises a strictly convex potential to its tolerance", "[solve][newton]") {
+  const bool potential = GENERATE(true, false);
+  QuarticProblem problem(8, 20.0);
+  problem.potential = potential;
+  std::vector<double> x(8, 0.0);
+  x[2] = 0.25;  // a fixed DOF keeps its value
+  NewtonSettings settings;
+  settings.tolerance = 1e-10;
+  const NewtonResult r = newton(problem, x, settings, 1.0);
+  REQUIRE(r.converged);
+  REQUIRE(r.iterations == problem.solves);
+  REQUIRE(r.cg_iterations == problem.solves);
+  REQUIRE(x[2] == 0.25);
+  std::vector<double> g;
+  problem.gradient(x, g);
+  // Converged means |g| <= tolerance * max(reference 1 N, |g_0|); |g_0| = 20 |b| here.
+  const double g0 = 20.0 * std::sqrt(std::inner_product(problem.b.begin(), problem.b.end(), problem.b.begin(), 0.0) -
+                                     problem.b[2] * problem.b[2]);
+  REQUIRE(problem.ops().norm(g) <= 1e-10 * g0);
+  // |x - x*| <= |g| / min curvature (a_min = 0.5) per component.
+  for (int k = 0; k < 8; ++k)
+    if (k != 2) REQUIRE(std::abs(x[k] - problem.root(k)) <= 2 * 1e-10 * g0 / 0.5);
+  // Newton's local quadratic convergence: a handful of iterations from x = 0 even at f = 20.
+  REQUIRE(r.iterations <= 15);
+}
+
+TEST_CASE("Newton in fixed-iteration mode takes exactly that many full steps", "[solve][newton]") {
+  QuarticProblem problem(6, 1.0);
+  std::vector<double> x(6, 0.0);
+  NewtonSettings settings;
+  settings.fixed_iterations = 2;
+  const NewtonResult r = newton(problem, x, settings, 1.0);
+  REQUIRE(r.converged);
+  REQUIRE(r.iterations == 2);
+  // Two undamped Newton steps from 0: x1 = f b / a, x2 = x1 - (x1^3 + a x1 - f b) / (3 x1^2 + a).
+  for (int k = 0; k < 6; ++k) {
+    if (k == 2) continue;
+    const double x1 = problem.b[k] / problem.a[k];
+    const double x2 = x1 - (x1 * x1 * x1 + problem.a[k] * x1 - problem.b[k]) / (3 * x1 * x1 + problem.a[k]);
+    REQUIRE(x[k] == Approx(x2).epsilon(1e-14));
+  }
+}
+
+TEST_CASE("load stepping halves the load increment until Newton converges within its budget", "[solve][newton]") {
+  QuarticProblem problem(8, 0.0);
+  std::vector<double> x(8, 0.0);
+  NewtonSettings settings;
+  settings.tolerance = 1e-10;
+  settings.max_iterations = 6;  // too few for the full load 200 from x = 0
+  {
+    QuarticProblem direct(8, 200.0);
+    std::vector<double> y(8, 0.0);
+    REQUIRE(!newton(direct, y, settings, 1.0).converged);
+  }
+  std::vector<double> factors;
+  LoadStepping stepping;
+  const NewtonResult r = newton_load_stepping(problem, x, settings, stepping, [&](double factor) {
+    factors.push_back(factor);
+    problem.f = 200.0 * factor;
+    return 1.0;
+  });
+  REQUIRE(r.converged);
+  REQUIRE(factors.size() > 1);
+  REQUIRE(factors.back() == 1.0);
+  REQUIRE(problem.f == 200.0);
+  std::vector<double> g;
+  problem.gradient(x, g);
+  for (int k = 0; k < 8; ++k)
+    if (k != 2) REQUIRE(std::abs(x[k] - problem.root(k)) <= 1e-6 * std::abs(problem.root(k)));
+}

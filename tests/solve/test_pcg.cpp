@@ -1,0 +1,121 @@
+// The one PCG (solve/pcg.hpp) over HostVectorOps on small matrices whose CG behaviour is known
+// exactly.
+#include "solve/pcg.hpp"
+#include "solve/vector_ops.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <vector>
+
+using namespace fascia;
+
+namespace {
+
+// A symmetric positive definite matrix with eigenvalues 1, 2 and 4 (orthogonal similarity of a
+// diagonal one by a Householder reflection, so the matrix is dense): CG converges in as many
+// iterations as there are distinct eigenvalues (Saad, Iterative Methods, §6.11.3), here 3.
+struct DenseOperator {
+  int n;
+  std::vector<double> a;  // [n][n]
+  void operator()(const std::vector<double>& x, std::vector<double>& y) const {
+    for (int r = 0; r < n; ++r) {
+      double s = 0;
+      for (int c = 0; c < n; ++c) s += a[n * r + c] * x[c];
+      y[r] = s;
+    }
+  }
+};
+
+DenseOperator three_eigenvalue_matrix(int n) {
+  std::vector<double> v(n);
+  double vv = 0;
+  for (int k = 0; k < n; ++k) vv += (v[k] = 1.0 + 0.3 * k);
+  vv = 0;
+  for (double x : v) vv += x * x;
+  DenseOperator op{n, std::vector<double>(n * n)};
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c) {
+      // Q = I - 2 v v^T / v^T v, A = Q D Q with D = diag(1, 2, 4, 1, 2, 4, ...).
+      double s = 0;
+      for (int k = 0; k < n; ++k) {
+        const double qrk = (r == k) - 2 * v[r] * v[k] / vv, qkc = (k == c) - 2 * v[k] * v[c] / vv;
+        s += qrk * static_cast<double>(1 << (k % 3)) * qkc;
+      }
+      op.a[n * r + c] = s;
+    }
+  return op;
+}
+
+}  // namespace
+
+TEST_CASE("PCG converges in as many iterations as the operator has distinct eigenvalues", "[solve][pcg]") {
+  const int n = 12;
+  const DenseOperator A = three_eigenvalue_matrix(n);
+  const HostVectorOps ops(n, nullptr);
+  std::vector<double> b(n), x;
+  for (int k = 0; k < n; ++k) b[k] = std::sin(1.0 + k);
+  PcgSettings settings;
+  settings.tolerance = 1e-12;
+  const LinearResult r = pcg(ops, A, IdentityPreconditioner<HostVectorOps>{ops}, settings, b, x);
+  REQUIRE(r.converged);
+  REQUIRE(r.iterations == 3);
+  std::vector<double> ax(n);
+  A(x, ax);
+  // cond(A) = 4, so |x - x*| <= 4 |r| / |b| relative; the check is on the residual itself with
+  // the tolerance asked for, plus round-off of the dense product (n eps |A| |x| ~ 1e-14).
+  for (int k = 0; k < n; ++k) REQUIRE(std::abs(ax[k] - b[k]) <= 1e-11);
+}
+
+TEST_CASE("PCG keeps fixed DOFs at zero and solves the free block", "[solve][pcg]") {
+  const int n = 12;
+  const DenseOperator A = three_eigenvalue_matrix(n);
+  std::vector<std::uint8_t> fixed(n, 0);
+  fixed[0] = fixed[5] = fixed[11] = 1;
+  const HostVectorOps ops(n, fixed.data());
+  std::vector<double> b(n, 1.0), x;  // b is nonzero at fixed DOFs: pcg projects it
+  // Jacobi (diagonal) preconditioner.
+  auto jacobi = [&](const std::vector<double>& r, std::vector<double>& z) {
+    for (int k = 0; k < n; ++k) z[k] = r[k] / A.a[n * k + k];
+  };
+  PcgSettings settings;
+  settings.tolerance = 1e-12;
+  const LinearResult r = pcg(ops, A, jacobi, settings, b, x);
+  REQUIRE(r.converged);
+  std::vector<double> ax(n);
+  A(x, ax);
+  for (int k = 0; k < n; ++k) {
+    if (fixed[k]) {
+      REQUIRE(x[k] == 0.0);
+    } else {
+      REQUIRE(std::abs(ax[k] - 1.0) <= 1e-10);  // the free rows of A x = b, as above
+    }
+  }
+}
+
+TEST_CASE("PCG in fixed-iteration mode runs exactly the requested iterations", "[solve][pcg]") {
+  const int n = 12;
+  const DenseOperator A = three_eigenvalue_matrix(n);
+  const HostVectorOps ops(n, nullptr);
+  std::vector<double> b(n, 1.0), x;
+  PcgSettings settings;
+  settings.fixed_iterations = true;
+  settings.max_iterations = 2;
+  const LinearResult r = pcg(ops, A, IdentityPreconditioner<HostVectorOps>{ops}, settings, b, x);
+  REQUIRE(r.iterations == 2);
+  REQUIRE(r.relative_residual > 1e-6);  // 2 < 3 distinct eigenvalues: not solved yet
+}
+
+TEST_CASE("PCG truncates at non-positive curvature with a descent direction", "[solve][pcg]") {
+  const std::vector<double> diag{1, -1, 2, 3, 4, 5};
+  const HostVectorOps ops(6, nullptr);
+  auto apply = [&](const std::vector<double>& x, std::vector<double>& y) {
+    for (int k = 0; k < 6; ++k) y[k] = diag[k] * x[k];
+  };
+  const std::vector<double> b{1, 1, 1, 1, 1, 1};
+  std::vector<double> x;
+  const LinearResult r = pcg(ops, apply, IdentityPreconditioner<HostVectorOps>{ops}, PcgSettings{}, b, x);
+  REQUIRE(r.negative_curvature);
+  REQUIRE(!r.converged);
+  REQUIRE(ops.dot(b, x) > 0);  // descent for Newton, which solves H d = -g = b
+}
