@@ -4,12 +4,17 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 
 namespace fascia {
 namespace {
+
+// A tangent product costs about 0.1 us per block row: below this many rows a parallel region's
+// start and barrier (and a busy core's delay in joining it) cost more than they save.
+constexpr int kParallelTangentRows = 4096;
 
 // Node positions and rotations of triangle e.
 void load_element(const ShellElementRest& e, const State& state, Vec3 x[3], Mat3 R[3]) {
@@ -110,8 +115,50 @@ ShellForceField::ShellForceField(const Model& model, const Shell& shell, int thr
     m_elements.push_back(make_shell_element(model.frame_rest_positions.data(), shell.triangles[3 * t],
                                             shell.triangles[3 * t + 1], shell.triangles[3 * t + 2], shell));
   m_hessians.assign(static_cast<size_t>(t_count) * kShellElementDofs * kShellElementDofs, 0.0);
+  build_block_structure();
   m_element_gradients.assign(static_cast<size_t>(t_count) * kShellElementDofs, 0.0);
   m_element_energies.assign(t_count, 0.0);
+}
+
+void ShellForceField::build_block_structure() {
+  // Every (node a, node b) block of every element, sorted by (row frame, column frame, element):
+  // equal frame pairs become one block whose element contributions are summed in element order.
+  struct Entry {
+    int row, col;
+    size_t source;  // offset of the 6x6 element block in m_hessians
+  };
+  std::vector<Entry> entries;
+  entries.reserve(9 * m_elements.size());
+  for (size_t t = 0; t < m_elements.size(); ++t)
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        entries.push_back({m_elements[t].nodes[a], m_elements[t].nodes[b],
+                           t * kShellElementDofs * kShellElementDofs + 6 * kShellElementDofs * a + 6 * b});
+  std::sort(entries.begin(), entries.end(), [](const Entry& x, const Entry& y) {
+    return x.row != y.row ? x.row < y.row : x.col != y.col ? x.col < y.col : x.source < y.source;
+  });
+  m_row_frames.clear(), m_row_offsets.assign(1, 0), m_block_frames.clear(), m_diagonal_blocks.clear();
+  m_source_offsets.assign(1, 0), m_sources.clear();
+  for (size_t k = 0; k < entries.size(); ++k) {
+    const Entry& x = entries[k];
+    const bool new_row = k == 0 || x.row != entries[k - 1].row;
+    const bool new_block = new_row || x.col != entries[k - 1].col;
+    if (new_row) {
+      if (k > 0) m_row_offsets.push_back(static_cast<int>(m_block_frames.size()));
+      m_row_frames.push_back(x.row);
+    }
+    if (new_block) {
+      if (k > 0) m_source_offsets.push_back(static_cast<int>(m_sources.size()));
+      if (x.col == x.row) m_diagonal_blocks.push_back(static_cast<int>(m_block_frames.size()));
+      m_block_frames.push_back(x.col);
+    }
+    m_sources.push_back(x.source);
+  }
+  if (!entries.empty()) {
+    m_row_offsets.push_back(static_cast<int>(m_block_frames.size()));
+    m_source_offsets.push_back(static_cast<int>(m_sources.size()));
+  }
+  m_blocks.assign(36 * m_block_frames.size(), 0.0);
 }
 
 double ShellForceField::bending_stiffness() const {
@@ -163,46 +210,56 @@ void ShellForceField::prepare(const State& state) {
     shell_element_hessian(m_elements[t], m_moduli, x, R, g,
                           &m_hessians[static_cast<size_t>(t) * kShellElementDofs * kShellElementDofs]);
   }
+  // Assemble the node blocks: each block gathers its elements' 6x6 blocks in element order,
+  // stored column-major (the product's inner loop then runs over contiguous rows).
+  const int block_count = static_cast<int>(m_block_frames.size());
+#pragma omp parallel for schedule(static) num_threads(m_threads)
+  for (int b = 0; b < block_count; ++b) {
+    double* B = &m_blocks[36 * static_cast<size_t>(b)];
+    for (int k = 0; k < 36; ++k) B[k] = 0;
+    for (int s = m_source_offsets[b]; s < m_source_offsets[b + 1]; ++s) {
+      const double* H = &m_hessians[m_sources[s]];
+      for (int r = 0; r < 6; ++r)
+        for (int c = 0; c < 6; ++c) B[6 * c + r] += H[kShellElementDofs * r + c];
+    }
+  }
 }
 
 void ShellForceField::add_tangent(const double* d, double* out) const {
-  for (int t = 0; t < element_count(); ++t) {
-    const ShellElementRest& e = m_elements[t];
-    const double* H = &m_hessians[static_cast<size_t>(t) * kShellElementDofs * kShellElementDofs];
-    double de[kShellElementDofs];
-    for (int i = 0; i < 3; ++i)
-      for (int k = 0; k < 6; ++k) de[6 * i + k] = d[6 * e.nodes[i] + k];
-    for (int i = 0; i < 3; ++i)
-      for (int k = 0; k < 6; ++k) {
-        const double* row = H + kShellElementDofs * (6 * i + k);
-        double s = 0;
-        for (int c = 0; c < kShellElementDofs; ++c) s += row[c] * de[c];
-        out[6 * e.nodes[i] + k] += s;
+  const int rows = static_cast<int>(m_row_frames.size());
+#pragma omp parallel for schedule(static) num_threads(m_threads) if (rows >= kParallelTangentRows)
+  for (int row = 0; row < rows; ++row) {
+    double acc[6] = {0, 0, 0, 0, 0, 0};
+    for (int b = m_row_offsets[row]; b < m_row_offsets[row + 1]; ++b) {
+      const double* B = &m_blocks[36 * static_cast<size_t>(b)];  // column-major
+      const double* dj = d + 6 * m_block_frames[b];
+      for (int c = 0; c < 6; ++c) {
+        const double x = dj[c];
+#pragma omp simd
+        for (int r = 0; r < 6; ++r) acc[r] += B[6 * c + r] * x;
       }
+    }
+    double* oi = out + 6 * m_row_frames[row];
+    for (int r = 0; r < 6; ++r) oi[r] += acc[r];
   }
 }
 
 void ShellForceField::add_diagonal_blocks(double* blocks) const {
-  for (int t = 0; t < element_count(); ++t) {
-    const ShellElementRest& e = m_elements[t];
-    const double* H = &m_hessians[static_cast<size_t>(t) * kShellElementDofs * kShellElementDofs];
-    for (int i = 0; i < 3; ++i)
-      for (int r = 0; r < 6; ++r)
-        for (int c = 0; c < 6; ++c) blocks[36 * e.nodes[i] + 6 * r + c] += H[kShellElementDofs * (6 * i + r) + 6 * i + c];
+  for (size_t row = 0; row < m_row_frames.size(); ++row) {
+    const double* B = &m_blocks[36 * static_cast<size_t>(m_diagonal_blocks[row])];
+    double* target = blocks + 36 * m_row_frames[row];
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) target[6 * r + c] += B[6 * c + r];
   }
 }
 
 void ShellForceField::add_triplets(std::vector<Eigen::Triplet<double>>& triplets) const {
-  triplets.reserve(triplets.size() + m_hessians.size());
-  for (int t = 0; t < element_count(); ++t) {
-    const ShellElementRest& e = m_elements[t];
-    const double* H = &m_hessians[static_cast<size_t>(t) * kShellElementDofs * kShellElementDofs];
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b)
-        for (int r = 0; r < 6; ++r)
-          for (int c = 0; c < 6; ++c)
-            triplets.emplace_back(6 * e.nodes[a] + r, 6 * e.nodes[b] + c, H[kShellElementDofs * (6 * a + r) + 6 * b + c]);
-  }
+  triplets.reserve(triplets.size() + m_blocks.size());
+  for (size_t row = 0; row < m_row_frames.size(); ++row)
+    for (int b = m_row_offsets[row]; b < m_row_offsets[row + 1]; ++b)
+      for (int r = 0; r < 6; ++r)
+        for (int c = 0; c < 6; ++c)
+          triplets.emplace_back(6 * m_row_frames[row] + r, 6 * m_block_frames[b] + c, m_blocks[36 * static_cast<size_t>(b) + 6 * c + r]);
 }
 
 void add_shell_masses(Model& model, const Shell& shell) {

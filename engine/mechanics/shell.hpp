@@ -59,7 +59,18 @@ class ShellForceField : public ForceField {
   Shell m_shell;
   ShellModuli m_moduli;
   int m_threads;
+  // Sparse block rows of the shell's tangent: one 6x6 block per pair of frames that share a
+  // triangle (rows: the shell's frames, sorted), assembled by prepare() from the element Hessians.
+  void build_block_structure();
+
   std::vector<double> m_hessians;           // [T][18][18] prepared element Hessians
+  std::vector<int> m_row_frames;            // [rows] frame of each block row
+  std::vector<int> m_row_offsets;           // [rows+1] blocks of row r: [offsets[r], offsets[r+1])
+  std::vector<int> m_block_frames;          // [blocks] column frame of each block
+  std::vector<int> m_diagonal_blocks;       // [rows] the (frame, frame) block of each row
+  std::vector<int> m_source_offsets;        // [blocks+1] element blocks summed into each block
+  std::vector<size_t> m_sources;            // offsets of those 6x6 element blocks in m_hessians
+  std::vector<double> m_blocks;             // [blocks][6][6] column-major: entry (r, c) at 6 c + r
   std::vector<double> m_element_gradients;  // [T][18] scratch
   std::vector<double> m_element_energies;   // [T] scratch
 };
