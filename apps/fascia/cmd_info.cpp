@@ -42,7 +42,12 @@ int info(const InfoOptions& options) {
     j["scene_file"] = reader.parameter("scene_file");
     j["command_line"] = reader.parameter("command_line");
     nlohmann::json groups = nlohmann::json::array();
-    for (const ParticleGroupInfo& g : reader.particle_groups()) groups.push_back({{"name", g.name}, {"count", g.count}});
+    for (const ParticleGroupInfo& g : reader.particle_groups()) {
+      nlohmann::json fields = nlohmann::json::array();
+      for (const std::string& e : reader.particle_elements(g.name))
+        if (e != "position") fields.push_back(e);
+      groups.push_back({{"name", g.name}, {"count", g.count}, {"fields", fields}});
+    }
     j["particles"] = groups;
     nlohmann::json final_values = nlohmann::json::object();
     nlohmann::json solver = nlohmann::json::object();
@@ -71,7 +76,10 @@ int info(const InfoOptions& options) {
     std::cout << "  steps: " << steps;
     if (!times.empty()) std::cout << ", t = " << times.front() << " .. " << times.back() << " s";
     std::cout << "\n  particles:";
-    for (const auto& g : groups) std::cout << " " << g["name"].get<std::string>() << " (" << g["count"] << ")";
+    for (const auto& g : groups) {
+      std::cout << "\n    " << g["name"].get<std::string>() << " (" << g["count"] << "):";
+      for (const auto& f : g["fields"]) std::cout << " " << f.get<std::string>();
+    }
     std::cout << "\n  final:";
     for (auto it = final_values.begin(); it != final_values.end(); ++it) std::cout << "\n    " << it.key() << ": " << it.value();
     std::cout << "\n  solver:";

@@ -10,7 +10,9 @@
 #include "run_scene.hpp"
 #include "scene_report.hpp"
 
+#include "io/sample_fields.hpp"
 #include "io/trajectory.hpp"
+#include "io/vertex_fields.hpp"
 #include "io/xdmf.hpp"
 #include "mechanics/external_loads.hpp"
 #include "mechanics/frame_sample.hpp"
@@ -112,14 +114,32 @@ const std::vector<std::pair<std::string, bool>>& observable_layout() {
 // Everything one output step needs, computed from the simulation state.
 class StepRecorder {
  public:
-  StepRecorder(const dsl::BuiltScene& built, bool samples) : m_built(built), m_samples(samples) {}
+  StepRecorder(const dsl::BuiltScene& built, bool samples) : m_built(built), m_samples(samples) {
+    // Shells are in model.shells in the order of the shell objects.
+    int shell = 0;
+    for (const dsl::BuiltObject& o : built.objects) {
+      SurfaceSource source;
+      source.surface = &o.surface;
+      if (o.skinned) source.skin = &o.skin;
+      for (const ObjectInfo& info : built.model.objects) {
+        if (info.kind == ObjectKind::shell && info.name == o.name)
+          source.shell = &built.model.shells[static_cast<std::size_t>(shell)];
+      }
+      if (source.shell) ++shell;
+      m_sources.push_back(source);
+    }
+  }
 
-  TrajectoryLayout layout() const {
+  TrajectoryLayout layout() {
     TrajectoryLayout layout;
     layout.frames = m_built.model.frame_count();
     layout.samples = m_samples ? m_built.model.sample_count() : 0;
     for (const dsl::BuiltObject& o : m_built.objects) layout.surfaces.push_back(o.surface);
     layout.observables = observable_layout();
+    // The fields' names, sizes and units, from an evaluation at rest.
+    compute_fields(rest_state(m_built.model));
+    for (const auto& [group, field] : m_fields)
+      layout.fields.push_back(FieldLayout{group, field->name, field->components, field->unit});
     return layout;
   }
 
@@ -170,6 +190,8 @@ class StepRecorder {
       }
       step.surface_positions.push_back(out.data());
     }
+    compute_fields(state);
+    for (const auto& entry : m_fields) step.fields.push_back(entry.second->values.data());
     step.observables = {report.elastic_energy,
                         report.kinetic_energy,
                         report.external_potential,
@@ -183,8 +205,32 @@ class StepRecorder {
   }
 
  private:
+  // Per-particle fields of frames, samples (when written) and surfaces (sample_fields.hpp,
+  // vertex_fields.hpp), listed in m_fields as (group, field).
+  void compute_fields(const State& state) {
+    const Model& model = m_built.model;
+    rotation_matrices(state, m_field_rotations);
+    m_frame_fields = frame_fields(model, state, m_field_rotations);
+    m_sample_fields = sample_fields(model, state, m_field_rotations);
+    const std::vector<Field> averages = frame_averages(model, m_sample_fields);
+    m_surface_fields.clear();
+    for (const SurfaceSource& source : m_sources)
+      m_surface_fields.push_back(surface_fields(model, state, m_field_rotations, source, averages));
+    m_fields.clear();
+    for (const Field& f : m_frame_fields) m_fields.emplace_back("frames", &f);
+    if (m_samples)
+      for (const Field& f : m_sample_fields) m_fields.emplace_back("samples", &f);
+    for (std::size_t o = 0; o < m_sources.size(); ++o)
+      for (const Field& f : m_surface_fields[o]) m_fields.emplace_back(m_sources[o].surface->name, &f);
+  }
+
   const dsl::BuiltScene& m_built;
   bool m_samples;
+  std::vector<SurfaceSource> m_sources;
+  std::vector<double> m_field_rotations;
+  std::vector<Field> m_frame_fields, m_sample_fields;
+  std::vector<std::vector<Field>> m_surface_fields;
+  std::vector<std::pair<std::string, const Field*>> m_fields;
   std::vector<double> m_rotations, m_sample_positions;
   std::vector<std::vector<double>> m_surfaces;
 };

@@ -205,6 +205,14 @@ Series make_series(hid_t parent, const std::string& name, const std::vector<hsiz
 
 }  // namespace
 
+std::size_t particle_count(const TrajectoryLayout& layout, const std::string& group) {
+  if (group == "frames") return static_cast<std::size_t>(layout.frames);
+  if (group == "samples") return static_cast<std::size_t>(layout.samples);
+  for (const SurfaceLayout& s : layout.surfaces)
+    if (s.name == group) return s.vertex_frames.size();
+  return 0;
+}
+
 struct TrajectoryWriter::Impl {
   Handle file;
   std::vector<Series> particles;   // frames position, orientation, samples position, surfaces
@@ -315,6 +323,21 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
       string_attribute(ds.get(), "particles_group", "/particles/" + s.name, path);
     }
   }
+  for (const FieldLayout& field : layout.fields) {
+    const hsize_t count = static_cast<hsize_t>(particle_count(layout, field.group));
+    if (count == 0 && field.group != "frames" && field.group != "samples" &&
+        std::none_of(layout.surfaces.begin(), layout.surfaces.end(),
+                     [&](const SurfaceLayout& s) { return s.name == field.group; }))
+      fail(path, "field " + field.name + " names no particle group '" + field.group + "'");
+    if (field.components != 1 && field.components != 3 && field.components != 9)
+      fail(path, "field " + field.name + " has " + std::to_string(field.components) + " components (1, 3 or 9)");
+    Handle g(checked(H5Gopen2(particles.get(), field.group.c_str(), H5P_DEFAULT), path, "open group " + field.group),
+             H5Gclose);
+    std::vector<hsize_t> shape{count};
+    if (field.components == 3) shape.push_back(3);
+    if (field.components == 9) shape.insert(shape.end(), {3, 3});
+    m_impl->particles.push_back(make_series(g.get(), field.name, shape, false, field.unit, capacity, path));
+  }
   Handle observables = group(f, "observables", path);
   for (const auto& [name, integer] : layout.observables) {
     std::string unit;
@@ -363,6 +386,12 @@ void TrajectoryWriter::append(const TrajectoryStep& step) {
                           std::to_string(m_layout.surfaces.size()));
   for (std::size_t s = 0; s < m_layout.surfaces.size(); ++s)
     arrays.push_back({step.surface_positions[s], 3 * m_layout.surfaces[s].vertex_frames.size()});
+  if (step.fields.size() != m_layout.fields.size())
+    throw TrajectoryError(m_path + ": step has " + std::to_string(step.fields.size()) + " fields, layout " +
+                          std::to_string(m_layout.fields.size()));
+  for (std::size_t i = 0; i < m_layout.fields.size(); ++i)
+    arrays.push_back({step.fields[i], static_cast<std::size_t>(m_layout.fields[i].components) *
+                                          particle_count(m_layout, m_layout.fields[i].group)});
   if (step.observables.size() != m_layout.observables.size())
     throw TrajectoryError(m_path + ": step has " + std::to_string(step.observables.size()) + " observables, layout " +
                           std::to_string(m_layout.observables.size()));
@@ -564,6 +593,13 @@ std::vector<ParticleGroupInfo> TrajectoryReader::particle_groups() const {
     const std::vector<hsize_t> dims = extent(ds.get());
     out.push_back({g, dims.size() > 1 ? static_cast<int>(dims[1]) : 0});
   }
+  return out;
+}
+
+std::vector<std::string> TrajectoryReader::particle_elements(const std::string& group) const {
+  std::vector<std::string> out;
+  for (const std::string& e : children(m_impl->file.get(), "/particles/" + group))
+    if (exists(m_impl->file.get(), "/particles/" + group + "/" + e + "/value")) out.push_back(e);
   return out;
 }
 

@@ -4,6 +4,8 @@
 //   /particles/frames/            box{dimension, boundary}; position, orientation (w, x, y, z)
 //   /particles/samples/           box; position
 //   /particles/<surface>/         box; position (surface vertices); frames [V] (frame of each vertex)
+//   /particles/<group>/<field>/   per-particle fields of frames, samples or a surface (layout.fields):
+//                                 value [T][n], [T][n][3] or [T][n][3][3], with a unit attribute
 //   /connectivity/<surface>       [F][3|4] int, indices into /particles/<surface>/position
 //   /connectivity/frames, samples [n] int, 0..n-1 (vertex cells for XDMF point clouds)
 //   /observables/<name>/          step, time, value [T]
@@ -48,12 +50,22 @@ struct SurfaceLayout {
   std::vector<int> vertex_frames;  // [V] frame of each surface vertex (mesh-based: identity on the boundary)
 };
 
+// A per-particle field written each step as /particles/<group>/<name>/{step, time, value}: value
+// [T][n] (scalar), [T][n][3] (vector) or [T][n][3][3] (tensor, row-major), n the group's particles.
+struct FieldLayout {
+  std::string group;        // "frames", "samples" or a surface name
+  std::string name;         // e.g. "displacement", "cauchy_stress"
+  int components = 1;       // 1 scalar, 3 vector, 9 tensor (3 x 3)
+  std::string unit;         // SI unit ("" dimensionless)
+};
+
 struct TrajectoryLayout {
   int frames = 0;
   int samples = 0;  // 0: no /particles/samples
   std::vector<SurfaceLayout> surfaces;
   // Observables recorded each step, in this order; integers are stored as int32.
   std::vector<std::pair<std::string, bool>> observables;  // (name, is_integer)
+  std::vector<FieldLayout> fields;  // per-particle fields, in this order
   // Rows preallocated for the steps to come (doubled when exceeded): the number of output steps
   // the run plans, plus one for a step written on a signal.
   int capacity = 16;
@@ -67,7 +79,11 @@ struct TrajectoryStep {
   const double* sample_positions = nullptr;    // [S][3], when layout.samples > 0
   std::vector<const double*> surface_positions;  // per surface [V][3]
   std::vector<double> observables;             // in layout order
+  std::vector<const double*> fields;           // per layout.fields entry: [n][components]
 };
+
+// Particles of a group in the layout: frames, samples or a surface's vertices (0 if unknown).
+std::size_t particle_count(const TrajectoryLayout& layout, const std::string& group);
 
 class TrajectoryWriter {
  public:
@@ -116,6 +132,8 @@ class TrajectoryReader {
   std::vector<int> steps() const;
   std::vector<double> times() const;
   std::vector<ParticleGroupInfo> particle_groups() const;
+  // Time series under /particles/<group> (position, orientation and the per-particle fields).
+  std::vector<std::string> particle_elements(const std::string& group) const;
   std::vector<std::string> observable_names() const;
   // Observable values over the complete steps.
   std::vector<double> observable(const std::string& name) const;

@@ -8,73 +8,118 @@ namespace fascia {
 
 namespace {
 
-// <DataItem> selecting row k of a [T][n][c] dataset as an [n][c] array.
-void hyperslab(std::ostringstream& out, const std::string& source, int k, std::size_t t, std::size_t n, int c,
-               const char* indent) {
-  out << indent << "<DataItem ItemType=\"HyperSlab\" Dimensions=\"1 " << n << " " << c << "\" Type=\"HyperSlab\">\n"
-      << indent << "  <DataItem Dimensions=\"3 3\" Format=\"XML\">" << k << " 0 0 1 1 1 1 " << n << " " << c
-      << "</DataItem>\n"
-      << indent << "  <DataItem Dimensions=\"" << t << " " << n << " " << c
-      << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << source << "</DataItem>\n"
+std::string joined(const std::vector<std::size_t>& v) {
+  std::string s;
+  for (std::size_t i = 0; i < v.size(); ++i) s += (i ? " " : "") + std::to_string(v[i]);
+  return s;
+}
+
+// A <DataItem> holding row k of the dataset `source` ("file.h5:/path") of shape [t][shape...].
+void row_item(std::ostringstream& out, XdmfDialect dialect, const std::string& source, std::size_t k, std::size_t t,
+              const std::vector<std::size_t>& shape, const char* indent) {
+  std::vector<std::size_t> dims{t}, start{k}, ones{1}, count{1};
+  for (std::size_t s : shape) {
+    dims.push_back(s);
+    start.push_back(0);
+    ones.push_back(1);
+    count.push_back(s);
+  }
+  if (dialect == XdmfDialect::xdmf3) {
+    // Xdmf3 heavy-data description: path|start:stride:count:dataspace.
+    out << indent << "<DataItem Dimensions=\"" << joined(count) << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
+        << source << "|" << joined(start) << ":" << joined(ones) << ":" << joined(count) << ":" << joined(dims)
+        << "</DataItem>\n";
+    return;
+  }
+  out << indent << "<DataItem ItemType=\"HyperSlab\" Dimensions=\"" << joined(count) << "\" Type=\"HyperSlab\">\n"
+      << indent << "  <DataItem Dimensions=\"3 " << dims.size() << "\" Format=\"XML\">" << joined(start) << " "
+      << joined(ones) << " " << joined(count) << "</DataItem>\n"
+      << indent << "  <DataItem Dimensions=\"" << joined(dims) << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
+      << source << "</DataItem>\n"
       << indent << "</DataItem>\n";
 }
 
-void point_cloud(std::ostringstream& out, const std::string& name, const std::string& h5, int k, std::size_t t,
-                 std::size_t n) {
+// Geometry and the group's fields as node attributes.
+void geometry_and_fields(std::ostringstream& out, XdmfDialect dialect, const std::string& h5, const std::string& group,
+                         const TrajectoryLayout& layout, std::size_t k, std::size_t t, std::size_t n) {
+  out << "          <Geometry GeometryType=\"XYZ\">\n";
+  row_item(out, dialect, h5 + ":/particles/" + group + "/position/value", k, t, {n, 3}, "            ");
+  out << "          </Geometry>\n";
+  for (const FieldLayout& f : layout.fields) {
+    if (f.group != group) continue;
+    const char* type = f.components == 1 ? "Scalar" : f.components == 3 ? "Vector" : "Tensor";
+    std::vector<std::size_t> shape{n};
+    if (f.components == 3) shape.push_back(3);
+    if (f.components == 9) shape.insert(shape.end(), {3, 3});
+    out << "          <Attribute Name=\"" << f.name << "\" AttributeType=\"" << type << "\" Center=\"Node\">\n";
+    row_item(out, dialect, h5 + ":/particles/" + group + "/" + f.name + "/value", k, t, shape, "            ");
+    out << "          </Attribute>\n";
+  }
+}
+
+void point_cloud(std::ostringstream& out, XdmfDialect dialect, const std::string& name, const std::string& h5,
+                 const TrajectoryLayout& layout, std::size_t k, std::size_t t, std::size_t n) {
   out << "        <Grid Name=\"" << name << "\" GridType=\"Uniform\">\n"
       << "          <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\">\n"
       << "            <DataItem Dimensions=\"" << n << "\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">" << h5
-      << ":/connectivity/" << name << "</DataItem>\n          </Topology>\n"
-      << "          <Geometry GeometryType=\"XYZ\">\n";
-  hyperslab(out, h5 + ":/particles/" + name + "/position/value", k, t, n, 3, "            ");
-  out << "          </Geometry>\n        </Grid>\n";
+      << ":/connectivity/" << name << "</DataItem>\n          </Topology>\n";
+  geometry_and_fields(out, dialect, h5, name, layout, k, t, n);
+  out << "        </Grid>\n";
 }
 
 }  // namespace
 
 std::string xdmf_text(const std::string& h5_name, const TrajectoryLayout& layout, const std::vector<double>& times,
-                      std::size_t rows) {
+                      std::size_t rows, XdmfDialect dialect) {
   std::ostringstream out;
   out.precision(17);
   const std::size_t t = rows ? rows : times.size();
-  out << "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"3.0\">\n  <Domain>\n"
+  out << "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\""
+      << (dialect == XdmfDialect::xdmf3 ? "3.0" : "2.0") << "\">\n  <Domain>\n"
       << "    <Grid Name=\"fascia\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   for (std::size_t k = 0; k < times.size(); ++k) {
     out << "      <Grid Name=\"step " << k << "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n"
         << "        <Time Value=\"" << times[k] << "\"/>\n";
     for (const SurfaceLayout& s : layout.surfaces) {
       const std::size_t faces = s.faces.size() / static_cast<std::size_t>(s.nodes_per_face);
-      const std::size_t v = s.vertex_frames.size();
       out << "        <Grid Name=\"" << s.name << "\" GridType=\"Uniform\">\n"
           << "          <Topology TopologyType=\"" << (s.nodes_per_face == 3 ? "Triangle" : "Quadrilateral")
           << "\" NumberOfElements=\"" << faces << "\">\n"
           << "            <DataItem Dimensions=\"" << faces << " " << s.nodes_per_face
           << "\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">" << h5_name << ":/connectivity/" << s.name
-          << "</DataItem>\n          </Topology>\n          <Geometry GeometryType=\"XYZ\">\n";
-      hyperslab(out, h5_name + ":/particles/" + s.name + "/position/value", static_cast<int>(k), t, v, 3,
-                "            ");
-      out << "          </Geometry>\n        </Grid>\n";
+          << "</DataItem>\n          </Topology>\n";
+      geometry_and_fields(out, dialect, h5_name, s.name, layout, k, t, s.vertex_frames.size());
+      out << "        </Grid>\n";
     }
-    point_cloud(out, "frames", h5_name, static_cast<int>(k), t, static_cast<std::size_t>(layout.frames));
+    point_cloud(out, dialect, "frames", h5_name, layout, k, t, static_cast<std::size_t>(layout.frames));
     if (layout.samples > 0)
-      point_cloud(out, "samples", h5_name, static_cast<int>(k), t, static_cast<std::size_t>(layout.samples));
+      point_cloud(out, dialect, "samples", h5_name, layout, k, t, static_cast<std::size_t>(layout.samples));
     out << "      </Grid>\n";
   }
   out << "    </Grid>\n  </Domain>\n</Xdmf>\n";
   return out.str();
 }
 
-void write_xdmf(const std::string& xmf_path, const std::string& h5_name, const TrajectoryLayout& layout,
-                const std::vector<double>& times, std::size_t rows) {
-  const std::string tmp = xmf_path + ".tmp";
+namespace {
+
+void write_atomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
   {
     std::ofstream out(tmp, std::ios::trunc);
-    out << xdmf_text(h5_name, layout, times, rows);
+    out << text;
     out.flush();
     if (!out) throw TrajectoryError(tmp + ": cannot write the XDMF sidecar");
   }
-  if (std::rename(tmp.c_str(), xmf_path.c_str()) != 0)
-    throw TrajectoryError(xmf_path + ": cannot rename the XDMF sidecar into place");
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+    throw TrajectoryError(path + ": cannot rename the XDMF sidecar into place");
+}
+
+}  // namespace
+
+void write_xdmf(const std::string& xmf_path, const std::string& h5_name, const TrajectoryLayout& layout,
+                const std::vector<double>& times, std::size_t rows) {
+  write_atomically(xmf_path, xdmf_text(h5_name, layout, times, rows, XdmfDialect::xdmf3));
+  write_atomically(xmf_path + "2", xdmf_text(h5_name, layout, times, rows, XdmfDialect::xdmf2));
 }
 
 std::string xdmf_path_for(const std::string& h5_path) {

@@ -26,12 +26,14 @@ TrajectoryLayout small_layout() {
   s.vertex_frames = {0, 1, 2};
   layout.surfaces.push_back(s);
   layout.observables = {{"elastic_energy", false}, {"newton_iterations", true}};
+  layout.fields = {{"samples", "cauchy_stress", 9, "Pa"}, {"slab", "displacement", 3, "m"}, {"frames", "speed", 1, "m/s"}};
   layout.capacity = 2;  // the third step doubles the preallocated rows
   return layout;
 }
 
 struct StepData {
   std::vector<double> x, q, p, surface;
+  std::vector<double> stress, displacement, speed;  // the layout's fields
   std::vector<double> observables;
 };
 
@@ -41,6 +43,9 @@ StepData data_for(int k) {
   for (int i = 0; i < 3; ++i) d.q.insert(d.q.end(), {1, 0, 0, 0.01 * k});
   for (int i = 0; i < 6; ++i) d.p.push_back(-k - 0.5 * i);
   d.surface = d.x;
+  for (int i = 0; i < 18; ++i) d.stress.push_back(1e3 * k + i);
+  for (int i = 0; i < 9; ++i) d.displacement.push_back(-0.01 * k * i);
+  d.speed = {1.0 * k, 2.0 * k, 3.0 * k};
   d.observables = {0.5 * k, static_cast<double>(k + 2)};
   return d;
 }
@@ -53,6 +58,7 @@ TrajectoryStep step_of(const StepData& d, int k) {
   s.frame_orientations = d.q.data();
   s.sample_positions = d.p.data();
   s.surface_positions = {d.surface.data()};
+  s.fields = {d.stress.data(), d.displacement.data(), d.speed.data()};
   s.observables = d.observables;
   return s;
 }
@@ -96,7 +102,11 @@ TEST_CASE("trajectories round-trip through the H5MD layout", "[io]") {
     CHECK(reader.particle_values("frames", "orientation", k) == data[k].q);
     CHECK(reader.particle_values("samples", "position", k) == data[k].p);
     CHECK(reader.particle_values("slab", "position", k) == data[k].surface);
+    CHECK(reader.particle_values("samples", "cauchy_stress", k) == data[k].stress);
+    CHECK(reader.particle_values("slab", "displacement", k) == data[k].displacement);
+    CHECK(reader.particle_values("frames", "speed", k) == data[k].speed);
   }
+  CHECK(reader.particle_elements("samples") == std::vector<std::string>{"cauchy_stress", "position"});
   CHECK(reader.observable("elastic_energy") == std::vector<double>{0, 0.5, 1.0});
   CHECK(reader.observable("newton_iterations") == std::vector<double>{2, 3, 4});
   int nodes = 0;
@@ -111,14 +121,29 @@ TEST_CASE("trajectories round-trip through the H5MD layout", "[io]") {
   fs::remove(path);
 }
 
-TEST_CASE("the XDMF sidecar references each written step's hyperslab", "[io]") {
-  const std::string text = xdmf_text("run.h5", small_layout(), {0.0, 0.01});
-  CHECK_THAT(text, Catch::Contains("CollectionType=\"Temporal\""));
-  CHECK_THAT(text, Catch::Contains("<Time Value=\"0.01\"/>"));
-  CHECK_THAT(text, Catch::Contains("run.h5:/connectivity/slab"));
-  CHECK_THAT(text, Catch::Contains("1 0 0 1 1 1 1 3 3</DataItem>"));
-  CHECK_THAT(text, Catch::Contains("Dimensions=\"2 3 3\""));
-  CHECK_THAT(text, Catch::Contains("TopologyType=\"Triangle\""));
+TEST_CASE("the XDMF sidecars select each written step's row, in both dialects", "[io]") {
+  for (XdmfDialect dialect : {XdmfDialect::xdmf3, XdmfDialect::xdmf2}) {
+    const std::string text = xdmf_text("run.h5", small_layout(), {0.0, 0.01}, 0, dialect);
+    CHECK_THAT(text, Catch::Contains("CollectionType=\"Temporal\""));
+    CHECK_THAT(text, Catch::Contains("<Time Value=\"0.01\"/>"));
+    CHECK_THAT(text, Catch::Contains("run.h5:/connectivity/slab"));
+    CHECK_THAT(text, Catch::Contains("TopologyType=\"Triangle\""));
+    CHECK_THAT(text, Catch::Contains("<Attribute Name=\"cauchy_stress\" AttributeType=\"Tensor\" Center=\"Node\">"));
+    CHECK_THAT(text, Catch::Contains("<Attribute Name=\"displacement\" AttributeType=\"Vector\" Center=\"Node\">"));
+    CHECK_THAT(text, Catch::Contains("<Attribute Name=\"speed\" AttributeType=\"Scalar\" Center=\"Node\">"));
+    if (dialect == XdmfDialect::xdmf3) {
+      // Row 1 of frames' [2][3][3] positions and of the samples' [2][2][3][3] stresses.
+      CHECK_THAT(text, Catch::Contains("run.h5:/particles/frames/position/value|1 0 0:1 1 1:1 3 3:2 3 3</DataItem>"));
+      CHECK_THAT(text, Catch::Contains("run.h5:/particles/samples/cauchy_stress/value|1 0 0 0:1 1 1 1:1 2 3 3:2 2 3 3<"));
+      CHECK_THAT(text, Catch::Contains("run.h5:/particles/frames/speed/value|1 0:1 1:1 3:2 3<"));
+      CHECK_THAT(text, !Catch::Contains("HyperSlab"));
+    } else {
+      CHECK_THAT(text, Catch::Contains("1 0 0 1 1 1 1 3 3</DataItem>"));
+      CHECK_THAT(text, Catch::Contains("1 0 0 0 1 1 1 1 1 2 3 3</DataItem>"));
+      CHECK_THAT(text, Catch::Contains("Dimensions=\"2 3 3\""));
+      CHECK_THAT(text, !Catch::Contains("|"));
+    }
+  }
   CHECK(xdmf_path_for("out/run.h5") == "out/run.xmf");
   CHECK(xdmf_path_for("out.d/run") == "out.d/run.xmf");
 }

@@ -56,23 +56,31 @@ def check_file(path, expect_steps=None):
 
 
 def check_xdmf(xmf_path, h5_path, steps):
-    tree = ET.parse(xmf_path)
-    temporal = tree.getroot().find("Domain/Grid")
-    assert temporal.get("CollectionType") == "Temporal"
-    grids = temporal.findall("Grid")
-    assert len(grids) == steps
-    with h5py.File(h5_path, "r") as f:
-        for item in tree.getroot().iter("DataItem"):
-            if item.get("Format") != "HDF":
-                continue
-            file_name, dataset = item.text.strip().split(":")
-            assert file_name == Path(h5_path).name
-            dims = tuple(int(d) for d in item.get("Dimensions").split())
-            if dataset.startswith("/connectivity"):
-                assert f[dataset].shape == dims, dataset
-                continue
-            assert f[dataset].shape[1:] == dims[1:], dataset
-            assert f[dataset].shape[0] >= dims[0]
+    """Both sidecars (run.xmf, Xdmf3 selections; run.xmf2, XDMF 2 HyperSlabs) list `steps` steps and
+    reference existing datasets with matching shapes; each selected row is a complete step."""
+    for path in (Path(xmf_path), Path(str(xmf_path) + "2")):
+        tree = ET.parse(path)
+        temporal = tree.getroot().find("Domain/Grid")
+        assert temporal.get("CollectionType") == "Temporal"
+        grids = temporal.findall("Grid")
+        assert len(grids) == steps
+        with h5py.File(h5_path, "r") as f:
+            for item in tree.getroot().iter("DataItem"):
+                if item.get("Format") != "HDF":
+                    continue
+                source, _, selection = item.text.strip().partition("|")
+                file_name, dataset = source.split(":")
+                assert file_name == Path(h5_path).name
+                dims = tuple(int(d) for d in item.get("Dimensions").split())
+                if dataset.startswith("/connectivity"):
+                    assert f[dataset].shape == dims, dataset
+                    continue
+                assert f[dataset].shape[1:] == dims[1:], dataset
+                assert f[dataset].shape[0] >= dims[0]
+                if selection:  # start:stride:count:dims, row k of [T][...]
+                    start, stride, count, space = ([int(x) for x in part.split()] for part in selection.split(":"))
+                    assert tuple(space) == f[dataset].shape and count == [1] + list(space[1:])
+                    assert 0 <= start[0] < steps and stride == [1] * len(space)
 
 
 def test_run_writes_a_complete_h5md_file(fascia_bin, root, tmp_path):

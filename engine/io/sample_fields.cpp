@@ -1,0 +1,109 @@
+#include "io/sample_fields.hpp"
+
+#include "material/stress_measures.hpp"
+#include "mechanics/frame_sample.hpp"
+
+namespace fascia {
+
+namespace {
+
+void store(std::vector<double>& out, std::size_t index, const Vec3& v) {
+  out[3 * index] = v.x;
+  out[3 * index + 1] = v.y;
+  out[3 * index + 2] = v.z;
+}
+
+void store(std::vector<double>& out, std::size_t index, const Mat3& a) {
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) out[9 * index + static_cast<std::size_t>(3 * r + c)] = a.m[r][c];
+}
+
+void store(std::vector<double>& out, std::size_t index, const std::array<double, 3>& v) {
+  for (std::size_t k = 0; k < 3; ++k) out[3 * index + k] = v[k];
+}
+
+Field make(const char* name, int components, const char* unit, std::size_t n) {
+  return Field{name, components, unit, std::vector<double>(n * static_cast<std::size_t>(components), 0.0)};
+}
+
+}  // namespace
+
+std::vector<Field> measure_fields(std::size_t n) {
+  std::vector<Field> f;
+  f.push_back(make("green_strain", 9, "", n));
+  f.push_back(make("second_piola", 9, "Pa", n));
+  f.push_back(make("cauchy_stress", 9, "Pa", n));
+  f.push_back(make("green_strain_principal", 3, "", n));
+  f.push_back(make("second_piola_principal", 3, "Pa", n));
+  f.push_back(make("cauchy_principal", 3, "Pa", n));
+  f.push_back(make("second_piola_von_mises", 1, "Pa", n));
+  f.push_back(make("cauchy_von_mises", 1, "Pa", n));
+  f.push_back(make("strain_energy_density", 1, "J/m^3", n));
+  return f;
+}
+
+void set_measures(std::vector<Field>& f, std::size_t i, const StressMeasures& m) {
+  store(f[0].values, i, m.green_strain);
+  store(f[1].values, i, m.second_piola);
+  store(f[2].values, i, m.cauchy);
+  store(f[3].values, i, principal_values(m.green_strain));
+  store(f[4].values, i, principal_values(m.second_piola));
+  store(f[5].values, i, principal_values(m.cauchy));
+  f[6].values[i] = von_mises(m.second_piola);
+  f[7].values[i] = von_mises(m.cauchy);
+  f[8].values[i] = m.energy_density;
+}
+
+std::vector<Field> sample_fields(const Model& model, const State& state, const std::vector<double>& rotations) {
+  const std::size_t n = static_cast<std::size_t>(model.sample_count());
+  std::vector<Field> f;
+  f.push_back(make("displacement", 3, "m", n));
+  f.push_back(make("velocity", 3, "m/s", n));
+  std::vector<Field> measures = measure_fields(n);
+
+  const NeighbourTable& t = model.neighbours;
+  const PairTableView view{t.offsets.data(), t.frames.data(), t.weights.data(), t.weight_gradients.data(),
+                           t.rest_offsets.data()};
+  const double* x = state.positions.data();
+  const double* R = rotations.data();
+#pragma omp parallel for schedule(static)
+  for (long sl = 0; sl < static_cast<long>(n); ++sl) {
+    const int s = static_cast<int>(sl);
+    const std::size_t si = static_cast<std::size_t>(s);
+    const Vec3 p = sample_position(view, s, x, R);
+    store(f[0].values, si, p - load3(&model.samples.rest_positions[3 * si]));
+    Vec3 v{0, 0, 0};
+    for (int q = t.offsets[si]; q < t.offsets[si + 1]; ++q) {
+      const std::size_t i = static_cast<std::size_t>(t.frames[static_cast<std::size_t>(q)]);
+      const Vec3 a = load_mat3(R + 9 * i) * load3(&t.rest_offsets[3 * static_cast<std::size_t>(q)]);
+      v += t.weights[static_cast<std::size_t>(q)] *
+           (load3(&state.velocities[6 * i]) + cross(load3(&state.velocities[6 * i + 3]), a));
+    }
+    store(f[1].values, si, v);
+    const Mat3 F = sample_deformation_gradient(view, s, x, R);
+    set_measures(measures, si, stress_measures(model.materials[static_cast<std::size_t>(model.samples.materials[si])], F));
+  }
+  for (Field& m : measures) f.push_back(std::move(m));
+  return f;
+}
+
+std::vector<Field> frame_fields(const Model& model, const State& state, const std::vector<double>& rotations) {
+  const std::size_t n = static_cast<std::size_t>(model.frame_count());
+  std::vector<Field> f;
+  f.push_back(make("displacement", 3, "m", n));
+  f.push_back(make("velocity", 3, "m/s", n));
+  f.push_back(make("angular_velocity", 3, "rad/s", n));
+  f.push_back(make("axis_x", 3, "", n));
+  f.push_back(make("axis_y", 3, "", n));
+  f.push_back(make("axis_z", 3, "", n));
+  for (std::size_t i = 0; i < n; ++i) {
+    store(f[0].values, i, load3(&state.positions[3 * i]) - load3(&model.frame_rest_positions[3 * i]));
+    store(f[1].values, i, load3(&state.velocities[6 * i]));
+    store(f[2].values, i, load3(&state.velocities[6 * i + 3]));
+    const Mat3 Ri = load_mat3(&rotations[9 * i]);
+    for (int c = 0; c < 3; ++c) store(f[3 + static_cast<std::size_t>(c)].values, i, Vec3{Ri.m[0][c], Ri.m[1][c], Ri.m[2][c]});
+  }
+  return f;
+}
+
+}  // namespace fascia

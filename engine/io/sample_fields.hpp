@@ -1,0 +1,43 @@
+// Per-particle fields written with a trajectory (HDF5 /particles/<group>/<name>, XDMF node
+// attributes): the samples' kinematics and strain and stress measures, and the frames'
+// kinematics and axes, computed from the model and a state.
+//
+// Samples (s, with pairs (s, i) of the neighbour table, eq. 3 and 8):
+//   displacement  p_s - p̄_s, m                     velocity  sum_i w_is (v_i + omega_i x R_i l̄_is), m/s
+//   green_strain, second_piola, cauchy_stress       3 x 3, (dimensionless, Pa, Pa) (stress_measures.hpp)
+//   green_strain_principal, second_piola_principal, cauchy_principal   eigenvalues, largest first
+//   second_piola_von_mises, cauchy_von_mises        Pa
+//   strain_energy_density                           psi per rest volume, J/m^3
+// Frames (i): displacement x_i - x̄_i (m), velocity v_i (m/s), angular_velocity omega_i (rad/s,
+// world axes), axis_x, axis_y, axis_z: the columns of R_i (the frame's axes in world coordinates).
+#pragma once
+
+#include "model/model.hpp"
+#include "material/stress_measures.hpp"
+#include "model/state.hpp"
+
+#include <string>
+#include <vector>
+
+namespace fascia {
+
+// One per-particle field: values [n][components] (components 1, 3 or 9; 3 x 3 row-major).
+struct Field {
+  std::string name;
+  int components = 1;
+  std::string unit;  // SI, "" dimensionless
+  std::vector<double> values;
+};
+
+// The sample fields in the order listed above; rotations are rotation_matrices(state) ([N][9]).
+std::vector<Field> sample_fields(const Model& model, const State& state, const std::vector<double>& rotations);
+
+// The frame fields in the order listed above.
+std::vector<Field> frame_fields(const Model& model, const State& state, const std::vector<double>& rotations);
+
+// The strain and stress measure fields (green_strain ... strain_energy_density above) for n
+// particles, zero, and their values for particle `index` from a point's measures.
+std::vector<Field> measure_fields(std::size_t n);
+void set_measures(std::vector<Field>& measures, std::size_t index, const StressMeasures& m);
+
+}  // namespace fascia

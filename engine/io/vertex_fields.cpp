@@ -1,0 +1,142 @@
+#include "io/vertex_fields.hpp"
+
+#include "mechanics/frame_sample.hpp"
+#include "mechanics/shell.hpp"
+
+#include <cmath>
+
+namespace fascia {
+
+StressMeasures shell_membrane_measures(const Model& model, const Shell& shell, int n0, int n1, int n2, const double* x) {
+  const ShellElementRest e = make_shell_element(model.frame_rest_positions.data(), n0, n1, n2, shell);
+  const Vec3 x0 = load3(x + 3 * n0), d1 = load3(x + 3 * n1) - x0, d2 = load3(x + 3 * n2) - x0;
+  // F2 columns f_c = d1 Dm^{-1}_{0c} + d2 Dm^{-1}_{1c}.
+  const Vec3 f[2] = {e.dm_inverse[0][0] * d1 + e.dm_inverse[1][0] * d2, e.dm_inverse[0][1] * d1 + e.dm_inverse[1][1] * d2};
+  double E2[2][2], S2[2][2];
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b) E2[a][b] = 0.5 * (dot(f[a], f[b]) - (a == b ? 1.0 : 0.0));
+  const double nu = shell.poisson, mu = shell.young / (2 * (1 + nu)), lambda = shell.young * nu / (1 - nu * nu);
+  const double tr = E2[0][0] + E2[1][1];
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b) S2[a][b] = 2 * mu * E2[a][b] + (a == b ? lambda * tr : 0.0);
+  const double c00 = dot(f[0], f[0]), c11 = dot(f[1], f[1]), c01 = dot(f[0], f[1]);
+  const double J2 = std::sqrt(std::max(c00 * c11 - c01 * c01, 0.0));
+  StressMeasures m;
+  m.green_strain = zero3();
+  m.second_piola = zero3();
+  m.cauchy = zero3();
+  const Vec3 A[2] = {e.axes[0], e.axes[1]};
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b) {
+      m.green_strain += E2[a][b] * outer(A[a], A[b]);
+      m.second_piola += S2[a][b] * outer(A[a], A[b]);
+      m.cauchy += (S2[a][b] / J2) * outer(f[a], f[b]);
+    }
+  m.energy_density = mu * (E2[0][0] * E2[0][0] + 2 * E2[0][1] * E2[0][1] + E2[1][1] * E2[1][1]) + 0.5 * lambda * tr * tr;
+  return m;
+}
+
+std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& samples) {
+  const std::size_t n = static_cast<std::size_t>(model.frame_count());
+  std::vector<double> weight(n, 0.0);
+  const NeighbourTable& t = model.neighbours;
+  for (std::size_t s = 0; s < static_cast<std::size_t>(model.sample_count()); ++s)
+    for (int q = t.offsets[s]; q < t.offsets[s + 1]; ++q)
+      weight[static_cast<std::size_t>(t.frames[static_cast<std::size_t>(q)])] +=
+          std::abs(t.weights[static_cast<std::size_t>(q)]) * model.samples.volumes[s];
+  std::vector<Field> out = measure_fields(n);
+  for (Field& field : out) {
+    const Field* source = nullptr;
+    for (const Field& f : samples)
+      if (f.name == field.name) source = &f;
+    if (!source) continue;
+    const std::size_t c = static_cast<std::size_t>(field.components);
+    for (std::size_t s = 0; s < static_cast<std::size_t>(model.sample_count()); ++s)
+      for (int q = t.offsets[s]; q < t.offsets[s + 1]; ++q) {
+        const std::size_t i = static_cast<std::size_t>(t.frames[static_cast<std::size_t>(q)]);
+        if (!(weight[i] > 0)) continue;
+        const double w = std::abs(t.weights[static_cast<std::size_t>(q)]) * model.samples.volumes[s] / weight[i];
+        for (std::size_t k = 0; k < c; ++k) field.values[c * i + k] += w * source->values[c * s + k];
+      }
+  }
+  return out;
+}
+
+namespace {
+
+// Per frame, the area-weighted average of the shell's membrane measures over its triangles.
+std::vector<Field> shell_frame_averages(const Model& model, const Shell& shell, const State& state) {
+  const std::size_t n = static_cast<std::size_t>(model.frame_count());
+  const std::size_t triangles = shell.triangles.size() / 3;
+  std::vector<Field> per_triangle = measure_fields(triangles);
+  std::vector<double> area(triangles), weight(n, 0.0);
+  for (std::size_t t = 0; t < triangles; ++t) {
+    const int* v = &shell.triangles[3 * t];
+    set_measures(per_triangle, t, shell_membrane_measures(model, shell, v[0], v[1], v[2], state.positions.data()));
+    area[t] = make_shell_element(model.frame_rest_positions.data(), v[0], v[1], v[2], shell).area;
+    for (int k = 0; k < 3; ++k) weight[static_cast<std::size_t>(v[k])] += area[t];
+  }
+  std::vector<Field> out = measure_fields(n);
+  for (std::size_t f = 0; f < out.size(); ++f) {
+    const std::size_t c = static_cast<std::size_t>(out[f].components);
+    for (std::size_t t = 0; t < triangles; ++t)
+      for (int k = 0; k < 3; ++k) {
+        const std::size_t i = static_cast<std::size_t>(shell.triangles[3 * t + static_cast<std::size_t>(k)]);
+        for (std::size_t j = 0; j < c; ++j) out[f].values[c * i + j] += area[t] / weight[i] * per_triangle[f].values[c * t + j];
+      }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<Field> surface_fields(const Model& model, const State& state, const std::vector<double>& rotations,
+                                  const SurfaceSource& source, const std::vector<Field>& frame_measures) {
+  const SurfaceLayout& surface = *source.surface;
+  const std::size_t V = surface.vertex_frames.size();
+  std::vector<Field> out;
+  out.push_back(Field{"displacement", 3, "m", std::vector<double>(3 * V, 0.0)});
+  out.push_back(Field{"velocity", 3, "m/s", std::vector<double>(3 * V, 0.0)});
+  const std::vector<Field> shell_measures =
+      source.shell ? shell_frame_averages(model, *source.shell, state) : std::vector<Field>{};
+  const std::vector<Field>& measures = source.shell ? shell_measures : frame_measures;
+  const std::size_t first_measure = out.size();
+  for (const Field& f : measures)
+    out.push_back(Field{f.name, f.components, f.unit, std::vector<double>(V * static_cast<std::size_t>(f.components), 0.0)});
+
+  for (std::size_t v = 0; v < V; ++v) {
+    Vec3 u{0, 0, 0}, velocity{0, 0, 0};
+    auto add_measures = [&](std::size_t frame, double w) {
+      for (std::size_t f = 0; f < measures.size(); ++f) {
+        const std::size_t c = static_cast<std::size_t>(measures[f].components);
+        for (std::size_t k = 0; k < c; ++k) out[first_measure + f].values[c * v + k] += w * measures[f].values[c * frame + k];
+      }
+    };
+    if (source.skin) {
+      // eq. (3) at the state minus eq. (3) at rest (R = I): sum_i w (x_i + R_i l - x̄_i - l).
+      const NeighbourTable& t = *source.skin;
+      double total = 0;
+      for (int q = t.offsets[v]; q < t.offsets[v + 1]; ++q) total += std::abs(t.weights[static_cast<std::size_t>(q)]);
+      for (int q = t.offsets[v]; q < t.offsets[v + 1]; ++q) {
+        const std::size_t qi = static_cast<std::size_t>(q);
+        const std::size_t i = static_cast<std::size_t>(t.frames[qi]);
+        const Vec3 l = load3(&t.rest_offsets[3 * qi]), a = load_mat3(&rotations[9 * i]) * l;
+        u += t.weights[qi] * (load3(&state.positions[3 * i]) + a - load3(&model.frame_rest_positions[3 * i]) - l);
+        velocity += t.weights[qi] * (load3(&state.velocities[6 * i]) + cross(load3(&state.velocities[6 * i + 3]), a));
+        if (total > 0) add_measures(i, std::abs(t.weights[qi]) / total);
+      }
+    } else {
+      const std::size_t i = static_cast<std::size_t>(surface.vertex_frames[v]);
+      u = load3(&state.positions[3 * i]) - load3(&model.frame_rest_positions[3 * i]);
+      velocity = load3(&state.velocities[6 * i]);
+      add_measures(i, 1.0);
+    }
+    for (std::size_t k = 0; k < 3; ++k) {
+      out[0].values[3 * v + k] = k == 0 ? u.x : k == 1 ? u.y : u.z;
+      out[1].values[3 * v + k] = k == 0 ? velocity.x : k == 1 ? velocity.y : velocity.z;
+    }
+  }
+  return out;
+}
+
+}  // namespace fascia

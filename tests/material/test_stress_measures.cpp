@@ -1,0 +1,90 @@
+// Strain and stress measures for output: analytic uniaxial stretch, consistency with the laws'
+// first Piola-Kirchhoff stress, objectivity, and the scalar measures of known tensors.
+#include "core/rotation.hpp"
+#include "material/stress_measures.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+using namespace fascia;
+
+namespace {
+
+double max_abs_difference(const Mat3& a, const Mat3& b) {
+  double d = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) d = std::max(d, std::abs(a.m[i][j] - b.m[i][j]));
+  return d;
+}
+
+const Mat3 kF{{{1.10, 0.05, -0.02}, {0.03, 0.95, 0.04}, {-0.01, 0.02, 1.05}}};
+
+}  // namespace
+
+TEST_CASE("stress measures of a uniaxial StVK stretch match the closed form", "[material]") {
+  const Material m = make_material(MaterialLaw::stvk, 40e3, 0.3, 1000);
+  const double l = 1.2;
+  const StressMeasures s = stress_measures(m, Mat3{{{l, 0, 0}, {0, 1, 0}, {0, 0, 1}}});
+  const double e = 0.5 * (l * l - 1);
+  const double S11 = (m.lambda + 2 * m.mu) * e, S22 = m.lambda * e;
+  // Values are O(1e4) Pa from a few multiplications: rounding is below 1e-10 relative.
+  CHECK(s.green_strain.m[0][0] == Approx(e));
+  CHECK(s.green_strain.m[1][1] == 0);
+  CHECK(s.second_piola.m[0][0] == Approx(S11).epsilon(1e-12));
+  CHECK(s.second_piola.m[1][1] == Approx(S22).epsilon(1e-12));
+  // sigma = F S F^T / J with J = l: sigma11 = l S11, sigma22 = S22 / l.
+  CHECK(s.cauchy.m[0][0] == Approx(l * S11).epsilon(1e-12));
+  CHECK(s.cauchy.m[1][1] == Approx(S22 / l).epsilon(1e-12));
+  CHECK(s.energy_density == Approx(0.5 * m.lambda * e * e + m.mu * e * e).epsilon(1e-12));
+  // Principal values, largest first; von Mises of diag(a, b, b) is |a - b|.
+  const auto p = principal_values(s.cauchy);
+  CHECK(p[0] == Approx(l * S11).epsilon(1e-12));
+  CHECK(p[1] == Approx(S22 / l).epsilon(1e-12));
+  CHECK(p[2] == Approx(S22 / l).epsilon(1e-12));
+  CHECK(von_mises(s.cauchy) == Approx(l * S11 - S22 / l).epsilon(1e-12));
+}
+
+TEST_CASE("stress measures agree with the law's P and are objective", "[material]") {
+  const MaterialLaw law = GENERATE(MaterialLaw::stvk, MaterialLaw::neo_hookean);
+  const Material m = make_material(law, 40e3, 0.45, 1000);
+  const StressMeasures s = stress_measures(m, kF);
+  MaterialCache cache;
+  const Mat3 P = first_piola(m, kF, cache);
+  // P = F S and sigma = P F^T / J, to rounding of O(1e4) Pa values (1e-12 relative, 1e-7 Pa).
+  CHECK(max_abs_difference(kF * s.second_piola, P) < 1e-7);
+  CHECK(max_abs_difference(s.cauchy, (1 / det(kF)) * (P * transpose(kF))) < 1e-7);
+  CHECK(max_abs_difference(s.second_piola, transpose(s.second_piola)) < 1e-7);
+  CHECK(max_abs_difference(s.cauchy, transpose(s.cauchy)) < 1e-7);
+  CHECK(s.energy_density == Approx(energy_density(m, kF)));
+  // A rotation Q after the deformation: E, S unchanged, sigma -> Q sigma Q^T, scalars unchanged.
+  const Mat3 Q = rotation_matrix(quat_exp(Vec3{0.4, -1.1, 0.7}));
+  const StressMeasures r = stress_measures(m, Q * kF);
+  CHECK(max_abs_difference(r.green_strain, s.green_strain) < 1e-14);
+  CHECK(max_abs_difference(r.second_piola, s.second_piola) < 1e-7);
+  CHECK(max_abs_difference(r.cauchy, Q * s.cauchy * transpose(Q)) < 1e-7);
+  CHECK(von_mises(r.cauchy) == Approx(von_mises(s.cauchy)).epsilon(1e-10));
+  const auto a = principal_values(r.cauchy), b = principal_values(s.cauchy);
+  for (int k = 0; k < 3; ++k) CHECK(a[k] == Approx(b[k]).epsilon(1e-10).margin(1e-7));
+  // At rest everything vanishes.
+  const StressMeasures zero = stress_measures(m, identity3<double>());
+  CHECK(max_abs_difference(zero.cauchy, zero3()) < 1e-9);
+  CHECK(zero.energy_density == Approx(0).margin(1e-12));
+}
+
+TEST_CASE("von Mises and principal values of known tensors", "[material]") {
+  const Mat3 hydrostatic{{{-5, 0, 0}, {0, -5, 0}, {0, 0, -5}}};
+  CHECK(von_mises(hydrostatic) == Approx(0).margin(1e-12));
+  // Pure shear tau: von Mises sqrt(3) tau, principal values tau, 0, -tau.
+  const Mat3 shear{{{0, 2, 0}, {2, 0, 0}, {0, 0, 0}}};
+  CHECK(von_mises(shear) == Approx(2 * std::sqrt(3.0)));
+  const auto p = principal_values(shear);
+  CHECK(p[0] == Approx(2));
+  CHECK(p[1] == Approx(0).margin(1e-14));
+  CHECK(p[2] == Approx(-2));
+  // An inverted neo-Hookean point has no stress: NaN, not a crash.
+  const Material nh = make_material(MaterialLaw::neo_hookean, 40e3, 0.3, 1000);
+  const StressMeasures s = stress_measures(nh, Mat3{{{-1, 0, 0}, {0, 1, 0}, {0, 0, 1}}});
+  CHECK(std::isnan(s.cauchy.m[0][0]));
+  CHECK(std::isnan(principal_values(s.cauchy)[0]));
+}
