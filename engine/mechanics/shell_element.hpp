@@ -146,24 +146,60 @@ FASCIA_HD Bending bending(const ShellElementRest& e, const ShellModuli& m, const
   return r;
 }
 
-// A linear form on (a, b): the pair of its 3-vector parts.
-struct FormAB {
-  Vec3 a, b;
+// Jacobians of the corotational axes in a and b (3x3 blocks; d e1 / d b = 0):
+//   de1 = P1 da / |a|,  de3 = P3 (-[b]x da + [a]x db) / |n|,  de2 = de3 x e1 + e3 x de1.
+struct AxisJacobians {
+  Mat3 e1_a, e3_a, e3_b, e2_a, e2_b;
 };
 
-// d(c . e1)/d(a, b) for a constant c.
-FASCIA_HD FormAB grad_e1(const Bending& g, const Vec3& c) {
-  return {(1 / g.la) * (c - dot(c, g.e1) * g.e1), Vec3{0, 0, 0}};
+FASCIA_HD Mat3 projector_over(const Vec3& e, double length) {
+  Mat3 p = (-1 / length) * outer(e, e);
+  for (int k = 0; k < 3; ++k) p.m[k][k] += 1 / length;
+  return p;
 }
-// d(c . e3)/d(a, b): with gn = P3 c / |n|, dn = -[b]x da + [a]x db.
-FASCIA_HD FormAB grad_e3(const Bending& g, const Vec3& c) {
-  const Vec3 gn = (1 / g.ln) * (c - dot(c, g.e3) * g.e3);
-  return {cross(g.b, gn), cross(gn, g.a)};
+
+FASCIA_HD AxisJacobians axis_jacobians(const Bending& g) {
+  AxisJacobians j;
+  j.e1_a = projector_over(g.e1, g.la);
+  const Mat3 p3 = projector_over(g.e3, g.ln);
+  j.e3_a = (-1.0) * (p3 * skew(g.b));
+  j.e3_b = p3 * skew(g.a);
+  const Mat3 s1 = skew(g.e1), s3 = skew(g.e3);
+  j.e2_a = s3 * j.e1_a - s1 * j.e3_a;
+  j.e2_b = (-1.0) * (s1 * j.e3_b);
+  return j;
 }
-// d(c . e2)/d(a, b), c . e2 = e3 . (e1 x c) = e1 . (c x e3).
-FASCIA_HD FormAB grad_e2(const Bending& g, const Vec3& c) {
-  const FormAB f3 = grad_e3(g, cross(g.e1, c)), f1 = grad_e1(g, cross(c, g.e3));
-  return {f3.a + f1.a, f3.b + f1.b};
+
+// Multipliers C_a,i (shell_element.hpp): e1 . C1 + e2 . C2 = sum_m Phi'_m s_m.
+FASCIA_HD void multipliers(const Bending& g, Vec3 C1[3], Vec3 C2[3]) {
+  for (int i = 0; i < 3; ++i) {
+    const double kbx = g.phi1[2 * i], kby = g.phi1[2 * i + 1], kpsi = g.phi1[6 + i];
+    C1[i] = (-kbx) * g.d[i][2] - (0.5 * kpsi) * g.d[i][1];
+    C2[i] = (-kby) * g.d[i][2] + (0.5 * kpsi) * g.d[i][0];
+  }
+}
+
+// The gradient of Phi(s) in (a, b, dr_0, dr_1, dr_2): [J1^T C1 + J2^T C2; C1,i x e1 + C2,i x e2].
+FASCIA_HD void bending_gradient(const Bending& g, const AxisJacobians& j, const Vec3 C1[3], const Vec3 C2[3],
+                                double* out) {
+  const Vec3 c1 = C1[0] + C1[1] + C1[2], c2 = C2[0] + C2[1] + C2[2];
+  store3(out, transpose(j.e1_a) * c1 + transpose(j.e2_a) * c2);
+  store3(out + 3, transpose(j.e2_b) * c2);
+  for (int i = 0; i < 3; ++i) store3(out + 6 + 3 * i, cross(C1[i], g.e1) + cross(C2[i], g.e2));
+}
+
+// Row m of G = ds/dtheta in (a, b, dr_0, dr_1, dr_2), for s_m = e1 . c1 + e2 . c2 of node i.
+FASCIA_HD void scalar_gradient(const Bending& g, const AxisJacobians& j, const Vec3& c1, const Vec3& c2, int i,
+                               double* row) {
+  for (int k = 0; k < 15; ++k) row[k] = 0;
+  store3(row, transpose(j.e1_a) * c1 + transpose(j.e2_a) * c2);
+  store3(row + 3, transpose(j.e2_b) * c2);
+  store3(row + 6 + 3 * i, cross(c1, g.e1) + cross(c2, g.e2));
+}
+
+FASCIA_HD void add_block(double (*h)[15], int row, int col, const Mat3& block) {
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) h[row + r][col + c] += block.m[r][c];
 }
 
 // Second derivative of c . v/|v| in v (the unit-vector formula of the header).
@@ -174,56 +210,19 @@ FASCIA_HD Mat3 unit_vector_hessian(const Vec3& c, const Vec3& e, double length) 
   return (1 / (length * length)) * h;
 }
 
-FASCIA_HD Vec3 unit(int k) { return Vec3{k == 0 ? 1.0 : 0.0, k == 1 ? 1.0 : 0.0, k == 2 ? 1.0 : 0.0}; }
-
-// Row m of G = ds/dtheta in the 15 variables (a, b, dr_0, dr_1, dr_2): the (a, b) part and the
-// rotation part of its node m % 3 ... (node = m / 2 for beta, m - 6 for psi).
-struct ScalarGradient {
-  FormAB ab;
-  Vec3 r;
-  int node;
-};
-
-FASCIA_HD ScalarGradient scalar_gradient(const Bending& g, int m) {
-  ScalarGradient out;
-  if (m < 6) {
-    const int i = m / 2;
-    const Vec3& n = g.d[i][2];
-    const Vec3& e = (m % 2 == 0) ? g.e1 : g.e2;
-    const FormAB f = (m % 2 == 0) ? grad_e1(g, n) : grad_e2(g, n);
-    out.ab = {-f.a, -f.b};
-    out.r = -cross(n, e);
-    out.node = i;
-  } else {
-    const int i = m - 6;
-    const FormAB f2 = grad_e2(g, g.d[i][0]), f1 = grad_e1(g, g.d[i][1]);
-    out.ab = {0.5 * (f2.a - f1.a), 0.5 * (f2.b - f1.b)};
-    out.r = 0.5 * (cross(g.d[i][0], g.e2) - cross(g.d[i][1], g.e1));
-    out.node = i;
-  }
-  return out;
-}
-
-// The 15-vector of a ScalarGradient: [a (3), b (3), dr_0, dr_1, dr_2].
-FASCIA_HD void scalar_gradient_vector(const ScalarGradient& s, double* v) {
-  for (int k = 0; k < 15; ++k) v[k] = 0;
-  store3(v, s.ab.a);
-  store3(v + 3, s.ab.b);
-  store3(v + 6 + 3 * s.node, s.r);
-}
-
-FASCIA_HD void add_block(double (*h)[15], int row, int col, const Mat3& block) {
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) h[row + r][col + c] += block.m[r][c];
-}
-
-// Hessian of Phi(s) in the 15 variables (a, b, dr_0, dr_1, dr_2), h[15][15] (overwritten).
-FASCIA_HD void bending_hessian(const ShellElementRest& e, const Bending& g, double (*h)[15]) {
+// Hessian of Phi(s) in (a, b, dr_0, dr_1, dr_2), h[15][15] (overwritten).
+FASCIA_HD void bending_hessian(const ShellElementRest& e, const Bending& g, const AxisJacobians& j,
+                               const Vec3 C1i[3], const Vec3 C2i[3], double (*h)[15]) {
   for (int r = 0; r < 15; ++r)
     for (int c = 0; c < 15; ++c) h[r][c] = 0;
   // G^T Phi'' G.
   double G[9][15];
-  for (int m = 0; m < 9; ++m) scalar_gradient_vector(scalar_gradient(g, m), G[m]);
+  const Vec3 zero{0, 0, 0};
+  for (int i = 0; i < 3; ++i) {
+    scalar_gradient(g, j, -g.d[i][2], zero, i, G[2 * i]);
+    scalar_gradient(g, j, zero, -g.d[i][2], i, G[2 * i + 1]);
+    scalar_gradient(g, j, -0.5 * g.d[i][1], 0.5 * g.d[i][0], i, G[6 + i]);
+  }
   for (int m = 0; m < 9; ++m) {
     double y[15];  // (Phi'' G)_m
     if (m < 6) {
@@ -241,55 +240,60 @@ FASCIA_HD void bending_hessian(const ShellElementRest& e, const Bending& g, doub
     }
   }
   // sum_m Phi'_m Hess(s_m) = Hess(e1 . C1 + e2 . C2) with C_a = sum_i C_a,i frozen.
-  Vec3 C1i[3], C2i[3];
-  Vec3 C1{0, 0, 0}, C2{0, 0, 0};
-  for (int i = 0; i < 3; ++i) {
-    const double kbx = g.phi1[2 * i], kby = g.phi1[2 * i + 1], kpsi = g.phi1[6 + i];
-    C1i[i] = (-kbx) * g.d[i][2] - (0.5 * kpsi) * g.d[i][1];
-    C2i[i] = (-kby) * g.d[i][2] + (0.5 * kpsi) * g.d[i][0];
-    C1 += C1i[i];
-    C2 += C2i[i];
-  }
+  const Vec3 C1 = C1i[0] + C1i[1] + C1i[2], C2 = C2i[0] + C2i[1] + C2i[2];
   // (a, b) x (a, b): e1 . C1 + e1 . (C2 x e3) + e3 . (e1 x C2) + the product term of e2.
   add_block(h, 0, 0, unit_vector_hessian(C1 + cross(C2, g.e3), g.e1, g.la));
   {
     const Vec3 c3 = cross(g.e1, C2);
     const Mat3 Hn = unit_vector_hessian(c3, g.e3, g.ln);
     const Mat3 Sa = skew(g.a), Sb = skew(g.b);
-    const Vec3 gn = (1 / g.ln) * (c3 - dot(c3, g.e3) * g.e3);
+    const Mat3 gn = skew((1 / g.ln) * (c3 - dot(c3, g.e3) * g.e3));  // [P3 c3 / |n|]x
     add_block(h, 0, 0, (-1.0) * (Sb * Hn * Sb));
-    add_block(h, 0, 3, Sb * Hn * Sa - skew(gn));
-    add_block(h, 3, 0, Sa * Hn * Sb + skew(gn));
+    add_block(h, 0, 3, Sb * Hn * Sa - gn);
+    add_block(h, 3, 0, Sa * Hn * Sb + gn);
     add_block(h, 3, 3, (-1.0) * (Sa * Hn * Sa));
   }
-  // Product term M + M^T, M = J3^T (-[C2]x) J1: column j of M (j in a) = grad_e3((J1 e_j) x C2).
-  for (int j = 0; j < 3; ++j) {
-    const Vec3 p = (1 / g.la) * (unit(j) - dot(unit(j), g.e1) * g.e1);  // J1 e_j = P1 e_j / |a|
-    const FormAB col = grad_e3(g, cross(p, C2));
-    const double v[6] = {col.a.x, col.a.y, col.a.z, col.b.x, col.b.y, col.b.z};
-    for (int r = 0; r < 6; ++r) {
-      h[r][j] += v[r];
-      h[j][r] += v[r];
-    }
+  // Product term M + M^T, M = J3^T (-[C2]x) J1 (only the a columns: J1 has no b part).
+  {
+    const Mat3 SC = skew(C2);
+    const Mat3 Ma = (-1.0) * (transpose(j.e3_a) * SC * j.e1_a), Mb = (-1.0) * (transpose(j.e3_b) * SC * j.e1_a);
+    add_block(h, 0, 0, Ma + transpose(Ma));
+    add_block(h, 3, 0, Mb);
+    add_block(h, 0, 3, transpose(Mb));
   }
-  // (a, b) x dr_i: -J1^T [C1,i]x - J2^T [C2,i]x; column k = grad_e1(E_k x C1,i) + grad_e2(E_k x C2,i).
-  for (int i = 0; i < 3; ++i)
-    for (int k = 0; k < 3; ++k) {
-      const FormAB f1 = grad_e1(g, cross(unit(k), C1i[i])), f2 = grad_e2(g, cross(unit(k), C2i[i]));
-      const double v[6] = {f1.a.x + f2.a.x, f1.a.y + f2.a.y, f1.a.z + f2.a.z,
-                           f1.b.x + f2.b.x, f1.b.y + f2.b.y, f1.b.z + f2.b.z};
-      const int col = 6 + 3 * i + k;
-      for (int r = 0; r < 6; ++r) {
-        h[r][col] += v[r];
-        h[col][r] += v[r];
-      }
-    }
+  // (a, b) x dr_i: -J1^T [C1,i]x - J2^T [C2,i]x.
+  for (int i = 0; i < 3; ++i) {
+    const Mat3 S1 = skew(C1i[i]), S2 = skew(C2i[i]);
+    const Mat3 ha = (-1.0) * (transpose(j.e1_a) * S1 + transpose(j.e2_a) * S2);
+    const Mat3 hb = (-1.0) * (transpose(j.e2_b) * S2);
+    add_block(h, 0, 6 + 3 * i, ha);
+    add_block(h, 3, 6 + 3 * i, hb);
+    add_block(h, 6 + 3 * i, 0, transpose(ha));
+    add_block(h, 6 + 3 * i, 3, transpose(hb));
+  }
   // dr_i x dr_i: sum_a sym(e_a C_a,i^T) - (e_a . C_a,i) I.
   for (int i = 0; i < 3; ++i) {
     Mat3 K = 0.5 * (outer(g.e1, C1i[i]) + outer(C1i[i], g.e1) + outer(g.e2, C2i[i]) + outer(C2i[i], g.e2));
     const double diag = dot(g.e1, C1i[i]) + dot(g.e2, C2i[i]);
     for (int k = 0; k < 3; ++k) K.m[k][k] -= diag;
     add_block(h, 6 + 3 * i, 6 + 3 * i, K);
+  }
+}
+
+// dW_m/dU_c = A t sum_d S_cd f_d (c = 0, 1).
+FASCIA_HD void membrane_stress_vectors(const ShellElementRest& e, const ShellModuli& m, const Membrane& mem, Vec3 P[2]) {
+  const double at = e.area * m.thickness;
+  P[0] = at * (mem.S[0][0] * mem.f[0] + mem.S[0][1] * mem.f[1]);
+  P[1] = at * (mem.S[1][0] * mem.f[0] + mem.S[1][1] * mem.f[1]);
+}
+
+// The element gradient g[18] from the membrane and the bending gradient gb in (a, b, dr_i).
+FASCIA_HD void element_gradient(const Membrane& mem, const Vec3 P[2], const double* gb, double* g) {
+  const Vec3 ga = load3(gb), gbb = load3(gb + 3);
+  const Vec3 gx[3] = {-(ga + gbb), ga, gbb};  // a = x1 - x0, b = x2 - x0
+  for (int i = 0; i < 3; ++i) {
+    store3(g + 6 * i, mem.c[0][i] * P[0] + mem.c[1][i] * P[1] + gx[i]);
+    store3(g + 6 * i + 3, load3(gb + 6 + 3 * i));
   }
 }
 
@@ -306,21 +310,13 @@ FASCIA_HD double shell_element_gradient(const ShellElementRest& e, const ShellMo
   using namespace shell_detail;
   const Membrane mem = membrane(e, m, x);
   const Bending bend = bending(e, m, x, R);
-  const double at = e.area * m.thickness;
-  const Vec3 P0 = at * (mem.S[0][0] * mem.f[0] + mem.S[0][1] * mem.f[1]);  // dW_m/dU_0
-  const Vec3 P1 = at * (mem.S[1][0] * mem.f[0] + mem.S[1][1] * mem.f[1]);  // dW_m/dU_1
-  Vec3 ga{0, 0, 0}, gb{0, 0, 0}, gr[3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
-  for (int s = 0; s < 9; ++s) {
-    const ScalarGradient sg = scalar_gradient(bend, s);
-    ga += bend.phi1[s] * sg.ab.a;
-    gb += bend.phi1[s] * sg.ab.b;
-    gr[sg.node] += bend.phi1[s] * sg.r;
-  }
-  const Vec3 gx[3] = {-(ga + gb), ga, gb};  // a = x1 - x0, b = x2 - x0
-  for (int i = 0; i < 3; ++i) {
-    store3(g + 6 * i, mem.c[0][i] * P0 + mem.c[1][i] * P1 + gx[i]);
-    store3(g + 6 * i + 3, gr[i]);
-  }
+  const AxisJacobians j = axis_jacobians(bend);
+  Vec3 C1[3], C2[3], P[2];
+  multipliers(bend, C1, C2);
+  double gb[15];
+  bending_gradient(bend, j, C1, C2, gb);
+  membrane_stress_vectors(e, m, mem, P);
+  element_gradient(mem, P, gb, g);
   return mem.energy + bend.energy;
 }
 
@@ -328,10 +324,37 @@ FASCIA_HD double shell_element_gradient(const ShellElementRest& e, const ShellMo
 FASCIA_HD double shell_element_hessian(const ShellElementRest& e, const ShellModuli& m, const Vec3 x[3], const Mat3 R[3],
                                        double* g, double* H) {
   using namespace shell_detail;
-  const double w = shell_element_gradient(e, m, x, R, g);
+  constexpr int n = kShellElementDofs;
   const Membrane mem = membrane(e, m, x);
   const Bending bend = bending(e, m, x, R);
-  // Membrane blocks in U: HU[c][d] (3x3 each).
+  const AxisJacobians j = axis_jacobians(bend);
+  Vec3 C1[3], C2[3], P[2];
+  multipliers(bend, C1, C2);
+  {
+    double gb[15];
+    bending_gradient(bend, j, C1, C2, gb);
+    membrane_stress_vectors(e, m, mem, P);
+    element_gradient(mem, P, gb, g);
+  }
+  // Bending and drilling in (a, b, dr_0, dr_1, dr_2), then theta: x_0 = -(a + b), x_1 = a, x_2 = b.
+  double hb[15][15];
+  bending_hessian(e, bend, j, C1, C2, hb);
+  double z[n][15];  // T^T hb: rows in theta, columns in (a, b, dr)
+  for (int c = 0; c < 15; ++c)
+    for (int k = 0; k < 3; ++k) {
+      z[k][c] = -(hb[k][c] + hb[3 + k][c]);
+      z[6 + k][c] = hb[k][c];
+      z[12 + k][c] = hb[3 + k][c];
+      for (int i = 0; i < 3; ++i) z[6 * i + 3 + k][c] = hb[6 + 3 * i + k][c];
+    }
+  for (int r = 0; r < n; ++r)
+    for (int k = 0; k < 3; ++k) {
+      H[n * r + k] = -(z[r][k] + z[r][3 + k]);
+      H[n * r + 6 + k] = z[r][k];
+      H[n * r + 12 + k] = z[r][3 + k];
+      for (int i = 0; i < 3; ++i) H[n * r + 6 * i + 3 + k] = z[r][6 + 3 * i + k];
+    }
+  // Membrane blocks in U: HU[c][d] (3x3 each), then d2W_m/dx_i dx_j = sum_cd c_ci c_dj HU[c][d].
   const double at = e.area * m.thickness, l = m.lambda, mu = m.mu;
   const Vec3 f0 = mem.f[0], f1 = mem.f[1];
   Mat3 HU[2][2];
@@ -342,49 +365,20 @@ FASCIA_HD double shell_element_hessian(const ShellElementRest& e, const ShellMod
   for (int c = 0; c < 2; ++c)
     for (int d = 0; d < 2; ++d)
       for (int k = 0; k < 3; ++k) HU[c][d].m[k][k] += at * mem.S[c][d];
-  // Bending and drilling in (a, b, dr_0, dr_1, dr_2).
-  double hb[15][15];
-  bending_hessian(e, bend, hb);
-  // theta index -> (variable of hb, coefficient): x_0 = -(a + b), x_1 = a, x_2 = b, dr_i.
-  for (int p = 0; p < kShellElementDofs; ++p) {
-    const int np = p / 6, kp = p % 6;
-    for (int q = 0; q < kShellElementDofs; ++q) {
-      const int nq = q / 6, kq = q % 6;
-      double v = 0;
-      if (kp < 3 && kq < 3) {
-        for (int c = 0; c < 2; ++c)
-          for (int d = 0; d < 2; ++d) v += mem.c[c][np] * mem.c[d][nq] * HU[c][d].m[kp][kq];
-      }
-      // Variables of hb with their coefficients for p and q.
-      int vp[2], vq[2];
-      double cp[2], cq[2];
-      int np_count, nq_count;
-      if (kp < 3) {
-        np_count = np == 0 ? 2 : 1;
-        vp[0] = np == 2 ? 3 + kp : kp, cp[0] = np == 0 ? -1.0 : 1.0;
-        vp[1] = 3 + kp, cp[1] = -1.0;
-      } else {
-        np_count = 1, vp[0] = 6 + 3 * np + kp - 3, cp[0] = 1.0;
-      }
-      if (kq < 3) {
-        nq_count = nq == 0 ? 2 : 1;
-        vq[0] = nq == 2 ? 3 + kq : kq, cq[0] = nq == 0 ? -1.0 : 1.0;
-        vq[1] = 3 + kq, cq[1] = -1.0;
-      } else {
-        nq_count = 1, vq[0] = 6 + 3 * nq + kq - 3, cq[0] = 1.0;
-      }
-      for (int s = 0; s < np_count; ++s)
-        for (int t = 0; t < nq_count; ++t) v += cp[s] * cq[t] * hb[vp[s]][vq[t]];
-      H[kShellElementDofs * p + q] = v;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      const Mat3 block = (mem.c[0][a] * mem.c[0][b]) * HU[0][0] + (mem.c[0][a] * mem.c[1][b]) * HU[0][1] +
+                         (mem.c[1][a] * mem.c[0][b]) * HU[1][0] + (mem.c[1][a] * mem.c[1][b]) * HU[1][1];
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) H[n * (6 * a + r) + 6 * b + c] += block.m[r][c];
     }
-  }
   // K_b is symmetric only to round-off: make H exactly symmetric.
-  for (int p = 0; p < kShellElementDofs; ++p)
+  for (int p = 0; p < n; ++p)
     for (int q = 0; q < p; ++q) {
-      const double v = 0.5 * (H[kShellElementDofs * p + q] + H[kShellElementDofs * q + p]);
-      H[kShellElementDofs * p + q] = H[kShellElementDofs * q + p] = v;
+      const double v = 0.5 * (H[n * p + q] + H[n * q + p]);
+      H[n * p + q] = H[n * q + p] = v;
     }
-  return w;
+  return mem.energy + bend.energy;
 }
 
 }  // namespace fascia
