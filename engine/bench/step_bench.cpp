@@ -49,6 +49,7 @@ ExternalLoads bench_step_loads() {
 LinearSettings bench_linear_settings(LinearMethod method, int cg_iterations) {
   LinearSettings linear;
   linear.method = method;
+  linear.preconditioner = Preconditioner::block_jacobi;  // matrix-free, as on the device
   linear.fixed_iterations = true;
   linear.max_iterations = cg_iterations;
   return linear;

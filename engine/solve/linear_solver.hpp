@@ -38,11 +38,13 @@ Preconditioner parse_preconditioner(const std::string& name);
 
 struct LinearSettings {
   LinearMethod method = LinearMethod::pcg;
-  Preconditioner preconditioner = Preconditioner::block_jacobi;
+  Preconditioner preconditioner = Preconditioner::cholmod;
   double tolerance = 1e-8;    // CG/PCG: stop when |r| <= tolerance |b|
   int max_iterations = 2000;  // CG/PCG cap
   bool fixed_iterations = false;  // run exactly max_iterations (the paper's benchmarks: 60)
-  int refactorise_above = 10;     // pcg + cholmod: refresh the factorisation after a solve that took more
+  // pcg + cholmod: refresh the factorisation after a solve that took more iterations. 10: on the
+  // pelvis 5 to 20 cost the same time per step (docs/solvers.md), 10 takes fewer iterations.
+  int refactorise_above = 10;
 };
 
 // The system's operator H (size n = 6N), its 6x6 diagonal blocks and assembled form on demand.

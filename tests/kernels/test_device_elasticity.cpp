@@ -254,6 +254,7 @@ TEST_CASE("device step equals the CPU engine's one-iteration Newton step", "[gpu
   NewtonSettings newton;
   newton.fixed_iterations = 1;
   newton.linear.method = method;
+  newton.linear.preconditioner = Preconditioner::block_jacobi;  // the device's preconditioner
   newton.linear.fixed_iterations = true;
   newton.linear.max_iterations = 60;
 
