@@ -53,7 +53,7 @@ struct KernelResources {
 // kFrameThreads frames; the update: chunks of frame rows) and the thread blocks of each, which
 // loop over them; and the blocks per chunk of the grid reductions' first level.
 struct LaunchGrids {
-  int frame_work = 0, update_work = 0, frame_rows_grid = 0, update_rows_grid = 0;
+  int frame_work = 0, update_work = 0, frame_grid = 0, update_grid = 0;
   int reduce_chunk = 0;
 };
 

@@ -202,9 +202,9 @@ TEST_CASE("launched row passes and reductions that span several chunks equal the
   dev.limit_row_blocks(3);
   const LaunchGrids grids = dev.launch_grids();
   std::printf("[gpu] row passes: %d and %d blocks of work in %d and %d blocks\n", grids.frame_work,
-              grids.update_work, grids.frame_rows_grid, grids.update_rows_grid);
-  CHECK(grids.frame_rows_grid < grids.frame_work);
-  CHECK(grids.update_rows_grid < grids.update_work);
+              grids.update_work, grids.frame_grid, grids.update_grid);
+  CHECK(grids.frame_grid < grids.frame_work);
+  CHECK(grids.update_grid < grids.update_work);
   CHECK(model.sample_count() > 128 * grids.reduce_chunk);  // the force pass's 128-sample blocks
   dev.set_state(state);
   const double dw = dev.gradient(dg.data());
