@@ -338,7 +338,10 @@ ParamSpec build_registry() {
       "output", "the HDF5 trajectory",
       {leaf("file", ParamType::string, "output file (default: the scene's name with .h5, in the working directory)"),
        with_default(above(leaf("every", ParamType::integer, "write every n-th step"), 1, false), "1"),
-       with_default(leaf("samples", ParamType::boolean, "write sample positions"), "true"),
+       with_default(leaf("samples", ParamType::boolean,
+                         "write the samples: positions and fields (45 values per sample and step; false keeps "
+                         "frames and surfaces)"),
+                    "true"),
        with_default(leaf("xdmf", ParamType::boolean, "write the XDMF sidecar for ParaView"), "true")});
 
   ParamSpec include = leaf("include", ParamType::string_list,
