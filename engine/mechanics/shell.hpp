@@ -24,6 +24,8 @@
 // The rest state is stress free for curved surfaces (each triangle measures slopes against its
 // own rest normal). Gradient and Hessian of theta -> W(q (+) theta) are exact and in closed form
 // (mechanics/shell_element.hpp, which holds the per-triangle body shared with CUDA drivers).
+// prepare() sums the element Hessians into one 6x6 block per pair of frames that share a
+// triangle; products, diagonal blocks and triplets read those blocks.
 #pragma once
 
 #include "core/small_math.hpp"

@@ -30,8 +30,10 @@
 //  * The directors turn with exp([dr]x) = I + [dr]x + [dr]x^2 / 2 + O(dr^3):
 //      d(e . d_ik)/d dr_i = d_ik x e,  d2(e . d_ik)/d dr_i^2 = sym(e d_ik^T) - (e . d_ik) I,
 //    and the mixed (x, dr_i) derivative of e . d is (de/dx)^T (-[d]x).
-// All terms are exact at theta = 0 (no truncation); tests/mechanics/test_shell.cpp checks them
-// against central differences of the energy.
+// All terms are exact at theta = 0 (no truncation); tests/mechanics/test_shell_element.cpp checks
+// every entry against central differences of the element energy, tests/mechanics/test_shell.cpp
+// the assembled field's forces, products, blocks and triplets. The CUDA instantiation is
+// kernels/shell_element_device.cu.
 #pragma once
 
 #include "core/small_math.hpp"
