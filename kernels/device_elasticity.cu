@@ -53,7 +53,8 @@ constexpr int kMaxBlockSlots = 256;
 // Lanes that sum one slot of a block's pair outputs in the launched tangent kernels (a power of
 // two <= 32): two halve the chain of dependent adds of one lane and keep the stores coalesced.
 constexpr int kSlotLanes = 2;
-// Frames per chunk of the launched PCG update (k_update_rows: 6 threads per frame, 252 per block).
+// Frames per chunk of the launched PCG update (k_update_rows, 6 threads per frame): 252-thread
+// blocks, large enough that few blocks share the grid reduction, small enough to fill the device.
 constexpr int kRowFrames = 42;
 // The persistent PCG runs while the model needs at most this many thread blocks per
 // multiprocessor: its grid barriers and every block's sum of all partials grow with the grid.
