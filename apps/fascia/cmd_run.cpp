@@ -285,15 +285,21 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   const std::string h5_name = fs::path(output).filename().string();
   std::vector<double> written_times;
   auto last_xdmf = std::chrono::steady_clock::now();
-  // The sidecar is rewritten after each flushed step while the run is short, then at most once a
-  // second and at the end: it always describes complete steps only.
+  double xdmf_seconds = 0;  // how long the last rewrite took
+  // The sidecars are rewritten after each flushed step while the run is short, then at most once
+  // every max(1 s, 20 x the last rewrite's duration), and at the end: they always describe
+  // complete steps only. Their text grows with the steps (about 15 kB per step for the main job's
+  // objects and fields), so the interval grows with it and rewriting stays below 5 % of the run.
   auto update_xdmf = [&](bool force) {
     if (!out_spec.xdmf) return;
     const auto now = std::chrono::steady_clock::now();
-    if (!force && written_times.size() > 100 && std::chrono::duration<double>(now - last_xdmf).count() < 1.0) return;
+    if (!force && written_times.size() > 100 &&
+        std::chrono::duration<double>(now - last_xdmf).count() < std::max(1.0, 20 * xdmf_seconds))
+      return;
     write_xdmf(xmf, h5_name, layout, written_times,
                writer ? static_cast<std::size_t>(writer->rows_allocated()) : written_times.size());
-    last_xdmf = now;
+    last_xdmf = std::chrono::steady_clock::now();
+    xdmf_seconds = std::chrono::duration<double>(last_xdmf - now).count();
   };
 
   StepReport last;
