@@ -12,12 +12,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <ios>
 #include <limits>
 
 namespace fascia::dsl {
 
 namespace {
+
+namespace fs = std::filesystem;
 
 Vec3 to_vec3(const Vec3d& v) { return Vec3{v[0], v[1], v[2]}; }
 
@@ -68,6 +71,57 @@ std::vector<int> select_frames(const Model& model, const std::vector<int>& frame
     diagnostics.error(region.where, "region selects no frames of object '" + object +
                                         "' (frames are tested at their rest positions, world axes, metres)");
   return out;
+}
+
+std::string metres(double d) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%g mm", d * 1e3);
+  return text;
+}
+
+std::string count_text(double n) {
+  char text[64];
+  std::snprintf(text, sizeof text, n < 1e6 ? "%.0f" : "%.2g", n);
+  return text;
+}
+
+// The memory the objects built so far are estimated to need, against the limit.
+struct MemoryBudget {
+  double limit = 0;      // bytes
+  double committed = 0;  // bytes, objects admitted so far
+
+  // Admits an object, or reports at `where` what it asks for, the estimate and the likely cause.
+  bool admit(const ObjectSpec& o, const ObjectEstimate& e, const std::string& what, const Location& where,
+             Diagnostics& diagnostics) {
+    const double total = committed + e.bytes;
+    const bool counts_fit = e.samples < std::numeric_limits<int>::max() && e.frames < std::numeric_limits<int>::max();
+    if (total <= limit && counts_fit) {
+      committed = total;
+      return true;
+    }
+    std::string message = "object '" + o.name + "': " + what + " need about " + bytes_text(e.bytes);
+    if (committed > 0) message += " (" + bytes_text(total) + " with the objects before it)";
+    message += total > limit ? ", more than --max-memory " + bytes_text(limit)
+                             : ", and more than the 2147483647 frames or samples a model can index";
+    message += e.cause.empty() ? "; use a coarser resolution or a larger --max-memory" : "; " + e.cause;
+    diagnostics.error(where, message, ExitCode::too_large);
+    return false;
+  }
+};
+
+// A mesh file is refused before it is read when reading it alone would not fit.
+bool admit_file(const ObjectSpec& o, const Located<std::string>& file, MemoryBudget& budget, Diagnostics& diagnostics) {
+  std::error_code ec;
+  const auto size = fs::file_size(file.value, ec);
+  if (ec) return true;  // not a regular file: the reader reports it
+  ObjectEstimate e;
+  e.bytes = mesh_file_bytes(static_cast<double>(size));
+  const MemoryBudget before = budget;
+  if (!budget.admit(o, e, "reading '" + file.value + "' (" + bytes_text(static_cast<double>(size)) + ") would",
+                    file.where, diagnostics))
+    return false;
+  budget = before;  // what the file becomes is estimated once read
+  return true;
 }
 
 VolumeMesh object_mesh(const ObjectSpec& o, Diagnostics& diagnostics) {
@@ -145,7 +199,9 @@ Material scene_material(const SceneSpec& scene, const ObjectSpec& o) {
   return make_material(law, m->young.value, m->poisson.value, m->density.value);
 }
 
-bool read_transformed_surface(const ObjectSpec& o, SurfaceMesh& surface, Diagnostics& diagnostics) {
+bool read_transformed_surface(const ObjectSpec& o, SurfaceMesh& surface, MemoryBudget& budget,
+                              Diagnostics& diagnostics) {
+  if (!admit_file(o, *o.surface, budget, diagnostics)) return false;
   try {
     surface = read_surface_mesh(o.surface->value);
   } catch (const std::ios_base::failure& e) {
@@ -166,16 +222,49 @@ bool read_transformed_surface(const ObjectSpec& o, SurfaceMesh& surface, Diagnos
 }
 
 // A mesh-based tissue: volume mesh, discretisation, boundary surface (quads split in triangles).
-bool make_mesh_tissue(const SceneSpec& scene, ObjectPart& part, Diagnostics& diagnostics) {
+bool make_mesh_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& budget, Diagnostics& diagnostics) {
   const ObjectSpec& o = *part.spec;
+  const int q = o.quadrature.value;
+  if (o.box) {
+    // The generated grid is estimated from the cell counts before it exists.
+    const BoxSpec& b = *o.box;
+    const bool tet = b.elements.value == "tet";
+    double cells = 1, vertices = 1, extent = 0;
+    for (std::size_t k = 0; k < 3; ++k) {
+      cells *= b.cells.value[k];
+      vertices *= b.cells.value[k] + 1.0;
+      extent = std::max(extent, o.transform.scale * (b.max.value[k] - b.min.value[k]));
+    }
+    const ObjectEstimate e = estimate_mesh_based(tet ? 6 * cells : cells, tet ? 4 : 8, vertices,
+                                                 tet ? (q == 1 ? 1 : 4) : (q == 0 ? 8 : q), extent);
+    if (!budget.admit(o, e, "box cells [" + std::to_string(b.cells.value[0]) + ", " + std::to_string(b.cells.value[1]) +
+                                ", " + std::to_string(b.cells.value[2]) + "] (" + count_text(e.samples) + " samples)",
+                      b.cells.where, diagnostics))
+      return false;
+  } else if (o.mesh && !admit_file(o, *o.mesh, budget, diagnostics)) {
+    return false;
+  }
   part.mesh = object_mesh(o, diagnostics);
   if (!diagnostics.empty()) return false;
-  const int q = o.quadrature.value;
   const bool tet = part.mesh.type == CellType::tetrahedron;
   if (q != 0 && (tet ? (q != 1 && q != 4) : (q != 1 && q != 8 && q != 27))) {
     diagnostics.error(o.quadrature.where, std::string("quadrature ") + std::to_string(q) + " is not available for " +
                                               (tet ? "tetrahedra (use 1 or 4)" : "hexahedra (use 1, 8 or 27)"));
     return false;
+  }
+  if (o.mesh) {
+    Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+    for (int v = 0; v < part.mesh.vertex_count(); ++v) {
+      const Vec3 x = load3(&part.mesh.vertices[3 * static_cast<std::size_t>(v)]);
+      lo = Vec3{std::min(lo.x, x.x), std::min(lo.y, x.y), std::min(lo.z, x.z)};
+      hi = Vec3{std::max(hi.x, x.x), std::max(hi.y, x.y), std::max(hi.z, x.z)};
+    }
+    const ObjectEstimate e =
+        estimate_mesh_based(part.mesh.cell_count(), part.mesh.nodes_per_cell(), part.mesh.vertex_count(),
+                            tet ? (q == 1 ? 1 : 4) : (q == 0 ? 8 : q), std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z}));
+    if (!budget.admit(o, e, std::to_string(part.mesh.cell_count()) + " cells (" + count_text(e.samples) + " samples)",
+                      o.mesh->where, diagnostics))
+      return false;
   }
   MeshDiscretisation options;
   options.quadrature = tet ? q : (q == 1 ? 1 : q == 27 ? 3 : q == 8 ? 2 : 0);
@@ -203,9 +292,9 @@ bool make_mesh_tissue(const SceneSpec& scene, ObjectPart& part, Diagnostics& dia
   return true;
 }
 
-bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, Diagnostics& diagnostics) {
+bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& budget, Diagnostics& diagnostics) {
   const ObjectSpec& o = *part.spec;
-  if (!read_transformed_surface(o, part.surface, diagnostics)) return false;
+  if (!read_transformed_surface(o, part.surface, budget, diagnostics)) return false;
   const MeshlessSpec& ml = *o.meshless;
   MeshlessOptions options;
   options.frame_spacing = ml.frame_spacing.value;
@@ -218,6 +307,21 @@ bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, Diagnostics&
     diagnostics.error(ml.sample_spacing.where, "sample_spacing must be smaller than frame_spacing");
     return false;
   }
+  Vec3 lo, hi;
+  surface_bounds(part.surface, lo, hi);
+  const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  if (!(options.frame_spacing < extent)) {
+    diagnostics.error(ml.frame_spacing.where, "frame_spacing " + metres(options.frame_spacing) +
+                                                  " is not smaller than the object, which is " + metres(extent) +
+                                                  " across: it would hold a single frame at most");
+    return false;
+  }
+  const ObjectEstimate estimate = estimate_meshless(part.surface, options);
+  if (!budget.admit(o, estimate,
+                    "about " + count_text(estimate.samples) + " samples (sample_spacing " + metres(options.sample_spacing) +
+                        ") and " + count_text(estimate.frames) + " frames (frame_spacing " + metres(options.frame_spacing) + ")",
+                    ml.sample_spacing.where, diagnostics))
+    return false;
   MeshlessBuild result;
   try {
     result = build_meshless_model(part.surface, scene_material(scene, o), options);
@@ -294,12 +398,6 @@ BuiltObject output_object(const ObjectPart& part, const Model& model) {
   return object;
 }
 
-std::string metres(double d) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%g mm", d * 1e3);
-  return text;
-}
-
 void finish_scene(const SceneSpec& scene, std::vector<ObjectPart>& parts, BuiltScene& built, Diagnostics& diagnostics);
 
 }  // namespace
@@ -327,11 +425,13 @@ DiscretisationStats discretisation_stats(const Model& model) {
   return s;
 }
 
-BuiltScene build_scene(const SceneSpec& scene) {
+BuiltScene build_scene(const SceneSpec& scene, const ResourceLimits& limits) {
   Diagnostics diagnostics;
   BuiltScene built;
+  MemoryBudget budget;
+  budget.limit = limits.max_memory > 0 ? limits.max_memory : machine_memory();
   if (scene.objects.empty()) {
-    diagnostics.error(Location{scene.file, 0, 0}, "the scene defines no objects");
+    diagnostics.error(Location{scene.file, 1, 1}, "the scene defines no objects");
     throw SceneError(diagnostics);
   }
 
@@ -342,17 +442,17 @@ BuiltScene build_scene(const SceneSpec& scene) {
     ObjectPart& part = parts[k];
     part.spec = &o;
     if (o.kind.value == "tissue") {
-      if (o.surface) make_meshless_tissue(scene, part, diagnostics);
-      else make_mesh_tissue(scene, part, diagnostics);
+      if (o.surface) make_meshless_tissue(scene, part, budget, diagnostics);
+      else make_mesh_tissue(scene, part, budget, diagnostics);
     } else if (o.kind.value == "shell") {
-      if (!read_transformed_surface(o, part.surface, diagnostics)) continue;
+      if (!read_transformed_surface(o, part.surface, budget, diagnostics)) continue;
       const MaterialSpec* m = scene.material(o.material->value);
       part.shell = ShellProperties{o.thickness->value, m->young.value, m->poisson.value, m->density.value};
       part.discretisation = "shell, " + std::to_string(part.surface.triangle_count()) + " triangles, " +
                             std::to_string(part.surface.vertex_count()) + " frames, thickness " +
                             metres(o.thickness->value);
     } else {
-      if (!read_transformed_surface(o, part.surface, diagnostics)) continue;
+      if (!read_transformed_surface(o, part.surface, budget, diagnostics)) continue;
       part.density = o.density ? o.density->value
                                : (o.material ? scene.material(o.material->value)->density.value : 1000.0);
       part.discretisation = "rigid, " + std::to_string(part.surface.triangle_count()) + " triangles";
@@ -416,7 +516,7 @@ BuiltScene build_scene(const SceneSpec& scene) {
     try {
       built.model = builder.build();
     } catch (const std::exception& e) {
-      diagnostics.error(Location{scene.file, 0, 0}, std::string("cannot assemble the scene: ") + e.what());
+      diagnostics.error(Location{scene.file, 1, 1}, std::string("cannot assemble the scene: ") + e.what());
       throw SceneError(diagnostics);
     }
     for (std::size_t k = 0; k < parts.size(); ++k) parts[k].frames = built.model.objects[k].frames;

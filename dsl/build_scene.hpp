@@ -2,6 +2,7 @@
 #pragma once
 
 #include "discretise/meshless.hpp"
+#include "dsl/resource_estimate.hpp"
 #include "dsl/scene_spec.hpp"
 #include "integrate/simulation.hpp"
 #include "io/trajectory.hpp"
@@ -60,8 +61,10 @@ struct BuiltScene {
 // coupling; a single tissue is used as discretised. Throws SceneError (all problems at once) for
 // unreadable meshes (ExitCode::missing_input / bad_data), couplings that catch no frame or pair
 // the wrong kinds, empty region selections, frame ids out of range, and a static solve without
-// fixed frames.
-BuiltScene build_scene(const SceneSpec& scene);
+// fixed frames. Before each object is read or discretised, its memory is estimated
+// (dsl/resource_estimate.hpp); a scene whose objects together exceed `limits.max_memory` is
+// refused with ExitCode::too_large at the value that asks for it.
+BuiltScene build_scene(const SceneSpec& scene, const ResourceLimits& limits = {});
 
 DiscretisationStats discretisation_stats(const Model& model);
 

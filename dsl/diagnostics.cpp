@@ -34,7 +34,14 @@ std::vector<Diagnostic> Diagnostics::sorted() const {
 
 ExitCode Diagnostics::exit_code() const {
   if (m_items.empty()) return ExitCode::ok;
+  if (has(ExitCode::too_large)) return ExitCode::too_large;
   return sorted().front().code;
+}
+
+bool Diagnostics::has(ExitCode code) const {
+  for (const Diagnostic& d : m_items)
+    if (d.code == code) return true;
+  return false;
 }
 
 std::string Diagnostics::str() const {

@@ -27,6 +27,7 @@ enum class ExitCode : int {
   usage = 64,
   bad_data = 65,       // a mesh or output file exists but cannot be parsed
   missing_input = 66,  // a scene, include or mesh file does not exist or cannot be read
+  too_large = 71,      // the scene asks for more than a limit allows (memory, disk, input size)
   io_error = 74,
   stopped = 75,
   bad_scene = 78,
@@ -47,8 +48,10 @@ class Diagnostics {
   bool empty() const { return m_items.empty(); }
   std::size_t size() const { return m_items.size(); }
   std::vector<Diagnostic> sorted() const;
-  // Exit code of the first diagnostic in sorted order (DESIGN.md codes); ok when empty.
+  // Exit code of the first diagnostic in sorted order (DESIGN.md codes); ok when empty. A
+  // refusal for size (too_large) wins over the others: what follows it was not examined.
   ExitCode exit_code() const;
+  bool has(ExitCode code) const;
   // All diagnostics, one per line, sorted.
   std::string str() const;
 

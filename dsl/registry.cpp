@@ -209,7 +209,8 @@ ParamSpec build_registry() {
                                                   "nearest frames per sample (MLS needs at least 4 not coplanar)"),
                                              1, false),
                                        "12"),
-                          with_default(above(leaf("seed", ParamType::integer, "Poisson-disk seed (same seed, same frames and samples)"), 0, false),
+                          with_default(below(above(leaf("seed", ParamType::integer, "Poisson-disk seed (same seed, same frames and samples)"), 0, false),
+                                             9007199254740992.0, false),  // 2^53: exact as a double
                                        "1"),
                           with_default(enumeration("thin_parts", {"repair", "stop"},
                                                    "parts thinner than frame_spacing: add frames across them, or stop with the thickness and the spacing that resolves it"),

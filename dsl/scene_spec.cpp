@@ -149,6 +149,13 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
 
   if (const Value* objects = root.find("objects")) {
     for (const auto& [name, o] : objects->fields) try {
+      // Names become HDF5 groups (/particles/<name>) and --set path segments.
+      if (name == "frames" || name == "samples")
+        diagnostics.error(o.where, "object name '" + name + "' is reserved for the output's own " + name +
+                                       "; choose another name");
+      else if (name.empty() || name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
+                                   std::string::npos)
+        diagnostics.error(o.where, "object name '" + name + "': use letters, digits, '_' and '-' only");
       ObjectSpec spec;
       spec.name = name;
       spec.where = o.where;
@@ -350,7 +357,16 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   } else if (scene.run.duration) {
     // Round to the nearest whole step when duration is a multiple of dt up to round-off.
     const double n = scene.run.duration->value / s.dt.value;
-    scene.run.step_count = std::max(1, static_cast<int>(std::ceil(n - 1e-9 * std::max(1.0, n))));
+    const double steps = std::ceil(n - 1e-9 * std::max(1.0, n));
+    if (!(steps <= kMaxSteps)) {
+      diagnostics.error(scene.run.duration->where,
+                        "run: duration " + format_si(scene.run.duration->value, dim::time) + " / dt " +
+                            format_si(s.dt.value, dim::time) + " is " + format_si(n, dim::none) +
+                            " steps, more than the " + std::to_string(kMaxSteps) +
+                            " a run can take; check the units of duration and dt");
+    } else {
+      scene.run.step_count = std::max(1, static_cast<int>(steps));
+    }
   } else if (s.integrator.value == "static") {
     scene.run.step_count = 1;
   } else {
@@ -390,15 +406,16 @@ SceneSpec finish(SourceNode tree, const std::string& file, const std::vector<std
 SceneSpec parse_scene(const std::string& path, const std::vector<std::string>& overrides) {
   Diagnostics diagnostics;
   SourceNode tree = load_scene_tree(path, diagnostics);
-  // A scene that cannot be read at all has nothing more to report.
-  if (!diagnostics.empty() && tree.is_null()) throw SceneError(diagnostics);
+  // A scene that cannot be read at all, or only in part (a refusal for size), has nothing more
+  // to report.
+  if (!diagnostics.empty() && (tree.is_null() || diagnostics.has(ExitCode::too_large))) throw SceneError(diagnostics);
   return finish(std::move(tree), path, overrides, diagnostics);
 }
 
 SceneSpec parse_scene_text(const std::string& text, const std::string& file, const std::vector<std::string>& overrides) {
   Diagnostics diagnostics;
   SourceNode tree = parse_yaml(text, file, diagnostics);
-  if (!diagnostics.empty() && tree.is_null()) throw SceneError(diagnostics);
+  if (!diagnostics.empty() && (tree.is_null() || diagnostics.has(ExitCode::too_large))) throw SceneError(diagnostics);
   if (tree.is_null() && diagnostics.empty()) tree.kind = SourceNode::Kind::map;
   if (!tree.is_null() && !tree.is_map()) {
     diagnostics.error(tree.where, "a scene must be a map of sections (materials, objects, ...), got " + tree.describe());

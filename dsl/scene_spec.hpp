@@ -124,6 +124,9 @@ struct SolverSpec {
   bool linear_fixed_iterations = false;
 };
 
+// The most steps a run takes (step numbers are 32-bit integers in the output).
+constexpr int kMaxSteps = 2147483647;
+
 struct RunSpec {
   std::optional<Located<double>> duration;  // s
   std::optional<Located<int>> steps;

@@ -1,5 +1,8 @@
 #include "dsl/source_tree.hpp"
 
+#include "dsl/registry.hpp"
+
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
@@ -52,7 +55,10 @@ std::string SourceNode::describe() const {
     case Kind::null: return "nothing";
     case Kind::map: return "a map";
     case Kind::sequence: return "a list";
-    case Kind::scalar: return "'" + text + "'";
+    case Kind::scalar:
+      // Long texts (a file that is not a scene, a pasted blob) are named, not echoed.
+      if (text.size() > 60) return "a text of " + std::to_string(text.size()) + " characters ('" + text.substr(0, 40) + "...')";
+      return "'" + text + "'";
   }
   return "?";
 }
@@ -60,7 +66,7 @@ std::string SourceNode::describe() const {
 namespace {
 
 Location location_of(const YAML::Mark& mark, const std::string& file, int line_offset = 0, int column_offset = 0) {
-  if (mark.line < 0) return {file, 0, 0};
+  if (mark.line < 0) return {file, 1, 1};  // yaml-cpp has no position (end of input): the file
   return {file, mark.line + 1 + line_offset, mark.column + 1 + column_offset};
 }
 
@@ -69,12 +75,23 @@ struct Converter {
   Diagnostics& diagnostics;
   int line_offset = 0;
   int column_offset = 0;
+  std::size_t values = 0;  // nodes converted so far, aliases counted at every use
+  bool too_many = false;
 
   Location at(const YAML::Mark& mark) const { return location_of(mark, file, line_offset, column_offset); }
 
   SourceNode convert(const YAML::Node& node, const Location& fallback) {
     SourceNode out;
     out.where = node.Mark().line >= 0 ? at(node.Mark()) : fallback;
+    if (too_many) return out;
+    if (++values > kMaxSceneValues) {
+      // Aliases (*name) copy their anchor's whole value: a few lines can stand for billions.
+      too_many = true;
+      diagnostics.error(out.where, "the scene expands to more than " + std::to_string(kMaxSceneValues) +
+                                       " values here (YAML aliases '*name' repeating large anchors?)",
+                        ExitCode::too_large);
+      return out;
+    }
     switch (node.Type()) {
       case YAML::NodeType::Undefined:
       case YAML::NodeType::Null:
@@ -84,8 +101,16 @@ struct Converter {
         break;
       case YAML::NodeType::Scalar:
         out.kind = SourceNode::Kind::scalar;
-        out.text = node.Scalar();
         out.quoted = node.Tag() == "!";
+        if (node.Scalar().size() > kMaxValueLength) {
+          diagnostics.error(out.where, "a value of " + std::to_string(node.Scalar().size()) +
+                                           " characters; scene values are at most " +
+                                           std::to_string(kMaxValueLength) + " (is this a scene file?)",
+                            ExitCode::too_large);
+          out.kind = SourceNode::Kind::null;
+          break;
+        }
+        out.text = node.Scalar();
         break;
       case YAML::NodeType::Sequence:
         out.kind = SourceNode::Kind::sequence;
@@ -97,6 +122,12 @@ struct Converter {
           const Location key_at = at(it->first.Mark());
           if (!it->first.IsScalar()) {
             diagnostics.error(key_at, "keys must be plain names, not lists or maps");
+            continue;
+          }
+          if (it->first.Scalar().size() > kMaxValueLength) {
+            diagnostics.error(key_at, "a key of " + std::to_string(it->first.Scalar().size()) +
+                                          " characters; scene keys are at most " + std::to_string(kMaxValueLength),
+                              ExitCode::too_large);
             continue;
           }
           const std::string key = it->first.Scalar();
@@ -118,9 +149,78 @@ struct Converter {
 
 }  // namespace
 
+namespace {
+
+// Sees a document's parse events without building nodes: whether it holds a value, and where
+// that starts. (yaml-cpp 0.7's YAML::LoadAll builds nodes without end, until memory runs out,
+// for a document that starts with ','; its event parser stops there.)
+class DocumentProbe : public YAML::EventHandler {
+ public:
+  bool content = false;    // the document holds a value (not only a null)
+  YAML::Mark first_value;  // where it starts
+
+  void OnDocumentStart(const YAML::Mark&) override {}
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override { value(mark); }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t, const std::string&) override {
+    value(mark);
+  }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    value(mark);
+  }
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    value(mark);
+  }
+  void OnMapEnd() override {}
+
+ private:
+  void value(const YAML::Mark& mark) {
+    if (!content) first_value = mark;
+    content = true;
+  }
+};
+
+// Position of the first character that is not blank, a comment or a document marker; line 0
+// when there is none.
+Location first_text(const std::string& text, const std::string& file) {
+  std::istringstream in(text);
+  int line = 0;
+  for (std::string l; std::getline(in, l);) {
+    ++line;
+    const std::size_t at = l.find_first_not_of(" \t\r");
+    if (at == std::string::npos || l[at] == '#' || l[at] == '%' || l.compare(at, 3, "---") == 0 ||
+        l.compare(at, 3, "...") == 0)
+      continue;
+    return {file, line, static_cast<int>(at) + 1};
+  }
+  return {file, 0, 0};
+}
+
+}  // namespace
+
 SourceNode parse_yaml(const std::string& text, const std::string& file, Diagnostics& diagnostics) {
   YAML::Node node;
   try {
+    // The documents' structure first, as events; then the first document as nodes.
+    std::istringstream in(text);
+    YAML::Parser parser(in);
+    DocumentProbe first;
+    parser.HandleNextDocument(first);
+    const Location text_at = first_text(text, file);
+    if (!first.content && text_at.line > 0) {
+      // yaml-cpp reads nothing from a document that starts with ',' and drops the rest.
+      diagnostics.error(text_at, "YAML syntax error: no value could be read from here on (a ',' outside [ ] or { }?)");
+      return {};
+    }
+    DocumentProbe second;
+    if (parser.HandleNextDocument(second) && second.content) {
+      // Only one would be used: say so rather than drop the others silently.
+      diagnostics.error(location_of(second.first_value, file),
+                        "a second YAML document ('---'): a scene is one document; merge them or use 'include:'");
+      return {};
+    }
     node = YAML::Load(text);
   } catch (const YAML::ParserException& e) {
     diagnostics.error(location_of(e.mark, file), "YAML syntax error: " + e.msg);
@@ -130,7 +230,9 @@ SourceNode parse_yaml(const std::string& text, const std::string& file, Diagnost
     return {};
   }
   Converter converter{file, diagnostics};
-  return converter.convert(node, Location{file, 1, 1});
+  SourceNode tree = converter.convert(node, Location{file, 1, 1});
+  if (converter.too_many) return {};
+  return tree;
 }
 
 SourceNode merge_trees(const SourceNode& base, const SourceNode& top) {
@@ -151,13 +253,18 @@ SourceNode merge_trees(const SourceNode& base, const SourceNode& top) {
 
 namespace {
 
-bool read_file(const std::string& path, std::string& text) {
+enum class ReadResult { ok, unreadable, too_large };
+
+// Reads at most kMaxSceneBytes (devices such as /dev/zero and pipes included: they are read, not
+// sized, so the cap is on what was read).
+ReadResult read_file(const std::string& path, std::string& text) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) return false;
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  text = ss.str();
-  return !in.bad();
+  if (!in) return ReadResult::unreadable;
+  text.resize(kMaxSceneBytes + 1);
+  in.read(&text[0], static_cast<std::streamsize>(text.size()));
+  if (in.bad()) return ReadResult::unreadable;
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  return text.size() > kMaxSceneBytes ? ReadResult::too_large : ReadResult::ok;
 }
 
 SourceNode load_recursive(const std::string& path, const Location& included_from, Diagnostics& diagnostics,
@@ -171,8 +278,15 @@ SourceNode load_recursive(const std::string& path, const Location& included_from
     }
   }
   std::string text;
-  if (fs::is_directory(path, ec) || !read_file(path, text)) {
+  const ReadResult read = fs::is_directory(path, ec) ? ReadResult::unreadable : read_file(path, text);
+  if (read == ReadResult::unreadable) {
     diagnostics.error(included_from, "cannot read scene file '" + path + "'", ExitCode::missing_input);
+    return {};
+  }
+  if (read == ReadResult::too_large) {
+    diagnostics.error(included_from, "scene file '" + path + "' is larger than " +
+                                         std::to_string(kMaxSceneBytes >> 20) + " MiB: not a scene?",
+                      ExitCode::too_large);
     return {};
   }
   SourceNode tree = parse_yaml(text, path, diagnostics);
@@ -257,6 +371,9 @@ void apply_override(SourceNode& root, const std::string& assignment, int k, Diag
 
   SourceNode* node = &root;
   if (!node->is_map()) node->kind = SourceNode::Kind::map;
+  // The registry entry of `node`, followed along the path (nullptr past unknown keys, which
+  // validation reports with a suggestion).
+  const ParamSpec* spec = &scene_registry();
   std::size_t start = 0;
   while (true) {
     const std::size_t dot = path.find('.', start);
@@ -281,6 +398,7 @@ void apply_override(SourceNode& root, const std::string& assignment, int k, Diag
         return;
       }
       node = &item;
+      spec = spec && spec->type == ParamType::list ? &spec->children[0] : nullptr;
     } else {
       if (!node->is_map()) {
         // Overriding inside a scalar: replace it by a map.
@@ -288,6 +406,25 @@ void apply_override(SourceNode& root, const std::string& assignment, int k, Diag
         node->text.clear();
       }
       SourceNode* child = node->find(segment);
+      if (spec && spec->type == ParamType::named_map && !child && !last) {
+        // A field of an entry the scene does not define: a misspelt name would otherwise create
+        // a new, unused entry and leave the intended one unchanged.
+        std::vector<std::string> names;
+        for (const auto& field : node->fields) names.push_back(field.first);
+        const std::string prefix = path.substr(0, start);
+        const std::string rest = path.substr(dot);
+        std::string message = "no entry '" + segment + "' in " + spec->name + " of the scene";
+        const std::string closest = closest_match(segment, names);
+        if (!closest.empty()) message += " (did you mean '" + prefix + closest + rest + "'?)";
+        if (names.empty()) {
+          message += "; the scene defines no " + spec->name;
+        } else {
+          message += "; it has";
+          for (std::size_t i = 0; i < names.size(); ++i) message += (i ? ", '" : " '") + names[i] + "'";
+        }
+        diagnostics.error(seg_at, message);
+        return;
+      }
       if (last) {
         node->set(segment, value, seg_at);
         return;
@@ -299,6 +436,12 @@ void apply_override(SourceNode& root, const std::string& assignment, int k, Diag
         child = &node->set(segment, empty, seg_at);
       }
       node = child;
+      if (spec && (spec->type == ParamType::object || spec->type == ParamType::one_of))
+        spec = spec->child(segment);
+      else if (spec && spec->type == ParamType::named_map)
+        spec = &spec->children[0];
+      else
+        spec = nullptr;
     }
     start = dot + 1;
   }

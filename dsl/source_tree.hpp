@@ -12,6 +12,12 @@
 
 namespace fascia::dsl {
 
+// Bounds on what a scene text may ask of the parser (ExitCode::too_large beyond them): the
+// scene file's size, the number of values after YAML aliases are expanded, one value's length.
+constexpr std::size_t kMaxSceneBytes = std::size_t(4) << 20;
+constexpr std::size_t kMaxSceneValues = 200000;
+constexpr std::size_t kMaxValueLength = 4096;
+
 struct SourceNode {
   enum class Kind { null, scalar, sequence, map };
 

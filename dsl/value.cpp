@@ -4,7 +4,10 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -71,6 +74,13 @@ struct Validator {
       }
       return false;
     }
+    if (!std::isfinite(q->value)) {
+      diagnostics.error(node.where, what + ": '" + node.text + "' is not a finite number in SI units (" +
+                                        (spec.unit == dim::none ? std::string("at most about 1.8e308")
+                                                                : "at most about 1.8e308 " + si_unit(spec.unit)) +
+                                        ")");
+      return false;
+    }
     out = q->value;
     return check_range(node, spec, out, what);
   }
@@ -78,8 +88,16 @@ struct Validator {
   bool read_integer(const SourceNode& node, const ParamSpec& spec, const std::string& what, long long& out) {
     if (node.is_scalar() && !node.quoted && !node.text.empty()) {
       char* end = nullptr;
+      errno = 0;
       const long long v = std::strtoll(node.text.c_str(), &end, 10);
       if (*end == '\0') {
+        // Integers are held in 32 bits unless the registry gives a larger bound (the seed).
+        const double limit = std::max(spec.max.value_or(0.0), static_cast<double>(std::numeric_limits<int>::max()));
+        if (errno == ERANGE || static_cast<double>(v) > limit || v < std::numeric_limits<int>::min()) {
+          diagnostics.error(node.where, what + ": " + node.text + " is out of range (at most " +
+                                            std::to_string(static_cast<long long>(limit)) + ")");
+          return false;
+        }
         out = v;
         return check_range(node, spec, static_cast<double>(v), what);
       }

@@ -390,7 +390,7 @@ class System final : public DeviceElasticity::Impl {
                                    sizeof(R) +
                                sizeof(int) * static_cast<size_t>(max_slots);
     m_resident_frames_bytes = lever_bytes <= static_cast<size_t>(shared_limit) ? lever_bytes : 0;
-    for (int keep : {2, 4}) {
+    for (int keep : {2, 4, 8}) {
       FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep)),
                                        cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
       FASCIA_CUDA(cudaFuncSetAttribute(two_barrier_kernel(keep), cudaFuncAttributeMaxDynamicSharedMemorySize,
@@ -730,15 +730,16 @@ class System final : public DeviceElasticity::Impl {
     return m_resident && resident_staged() ? m_resident_frames_bytes : m_ell_bytes;
   }
 
-  // The launched coalesced tangent kernel for `keep` (2, else 4) held ELL entries per sample.
+  // The launched coalesced tangent kernel for `keep` held ELL entries per sample (2, 4, else 8).
   using EllTangentKernel = void (*)(ModelView<R>, FrameView<R>, const R*, const R*, R*, const Scalars*, int);
   static EllTangentKernel ell_tangent_kernel(int keep) {
-    return keep == 2 ? &k_ell_tangent<R, 2> : &k_ell_tangent<R, 4>;
+    return keep == 2 ? &k_ell_tangent<R, 2> : keep == 4 ? &k_ell_tangent<R, 4> : &k_ell_tangent<R, 8>;
   }
-  // k_pcg_two_barrier for `keep` (2, else 4) held entries.
+  // k_pcg_two_barrier for `keep` held entries.
   static const void* two_barrier_kernel(int keep) {
-    return keep == 2 ? reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>)
-                     : reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>);
+    return keep == 2   ? reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>)
+           : keep == 4 ? reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>)
+                       : reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>);
   }
 
   // Most pairs per sample of the resident kernel: 8 in single precision; 4 in double, where the

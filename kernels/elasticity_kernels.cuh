@@ -314,13 +314,13 @@ constexpr int kRowThreadsMax = 512;
 
 // Threads per block of the launched coalesced tangent kernel, and its blocks per multiprocessor:
 // the most whose register budget (65,536 / (128 blocks)) the pass fits without local memory, as
-// ptxas -v reports for sm_90 (registers for 2 and 4 held entries: float 64, 79; double 128, 156).
-// More resident warps keep more loads in flight in this latency-bound pass.
+// ptxas -v reports for sm_90 (registers for 2, 4 and 8 held entries: float 64, 79, 128, double
+// 128, 156, 200). More resident warps keep more loads in flight in this latency-bound pass.
 constexpr int kDenseThreads = 128;
 template <class R>
 constexpr int dense_blocks_per_sm(int keep) {
-  if (sizeof(R) == sizeof(float)) return keep == 2 ? 8 : 6;
-  return keep == 2 ? 4 : 3;
+  if (sizeof(R) == sizeof(float)) return keep == 2 ? 8 : keep == 4 ? 6 : 4;
+  return keep == 2 ? 4 : keep == 4 ? 3 : 2;
 }
 
 // Coalesced tangent pass, one block of kDenseThreads threads per sample block. In the PCG (p_old

@@ -81,17 +81,17 @@ int run_bench(const BenchScenesOptions& o) {
   int worst = kOk;
   for (const Case& c : cases) {
     RunOptions run;
-    run.scene = c.scene;
-    run.output = (fs::path(dir) / (fs::path(c.scene).stem().string() + "-" + c.resolution + ".h5")).string();
-    run.overrides = c.overrides;
+    run.request.path = c.scene;
+    run.request.output = (fs::path(dir) / (fs::path(c.scene).stem().string() + "-" + c.resolution + ".h5")).string();
+    run.request.overrides = c.overrides;
     run.backend = o.backend;
     run.threads = o.threads;
     run.quiet = true;
     run.max_steps = o.max_steps;
     RunFigures f;
     const int code = run_scene(run, &f);
-    fs::remove(run.output, ec);
-    fs::remove(fs::path(run.output).replace_extension(".xmf"), ec);
+    fs::remove(run.request.output, ec);
+    fs::remove(fs::path(run.request.output).replace_extension(".xmf"), ec);
     const std::string name = fs::path(c.scene).stem().string();
     const double ms = f.steps > 0 ? 1e3 * f.step_seconds / f.steps : 0.0;
     const double newton = f.steps > 0 ? static_cast<double>(f.newton_iterations) / f.steps : 0.0;

@@ -11,17 +11,16 @@ namespace fascia::app {
 namespace {
 
 struct CheckOptions {
-  std::string scene;
-  std::vector<std::string> overrides;
+  SceneRequest request;
   bool json = false;
 };
 
 int check(const CheckOptions& options) {
   int code = 0;
-  std::unique_ptr<LoadedScene> scene = load_scene(options.scene, options.overrides, code);
+  std::unique_ptr<LoadedScene> scene = load_scene(options.request, code);
   if (!scene) return code;
   if (options.json) {
-    nlohmann::json out = {{"scene", options.scene}, {"ok", true}, {"discretisation", stats_json(scene->built.stats)},
+    nlohmann::json out = {{"scene", options.request.path}, {"ok", true}, {"discretisation", stats_json(scene->built.stats)},
                           {"steps", scene->built.steps}, {"couplings", couplings_json(scene->built.couplings)},
                           {"resolved_scene", scene->spec.resolved_yaml}};
     for (const dsl::BuiltObject& o : scene->built.objects)
@@ -41,10 +40,10 @@ int check(const CheckOptions& options) {
     std::cout << out.dump(2) << "\n";
     return kOk;
   }
-  std::cout << "# " << options.scene << ": resolved scene (defaults filled in, SI units)\n"
+  std::cout << "# " << options.request.path << ": resolved scene (defaults filled in, SI units)\n"
             << scene->spec.resolved_yaml << "---\n"
             << stats_text(scene->built.stats, *scene);
-  std::cerr << "fascia: " << options.scene << " is valid\n";
+  std::cerr << "fascia: " << options.request.path << " is valid\n";
   return kOk;
 }
 
@@ -53,10 +52,8 @@ int check(const CheckOptions& options) {
 void register_check(CLI::App& app, Action& action) {
   auto options = std::make_shared<CheckOptions>();
   CLI::App* cmd = app.add_subcommand("check", "Validate a scene and print it resolved, with discretisation figures");
-  cmd->add_option("scene", options->scene, "Scene file (YAML)")->required();
-  cmd->add_option("--set", options->overrides, "Override a scene value: path=value (e.g. solver.dt=5ms)")
-      ->take_all()
-      ->allow_extra_args(false);
+  cmd->add_option("scene", options->request.path, "Scene file (YAML)")->required();
+  add_scene_options(*cmd, options->request);
   cmd->add_flag("--json", options->json, "Print a JSON summary on stdout");
   cmd->callback([&action, options] { action = [options] { return check(*options); }; });
 }

@@ -6,6 +6,7 @@
 // written. --backend cuda without a usable device exits 69 before anything is read or written.
 #include "backend.hpp"
 #include "commands.hpp"
+#include "output_check.hpp"
 #include "progress.hpp"
 #include "run_scene.hpp"
 #include "scene_report.hpp"
@@ -253,19 +254,19 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   Backend backend;
   if (const int code = resolve_backend("run", options.backend, backend); code != kOk) return code;
   int code = 0;
-  std::unique_ptr<LoadedScene> scene = load_scene(options.scene, options.overrides, code);
+  std::unique_ptr<LoadedScene> scene = load_scene(options.request, code);
   if (!scene) return code;
   dsl::BuiltScene& built = scene->built;
   built.settings.elasticity = backend.elasticity;
   if (options.threads >= 0) built.settings.threads = options.threads;
 
-  const std::string output = options.output.empty() ? scene->spec.output.file : options.output;
+  const std::string output = output_path(options.request, scene->spec);
   const dsl::OutputSpec& out_spec = scene->spec.output;
   Progress progress(Progress::mode_for(options.quiet), options.status_interval);
   const bool log = !options.quiet;
   if (log) {
     const dsl::DiscretisationStats& s = built.stats;
-    std::cerr << "fascia: " << options.scene << ": " << s.frames << " frames, " << s.samples << " samples, " << s.dofs
+    std::cerr << "fascia: " << options.request.path << ": " << s.frames << " frames, " << s.samples << " samples, " << s.dofs
               << " dofs, " << built.steps << " steps of " << built.settings.dt << " s (" << to_string(built.settings.integrator)
               << "), backend " << backend.description << " -> " << output << "\n";
   }
@@ -278,7 +279,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   TrajectoryLayout layout = recorder.layout();
   // Rows to preallocate: the initial state, every output step, and one written on a signal. All
   // of them up front: growing datasets later is the one write a kill could corrupt.
-  layout.capacity = 2 + (steps + out_spec.every - 1) / out_spec.every;
+  layout.capacity = static_cast<int>(output_rows(steps, out_spec.every));  // load_scene checked the range
 
   std::unique_ptr<TrajectoryWriter> writer;
   const std::string xmf = xdmf_path_for(output);
@@ -316,7 +317,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     header.creator_version = FASCIA_VERSION;
     header.author = env("USER");
     header.scene = scene->spec.resolved_yaml;
-    header.scene_file = options.scene;
+    header.scene_file = options.request.path;
     header.command_line = command_line();
     header.environment = environment_json(built.settings.threads, backend.provenance);
     writer = std::make_unique<TrajectoryWriter>(output, header, layout);
@@ -386,7 +387,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   if (options.json) {
     nlohmann::json summary = {
-        {"scene", options.scene},
+        {"scene", options.request.path},
         {"output", output},
         {"status", exit_code == kOk ? "ok" : exit_code == kStoppedOnSignal ? "stopped" : "solver_failed"},
         {"exit_code", exit_code},
@@ -421,11 +422,9 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
 void register_run(CLI::App& app, Action& action) {
   auto options = std::make_shared<RunOptions>();
   CLI::App* cmd = app.add_subcommand("run", "Simulate a scene and write its HDF5 trajectory (+ XDMF sidecar)");
-  cmd->add_option("scene", options->scene, "Scene file (YAML)")->required();
-  cmd->add_option("-o,--output", options->output, "Output file (default: the scene's output.file)");
-  cmd->add_option("--set", options->overrides, "Override a scene value: path=value (e.g. materials.fascia.young=50kPa)")
-      ->take_all()
-      ->allow_extra_args(false);
+  cmd->add_option("scene", options->request.path, "Scene file (YAML)")->required();
+  cmd->add_option("-o,--output", options->request.output, "Output file (default: the scene's output.file)");
+  add_scene_options(*cmd, options->request);
   add_backend_options(*cmd, options->backend);
   cmd->add_option("--threads", options->threads, "CPU threads (0 = all; default: the scene's solver.threads)")
       ->check(CLI::NonNegativeNumber);

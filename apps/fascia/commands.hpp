@@ -16,6 +16,7 @@ enum ExitCode : int {
   kDataError = 65,
   kNoInput = 66,
   kUnavailable = 69,  // a required service is missing: --backend cuda without a usable CUDA device
+  kTooLarge = 71,     // refused for size: more memory than --max-memory, more disk than is free, an input over its cap
   kIoError = 74,
   kStoppedOnSignal = 75,
   kBadScene = 78,

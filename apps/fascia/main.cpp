@@ -2,6 +2,7 @@
 #include "commands.hpp"
 
 #include <iostream>
+#include <new>
 
 int main(int argc, char** argv) {
   CLI::App app{"fascia " FASCIA_VERSION " - frame-based simulation of connective tissues"};
@@ -22,6 +23,11 @@ int main(int argc, char** argv) {
   }
   try {
     return action ? action() : fascia::app::kUsage;
+  } catch (const std::bad_alloc&) {
+    // The estimates made before allocating (--max-memory) missed this one: still a refusal for
+    // size, not a solver failure.
+    std::cerr << "fascia: error: out of memory; lower the resolution or run on a larger machine\n";
+    return fascia::app::kTooLarge;
   } catch (const std::exception& e) {
     std::cerr << "fascia: error: " << e.what() << "\n";
     return fascia::app::kSolverFailed;

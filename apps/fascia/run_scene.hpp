@@ -3,6 +3,7 @@
 #pragma once
 
 #include "backend.hpp"
+#include "scene_report.hpp"
 
 #include <string>
 #include <vector>
@@ -10,9 +11,7 @@
 namespace fascia::app {
 
 struct RunOptions {
-  std::string scene;
-  std::string output;
-  std::vector<std::string> overrides;
+  SceneRequest request;  // the scene, its overrides, --max-memory, -o
   BackendOptions backend;
   int threads = -1;
   bool quiet = false;

@@ -1,20 +1,60 @@
 #include "scene_report.hpp"
 
+#include "output_check.hpp"
+
 #include <iostream>
 #include <sstream>
 
 namespace fascia::app {
 
-std::unique_ptr<LoadedScene> load_scene(const std::string& path, const std::vector<std::string>& overrides,
-                                        int& exit_code) {
+void add_scene_options(CLI::App& command, SceneRequest& request) {
+  command.add_option("--set", request.overrides, "Override a scene value: path=value (e.g. materials.fascia.young=50kPa)")
+      ->take_all()
+      ->allow_extra_args(false);
+  command
+      .add_option("--max-memory", request.max_memory,
+                  "Refuse scenes estimated to need more memory than this (e.g. 16G; default: the machine's memory "
+                  "or the job's limit)")
+      ->check(CLI::Validator([](std::string& text) { return dsl::parse_bytes(text) > 0 ? std::string() : "expected a size such as 512M or 16G"; },
+                             "SIZE"));
+}
+
+std::string output_path(const SceneRequest& request, const dsl::SceneSpec& spec) {
+  return request.output.empty() ? spec.output.file : request.output;
+}
+
+namespace {
+
+void report(const dsl::Diagnostics& diagnostics, const std::string& path) {
+  const auto items = diagnostics.sorted();
+  for (const dsl::Diagnostic& d : items) std::cerr << d.str() << "\n";
+  std::cerr << "fascia: " << items.size() << (items.size() == 1 ? " problem" : " problems") << " in " << path << "\n";
+}
+
+}  // namespace
+
+std::unique_ptr<LoadedScene> load_scene(const SceneRequest& request, int& exit_code) {
   auto scene = std::make_unique<LoadedScene>();
+  dsl::ResourceLimits limits;
+  if (!request.max_memory.empty()) limits.max_memory = dsl::parse_bytes(request.max_memory);
   try {
-    scene->spec = dsl::parse_scene(path, overrides);
-    scene->built = dsl::build_scene(scene->spec);
+    scene->spec = dsl::parse_scene(request.path, request.overrides);
+    // The output before the discretisation: a path that cannot be written fails in a second.
+    const std::string output = output_path(request, scene->spec);
+    if (const std::string problem = output_path_problem(output); !problem.empty()) {
+      dsl::Diagnostics diagnostics;
+      const dsl::Value* file = scene->spec.resolved.find("output") ? scene->spec.resolved.find("output")->find("file")
+                                                                   : nullptr;
+      const dsl::Location where = request.output.empty() && file ? file->where : dsl::Location{"-o", 0, 0};
+      diagnostics.error(where, "cannot write the output: " + problem, dsl::ExitCode::io_error);
+      throw dsl::SceneError(diagnostics);
+    }
+    scene->built = dsl::build_scene(scene->spec, limits);
+    dsl::Diagnostics diagnostics;
+    check_output_space(output, scene->spec, scene->built, diagnostics);
+    if (!diagnostics.empty()) throw dsl::SceneError(diagnostics);
   } catch (const dsl::SceneError& e) {
-    const auto items = e.diagnostics().sorted();
-    for (const dsl::Diagnostic& d : items) std::cerr << d.str() << "\n";
-    std::cerr << "fascia: " << items.size() << (items.size() == 1 ? " problem" : " problems") << " in " << path << "\n";
+    report(e.diagnostics(), request.path);
     exit_code = static_cast<int>(e.exit_code());
     return nullptr;
   }

@@ -3,6 +3,7 @@
 
 #include "dsl/build_scene.hpp"
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <memory>
@@ -16,10 +17,24 @@ struct LoadedScene {
   dsl::BuiltScene built;
 };
 
-// Parses and builds; on failure prints the diagnostics (sorted, file:line:col) and sets
-// exit_code to the matching sysexits code, returning nullptr.
-std::unique_ptr<LoadedScene> load_scene(const std::string& path, const std::vector<std::string>& overrides,
-                                        int& exit_code);
+// What run and check share beyond the scene: its overrides, the memory limit, the output.
+struct SceneRequest {
+  std::string path;
+  std::vector<std::string> overrides;
+  std::string max_memory;  // --max-memory text ("" = the machine's memory)
+  std::string output;      // -o ("" = the scene's output.file)
+};
+
+// --set and --max-memory, as run and check take them.
+void add_scene_options(CLI::App& command, SceneRequest& request);
+
+// Parses, checks the output path, builds, checks the output's room on disk; on failure prints
+// the diagnostics (sorted, file:line:col) and sets exit_code to the matching sysexits code,
+// returning nullptr.
+std::unique_ptr<LoadedScene> load_scene(const SceneRequest& request, int& exit_code);
+
+// The output file of a loaded scene: -o, else the scene's output.file.
+std::string output_path(const SceneRequest& request, const dsl::SceneSpec& spec);
 
 nlohmann::json stats_json(const dsl::DiscretisationStats& stats);
 // One entry per coupling: kind, object, other, frames, within_m, line, column.

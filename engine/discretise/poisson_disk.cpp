@@ -60,14 +60,15 @@ std::vector<double> poisson_disk_sample(const VoxelDomain& domain, const Poisson
       const Vec3 centre = load3(&points[3 * active[slot]]);
       bool added = false;
       for (int a = 0; a < options.attempts && !added; ++a) {
-        // Uniform in the shell by rejection from the cube [-2r, 2r]^3 (acceptance 7 pi / 48).
-        Vec3 d;
-        double d2;
+        // Uniform in the shell by rejection from the cube [-2r, 2r]^3 (acceptance 7 pi / 48),
+        // drawn in units of r so that the test cannot overflow (r^2 is inf beyond 1.3e154 m).
+        Vec3 u;
+        double u2;
         do {
-          d = (4 * r) * Vec3{rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5};
-          d2 = dot(d, d);
-        } while (d2 < r * r || d2 >= 4 * r * r);
-        added = try_add(centre + d);
+          u = 4.0 * Vec3{rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5};
+          u2 = dot(u, u);
+        } while (u2 < 1 || u2 >= 4);
+        added = try_add(centre + r * u);
       }
       if (!added) {
         active[slot] = active.back();

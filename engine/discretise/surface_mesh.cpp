@@ -69,6 +69,8 @@ SurfaceMesh read_surface_mesh(const std::string& path, const SurfaceImport& impo
     std::vector<int> ids(am->mNumVertices);
     for (unsigned v = 0; v < am->mNumVertices; ++v) {
       const aiVector3D& c = am->mVertices[v];
+      if (!std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z))
+        throw std::runtime_error("surface mesh '" + path + "': a vertex has a non-finite coordinate (nan or inf)");
       const Vec3 x = import.rotation * (import.scale * Vec3{c.x, c.y, c.z}) + import.translation;
       ids[v] = welder.add(x);
     }

@@ -137,13 +137,28 @@ StepReport Simulation::step() {
     std::fill(trial.velocities.begin(), trial.velocities.end(), 0.0);
     m_state = std::move(trial);
   }
-  ++m_step;
-  m_time = t_next;
-  report.time = m_time;
+  report.time = t_next;
   report.converged = true;
   report.elastic_energy = potential.elastic_energy(m_state);
   report.kinetic_energy = kinetic_energy(m_model, m_state);
   report.external_potential = load_potential(m_model, m_loads, m_state);
+  // A step is accepted only with a finite state and finite energies: values beyond the range of
+  // a double (a modulus of 1e300 Pa, a time step of 1e-300 s) are a divergence, never output.
+  const bool finite_velocities =
+      std::all_of(m_state.velocities.begin(), m_state.velocities.end(), [](double v) { return std::isfinite(v); });
+  if (!finite_velocities || !std::isfinite(report.elastic_energy) || !std::isfinite(report.kinetic_energy) ||
+      !std::isfinite(report.external_potential)) {
+    std::ostringstream msg;
+    msg << "step " << report.step << " (t = " << t_next << " s): "
+        << (finite_velocities ? "the energy became non-finite" : "the velocities became non-finite")
+        << " (diverged; elastic " << report.elastic_energy << " J, kinetic " << report.kinetic_energy
+        << " J, external " << report.external_potential
+        << " J); check the scene's magnitudes (moduli, loads, dt) and units";
+    m_state = std::move(start);
+    throw SolverError(msg.str());
+  }
+  ++m_step;
+  m_time = t_next;
   report.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return report;
 }

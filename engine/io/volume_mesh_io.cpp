@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <unordered_map>
@@ -14,7 +16,16 @@ namespace {
 // Line-oriented tokenizer that knows the current line for messages.
 class Reader {
  public:
-  Reader(std::istream& in, std::string path) : m_in(in), m_path(std::move(path)) {}
+  // @param bytes the file's size, which bounds every count it declares (0: unknown).
+  Reader(std::istream& in, std::string path, std::uintmax_t bytes) : m_in(in), m_path(std::move(path)), m_bytes(bytes) {}
+
+  // Refuses a declared count of items of at least `min_bytes` characters each that the file is
+  // too short to hold, before anything is allocated for them.
+  void check_count(long long count, int min_bytes, const std::string& what) const {
+    if (m_bytes > 0 && static_cast<double>(count) * min_bytes > static_cast<double>(m_bytes))
+      fail(what + " " + std::to_string(count) + " cannot fit in the file's " + std::to_string(m_bytes) +
+           " bytes (truncated or corrupt)");
+  }
 
   bool next_line(std::string& line) {
     while (std::getline(m_in, line)) {
@@ -60,10 +71,11 @@ class Reader {
   std::string m_path;
   int m_line = 0;
   std::istringstream m_tokens;
+  std::uintmax_t m_bytes = 0;
 };
 
-VolumeMesh read_vtk(std::istream& in, const std::string& path) {
-  Reader r(in, path);
+VolumeMesh read_vtk(std::istream& in, const std::string& path, std::uintmax_t bytes) {
+  Reader r(in, path, bytes);
   std::string line;
   if (!r.next_line(line) || line.rfind("# vtk DataFile", 0) != 0) r.fail("not a legacy VTK file (no '# vtk DataFile' header)");
   r.next_line(line);  // title
@@ -83,6 +95,7 @@ VolumeMesh read_vtk(std::istream& in, const std::string& path) {
       const int n = r.number<int>("point count");
       r.token(t);  // data type
       if (n <= 0) r.fail("no points");
+      r.check_count(n, 6, "POINTS");  // "x y z" with one-digit numbers and separators
       mesh.vertices.resize(3 * static_cast<std::size_t>(n));
       for (double& x : mesh.vertices) {
         x = r.number<double>("a coordinate");
@@ -124,8 +137,8 @@ VolumeMesh read_vtk(std::istream& in, const std::string& path) {
   return mesh;
 }
 
-VolumeMesh read_gmsh(std::istream& in, const std::string& path) {
-  Reader r(in, path);
+VolumeMesh read_gmsh(std::istream& in, const std::string& path, std::uintmax_t bytes) {
+  Reader r(in, path, bytes);
   std::string line;
   if (!r.next_line(line) || line != "$MeshFormat") r.fail("not a Gmsh file (no $MeshFormat)");
   r.next_line(line);
@@ -139,11 +152,15 @@ VolumeMesh read_gmsh(std::istream& in, const std::string& path) {
     if (line == "$Nodes") {
       r.reset_tokens();
       const int n = r.number<int>("node count");
+      r.check_count(n, 8, "$Nodes count");  // "id x y z" with one-digit numbers and separators
       mesh.vertices.reserve(3 * static_cast<std::size_t>(n));
       for (int i = 0; i < n; ++i) {
         const long id = r.number<long>("a node id");
         node_index[id] = i;
-        for (int k = 0; k < 3; ++k) mesh.vertices.push_back(r.number<double>("a coordinate"));
+        for (int k = 0; k < 3; ++k) {
+          mesh.vertices.push_back(r.number<double>("a coordinate"));
+          if (!std::isfinite(mesh.vertices.back())) r.fail("non-finite coordinate");
+        }
       }
       r.reset_tokens();
     } else if (line == "$Elements") {
@@ -190,8 +207,11 @@ VolumeMesh read_volume_mesh(const std::string& path) {
   if (!in) throw std::ios_base::failure("cannot open '" + path + "'");
   const auto dot = path.find_last_of('.');
   const std::string ext = dot == std::string::npos ? "" : path.substr(dot + 1);
-  if (ext == "vtk") return read_vtk(in, path);
-  if (ext == "msh") return read_gmsh(in, path);
+  std::error_code ec;
+  const std::uintmax_t size = std::filesystem::is_regular_file(path, ec) ? std::filesystem::file_size(path, ec) : 0;
+  const std::uintmax_t bytes = ec ? 0 : size;
+  if (ext == "vtk") return read_vtk(in, path, bytes);
+  if (ext == "msh") return read_gmsh(in, path, bytes);
   throw MeshFormatError(path + ": unsupported mesh format '." + ext + "' (use .vtk or .msh)");
 }
 

@@ -154,17 +154,6 @@ struct AxisJacobians {
   Mat3 e1_a, e3_a, e3_b, e2_a, e2_b;
 };
 
-// X [v]x: each row of X crossed with v (18 multiplies instead of a full product's 27).
-FASCIA_HD Mat3 times_skew(const Mat3& x, const Vec3& v) {
-  Mat3 c;
-  for (int i = 0; i < 3; ++i) {
-    c.m[i][0] = x.m[i][1] * v.z - x.m[i][2] * v.y;
-    c.m[i][1] = x.m[i][2] * v.x - x.m[i][0] * v.z;
-    c.m[i][2] = x.m[i][0] * v.y - x.m[i][1] * v.x;
-  }
-  return c;
-}
-
 FASCIA_HD Mat3 projector_over(const Vec3& e, double length) {
   Mat3 p = (-1 / length) * outer(e, e);
   for (int k = 0; k < 3; ++k) p.m[k][k] += 1 / length;
@@ -175,10 +164,11 @@ FASCIA_HD AxisJacobians axis_jacobians(const Bending& g) {
   AxisJacobians j;
   j.e1_a = projector_over(g.e1, g.la);
   const Mat3 p3 = projector_over(g.e3, g.ln);
-  j.e3_a = times_skew(p3, -g.b);
-  j.e3_b = times_skew(p3, g.a);
-  j.e2_a = skew_times(g.e3, j.e1_a) - skew_times(g.e1, j.e3_a);
-  j.e2_b = skew_times(-g.e1, j.e3_b);
+  j.e3_a = (-1.0) * (p3 * skew(g.b));
+  j.e3_b = p3 * skew(g.a);
+  const Mat3 s1 = skew(g.e1), s3 = skew(g.e3);
+  j.e2_a = s3 * j.e1_a - s1 * j.e3_a;
+  j.e2_b = (-1.0) * (s1 * j.e3_b);
   return j;
 }
 
@@ -248,11 +238,9 @@ FASCIA_HD void bending_hessian(const ShellElementRest& e, const Bending& g, cons
     }
     for (int r = 0; r < 15; ++r) {
       if (G[m][r] == 0) continue;
-      for (int c = r; c < 15; ++c) h[r][c] += G[m][r] * y[c];  // upper triangle, mirrored below
+      for (int c = 0; c < 15; ++c) h[r][c] += G[m][r] * y[c];
     }
   }
-  for (int r = 1; r < 15; ++r)
-    for (int c = 0; c < r; ++c) h[r][c] = h[c][r];
   // sum_m Phi'_m Hess(s_m) = Hess(e1 . C1 + e2 . C2) with C_a = sum_i C_a,i frozen.
   const Vec3 C1 = C1i[0] + C1i[1] + C1i[2], C2 = C2i[0] + C2i[1] + C2i[2];
   // (a, b) x (a, b): e1 . C1 + e1 . (C2 x e3) + e3 . (e1 x C2) + the product term of e2.
@@ -260,25 +248,26 @@ FASCIA_HD void bending_hessian(const ShellElementRest& e, const Bending& g, cons
   {
     const Vec3 c3 = cross(g.e1, C2);
     const Mat3 Hn = unit_vector_hessian(c3, g.e3, g.ln);
-    const Mat3 bH = skew_times(g.b, Hn), aH = skew_times(g.a, Hn);  // [b]x Hn, [a]x Hn
+    const Mat3 Sa = skew(g.a), Sb = skew(g.b);
     const Mat3 gn = skew((1 / g.ln) * (c3 - dot(c3, g.e3) * g.e3));  // [P3 c3 / |n|]x
-    add_block(h, 0, 0, times_skew(bH, -g.b));
-    add_block(h, 0, 3, times_skew(bH, g.a) - gn);
-    add_block(h, 3, 0, times_skew(aH, g.b) + gn);
-    add_block(h, 3, 3, times_skew(aH, -g.a));
+    add_block(h, 0, 0, (-1.0) * (Sb * Hn * Sb));
+    add_block(h, 0, 3, Sb * Hn * Sa - gn);
+    add_block(h, 3, 0, Sa * Hn * Sb + gn);
+    add_block(h, 3, 3, (-1.0) * (Sa * Hn * Sa));
   }
   // Product term M + M^T, M = J3^T (-[C2]x) J1 (only the a columns: J1 has no b part).
   {
-    const Mat3 Ma = times_skew(transpose(j.e3_a), -C2) * j.e1_a, Mb = times_skew(transpose(j.e3_b), -C2) * j.e1_a;
+    const Mat3 SC = skew(C2);
+    const Mat3 Ma = (-1.0) * (transpose(j.e3_a) * SC * j.e1_a), Mb = (-1.0) * (transpose(j.e3_b) * SC * j.e1_a);
     add_block(h, 0, 0, Ma + transpose(Ma));
     add_block(h, 3, 0, Mb);
     add_block(h, 0, 3, transpose(Mb));
   }
   // (a, b) x dr_i: -J1^T [C1,i]x - J2^T [C2,i]x.
-  const Mat3 e1_aT = transpose(j.e1_a), e2_aT = transpose(j.e2_a), e2_bT = transpose(j.e2_b);
   for (int i = 0; i < 3; ++i) {
-    const Mat3 ha = times_skew(e1_aT, -C1i[i]) + times_skew(e2_aT, -C2i[i]);
-    const Mat3 hb = times_skew(e2_bT, -C2i[i]);
+    const Mat3 S1 = skew(C1i[i]), S2 = skew(C2i[i]);
+    const Mat3 ha = (-1.0) * (transpose(j.e1_a) * S1 + transpose(j.e2_a) * S2);
+    const Mat3 hb = (-1.0) * (transpose(j.e2_b) * S2);
     add_block(h, 0, 6 + 3 * i, ha);
     add_block(h, 3, 6 + 3 * i, hb);
     add_block(h, 6 + 3 * i, 0, transpose(ha));
@@ -379,17 +368,18 @@ FASCIA_HD double shell_element_hessian(const ShellElementRest& e, const ShellMod
     for (int d = 0; d < 2; ++d)
       for (int k = 0; k < 3; ++k) HU[c][d].m[k][k] += at * mem.S[c][d];
   for (int a = 0; a < 3; ++a)
-    for (int b = a; b < 3; ++b) {  // upper blocks; the lower triangle is mirrored below
+    for (int b = 0; b < 3; ++b) {
       const Mat3 block = (mem.c[0][a] * mem.c[0][b]) * HU[0][0] + (mem.c[0][a] * mem.c[1][b]) * HU[0][1] +
                          (mem.c[1][a] * mem.c[0][b]) * HU[1][0] + (mem.c[1][a] * mem.c[1][b]) * HU[1][1];
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) H[n * (6 * a + r) + 6 * b + c] += block.m[r][c];
     }
-  // H is symmetric; its upper triangle is the complete one (membrane) and the lower one is
-  // rebuilt from it, which also makes H exactly symmetric (K_b and the 3x3 products are
-  // symmetric only to round-off).
-  for (int p = 1; p < n; ++p)
-    for (int q = 0; q < p; ++q) H[n * p + q] = H[n * q + p];
+  // K_b is symmetric only to round-off: make H exactly symmetric.
+  for (int p = 0; p < n; ++p)
+    for (int q = 0; q < p; ++q) {
+      const double v = 0.5 * (H[n * p + q] + H[n * q + p]);
+      H[n * p + q] = H[n * q + p] = v;
+    }
   return mem.energy + bend.energy;
 }
 

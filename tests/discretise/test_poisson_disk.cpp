@@ -79,3 +79,14 @@ TEST_CASE("every connected component and thin sheet receives points", "[discreti
   REQUIRE(in_sheet >= 6);
   REQUIRE(min_pair_distance(points) >= r);
 }
+
+TEST_CASE("a radius whose square overflows (r > 1.3e154 m) ends with one point", "[discretise][poisson]") {
+  // Candidates are drawn in units of r: with r^2 = inf a test in metres rejects every candidate
+  // and the front never ends. One point fits in a domain far smaller than r; the others fall
+  // outside the grid.
+  const VoxelDomain domain(box_surface({0, 0, 0}, {0.3, 0.2, 0.1}), 0.01);
+  const double r = 1e155;
+  REQUIRE(std::isinf(r * r));
+  const std::vector<double> points = poisson_disk_sample(domain, PoissonDiskOptions{r, 7, 30});
+  CHECK(points.size() == 3);
+}

@@ -240,3 +240,25 @@ TEST_CASE("an explicit CPU elasticity factory gives the default's steps bit for 
   CHECK(made == (integrator == Integrator::backward_euler ? 2 : 1));
   CHECK(reference.state().positions != reference.model().frame_rest_positions);  // it moved
 }
+
+TEST_CASE("a step whose energies overflow is a divergence: SolverError, the state keeps the last step", "[integrate]") {
+  // A free body moving rigidly at 1e160 m/s: backward Euler's minimiser is the rigid translation
+  // h v (the tissue stays undeformed), its velocity is finite, but 1/2 m v^2 overflows to inf.
+  const Model model = fascia::test::small_box_model(CellType::tetrahedron, MaterialLaw::stvk, 2, 1, 1);
+  SimulationSettings settings;
+  settings.integrator = Integrator::backward_euler;
+  settings.dt = 1e-3;
+  Simulation sim(model, ExternalLoads{}, settings);
+  for (int i = 0; i < model.frame_count(); ++i) sim.state().velocities[6 * static_cast<std::size_t>(i)] = 1e160;
+  const State before = sim.state();
+  try {
+    sim.step();
+    FAIL("the step was accepted");
+  } catch (const SolverError& e) {
+    INFO(e.what());
+    CHECK_THAT(e.what(), Catch::Contains("non-finite") || Catch::Contains("diverged"));
+  }
+  REQUIRE(sim.state().positions == before.positions);
+  REQUIRE(sim.state().velocities == before.velocities);
+  REQUIRE(sim.steps_taken() == 0);
+}

@@ -1,9 +1,6 @@
 """tools/post/fascia_post.py on a real run and on study lines."""
 import json
-import shutil
 import subprocess
-
-import pytest
 
 import matplotlib
 
@@ -57,9 +54,7 @@ def test_plot_convergence_from_a_real_study(fascia_bin, root, tmp_path):
         expected = sorted((r["dofs"], abs(r["tip_displacement"][2])) for r in records if r["method"] == method)
         assert np.allclose(line.get_ydata(), [e[1] for e in expected])
     assert_not_blank(tmp_path / "conv.png")
-    assert fp.main(["--convergence", str(path), "--out", str(tmp_path / "conv2.png"), "--reference=-6.506"]) == 0
-    with_reference = fp.plot_convergence(path, reference=-6.506).axes[0]
-    assert len(with_reference.lines) == 3 and with_reference.lines[-1].get_ydata()[0] == 6.506
+    assert fp.main(["--convergence", str(path), "--out", str(tmp_path / "conv2.png")]) == 0
 
 
 def assert_not_blank(png, min_colours=20, min_ink=0.05):
@@ -93,15 +88,6 @@ def test_render_observables_and_summary_of_a_real_run(fascia_bin, root, tmp_path
     from PIL import Image
     with Image.open(tmp_path / "pull.gif") as gif:
         assert gif.n_frames == 3
-    if shutil.which("ffmpeg") is None:
-        pytest.skip("ffmpeg not found (Debian package ffmpeg; tools/install-deps installs it): MP4 not checked")
-    assert fp.render(run, tmp_path / "pull.mp4", every=1, field_name="strain_energy_density") == 4
-    probe = subprocess.run(["ffprobe", "-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries",
-                            "stream=nb_read_frames,codec_name", "-of", "json", str(tmp_path / "pull.mp4")],
-                           capture_output=True, text=True)
-    assert probe.returncode == 0, probe.stderr
-    stream = json.loads(probe.stdout)["streams"][0]
-    assert int(stream["nb_read_frames"]) == 4
     vm = fp.field(run, "samples", "cauchy_von_mises")
     assert vm.shape == (4, run.samples.shape[1]) and fp.field_unit(run, "samples", "cauchy_von_mises") == "Pa"
     # Bad input: a message and exit 65, nothing drawn.

@@ -227,8 +227,7 @@ def plot_observables(run: Union[Run, str, Path], out=None):
             ax.plot(run.times, o[name], marker=".", drawstyle="steps-mid")
         ax.set_ylabel(label + " per step")
     if "residual" in o:
-        solved = o["residual"] > 0  # step 0, the initial state, has no solve
-        axes[1, 1].semilogy(run.times[solved], o["residual"][solved], marker=".")
+        axes[1, 1].semilogy(run.times, np.maximum(o["residual"], 1e-300), marker=".")
     axes[1, 1].set_ylabel("residual")
     for ax in axes.flat:
         ax.grid(True, alpha=0.3)
@@ -329,7 +328,7 @@ def render(run: Union[Run, str, Path], out, step: Optional[int] = None, every: O
 
     if not movie:
         draw(steps[0])
-        fig.savefig(out, dpi=dpi, bbox_inches="tight")
+        fig.savefig(out, dpi=dpi)
     else:
         writer = animation.PillowWriter(fps=fps) if out.suffix.lower() == ".gif" else animation.FFMpegWriter(fps=fps)
         with writer.saving(fig, str(out), dpi=dpi):
@@ -367,11 +366,10 @@ def read_json_lines(source: Union[str, Path, Iterable[str]]) -> list:
     return out
 
 
-def plot_convergence(source, out=None, ax=None, reference: Optional[float] = None):
+def plot_convergence(source, out=None, ax=None):
     """The paper's Figure 3: tip deflection at equilibrium against degrees of freedom, one line per
     method, from the JSON lines of `fascia study beam --json` (keys dofs, tip_displacement [dx, dy,
-    dz] in m, method, converged; records that did not converge are left out), with an optional
-    reference deflection (m) as a dashed line. Returns the figure."""
+    dz] in m, method, converged; records that did not converge are left out). Returns the figure."""
     plt = _pyplot()
     records = source if isinstance(source, list) and (not source or isinstance(source[0], dict)) else read_json_lines(source)
     series: Dict[str, list] = {}
@@ -389,8 +387,6 @@ def plot_convergence(source, out=None, ax=None, reference: Optional[float] = Non
     for label, points in sorted(series.items()):
         points.sort()
         ax.plot([p[0] for p in points], [p[1] for p in points], marker="o", label=label)
-    if reference is not None:
-        ax.axhline(abs(reference), color="k", linestyle="--", linewidth=1, label=f"reference {abs(reference):.4g} m")
     ax.set_xscale("log")
     ax.set_xlabel("degrees of freedom")
     ax.set_ylabel("tip deflection (m)")
@@ -428,7 +424,6 @@ def main(argv=None) -> int:
     p.add_argument("--field", default="displacement", help="--render: the colouring field (default displacement)")
     p.add_argument("--convergence", metavar="JSONL", help="plot the convergence figure from study lines")
     p.add_argument("--out", metavar="PNG", default="convergence.png", help="output of --convergence")
-    p.add_argument("--reference", type=float, help="--convergence: a reference tip deflection (m), drawn dashed")
     args = p.parse_args(argv)
     if args.file is None and not args.convergence:
         p.error("give a trajectory file, or --convergence STUDY.jsonl")
@@ -444,7 +439,7 @@ def main(argv=None) -> int:
             if args.render:
                 render(run, args.render, step=args.step, every=args.every, field_name=args.field)
         if args.convergence:
-            plot_convergence(args.convergence, out=args.out, reference=args.reference)
+            plot_convergence(args.convergence, out=args.out)
     except (ValueError, KeyError, OSError) as e:
         print(f"fascia_post: error: {e}", file=sys.stderr)
         return 65
