@@ -41,8 +41,34 @@ class Handle {
   herr_t (*m_close)(hid_t) = nullptr;
 };
 
+// HDF5 closes the files still open when the program exits; a file whose last write failed (a
+// full disk) cannot be closed, and that clean-up then crashes in H5F__close_cb. Files are closed
+// here explicitly, so the clean-up is turned off, before HDF5 is first used.
+const bool g_no_exit_cleanup = (H5dont_atexit() >= 0);
+
+// The operating system's reason at the bottom of HDF5's error stack ("No space left on device"),
+// or "".
+std::string system_reason() {
+  std::string reason;
+  H5Ewalk2(
+      H5E_DEFAULT, H5E_WALK_UPWARD,
+      [](unsigned n, const H5E_error2_t* error, void* data) -> herr_t {
+        const std::string desc = error->desc ? error->desc : "";
+        const std::size_t at = desc.find("error message = '");
+        if (n == 0 && at != std::string::npos) {
+          const std::size_t begin = at + 17, end = desc.find('\'', begin);
+          *static_cast<std::string*>(data) = desc.substr(begin, end == std::string::npos ? end : end - begin);
+        }
+        return 0;
+      },
+      &reason);
+  return reason;
+}
+
 [[noreturn]] void fail(const std::string& path, const std::string& what) {
-  throw TrajectoryError(path + ": HDF5 error: " + what);
+  (void)g_no_exit_cleanup;
+  const std::string reason = system_reason();
+  throw TrajectoryError(path + ": HDF5 error: " + what + (reason.empty() ? "" : ": " + reason));
 }
 
 hid_t checked(hid_t id, const std::string& path, const std::string& what) {

@@ -1,6 +1,8 @@
 #include "io/xdmf.hpp"
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -102,16 +104,27 @@ std::string xdmf_text(const std::string& h5_name, const TrajectoryLayout& layout
 
 namespace {
 
+// Written beside and renamed into place: the sidecar on disk is always whole. A failed write (a
+// full disk) removes the temporary and leaves the previous sidecar; the message gives the reason.
 void write_atomically(const std::string& path, const std::string& text) {
   const std::string tmp = path + ".tmp";
   {
+    errno = 0;
     std::ofstream out(tmp, std::ios::trunc);
     out << text;
-    out.flush();
-    if (!out) throw TrajectoryError(tmp + ": cannot write the XDMF sidecar");
+    out.close();
+    if (!out) {
+      const int error = errno;
+      std::remove(tmp.c_str());
+      throw TrajectoryError(tmp + ": cannot write the XDMF sidecar" +
+                            (error ? std::string(": ") + std::strerror(error) : std::string()));
+    }
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0)
-    throw TrajectoryError(path + ": cannot rename the XDMF sidecar into place");
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int error = errno;
+    std::remove(tmp.c_str());
+    throw TrajectoryError(path + ": cannot rename the XDMF sidecar into place: " + std::strerror(error));
+  }
 }
 
 }  // namespace
