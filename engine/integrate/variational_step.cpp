@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 
@@ -355,9 +356,9 @@ NewtonResult VariationalStep::advance(const State& start, State& end, const Newt
   const double norm_r0 = residual(start, end, p_start, r);
   m_scale = std::max({reference_force, free_norm(p_start, m_fixed) / h, 1e-300});
   if (std::isfinite(norm_r0)) m_scale = std::max(m_scale, norm_r0 / h);
-  LinearSolver local;
-  VariationalProblem problem(*this, m_potential, start, p_start, m_fixed, h, solver ? *solver : local,
-                             settings.linear);
+  std::unique_ptr<LinearSolver> local;
+  if (!solver) solver = (local = std::make_unique<LinearSolver>()).get();
+  VariationalProblem problem(*this, m_potential, start, p_start, m_fixed, h, *solver, settings.linear);
   NewtonResult result = newton(problem, end, settings, m_scale);
   m_residual_norm = residual(start, end, p_start, r);
   if (!result.converged) {

@@ -3,6 +3,7 @@
 #include "solve/vector_ops.hpp"
 
 #include <cmath>
+#include <memory>
 
 namespace fascia {
 
@@ -54,16 +55,18 @@ class HostPotentialProblem {
 
 NewtonResult minimise(Potential& potential, State& state, const NewtonSettings& settings, double reference_force,
                       LinearSolver* solver) {
-  LinearSolver local;
-  HostPotentialProblem problem(potential, solver ? *solver : local, settings.linear);
+  std::unique_ptr<LinearSolver> local;
+  if (!solver) solver = (local = std::make_unique<LinearSolver>()).get();
+  HostPotentialProblem problem(potential, *solver, settings.linear);
   return newton(problem, state, settings, reference_force);
 }
 
 NewtonResult minimise_load_stepping(Potential& potential, State& state, const NewtonSettings& settings,
                                     const LoadStepping& stepping, const std::function<double(double)>& set_load_factor,
                                     LinearSolver* solver) {
-  LinearSolver local;
-  HostPotentialProblem problem(potential, solver ? *solver : local, settings.linear);
+  std::unique_ptr<LinearSolver> local;
+  if (!solver) solver = (local = std::make_unique<LinearSolver>()).get();
+  HostPotentialProblem problem(potential, *solver, settings.linear);
   return newton_load_stepping(problem, state, settings, stepping, set_load_factor);
 }
 

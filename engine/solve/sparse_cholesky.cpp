@@ -6,7 +6,14 @@
 namespace fascia {
 
 SparseCholesky::SparseCholesky() : m_factor(std::make_unique<Factor>()) {
-  m_factor->cholmod().print = 0;  // failures are reported by factorise(), not on stderr
+  cholmod_common& c = m_factor->cholmod();
+  c.print = 0;  // failures are reported by factorise(), not on stderr
+  // CHOLMOD chooses simplicial or supernodal from the analysis (supernodal where flops per
+  // nonzero of L are high: the finer scenes); LL^T in both, so that a matrix that is not
+  // positive definite is detected and shifted rather than factorised as an indefinite LDL^T.
+  c.supernodal = CHOLMOD_AUTO;
+  c.final_asis = 0;
+  c.final_ll = 1;
 }
 
 SparseCholesky::~SparseCholesky() = default;
@@ -26,10 +33,15 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
   int free = 0;
   for (int k = 0; k < n; ++k) free += m_index[k] >= 0;
   // The lower triangle of the free-free block, with every diagonal entry present (the shift
-  // below writes there without changing the pattern).
+  // below writes there without changing the pattern) and every entry of the analysed pattern
+  // (assemblies leave out entries that happen to be zero, e.g. load blocks at rest): a matrix
+  // whose pattern is contained in the analysed one keeps that analysis.
   std::vector<Eigen::Triplet<double>> t;
-  t.reserve(static_cast<size_t>(H.nonZeros()) / 2 + free);
+  t.reserve(static_cast<size_t>(H.nonZeros()) / 2 + free + (m_analysed ? m_inner.size() : 0));
   for (int k = 0; k < free; ++k) t.emplace_back(k, k, 0.0);
+  if (m_analysed && static_cast<int>(m_outer.size()) == free + 1)
+    for (int c = 0; c < free; ++c)
+      for (int k = m_outer[c]; k < m_outer[c + 1]; ++k) t.emplace_back(m_inner[k], c, 0.0);
   for (int c = 0; c < H.outerSize(); ++c)
     for (Eigen::SparseMatrix<double>::InnerIterator it(H, c); it; ++it) {
       const int r = m_index[it.row()], col = m_index[it.col()];

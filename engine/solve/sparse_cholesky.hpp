@@ -1,5 +1,5 @@
-// A sparse Cholesky factorisation (CHOLMOD, simplicial LL^T: on the shipped scenes it factorises
-// faster than the supernodal one, whose dense BLAS blocks are too small to pay) of the free-free block of an assembled
+// A sparse Cholesky factorisation LL^T (CHOLMOD, simplicial or supernodal as its analysis
+// chooses) of the free-free block of an assembled
 // symmetric matrix H: the direct solve of the Newton system and the reused preconditioner of PCG.
 //
 // The symbolic analysis (fill-reducing ordering, supernodes) is kept while the free DOFs and the
@@ -38,7 +38,7 @@ class SparseCholesky {
   int factorisations() const { return m_factorisations; }
 
  private:
-  using Factor = Eigen::CholmodSimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower>;
+  using Factor = Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower>;
   std::unique_ptr<Factor> m_factor;
   std::vector<int> m_index;                        // [n] free index of each DOF, -1 if fixed
   std::vector<std::uint8_t> m_fixed;               // the mask m_index was built from
