@@ -47,6 +47,9 @@ const std::vector<std::pair<std::string, std::vector<std::string>>>& pelvis_refi
 }
 
 int run_bench(const BenchScenesOptions& o) {
+  // The device once, before any scene: without one nothing is run (exit 69, as fascia run).
+  Backend backend;
+  if (const int code = resolve_backend("bench scenes", o.backend, backend); code != kOk) return code;
   std::error_code ec;
   if (!fs::is_directory(o.directory, ec)) {
     std::cerr << "fascia bench scenes: error: no scene folder '" << o.directory
