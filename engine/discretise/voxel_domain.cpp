@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
 
 namespace fascia {
@@ -49,9 +50,18 @@ VoxelDomain::VoxelDomain(const SurfaceMesh& surface, double voxel_size, int half
   std::vector<openvdb::Vec3I> triangles(surface.triangle_count());
   for (int t = 0; t < surface.triangle_count(); ++t)
     triangles[t] = openvdb::Vec3I(surface.triangles[3 * t], surface.triangles[3 * t + 1], surface.triangles[3 * t + 2]);
-  const openvdb::math::Transform::Ptr xform = openvdb::math::Transform::createLinearTransform(voxel_size);
-  m_impl->grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, points, triangles,
-                                                                    static_cast<float>(std::max(half_width, 2)));
+  try {
+    const openvdb::math::Transform::Ptr xform = openvdb::math::Transform::createLinearTransform(voxel_size);
+    m_impl->grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, points, triangles,
+                                                                      static_cast<float>(std::max(half_width, 2)));
+  } catch (const openvdb::ArithmeticError&) {
+    // OpenVDB's linear transforms refuse scales whose cube is near zero (below about 2e-5 m).
+    std::ostringstream message;
+    message << "a voxel size of " << voxel_size
+            << " m is below the smallest that OpenVDB's transforms accept (about 2e-5 m; the voxel size is half the "
+               "sample spacing): this object is too small for a meshless discretisation at this spacing";
+    throw std::invalid_argument(message.str());
+  }
   m_impl->h = voxel_size;
   m_impl->box = m_impl->grid->evalActiveVoxelBoundingBox();
 }
