@@ -31,5 +31,6 @@ void register_info(CLI::App& app, Action& action);
 void register_schema(CLI::App& app, Action& action);
 void register_study(CLI::App& app, Action& action);
 void register_bench(CLI::App& app, Action& action);
+void register_render(CLI::App& app, Action& action);
 
 }  // namespace fascia::app

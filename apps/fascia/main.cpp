@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   fascia::app::register_schema(app, action);
   fascia::app::register_study(app, action);
   fascia::app::register_bench(app, action);
+  fascia::app::register_render(app, action);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,6 +1,9 @@
 """tools/post/fascia_post.py on a real run and on study lines."""
 import json
+import shutil
 import subprocess
+
+import pytest
 
 import matplotlib
 
@@ -54,7 +57,9 @@ def test_plot_convergence_from_a_real_study(fascia_bin, root, tmp_path):
         expected = sorted((r["dofs"], abs(r["tip_displacement"][2])) for r in records if r["method"] == method)
         assert np.allclose(line.get_ydata(), [e[1] for e in expected])
     assert_not_blank(tmp_path / "conv.png")
-    assert fp.main(["--convergence", str(path), "--out", str(tmp_path / "conv2.png")]) == 0
+    assert fp.main(["--convergence", str(path), "--out", str(tmp_path / "conv2.png"), "--reference=-6.506"]) == 0
+    with_reference = fp.plot_convergence(path, reference=-6.506).axes[0]
+    assert len(with_reference.lines) == 3 and with_reference.lines[-1].get_ydata()[0] == 6.506
 
 
 def assert_not_blank(png, min_colours=20, min_ink=0.05):
@@ -88,8 +93,44 @@ def test_render_observables_and_summary_of_a_real_run(fascia_bin, root, tmp_path
     from PIL import Image
     with Image.open(tmp_path / "pull.gif") as gif:
         assert gif.n_frames == 3
+    if shutil.which("ffmpeg") is None:
+        pytest.skip("ffmpeg not found (Debian package ffmpeg; tools/install-deps installs it): MP4 not checked")
+    assert fp.render(run, tmp_path / "pull.mp4", every=1, field_name="strain_energy_density") == 4
+    probe = subprocess.run(["ffprobe", "-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries",
+                            "stream=nb_read_frames,codec_name", "-of", "json", str(tmp_path / "pull.mp4")],
+                           capture_output=True, text=True)
+    assert probe.returncode == 0, probe.stderr
+    stream = json.loads(probe.stdout)["streams"][0]
+    assert int(stream["nb_read_frames"]) == 4
     vm = fp.field(run, "samples", "cauchy_von_mises")
     assert vm.shape == (4, run.samples.shape[1]) and fp.field_unit(run, "samples", "cauchy_von_mises") == "Pa"
     # Bad input: a message and exit 65, nothing drawn.
     assert fp.main([str(out), "--render", str(tmp_path / "x.png"), "--field", "no_such_field"]) == 65
     assert not (tmp_path / "x.png").exists()
+
+
+def test_fascia_render_draws_a_step_and_reports_bad_input(fascia_bin, root, tmp_path):
+    out = tmp_path / "pull.h5"
+    r = subprocess.run([fascia_bin, "run", "scenes/tool_pull.yaml", "-o", str(out), "--set", "run.duration=20ms",
+                        "-q"], cwd=root, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+
+    def render(*args):
+        return subprocess.run([fascia_bin, "render", str(out), *args], cwd=tmp_path, capture_output=True, text=True,
+                              timeout=600)
+
+    r = render("--field", "cauchy_von_mises", "--step", "1")
+    assert r.returncode == 0, r.stderr
+    assert_not_blank(tmp_path / "pull.png")  # the default name: RUN.png
+    r = render("--every", "1", "-o", str(tmp_path / "pull.gif"))
+    assert r.returncode == 0, r.stderr
+    from PIL import Image
+    with Image.open(tmp_path / "pull.gif") as gif:
+        assert gif.n_frames == 3
+    assert render("--step", "7").returncode == 65  # 3 steps written
+    assert render("--field", "no_such_field", "-o", str(tmp_path / "x.png")).returncode == 65
+    assert render("--every", "2", "-o", str(tmp_path / "x.png")).returncode == 64  # a movie needs .gif or .mp4
+    assert render("-o", str(tmp_path / "missing" / "x.png")).returncode == 74
+    assert not (tmp_path / "x.png").exists()
+    missing = subprocess.run([fascia_bin, "render", str(tmp_path / "none.h5")], capture_output=True, text=True)
+    assert missing.returncode == 66

@@ -114,6 +114,10 @@ def test_info_summarises_a_run(fascia_bin, root, tmp_path):
     info = json.loads(r.stdout)
     assert info["steps"] == 4
     assert {g["name"] for g in info["particles"]} == {"frames", "samples", "slab"}
+    fields = {g["name"]: set(g["fields"]) for g in info["particles"]}
+    assert {"displacement", "velocity", "cauchy_stress", "cauchy_von_mises", "strain_energy_density"} <= fields["slab"]
+    assert fields["samples"] == fields["slab"]
+    assert {"orientation", "axis_x", "axis_y", "axis_z", "angular_velocity"} <= fields["frames"]
     assert "elastic_energy" in info["final"]
     assert run_fascia(fascia_bin, root, "info", str(tmp_path / "missing.h5")).returncode == 66
 

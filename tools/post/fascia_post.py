@@ -227,7 +227,8 @@ def plot_observables(run: Union[Run, str, Path], out=None):
             ax.plot(run.times, o[name], marker=".", drawstyle="steps-mid")
         ax.set_ylabel(label + " per step")
     if "residual" in o:
-        axes[1, 1].semilogy(run.times, np.maximum(o["residual"], 1e-300), marker=".")
+        solved = o["residual"] > 0  # step 0, the initial state, has no solve
+        axes[1, 1].semilogy(run.times[solved], o["residual"][solved], marker=".")
     axes[1, 1].set_ylabel("residual")
     for ax in axes.flat:
         ax.grid(True, alpha=0.3)
@@ -328,7 +329,7 @@ def render(run: Union[Run, str, Path], out, step: Optional[int] = None, every: O
 
     if not movie:
         draw(steps[0])
-        fig.savefig(out, dpi=dpi)
+        fig.savefig(out, dpi=dpi, bbox_inches="tight")
     else:
         writer = animation.PillowWriter(fps=fps) if out.suffix.lower() == ".gif" else animation.FFMpegWriter(fps=fps)
         with writer.saving(fig, str(out), dpi=dpi):
@@ -366,10 +367,11 @@ def read_json_lines(source: Union[str, Path, Iterable[str]]) -> list:
     return out
 
 
-def plot_convergence(source, out=None, ax=None):
+def plot_convergence(source, out=None, ax=None, reference: Optional[float] = None):
     """The paper's Figure 3: tip deflection at equilibrium against degrees of freedom, one line per
     method, from the JSON lines of `fascia study beam --json` (keys dofs, tip_displacement [dx, dy,
-    dz] in m, method, converged; records that did not converge are left out). Returns the figure."""
+    dz] in m, method, converged; records that did not converge are left out), with an optional
+    reference deflection (m) as a dashed line. Returns the figure."""
     plt = _pyplot()
     records = source if isinstance(source, list) and (not source or isinstance(source[0], dict)) else read_json_lines(source)
     series: Dict[str, list] = {}
@@ -387,6 +389,8 @@ def plot_convergence(source, out=None, ax=None):
     for label, points in sorted(series.items()):
         points.sort()
         ax.plot([p[0] for p in points], [p[1] for p in points], marker="o", label=label)
+    if reference is not None:
+        ax.axhline(abs(reference), color="k", linestyle="--", linewidth=1, label=f"reference {abs(reference):.4g} m")
     ax.set_xscale("log")
     ax.set_xlabel("degrees of freedom")
     ax.set_ylabel("tip deflection (m)")
@@ -424,12 +428,23 @@ def main(argv=None) -> int:
     p.add_argument("--field", default="displacement", help="--render: the colouring field (default displacement)")
     p.add_argument("--convergence", metavar="JSONL", help="plot the convergence figure from study lines")
     p.add_argument("--out", metavar="PNG", default="convergence.png", help="output of --convergence")
+    p.add_argument("--reference", type=float, help="--convergence: a reference tip deflection (m), drawn dashed")
     args = p.parse_args(argv)
     if args.file is None and not args.convergence:
         p.error("give a trajectory file, or --convergence STUDY.jsonl")
-    try:
-        if args.file is not None:
+
+    def error(message, code):
+        print(f"fascia_post: error: {message}", file=sys.stderr)
+        return code
+
+    run = None
+    if args.file is not None:
+        try:
             run = load(args.file)
+        except (OSError, KeyError) as e:  # unreadable, not HDF5, or not a fascia trajectory
+            return error(f"{args.file}: {e}", 65)
+    try:
+        if run is not None:
             if args.summary or not (args.tip or args.observables or args.render):
                 print(json.dumps(summary(run, args.tip_axis, args.tip_group)))
             if args.tip:
@@ -439,10 +454,11 @@ def main(argv=None) -> int:
             if args.render:
                 render(run, args.render, step=args.step, every=args.every, field_name=args.field)
         if args.convergence:
-            plot_convergence(args.convergence, out=args.out)
-    except (ValueError, KeyError, OSError) as e:
-        print(f"fascia_post: error: {e}", file=sys.stderr)
-        return 65
+            plot_convergence(args.convergence, out=args.out, reference=args.reference)
+    except (ValueError, KeyError) as e:  # a field, step or axis that the file does not have
+        return error(e, 65)
+    except OSError as e:  # the picture or movie could not be written
+        return error(e, 74)
     return 0
 
 
