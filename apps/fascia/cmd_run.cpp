@@ -375,6 +375,12 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     update_xdmf(true);
     if (run_figures)
       run_figures->step_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - steps_start).count();
+  } catch (const NonFiniteStep& e) {
+    // Not an I/O error: the state or its fields left the range of a double.
+    std::cerr << "fascia: error: " << e.what()
+              << " (diverged, or the scene's magnitudes exceed a double: moduli, densities, loads); the steps "
+                 "before it are written\n";
+    return kSolverFailed;
   } catch (const TrajectoryError& e) {
     std::cerr << "fascia: error: " << e.what() << "\n";
     return kIoError;

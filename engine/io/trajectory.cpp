@@ -404,35 +404,48 @@ void TrajectoryWriter::close() {
 void TrajectoryWriter::append(const TrajectoryStep& step) {
   if (!m_impl) throw TrajectoryError(m_path + ": write after close");
   std::vector<std::pair<const double*, std::size_t>> arrays;
+  std::vector<std::string> names;  // of each array, for messages
   arrays.push_back({step.frame_positions, 3 * static_cast<std::size_t>(m_layout.frames)});
+  names.push_back("frames/position");
   arrays.push_back({step.frame_orientations, 4 * static_cast<std::size_t>(m_layout.frames)});
-  if (m_layout.samples > 0) arrays.push_back({step.sample_positions, 3 * static_cast<std::size_t>(m_layout.samples)});
+  names.push_back("frames/orientation");
+  if (m_layout.samples > 0) {
+    arrays.push_back({step.sample_positions, 3 * static_cast<std::size_t>(m_layout.samples)});
+    names.push_back("samples/position");
+  }
   if (step.surface_positions.size() != m_layout.surfaces.size())
     throw TrajectoryError(m_path + ": step has " + std::to_string(step.surface_positions.size()) + " surfaces, layout " +
                           std::to_string(m_layout.surfaces.size()));
-  for (std::size_t s = 0; s < m_layout.surfaces.size(); ++s)
+  for (std::size_t s = 0; s < m_layout.surfaces.size(); ++s) {
     arrays.push_back({step.surface_positions[s], 3 * m_layout.surfaces[s].vertex_frames.size()});
+    names.push_back(m_layout.surfaces[s].name + "/position");
+  }
   if (step.fields.size() != m_layout.fields.size())
     throw TrajectoryError(m_path + ": step has " + std::to_string(step.fields.size()) + " fields, layout " +
                           std::to_string(m_layout.fields.size()));
-  for (std::size_t i = 0; i < m_layout.fields.size(); ++i)
+  for (std::size_t i = 0; i < m_layout.fields.size(); ++i) {
     arrays.push_back({step.fields[i], static_cast<std::size_t>(m_layout.fields[i].components) *
                                           particle_count(m_layout, m_layout.fields[i].group)});
+    names.push_back(m_layout.fields[i].group + "/" + m_layout.fields[i].name);
+  }
   if (step.observables.size() != m_layout.observables.size())
     throw TrajectoryError(m_path + ": step has " + std::to_string(step.observables.size()) + " observables, layout " +
                           std::to_string(m_layout.observables.size()));
 
   // Check everything before writing anything: a step is written whole or not at all.
-  for (const auto& [data, count] : arrays) {
+  for (std::size_t a = 0; a < arrays.size(); ++a) {
+    const auto& [data, count] = arrays[a];
     if (!data && count) throw TrajectoryError(m_path + ": missing data in step " + std::to_string(step.step));
     for (std::size_t i = 0; i < count; ++i)
       if (!std::isfinite(data[i]))
-        throw TrajectoryError(m_path + ": refusing to write non-finite values at step " + std::to_string(step.step));
+        throw NonFiniteStep(m_path + ": refusing to write non-finite values of " + names[a] + " at step " +
+                            std::to_string(step.step));
   }
-  for (double v : step.observables)
-    if (!std::isfinite(v))
-      throw TrajectoryError(m_path + ": refusing to write a non-finite observable at step " + std::to_string(step.step));
-  if (!std::isfinite(step.time)) throw TrajectoryError(m_path + ": non-finite time");
+  for (std::size_t i = 0; i < step.observables.size(); ++i)
+    if (!std::isfinite(step.observables[i]))
+      throw NonFiniteStep(m_path + ": refusing to write a non-finite " + m_layout.observables[i].first + " at step " +
+                          std::to_string(step.step));
+  if (!std::isfinite(step.time)) throw NonFiniteStep(m_path + ": non-finite time");
 
   const hsize_t row = static_cast<hsize_t>(m_steps);
   if (m_steps >= m_capacity) {

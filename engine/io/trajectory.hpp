@@ -34,6 +34,13 @@ class TrajectoryError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A step holding a non-finite value (a diverged state, or magnitudes beyond a double): refused,
+// nothing of it written. The message names the dataset.
+class NonFiniteStep : public TrajectoryError {
+ public:
+  using TrajectoryError::TrajectoryError;
+};
+
 struct TrajectoryHeader {
   std::string creator_version;  // fascia version
   std::string author;           // user name, when known

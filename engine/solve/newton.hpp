@@ -74,7 +74,7 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
   double phi = problem.gradient(state, g);
   double g_norm = ops.norm(g);
   if (!std::isfinite(phi) || !std::isfinite(g_norm)) {
-    result.message = "the starting state has non-finite energy (inverted element?)";
+    result.message = "the starting state has non-finite energy (an inverted element, or magnitudes beyond a double: moduli, densities, loads?)";
     return result;
   }
   const double scale = std::max({reference_force, g_norm, 1e-300});

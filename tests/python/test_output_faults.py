@@ -33,3 +33,22 @@ def test_an_output_that_is_a_directory_is_refused_before_the_discretisation(fasc
     assert r.returncode == 74, r.stderr
     assert "is a directory" in r.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_values_beyond_a_double_are_a_solver_failure_not_an_io_error(fascia_bin, root, tmp_path):
+    # A modulus of 1e200 Pa: round-off stresses of 1e184 Pa make the von Mises stresses overflow.
+    out = tmp_path / "run.h5"
+    r = subprocess.run([fascia_bin, "run", "scenes/tool_pull.yaml", "-o", str(out), "--quiet",
+                        "--set", "materials.fascia.young=1e200Pa", "--set", "run.duration=0.05s"], cwd=root,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 1, r.stderr
+    assert "refusing to write non-finite values of" in r.stderr, r.stderr
+    import h5py
+    import numpy as np
+    with h5py.File(out, "r") as f:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset) and name.endswith("/value"):
+                steps = f[name.rsplit("/", 1)[0] + "/step"][()]
+                written = obj[()][steps >= 0]
+                assert np.all(np.isfinite(written)), name
+        f.visititems(visit)
