@@ -684,6 +684,10 @@ void finish_scene(const SceneSpec& scene, std::vector<ObjectPart>& parts, BuiltS
   settings.load_steps = s.load_steps;
   settings.max_load_halvings = s.max_load_halvings;
   settings.threads = s.threads;
+  settings.adaptive.enabled = s.adaptive;
+  settings.adaptive.tolerance = s.adaptive_tolerance;
+  settings.adaptive.min_dt = s.adaptive_min_dt;
+  settings.adaptive.max_dt = s.adaptive_max_dt;
   settings.newton.tolerance = s.newton_tolerance;
   settings.newton.max_iterations = s.newton_max_iterations;
   settings.newton.max_backtracks = s.newton_max_backtracks;

@@ -302,6 +302,19 @@ ParamSpec build_registry() {
                              0, false),
                        "10"),
           with_default(above(leaf("threads", ParamType::integer, "CPU threads (0 = all)"), 0, false), "0"),
+          object("adaptive",
+                 "backward_euler: adaptive time steps, dt the first; a step whose Newton fails or whose local "
+                 "error exceeds the tolerance is retried smaller, easy steps grow; output rows stay at the "
+                 "multiples of output.every x dt (docs/solvers.md)",
+                 {required(above(quantity("tolerance", dim::length,
+                                          "local error per step: (h/2)|v_{n+1} - v_n| on the free frames, rotations "
+                                          "times the model's extent"),
+                                 0)),
+                  with_default(above(quantity("min_dt", dim::time,
+                                              "smallest step; a step whose Newton fails at min_dt stops the run"),
+                                     0),
+                               "1e-6 s"),
+                  above(quantity("max_dt", dim::time, "largest step (default: none below the output interval)"), 0)}),
           object("newton", "Newton with backtracking line search",
                  {with_default(above(quantity("tolerance", dim::none, "relative residual force to stop at"), 0),
                                "1e-6"),

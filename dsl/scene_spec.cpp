@@ -334,6 +334,20 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   s.load_steps = static_cast<int>(solver.integer_at("load_steps"));
   s.max_load_halvings = static_cast<int>(solver.integer_at("max_load_halvings"));
   s.threads = static_cast<int>(solver.integer_at("threads"));
+  if (const Value* adaptive = solver.find("adaptive")) {
+    s.adaptive = true;
+    s.adaptive_tolerance = adaptive->num("tolerance");
+    s.adaptive_min_dt = adaptive->num("min_dt");
+    if (adaptive->has("max_dt")) s.adaptive_max_dt = adaptive->num("max_dt");
+    if (s.integrator.value != "backward_euler")
+      diagnostics.error(adaptive->where, "solver.adaptive: adaptive time steps need 'integrator: backward_euler' "
+                                         "(static solves adapt their load increments: load_steps, "
+                                         "max_load_halvings; the variational integrator keeps a fixed dt)");
+    if (s.adaptive_max_dt > 0 && s.adaptive_max_dt < s.adaptive_min_dt)
+      diagnostics.error(adaptive->at("max_dt").where, "solver.adaptive: max_dt must be >= min_dt");
+    if (s.dt.value < s.adaptive_min_dt)
+      diagnostics.error(s.dt.where, "solver.dt (the first adaptive step) must be >= solver.adaptive.min_dt");
+  }
   const Value& newton = solver.at("newton");
   s.newton_tolerance = newton.num("tolerance");
   s.newton_max_iterations = static_cast<int>(newton.integer_at("max_iterations"));

@@ -115,6 +115,9 @@ struct SolverSpec {
   Located<double> dt;               // s
   double rayleigh_mass = 0, rayleigh_stiffness = 0;
   int load_steps = 1, max_load_halvings = 10, threads = 0;
+  bool adaptive = false;                     // solver.adaptive given
+  double adaptive_tolerance = 0;             // m
+  double adaptive_min_dt = 1e-6, adaptive_max_dt = 0;  // s; max 0: none
   double newton_tolerance = 1e-6;
   int newton_max_iterations = 50, newton_max_backtracks = 30, newton_fixed_iterations = 0;
   Located<std::string> linear_method;

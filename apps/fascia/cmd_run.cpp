@@ -108,6 +108,7 @@ const std::vector<std::pair<std::string, bool>>& observable_layout() {
       {"elastic_energy", false},    {"kinetic_energy", false}, {"external_potential", false},
       {"total_energy", false},      {"newton_iterations", true}, {"cg_iterations", true},
       {"residual", false},          {"converged", true},         {"wall_time", false},
+      {"dt", false},                {"accepted_steps", true},    {"rejected_steps", true},
   };
   return layout;
 }
@@ -201,7 +202,10 @@ class StepRecorder {
                         static_cast<double>(report.cg_iterations),
                         report.residual,
                         report.converged ? 1.0 : 0.0,
-                        report.wall_seconds};
+                        report.wall_seconds,
+                        report.dt,
+                        static_cast<double>(report.accepted_steps),
+                        static_cast<double>(report.rejected_steps)};
     return step;
   }
 
@@ -335,9 +339,15 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
 
     const auto steps_start = std::chrono::steady_clock::now();
     if (run_figures) run_figures->setup_seconds = std::chrono::duration<double>(steps_start - setup_start).count();
-    for (int k = 1; k <= steps; ++k) {
+    // Fixed steps: every step, a row every output.every steps. Adaptive steps: the simulation
+    // advances to each row's time (k dt, k a multiple of output.every, and the last step) with
+    // steps of its own; a row sums the iterations and counts the steps since the previous one.
+    const bool adaptive = simulation.controller() != nullptr;
+    StepReport row;  // the steps since the last row (fixed steps)
+    for (int k = adaptive ? std::min(out_spec.every, steps) : 1; k <= steps;
+         k = adaptive && k < steps ? std::min(k + out_spec.every, steps) : k + 1) {
       try {
-        last = simulation.step();
+        last = adaptive ? simulation.advance_to(k * built.settings.dt) : simulation.step();
       } catch (const SolverError& e) {
         failure = e.what();
         status = "solver failed";
@@ -345,18 +355,21 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
         break;
       }
       if (!finite_state(simulation.state())) {
-        failure = "non-finite state after step " + std::to_string(k) + " (diverged); it was not written";
+        failure = "non-finite state after step " + std::to_string(simulation.steps_taken()) + " (diverged); it was not written";
         status = "solver failed";
         exit_code = kSolverFailed;
         break;
       }
       total_newton += last.newton_iterations;
       total_cg += last.cg_iterations;
+      row.accepted_steps += last.accepted_steps;
       const bool stop = g_stop_signal != 0;
-      if (k % out_spec.every == 0 || k == steps || stop) {
+      if (adaptive || k % out_spec.every == 0 || k == steps || stop) {
+        if (!adaptive) last.accepted_steps = row.accepted_steps;
         writer->append(recorder.record(simulation.state(), last));
         written_times.push_back(last.time);
         update_xdmf(k == steps || stop);
+        row = StepReport{};
       }
       figures.step = k;
       figures.time = last.time;
@@ -366,7 +379,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       progress.update(figures);
       if (stop) {
         status = std::string("stopped by ") + (g_stop_signal == SIGINT ? "SIGINT" : "SIGTERM") + " after step " +
-                 std::to_string(k) + " (written)";
+                 std::to_string(simulation.steps_taken()) + " (written)";
         exit_code = kStoppedOnSignal;
         break;
       }
@@ -403,6 +416,8 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
         {"time", figures.time},
         {"newton_iterations", total_newton},
         {"cg_iterations", total_cg},
+        {"accepted_steps", simulation.steps_taken()},
+        {"rejected_steps", simulation.controller() ? simulation.controller()->state().rejected : 0},
         {"wall_seconds", wall},
         {"discretisation", stats_json(built.stats)},
         {"final",
@@ -418,7 +433,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     run_figures->frames = built.stats.frames;
     run_figures->samples = built.stats.samples;
     run_figures->dofs = built.stats.dofs;
-    run_figures->steps = figures.step;
+    run_figures->steps = simulation.steps_taken();
     run_figures->newton_iterations = total_newton;
     run_figures->cg_iterations = total_cg;
   }

@@ -61,6 +61,15 @@ Simulation::Simulation(Model model, ExternalLoads loads, SimulationSettings sett
   m_impl = std::make_unique<Impl>(m_model, m_loads, m_settings);
   if (m_settings.integrator == Integrator::variational)
     m_impl->variational = std::make_unique<VariationalStep>(m_model, m_impl->potential, m_settings.dt);
+  if (m_settings.adaptive.enabled) {
+    if (m_settings.integrator != Integrator::backward_euler)
+      throw std::invalid_argument("adaptive time steps need the backward_euler integrator");
+    const AdaptiveSettings& a = m_settings.adaptive;
+    if (!(a.tolerance > 0) || !(a.min_dt > 0) || (a.max_dt > 0 && a.max_dt < a.min_dt))
+      throw std::invalid_argument("adaptive steps need tolerance > 0, min_dt > 0 and max_dt >= min_dt");
+    m_controller = std::make_unique<StepController>(a, m_settings.dt);
+    m_extent = model_extent(m_model);
+  }
 }
 
 Simulation::~Simulation() = default;
@@ -72,53 +81,110 @@ bool finite_state(const State& s) {
     if (!std::isfinite(x)) return false;
   for (double x : s.orientations)
     if (!std::isfinite(x)) return false;
+  for (double x : s.velocities)
+    if (!std::isfinite(x)) return false;
   return true;
 }
 
+// The likely cause of a failed step, from how Newton stopped (newton.hpp's messages).
+std::string likely_cause(const NewtonResult& r, bool finite, bool adaptive) {
+  const std::string smaller = adaptive ? "" : "; a smaller solver.dt, or solver.adaptive, resolves it";
+  if (!finite) return "the state became non-finite (diverged): the step is too large for the load" + smaller;
+  if (r.message.find("non-finite energy") != std::string::npos)
+    return "an element inverts at the start of the step: prescribed motions or loads move frames farther in one "
+           "step than the elements allow" + smaller;
+  if (r.message.find("line search") != std::string::npos)
+    return "no descent along the Newton direction: an indefinite tangent (buckling, inverted elements) or a load "
+           "too large for one step" + smaller;
+  return "slow convergence: a near-singular tangent (unconstrained frames, zero-energy modes) or too large a step" +
+         smaller;
+}
+
 }  // namespace
+
+struct Simulation::Attempt {
+  NewtonResult newton;
+  bool finite = true;
+  bool ok() const { return newton.converged && finite; }
+};
+
+Simulation::Attempt Simulation::attempt(double h, State& trial) {
+  // The variational step solves its discrete Euler-Lagrange equations (with V from the static
+  // potential), backward Euler minimises its incremental potential.
+  StepPotential& potential = m_impl->potential;
+  const double reference = load_force_norm(m_model, m_loads);
+  const bool variational = m_settings.integrator == Integrator::variational;
+  if (variational)
+    potential.set_static();
+  else
+    potential.set_dynamic(m_state, h, m_settings.rayleigh_mass, m_settings.rayleigh_stiffness);
+  trial = m_state;
+  apply_motions(m_model, m_motions, m_time + h, trial);
+  potential.rigid_mapping().sync(trial);
+  Attempt a;
+  a.newton = variational ? m_impl->variational->advance(m_state, trial, m_settings.newton, reference, &m_impl->linear)
+                         : minimise(potential, trial, m_settings.newton, reference, &m_impl->linear);
+  if (!variational && a.newton.converged) {  // the variational step sets its velocities from the momenta
+    std::vector<double> delta;
+    potential.increments(trial, delta);
+    for (size_t k = 0; k < delta.size(); ++k) trial.velocities[k] = delta[k] / h;
+  }
+  a.finite = finite_state(trial);
+  return a;
+}
+
+bool Simulation::finish(StepReport& report, int step, double time, std::chrono::steady_clock::time_point t0) {
+  report.step = step;
+  report.time = time;
+  report.converged = true;
+  report.elastic_energy = m_impl->potential.elastic_energy(m_state);
+  report.kinetic_energy = kinetic_energy(m_model, m_state);
+  report.external_potential = load_potential(m_model, m_loads, m_state);
+  report.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // A step is accepted only with a finite state and finite energies: values beyond the range of
+  // a double (a modulus of 1e300 Pa, a time step of 1e-300 s) are a divergence, never output.
+  const bool finite_velocities =
+      std::all_of(m_state.velocities.begin(), m_state.velocities.end(), [](double v) { return std::isfinite(v); });
+  if (finite_velocities && std::isfinite(report.elastic_energy) && std::isfinite(report.kinetic_energy) &&
+      std::isfinite(report.external_potential))
+    return true;
+  std::ostringstream msg;
+  msg << "step " << step << " (t = " << time << " s): "
+      << (finite_velocities ? "the energy became non-finite" : "the velocities became non-finite")
+      << " (diverged; elastic " << report.elastic_energy << " J, kinetic " << report.kinetic_energy
+      << " J, external " << report.external_potential << " J); check the scene's magnitudes (moduli, loads, dt) and units";
+  report.converged = false;
+  report.message = msg.str();
+  return false;
+}
 
 StepReport Simulation::step() {
   const auto t0 = std::chrono::steady_clock::now();
   StepPotential& potential = m_impl->potential;
   StepReport report;
-  report.step = m_step + 1;
+  report.accepted_steps = 1;
+  report.dt = m_settings.dt;
   const double t_next = m_time + m_settings.dt;
-  const double reference = load_force_norm(m_model, m_loads);
   State start = m_state;
 
   if (m_settings.integrator != Integrator::static_equilibrium) {
-    // One time step: the variational step solves its discrete Euler-Lagrange equations (with V
-    // from the static potential), backward Euler minimises its incremental potential.
-    const bool variational = m_settings.integrator == Integrator::variational;
-    if (variational)
-      potential.set_static();
-    else
-      potential.set_dynamic(start, m_settings.dt, m_settings.rayleigh_mass, m_settings.rayleigh_stiffness);
-    State trial = start;
-    apply_motions(m_model, m_motions, t_next, trial);
-    potential.rigid_mapping().sync(trial);
-    const NewtonResult r =
-        variational ? m_impl->variational->advance(start, trial, m_settings.newton, reference, &m_impl->linear)
-                    : minimise(potential, trial, m_settings.newton, reference, &m_impl->linear);
-    report.newton_iterations = r.iterations;
-    report.cg_iterations = r.cg_iterations;
-    report.residual = r.residual;
-    if (!r.converged || !finite_state(trial)) {
+    State trial;
+    const Attempt a = attempt(m_settings.dt, trial);
+    report.newton_iterations = a.newton.iterations;
+    report.cg_iterations = a.newton.cg_iterations;
+    report.residual = a.newton.residual;
+    if (!a.ok()) {
       std::ostringstream msg;
-      msg << "step " << report.step << " (t = " << t_next << " s): "
-          << (finite_state(trial) ? r.message : "the state became non-finite (diverged)");
+      msg << "step " << m_step + 1 << " (t = " << t_next << " s, dt = " << m_settings.dt
+          << " s) failed: " << (a.finite ? a.newton.message : "non-finite state") << "; relative residual "
+          << a.newton.residual << "; likely cause: " << likely_cause(a.newton, a.finite, false);
       throw SolverError(msg.str());
-    }
-    if (!variational) {  // the variational step sets its velocities from the momenta
-      std::vector<double> delta;
-      potential.increments(trial, delta);
-      for (size_t k = 0; k < delta.size(); ++k) trial.velocities[k] = delta[k] / m_settings.dt;
     }
     m_state = std::move(trial);
   } else {
     // Static equilibrium with load stepping (solve/newton.hpp).
     potential.set_static();
-    State trial = start;
+    State trial = m_state;
     apply_motions(m_model, m_motions, t_next, trial);
     potential.rigid_mapping().sync(trial);
     ExternalLoads& loads = m_loads;
@@ -137,29 +203,59 @@ StepReport Simulation::step() {
     std::fill(trial.velocities.begin(), trial.velocities.end(), 0.0);
     m_state = std::move(trial);
   }
-  report.time = t_next;
-  report.converged = true;
-  report.elastic_energy = potential.elastic_energy(m_state);
-  report.kinetic_energy = kinetic_energy(m_model, m_state);
-  report.external_potential = load_potential(m_model, m_loads, m_state);
-  // A step is accepted only with a finite state and finite energies: values beyond the range of
-  // a double (a modulus of 1e300 Pa, a time step of 1e-300 s) are a divergence, never output.
-  const bool finite_velocities =
-      std::all_of(m_state.velocities.begin(), m_state.velocities.end(), [](double v) { return std::isfinite(v); });
-  if (!finite_velocities || !std::isfinite(report.elastic_energy) || !std::isfinite(report.kinetic_energy) ||
-      !std::isfinite(report.external_potential)) {
-    std::ostringstream msg;
-    msg << "step " << report.step << " (t = " << t_next << " s): "
-        << (finite_velocities ? "the energy became non-finite" : "the velocities became non-finite")
-        << " (diverged; elastic " << report.elastic_energy << " J, kinetic " << report.kinetic_energy
-        << " J, external " << report.external_potential
-        << " J); check the scene's magnitudes (moduli, loads, dt) and units";
+  if (!finish(report, m_step + 1, t_next, t0)) {
     m_state = std::move(start);
-    throw SolverError(msg.str());
+    throw SolverError(report.message);
   }
   ++m_step;
   m_time = t_next;
-  report.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return report;
+}
+
+StepReport Simulation::advance_to(double t_target) {
+  if (!m_controller) throw std::logic_error("Simulation::advance_to: adaptive steps are off");
+  const auto t0 = std::chrono::steady_clock::now();
+  StepController& controller = *m_controller;
+  StepReport report;
+  State trial, previous;
+  double previous_time = m_time;
+  while (m_time < t_target) {
+    const double h = controller.next_step(m_time, t_target);
+    const Attempt a = attempt(h, trial);
+    report.newton_iterations += a.newton.iterations;
+    report.cg_iterations += a.newton.cg_iterations;
+    report.residual = a.newton.residual;
+    if (!a.ok()) {
+      if (controller.failed(h)) {
+        ++report.rejected_steps;
+        continue;
+      }
+      std::ostringstream msg;
+      msg << "step " << m_step + 1 << " (t = " << m_time << " s to " << m_time + h << " s) failed at the minimum "
+          << "step " << h << " s: " << (a.finite ? a.newton.message : "non-finite state") << "; relative residual "
+          << a.newton.residual << "; likely cause: " << likely_cause(a.newton, a.finite, true);
+      throw SolverError(msg.str());
+    }
+    if (!controller.update(h, local_error(m_model, m_state, trial, h, m_extent))) {
+      ++report.rejected_steps;
+      continue;
+    }
+    std::swap(previous, m_state);
+    std::swap(m_state, trial);
+    previous_time = m_time;
+    ++m_step;
+    ++report.accepted_steps;
+    report.dt = h;
+    // The last step lands on t_target exactly, whatever the round-off of the sum of steps.
+    m_time = m_time + h >= t_target - 1e-12 * std::max(1.0, std::abs(t_target)) ? t_target : m_time + h;
+  }
+  if (!finish(report, m_step, m_time, t0)) {
+    if (report.accepted_steps == 0) throw SolverError(report.message);
+    m_state = std::move(previous);  // back to the step before, whose energies were finite
+    m_time = previous_time;
+    --m_step;
+    throw SolverError(report.message);
+  }
   return report;
 }
 

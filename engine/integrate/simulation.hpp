@@ -3,12 +3,14 @@
 #pragma once
 
 #include "integrate/prescribed_motion.hpp"
+#include "integrate/step_controller.hpp"
 #include "mechanics/external_loads.hpp"
 #include "mechanics/volumetric_elasticity.hpp"
 #include "model/model.hpp"
 #include "model/state.hpp"
 #include "solve/newton.hpp"
 
+#include <chrono>
 #include <memory>
 #include <string>
 #include <vector>
@@ -31,6 +33,7 @@ struct SimulationSettings {
   int load_steps = 1;               // static: initial number of load increments
   int max_load_halvings = 10;       // static: halvings of a failed increment before giving up
   int threads = 0;                  // 0 = all
+  AdaptiveSettings adaptive;        // backward Euler: adaptive steps (advance_to()), dt the first
   NewtonSettings newton;
   // Backend of the volumetric elasticity (mechanics/volumetric_elasticity.hpp); empty: the CPU
   // Elasticity. kernels/cuda_elasticity.hpp makes the CUDA one.
@@ -48,6 +51,9 @@ struct StepReport {
   double kinetic_energy = 0;        // J
   double external_potential = 0;    // J (gravity and point forces)
   double wall_seconds = 0;
+  double dt = 0;                    // s, the last accepted step's size
+  int accepted_steps = 0;           // steps accepted by this call (step(): 1)
+  int rejected_steps = 0;           // attempts rejected by this call (adaptive only)
   std::string message;
 };
 
@@ -65,6 +71,16 @@ class Simulation {
   // the last converged step.
   StepReport step();
 
+  // Adaptive backward Euler (settings().adaptive.enabled): steps from time() to exactly t_target
+  // (s), each accepted or rejected and retried by the step controller (step_controller.hpp). The
+  // report sums the Newton and CG iterations of all attempts and counts the accepted and
+  // rejected steps. Throws SolverError when a step fails at min_dt; the state is then left at
+  // the last accepted step.
+  StepReport advance_to(double t_target);
+  // The controller's state (checkpoints); null unless adaptive.
+  const StepController* controller() const { return m_controller.get(); }
+  StepController* controller() { return m_controller.get(); }
+
   const Model& model() const { return m_model; }
   const State& state() const { return m_state; }
   State& state() { return m_state; }
@@ -75,6 +91,12 @@ class Simulation {
 
  private:
   struct Impl;
+  struct Attempt;
+  // One backward-Euler or variational step of size h from m_state into `trial`, not accepted yet.
+  Attempt attempt(double h, State& trial);
+  // The report's step, time and energies after an accepted step; false (and report.message) when
+  // the state or an energy is not finite.
+  bool finish(StepReport& report, int step, double time, std::chrono::steady_clock::time_point t0);
   Model m_model;
   ExternalLoads m_loads;
   SimulationSettings m_settings;
@@ -83,6 +105,8 @@ class Simulation {
   double m_time = 0;
   int m_step = 0;
   std::unique_ptr<Impl> m_impl;
+  std::unique_ptr<StepController> m_controller;
+  double m_extent = 1;  // m, the error estimate's length (model_extent())
 };
 
 // Newton failure or divergence: what() is a one-line message for the user.

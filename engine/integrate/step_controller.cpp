@@ -1,0 +1,89 @@
+#include "integrate/step_controller.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace fascia {
+
+StepController::StepController(const AdaptiveSettings& settings, double first_dt) : m_settings(settings) {
+  m_state.dt = clamp_dt(first_dt);
+}
+
+double StepController::clamp_dt(double dt) const {
+  if (m_settings.max_dt > 0) dt = std::min(dt, m_settings.max_dt);
+  return std::max(dt, m_settings.min_dt);
+}
+
+double StepController::next_step(double t, double t_target) const {
+  const double remaining = t_target - t;
+  if (remaining <= m_state.dt) return remaining;
+  // Equal steps to the target, none larger than dt: no sliver of a step before an output time.
+  const double n = std::ceil(remaining / m_state.dt - 1e-9);
+  return remaining / n;
+}
+
+bool StepController::update(double h, double error) {
+  const double ratio = error > 0 ? m_settings.tolerance / error : 4.0;
+  const double factor = std::clamp(0.9 * std::sqrt(ratio), 0.2, 2.0);
+  if (error <= m_settings.tolerance) {
+    ++m_state.accepted;
+    // A step shortened to land on an output time does not shrink the size the controller has
+    // reached; after a rejection the size does not grow on the first accepted step.
+    const double grown = m_state.after_rejection ? std::min(factor, 1.0) * h : factor * h;
+    m_state.dt = clamp_dt(h < m_state.dt && factor >= 1.0 ? std::max(grown, m_state.dt) : grown);
+    m_state.after_rejection = false;
+    return true;
+  }
+  ++m_state.rejected;
+  m_state.after_rejection = true;
+  if (h <= m_settings.min_dt) {
+    // Nothing smaller to try: accept at min_dt rather than stop (the error bound is then not met,
+    // which the dt observable shows).
+    --m_state.rejected;
+    ++m_state.accepted;
+    m_state.dt = m_settings.min_dt;
+    return true;
+  }
+  m_state.dt = clamp_dt(std::min(factor, 0.9) * h);
+  return false;
+}
+
+bool StepController::failed(double h) {
+  ++m_state.rejected;
+  m_state.after_rejection = true;
+  if (h <= m_settings.min_dt) return false;
+  m_state.dt = clamp_dt(0.5 * h);
+  return true;
+}
+
+double model_extent(const Model& model) {
+  const int n = model.frame_count();
+  if (n < 2) return 1.0;
+  double extent = 0;
+  for (int k = 0; k < 3; ++k) {
+    double lo = model.frame_rest_positions[static_cast<std::size_t>(k)], hi = lo;
+    for (int i = 1; i < n; ++i) {
+      const double x = model.frame_rest_positions[3 * static_cast<std::size_t>(i) + k];
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    extent = std::max(extent, hi - lo);
+  }
+  return extent > 0 ? extent : 1.0;
+}
+
+double local_error(const Model& model, const State& start, const State& end, double h, double extent) {
+  double error = 0;
+  for (int i = 0; i < model.frame_count(); ++i) {
+    double dv = 0, dw = 0;
+    for (int k = 0; k < 3; ++k) {
+      const std::size_t t = 6 * static_cast<std::size_t>(i) + k, r = t + 3;
+      if (!model.fixed_dofs[t]) dv += std::pow(end.velocities[t] - start.velocities[t], 2);
+      if (!model.fixed_dofs[r]) dw += std::pow(end.velocities[r] - start.velocities[r], 2);
+    }
+    error = std::max(error, 0.5 * h * (std::sqrt(dv) + extent * std::sqrt(dw)));
+  }
+  return error;
+}
+
+}  // namespace fascia

@@ -1,0 +1,170 @@
+// The adaptive step controller: its rules on their own, the error estimate on free fall (where
+// backward Euler's local error is exactly g h^2 / 2), a sudden prescribed motion resolved by
+// rejected and smaller steps, and a step that cannot converge at min_dt reported with its time.
+#include "integrate/simulation.hpp"
+#include "integrate/step_controller.hpp"
+#include "support/fixtures.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+using namespace fascia;
+
+TEST_CASE("the step controller lands on the target, grows easy steps and shrinks rejected ones", "[integrate][adaptive]") {
+  AdaptiveSettings a;
+  a.enabled = true;
+  a.tolerance = 1e-3;
+  a.min_dt = 1e-4;
+  a.max_dt = 0.6;
+  StepController c(a, 0.3);
+  // 1 s in steps of at most 0.3 s: four equal steps of 0.25 s, no sliver at the end.
+  REQUIRE(c.next_step(0.0, 1.0) == Approx(0.25).epsilon(1e-14));
+  REQUIRE(c.next_step(0.9, 1.0) == Approx(0.1).epsilon(1e-12));
+  // error = tol / 4: factor 0.9 sqrt(4) = 1.8.
+  REQUIRE(c.update(0.3, 0.25e-3));
+  REQUIRE(c.state().dt == Approx(0.54).epsilon(1e-14));
+  // Capped at max_dt.
+  REQUIRE(c.update(0.54, 1e-9));
+  REQUIRE(c.state().dt == 0.6);
+  // error = 4 tol: rejected, factor 0.9 sqrt(1/4) = 0.45.
+  REQUIRE_FALSE(c.update(0.5, 4e-3));
+  REQUIRE(c.state().dt == Approx(0.225).epsilon(1e-14));
+  REQUIRE(c.state().rejected == 1);
+  // The first accepted step after a rejection does not grow, the next one does.
+  REQUIRE(c.update(0.225, 1e-9));
+  REQUIRE(c.state().dt == Approx(0.225).epsilon(1e-14));
+  REQUIRE(c.update(0.225, 1e-9));
+  REQUIRE(c.state().dt == Approx(0.45).epsilon(1e-14));
+  // A failed solve halves the step, down to min_dt; at min_dt there is nothing left to try.
+  REQUIRE(c.failed(0.45));
+  REQUIRE(c.state().dt == Approx(0.225).epsilon(1e-14));
+  REQUIRE(c.failed(2e-4));
+  REQUIRE(c.state().dt == a.min_dt);
+  REQUIRE_FALSE(c.failed(a.min_dt));
+  REQUIRE(c.state().accepted == 4);
+  REQUIRE(c.state().rejected == 4);
+}
+
+TEST_CASE("adaptive backward Euler on free fall settles at the step whose error is the tolerance", "[integrate][adaptive]") {
+  // A free body under gravity with frames as 3-DOF nodes (lumped masses m_i = sum_s w_is rho v_s
+  // carry exactly the weights' share of gravity) falls rigidly: backward Euler gives
+  // v_{n+1} = v_n + h g exactly, so
+  // the estimate (h/2)|v_{n+1} - v_n| = g h^2 / 2 and the accepted steps stay at or below
+  // h* = sqrt(2 tol / g). Once accepted the controller proposes 0.9 sqrt(tol / e) h = 0.9 h*.
+  Model model = fascia::test::small_box_model(CellType::hexahedron, MaterialLaw::stvk, 2, 1, 1);
+  lock_rotations(model);
+  ExternalLoads loads;
+  const double g = 9.81;
+  loads.gravity = Vec3{0, 0, -g};
+  SimulationSettings settings;
+  settings.dt = 0.1;  // far too large: rejected until the error fits
+  settings.newton.tolerance = 1e-10;
+  settings.newton.linear.method = LinearMethod::cholmod;
+  settings.adaptive.enabled = true;
+  settings.adaptive.tolerance = 1e-5;  // m
+  settings.adaptive.min_dt = 1e-7;
+  Simulation sim(model, loads, settings);
+  const double h_star = std::sqrt(2 * settings.adaptive.tolerance / g);
+  const double T = 0.05;
+  const StepReport r = sim.advance_to(T);
+  INFO("accepted " << r.accepted_steps << " rejected " << r.rejected_steps << " last dt " << r.dt);
+  REQUIRE(sim.time() == T);
+  REQUIRE(r.time == T);
+  REQUIRE(r.rejected_steps >= 1);
+  REQUIRE(r.accepted_steps >= static_cast<int>(T / h_star));
+  REQUIRE(r.accepted_steps == sim.steps_taken());
+  REQUIRE(r.dt <= h_star * (1 + 1e-9));
+  REQUIRE(sim.controller()->state().dt == Approx(0.9 * h_star).epsilon(1e-6));
+  // Position error of backward Euler: x_T = g sum h_k t_k = g T^2 / 2 + g sum h_k^2 / 2, so the
+  // drop exceeds g T^2 / 2 by at most tol per accepted step. The Newton tolerance (1e-10 of the
+  // weight) adds nothing visible at this scale.
+  for (int i = 0; i < model.frame_count(); ++i) {
+    const double drop = model.frame_rest_positions[3 * i + 2] - sim.state().positions[3 * i + 2];
+    REQUIRE(drop >= 0.5 * g * T * T * (1 - 1e-9));
+    REQUIRE(drop - 0.5 * g * T * T <= r.accepted_steps * settings.adaptive.tolerance);
+    REQUIRE(sim.state().velocities[6 * i + 2] == Approx(-g * T).epsilon(1e-9));
+  }
+}
+
+namespace {
+
+// A slab clamped at x = 0 whose far end (x = 0.2 m) is pushed towards the clamp at `speed`.
+struct Push {
+  Model model;
+  std::vector<PrescribedMotion> motions;
+};
+
+Push make_push(double speed, double end) {
+  Push p;
+  p.model = fascia::test::small_box_model(CellType::hexahedron, MaterialLaw::neo_hookean, 4, 1, 1);
+  fix_frames(p.model, [](double x, double, double) { return x <= 1e-12; });
+  PrescribedMotion m;
+  for (int i = 0; i < p.model.frame_count(); ++i)
+    if (p.model.frame_rest_positions[3 * i] >= 0.2 - 1e-12) m.frames.push_back(i);
+  m.velocity = Vec3{-speed, 0, 0};
+  m.end = end;
+  p.motions.push_back(m);
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("a sudden push that fails at a fixed dt completes with adaptive steps", "[integrate][adaptive]") {
+  // The end moves 80 mm in 20 ms onto 50 mm cells: a fixed step of 20 ms inverts the last cells.
+  const Push push = make_push(4.0, 0.02);
+  SimulationSettings settings;
+  settings.dt = 0.02;
+  settings.rayleigh_mass = 1.0;
+  {
+    Simulation fixed(push.model, ExternalLoads{}, settings, push.motions);
+    try {
+      fixed.step();
+      FAIL("the fixed step converged");
+    } catch (const SolverError& e) {
+      REQUIRE_THAT(e.what(), Catch::Contains("t = 0.02 s") && Catch::Contains("likely cause") &&
+                                 Catch::Contains("inverts"));
+    }
+    REQUIRE(fixed.steps_taken() == 0);
+  }
+  settings.adaptive.enabled = true;
+  settings.adaptive.tolerance = 1e-3;
+  settings.adaptive.min_dt = 1e-6;
+  Simulation sim(push.model, ExternalLoads{}, settings, push.motions);
+  int rejected = 0, accepted = 0;
+  for (int k = 1; k <= 5; ++k) {
+    const StepReport r = sim.advance_to(k * settings.dt);
+    REQUIRE(r.converged);
+    REQUIRE(r.time == k * settings.dt);  // the rows land on the requested times
+    rejected += r.rejected_steps;
+    accepted += r.accepted_steps;
+  }
+  REQUIRE(rejected >= 1);
+  REQUIRE(accepted > 5);
+  // The pushed frames reached the end of their path.
+  REQUIRE(sim.state().positions[3 * push.motions[0].frames[0]] == Approx(0.2 - 0.08).epsilon(1e-12));
+}
+
+TEST_CASE("a step that cannot converge at min_dt stops with its time, step and residual", "[integrate][adaptive]") {
+  // 10 km/s: even the smallest step (10 us) moves the end by 0.1 m, two cells.
+  const Push push = make_push(1e4, 1.0);
+  SimulationSettings settings;
+  settings.dt = 1e-3;
+  settings.adaptive.enabled = true;
+  settings.adaptive.tolerance = 1e-3;
+  settings.adaptive.min_dt = 1e-5;
+  Simulation sim(push.model, ExternalLoads{}, settings, push.motions);
+  const State before = sim.state();
+  try {
+    sim.advance_to(1e-3);
+    FAIL("the step converged");
+  } catch (const SolverError& e) {
+    REQUIRE_THAT(e.what(), Catch::Contains("step 1 (t = 0 s") && Catch::Contains("minimum step 1e-05 s") &&
+                               Catch::Contains("relative residual") && Catch::Contains("likely cause"));
+  }
+  REQUIRE(sim.steps_taken() == 0);
+  REQUIRE(sim.time() == 0);
+  REQUIRE(sim.state().positions == before.positions);
+  // 1e-3 s halved seven times, then min_dt: eight attempts, all rejected.
+  REQUIRE(sim.controller()->state().rejected == 8);
+}
