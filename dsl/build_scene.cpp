@@ -1,7 +1,10 @@
 #include "dsl/build_scene.hpp"
 
 #include "discretise/mesh_based.hpp"
+#include "discretise/label_image.hpp"
+#include "discretise/level_set.hpp"
 #include "discretise/meshless.hpp"
+#include "discretise/voxel_domain.hpp"
 #include "discretise/surface_mesh.hpp"
 #include "shape/meshless_shape.hpp"
 #include "io/boundary_surface.hpp"
@@ -292,10 +295,7 @@ bool make_mesh_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& bu
   return true;
 }
 
-bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& budget, Diagnostics& diagnostics) {
-  const ObjectSpec& o = *part.spec;
-  if (!read_transformed_surface(o, part.surface, budget, diagnostics)) return false;
-  const MeshlessSpec& ml = *o.meshless;
+MeshlessOptions meshless_options(const MeshlessSpec& ml) {
   MeshlessOptions options;
   options.frame_spacing = ml.frame_spacing.value;
   options.sample_spacing = ml.sample_spacing.value;
@@ -303,6 +303,87 @@ bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget
   options.shape.neighbours = ml.neighbours.value;
   options.seed = static_cast<std::uint64_t>(ml.seed.value);
   options.thin_parts = ml.thin_parts.value == "stop" ? ThinParts::stop : ThinParts::repair;
+  return options;
+}
+
+// A meshless tissue from the voxels of a label image: their level set on the lattice of spacing
+// sample_spacing / 2, the model's volume scaled to voxel count x voxel volume, the boundary
+// surface extracted from the level set.
+bool make_image_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& budget, Diagnostics& diagnostics) {
+  const ObjectSpec& o = *part.spec;
+  const MeshlessSpec& ml = *o.meshless;
+  const MeshlessOptions options = meshless_options(ml);
+  if (!(options.sample_spacing < options.frame_spacing)) {
+    diagnostics.error(ml.sample_spacing.where, "sample_spacing must be smaller than frame_spacing");
+    return false;
+  }
+  LabelImage image;
+  try {
+    image = read_label_image(o.image->value);
+  } catch (const LabelImageError& e) {
+    diagnostics.error(o.image->where, std::string("image: ") + e.what(),
+                      e.kind() == LabelImageError::Kind::missing_input ? ExitCode::missing_input : ExitCode::bad_data);
+    return false;
+  }
+  const std::vector<int>& labels = o.label->value;
+  for (int l : labels) {
+    if (image.count({l}) > 0) continue;
+    const std::vector<int> present = image.present();
+    std::string list;
+    for (std::size_t k = 0; k < present.size() && k < 20; ++k) list += (k ? ", " : "") + std::to_string(present[k]);
+    if (present.size() > 20) list += ", ... (" + std::to_string(present.size()) + " labels)";
+    diagnostics.error(o.label->where, "label " + std::to_string(l) + " is absent from '" + o.image->value +
+                                          "' (labels present: " + list + ")");
+    return false;
+  }
+  // The object's transform, composed with the image's index-to-world map.
+  const Vec3d o0 = o.transform.apply({image.origin.x, image.origin.y, image.origin.z});
+  Mat3 edges = image.index_to_world;
+  for (int c = 0; c < 3; ++c) {
+    const Vec3d e = o.transform.apply({image.origin.x + image.index_to_world.m[0][c],
+                                       image.origin.y + image.index_to_world.m[1][c],
+                                       image.origin.z + image.index_to_world.m[2][c]});
+    for (int r = 0; r < 3; ++r) edges.m[r][c] = e[static_cast<std::size_t>(r)] - o0[static_cast<std::size_t>(r)];
+  }
+  image.index_to_world = edges;
+  image.origin = to_vec3(o0);
+  const double reference_volume = static_cast<double>(image.count(labels)) * image.voxel_volume();
+  MeshlessBuild result;
+  try {
+    const LevelSet level_set = LevelSet::from_labels(image, labels, options.sample_spacing / 2);
+    part.surface = level_set.surface();
+    const ObjectEstimate estimate = estimate_meshless(part.surface, options);
+    if (!budget.admit(o, estimate,
+                      "about " + count_text(estimate.samples) + " samples (sample_spacing " +
+                          metres(options.sample_spacing) + ") and " + count_text(estimate.frames) +
+                          " frames (frame_spacing " + metres(options.frame_spacing) + ")",
+                      ml.sample_spacing.where, diagnostics))
+      return false;
+    result = build_meshless_model(VoxelDomain(level_set), reference_volume, scene_material(scene, o), options);
+  } catch (const std::exception& e) {
+    diagnostics.error(ml.frame_spacing.where, "cannot discretise '" + o.name + "': " + e.what());
+    return false;
+  }
+  part.part = std::move(result.model);
+  if (o.lock_rotations) lock_rotations(part.part);
+  part.meshless = true;
+  part.shape = options.shape;
+  std::string label_text;
+  for (std::size_t k = 0; k < labels.size(); ++k) label_text += (k ? ", " : "") + std::to_string(labels[k]);
+  part.discretisation = "meshless (" + ml.shape.value + ") from label " + label_text + " of a " +
+                        std::to_string(image.size[0]) + " x " + std::to_string(image.size[1]) + " x " +
+                        std::to_string(image.size[2]) + " image, " + std::to_string(part.surface.triangle_count()) +
+                        " boundary triangles, " + std::to_string(result.statistics.added_frames) +
+                        " frames added in thin parts";
+  part.statistics = result.statistics;
+  return true;
+}
+
+bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& budget, Diagnostics& diagnostics) {
+  const ObjectSpec& o = *part.spec;
+  if (!read_transformed_surface(o, part.surface, budget, diagnostics)) return false;
+  const MeshlessSpec& ml = *o.meshless;
+  MeshlessOptions options = meshless_options(ml);
   if (!(options.sample_spacing < options.frame_spacing)) {
     diagnostics.error(ml.sample_spacing.where, "sample_spacing must be smaller than frame_spacing");
     return false;
@@ -443,6 +524,7 @@ BuiltScene build_scene(const SceneSpec& scene, const ResourceLimits& limits) {
     part.spec = &o;
     if (o.kind.value == "tissue") {
       if (o.surface) make_meshless_tissue(scene, part, budget, diagnostics);
+      else if (o.image) make_image_tissue(scene, part, budget, diagnostics);
       else make_mesh_tissue(scene, part, budget, diagnostics);
     } else if (o.kind.value == "shell") {
       if (!read_transformed_surface(o, part.surface, budget, diagnostics)) continue;

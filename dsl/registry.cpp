@@ -195,6 +195,11 @@ ParamSpec build_registry() {
                   with_default(enumeration("elements", {"hex", "tet"}, "hexahedra, or each split in 6 tetrahedra"),
                                "hex")}),
           leaf("surface", ParamType::path, "closed surface mesh: meshless tissue, shell or rigid body"),
+          leaf("image", ParamType::path,
+               "label image, meshless tissue: NIfTI-1/2 (.nii, .nii.gz) or NRRD (.nrrd, .seg.nrrd), placed by its "
+               "own spacing, origin and orientation (RAS+ world axes, the file's millimetres read as metres x 1e-3)"),
+          leaf("label", ParamType::integer_list,
+               "with image: the label of the voxels that form the object, or a list of labels (their union)"),
           object("discretisation", "how the object is turned into frames and samples",
                  {with_default(below(above(leaf("quadrature", ParamType::integer,
                                                 "samples per element: tet 1 or 4, hex 1, 8 or 27 (0 = tet 4, hex 8)"),

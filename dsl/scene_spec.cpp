@@ -163,6 +163,12 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
       if (o.has("material")) spec.material = located_str(o.at("material"));
       if (o.has("mesh")) spec.mesh = located_str(o.at("mesh"));
       if (o.has("surface")) spec.surface = located_str(o.at("surface"));
+      if (o.has("image")) spec.image = located_str(o.at("image"));
+      if (const Value* label = o.find("label")) {
+        Located<std::vector<int>> labels{{}, label->where};
+        for (const Value& item : label->items) labels.value.push_back(static_cast<int>(item.integer));
+        spec.label = labels;
+      }
       if (const Value* box = o.find("box")) {
         BoxSpec b;
         b.min = located(box->at("min").vec3(), box->at("min"));
@@ -200,13 +206,24 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
       if (o.has("fixed")) spec.fixed = Located<bool>{o.flag("fixed"), o.at("fixed").where};
 
       // Which geometry: exactly one source per object.
-      const int sources = (spec.mesh ? 1 : 0) + (spec.box ? 1 : 0) + (spec.surface ? 1 : 0);
+      const int sources = (spec.mesh ? 1 : 0) + (spec.box ? 1 : 0) + (spec.surface ? 1 : 0) + (spec.image ? 1 : 0);
       if (partial) {
         // skip: geometry keys may have been dropped by validation errors
       } else if (sources == 0 && spec.kind.value == "tissue") {
-        diagnostics.error(o.where, "object '" + name + "' has no geometry: give one of mesh, box or surface");
+        diagnostics.error(o.where, "object '" + name + "' has no geometry: give one of mesh, box, surface or image");
       } else if (sources > 1) {
-        diagnostics.error(o.where, "object '" + name + "' has several geometries: give only one of mesh, box, surface");
+        diagnostics.error(o.where, "object '" + name + "' has several geometries: give only one of mesh, box, surface, image");
+      }
+      if (partial) {
+      } else if (spec.image && !spec.label) {
+        diagnostics.error(spec.image->where, "object '" + name + "' from a label image needs 'label': the label "
+                                                                 "(or list of labels) of the voxels that form it");
+      } else if (spec.label && !spec.image) {
+        diagnostics.error(spec.label->where, "'label' selects voxels of a label image: object '" + name +
+                                                 "' needs 'image' too");
+      } else if (spec.image && spec.kind.value != "tissue") {
+        diagnostics.error(spec.image->where, "a label image gives the geometry of tissues only; '" + name + "' is a " +
+                                                 spec.kind.value);
       }
       if (partial) {
       } else if (spec.kind.value == "tissue") {
@@ -215,6 +232,10 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
           diagnostics.error(spec.surface->where, "tissue '" + name +
                                                      "' from a surface needs discretisation.meshless settings "
                                                      "(frame_spacing, sample_spacing)");
+        if (spec.image && !spec.meshless)
+          diagnostics.error(spec.image->where, "tissue '" + name +
+                                                   "' from a label image needs discretisation.meshless settings "
+                                                   "(frame_spacing, sample_spacing)");
       } else if (spec.kind.value == "shell") {
         if (!spec.surface) diagnostics.error(o.where, "shell '" + name + "' needs a surface");
         if (!spec.thickness) diagnostics.error(o.where, "shell '" + name + "' needs a thickness");

@@ -75,6 +75,8 @@ struct ObjectSpec {
   std::optional<Located<std::string>> mesh;     // resolved path of a volume mesh
   std::optional<BoxSpec> box;
   std::optional<Located<std::string>> surface;  // resolved path of a surface mesh
+  std::optional<Located<std::string>> image;    // resolved path of a label image
+  std::optional<Located<std::vector<int>>> label;  // labels of the image forming the object
   Located<int> quadrature;
   std::optional<MeshlessSpec> meshless;
   TransformSpec transform;

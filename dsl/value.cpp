@@ -319,27 +319,35 @@ struct Validator {
       case ParamType::integer_list:
       case ParamType::string_list: {
         const bool integers = spec.type == ParamType::integer_list;
-        if (!node.is_sequence() || (spec.length && static_cast<int>(node.items.size()) != spec.length)) {
-          diagnostics.error(node.where, what + ": expected " + spec.expected() + ", got " +
-                                            (node.is_sequence() ? "a list of " + std::to_string(node.items.size())
-                                                                : node.describe()));
+        // A single integer where any number of them is allowed is a list of one (label: 3).
+        SourceNode one;
+        if (integers && !spec.length && node.is_scalar()) {
+          one.kind = SourceNode::Kind::sequence;
+          one.where = node.where;
+          one.items = {node};
+        }
+        const SourceNode& list = one.is_sequence() ? one : node;
+        if (!list.is_sequence() || (spec.length && static_cast<int>(list.items.size()) != spec.length)) {
+          diagnostics.error(list.where, what + ": expected " + spec.expected() + ", got " +
+                                            (list.is_sequence() ? "a list of " + std::to_string(list.items.size())
+                                                                : list.describe()));
           return std::nullopt;
         }
         v.kind = Value::Kind::list;
         bool ok = true;
-        for (std::size_t i = 0; i < node.items.size(); ++i) {
-          Value item = scalar_value(node.items[i], spec);
+        for (std::size_t i = 0; i < list.items.size(); ++i) {
+          Value item = scalar_value(list.items[i], spec);
           const std::string item_what = what + "[" + std::to_string(i) + "]";
           if (integers) {
             item.kind = Value::Kind::integer;
-            ok = read_integer(node.items[i], spec, item_what, item.integer) && ok;
+            ok = read_integer(list.items[i], spec, item_what, item.integer) && ok;
           } else {
             item.kind = Value::Kind::string;
-            if (!node.items[i].is_scalar()) {
-              diagnostics.error(node.items[i].where, item_what + ": expected a name, got " + node.items[i].describe());
+            if (!list.items[i].is_scalar()) {
+              diagnostics.error(list.items[i].where, item_what + ": expected a name, got " + list.items[i].describe());
               ok = false;
             }
-            item.text = node.items[i].text;
+            item.text = list.items[i].text;
           }
           v.items.push_back(item);
         }

@@ -74,16 +74,28 @@ MeshlessBuild build_meshless_model(const SurfaceMesh& surface, const Material& m
     const SurfaceDefects defects = check_surface(surface);
     if (!defects.ok()) throw std::invalid_argument("meshless: the surface cannot bound a volume:\n" + defects.describe());
   }
-  MeshlessBuild build;
-  MeshlessStatistics& st = build.statistics;
-  st.voxel_size = h;
-  st.surface_volume = std::abs(surface_volume(surface));
-
   auto t0 = std::chrono::steady_clock::now();
   const VoxelDomain domain(surface, h);
-  st.seconds_voxelise = seconds_since(t0);
+  const double seconds_voxelise = seconds_since(t0);
+  MeshlessBuild build = build_meshless_model(domain, std::abs(surface_volume(surface)), material, options);
+  build.statistics.seconds_voxelise = seconds_voxelise;
+  build.statistics.seconds_total = seconds_since(t_start);
+  return build;
+}
 
-  t0 = std::chrono::steady_clock::now();
+MeshlessBuild build_meshless_model(const VoxelDomain& domain, double reference_volume, const Material& material,
+                                   const MeshlessOptions& options) {
+  const auto t_start = std::chrono::steady_clock::now();
+  const double rf = options.frame_spacing, rs = options.sample_spacing;
+  if (!(rs > 0) || !(rf > rs))
+    throw std::invalid_argument("meshless: need 0 < sample_spacing < frame_spacing");
+  if (!(reference_volume > 0)) throw std::invalid_argument("meshless: the reference volume must be positive");
+  MeshlessBuild build;
+  MeshlessStatistics& st = build.statistics;
+  st.voxel_size = domain.voxel_size();
+  st.surface_volume = reference_volume;
+
+  auto t0 = std::chrono::steady_clock::now();
   std::vector<double> frames = poisson_disk_sample(domain, PoissonDiskOptions{rf, options.seed, 30});
   st.seconds_frames = seconds_since(t0);
   t0 = std::chrono::steady_clock::now();

@@ -80,4 +80,11 @@ struct MeshlessBuild {
 // that cannot be resolved.
 MeshlessBuild build_meshless_model(const SurfaceMesh& surface, const Material& material, const MeshlessOptions& options);
 
+class VoxelDomain;
+// The same on a voxelised domain (a label image, a region derived from other objects): the
+// domain's voxel size replaces options.voxel_size, and reference_volume (m^3, > 0) the
+// surface's enclosed volume in volume_error and normalise_volumes.
+MeshlessBuild build_meshless_model(const VoxelDomain& domain, double reference_volume, const Material& material,
+                                   const MeshlessOptions& options);
+
 }  // namespace fascia

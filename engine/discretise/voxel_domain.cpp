@@ -1,12 +1,11 @@
 #include "discretise/voxel_domain.hpp"
 
+#include "discretise/level_set_grid.hpp"
+
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Interpolation.h>
-#include <openvdb/tools/MeshToVolume.h>
 
 #include <algorithm>
-#include <mutex>
-#include <sstream>
 #include <stdexcept>
 
 namespace fascia {
@@ -25,11 +24,6 @@ struct VoxelDomain::Probe::Impl {
 
 namespace {
 
-void initialise_openvdb() {
-  static std::once_flag once;
-  std::call_once(once, [] { openvdb::initialize(); });
-}
-
 // Trilinear interpolation of the grid at world point x (voxel centres at h * index).
 template <class Accessor>
 double interpolate(const Accessor& acc, const Vec3& x, double inverse_h) {
@@ -39,30 +33,12 @@ double interpolate(const Accessor& acc, const Vec3& x, double inverse_h) {
 
 }  // namespace
 
-VoxelDomain::VoxelDomain(const SurfaceMesh& surface, double voxel_size, int half_width) : m_impl(new Impl) {
-  if (!(voxel_size > 0)) throw std::invalid_argument("voxel size must be positive");
-  if (surface.triangle_count() == 0) throw std::invalid_argument("cannot voxelise an empty surface");
-  initialise_openvdb();
-  std::vector<openvdb::Vec3s> points(surface.vertex_count());
-  for (int v = 0; v < surface.vertex_count(); ++v)
-    points[v] = openvdb::Vec3s(static_cast<float>(surface.vertices[3 * v]), static_cast<float>(surface.vertices[3 * v + 1]),
-                               static_cast<float>(surface.vertices[3 * v + 2]));
-  std::vector<openvdb::Vec3I> triangles(surface.triangle_count());
-  for (int t = 0; t < surface.triangle_count(); ++t)
-    triangles[t] = openvdb::Vec3I(surface.triangles[3 * t], surface.triangles[3 * t + 1], surface.triangles[3 * t + 2]);
-  try {
-    const openvdb::math::Transform::Ptr xform = openvdb::math::Transform::createLinearTransform(voxel_size);
-    m_impl->grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, points, triangles,
-                                                                      static_cast<float>(std::max(half_width, 2)));
-  } catch (const openvdb::ArithmeticError&) {
-    // OpenVDB's linear transforms refuse scales whose cube is near zero (below about 2e-5 m).
-    std::ostringstream message;
-    message << "a voxel size of " << voxel_size
-            << " m is below the smallest that OpenVDB's transforms accept (about 2e-5 m; the voxel size is half the "
-               "sample spacing): this object is too small for a meshless discretisation at this spacing";
-    throw std::invalid_argument(message.str());
-  }
-  m_impl->h = voxel_size;
+VoxelDomain::VoxelDomain(const SurfaceMesh& surface, double voxel_size, int half_width)
+    : VoxelDomain(LevelSet::from_surface(surface, voxel_size, half_width)) {}
+
+VoxelDomain::VoxelDomain(const LevelSet& level_set) : m_impl(new Impl) {
+  m_impl->grid = level_set.impl().grid;  // shared, never modified
+  m_impl->h = level_set.voxel_size();
   m_impl->box = m_impl->grid->evalActiveVoxelBoundingBox();
 }
 

@@ -7,6 +7,7 @@
 #pragma once
 
 #include "core/small_math.hpp"
+#include "discretise/level_set.hpp"
 #include "discretise/surface_mesh.hpp"
 
 #include <memory>
@@ -25,6 +26,8 @@ class VoxelDomain {
   // @param voxel_size h, m. @param half_width narrow band half width in voxels (>= 2).
   // Throws std::invalid_argument when the mesh is empty or h <= 0.
   VoxelDomain(const SurfaceMesh& surface, double voxel_size, int half_width = 3);
+  // Any level set (a label image's, a derived region's).
+  explicit VoxelDomain(const LevelSet& level_set);
   ~VoxelDomain();
   VoxelDomain(VoxelDomain&&) noexcept;
   VoxelDomain& operator=(VoxelDomain&&) noexcept;

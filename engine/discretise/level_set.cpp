@@ -1,0 +1,159 @@
+#include "discretise/level_set.hpp"
+
+#include "discretise/level_set_grid.hpp"
+
+#include <openvdb/tools/LevelSetMeasure.h>
+#include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/VolumeToMesh.h>
+
+#include <algorithm>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+
+namespace fascia {
+
+void initialise_openvdb() {
+  static std::once_flag once;
+  std::call_once(once, [] { openvdb::initialize(); });
+}
+
+namespace {
+
+// The world lattice's transform. OpenVDB's linear transforms refuse scales whose cube is near
+// zero (below about 2e-5 m).
+openvdb::math::Transform::Ptr lattice_transform(double voxel_size) {
+  try {
+    return openvdb::math::Transform::createLinearTransform(voxel_size);
+  } catch (const openvdb::ArithmeticError&) {
+    std::ostringstream message;
+    message << "a voxel size of " << voxel_size
+            << " m is below the smallest that OpenVDB's transforms accept (about 2e-5 m; the voxel size is half the "
+               "sample spacing): this object is too small for a meshless discretisation at this spacing";
+    throw std::invalid_argument(message.str());
+  }
+}
+
+}  // namespace
+
+LevelSet::LevelSet(std::unique_ptr<Impl> impl) : m_impl(std::move(impl)) {}
+LevelSet::~LevelSet() = default;
+LevelSet::LevelSet(LevelSet&&) noexcept = default;
+LevelSet& LevelSet::operator=(LevelSet&&) noexcept = default;
+
+double LevelSet::voxel_size() const { return m_impl->h; }
+double LevelSet::band() const { return m_impl->grid->background(); }
+
+LevelSet LevelSet::from_labels(const LabelImage& image, const std::vector<int>& labels, double voxel_size,
+                               int half_width) {
+  if (!(voxel_size > 0)) throw std::invalid_argument("voxel size must be positive");
+  if (labels.empty()) throw std::invalid_argument("no label selected");
+  initialise_openvdb();
+  const long long nx = image.size[0], ny = image.size[1], nz = image.size[2];
+  const int lo = *std::min_element(labels.begin(), labels.end()), hi = *std::max_element(labels.begin(), labels.end());
+  std::vector<unsigned char> wanted(static_cast<std::size_t>(static_cast<long long>(hi) - lo + 1), 0);
+  for (int l : labels) wanted[static_cast<std::size_t>(static_cast<long long>(l) - lo)] = 1;
+  auto selected = [&](long long i, long long j, long long k) {
+    if (i < 0 || j < 0 || k < 0 || i >= nx || j >= ny || k >= nz) return false;
+    const std::int32_t v = image.labels[static_cast<std::size_t>(i + nx * (j + ny * k))];
+    return v >= lo && v <= hi && wanted[static_cast<std::size_t>(static_cast<long long>(v) - lo)] != 0;
+  };
+  // Image index point (voxel centres at integers, faces at half-integers) to the index space of
+  // the world lattice (world position / h), which meshToVolume expects.
+  const double inverse_h = 1 / voxel_size;
+  auto world = [&](double i, double j, double k) {
+    const Vec3 x = inverse_h * (image.index_to_world * Vec3{i, j, k} + image.origin);
+    return openvdb::Vec3s(static_cast<float>(x.x), static_cast<float>(x.y), static_cast<float>(x.z));
+  };
+  // The faces between a selected voxel and an unselected one (or the image's edge), one slice of
+  // k per task: the exact boundary of the union of the selected voxels.
+  std::vector<std::vector<openvdb::Vec3s>> slice_points(static_cast<std::size_t>(nz));
+  long long count = 0;
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : count)
+  for (long long k = 0; k < nz; ++k) {
+    std::vector<openvdb::Vec3s>& out = slice_points[static_cast<std::size_t>(k)];
+    for (long long j = 0; j < ny; ++j)
+      for (long long i = 0; i < nx; ++i) {
+        if (!selected(i, j, k)) continue;
+        ++count;
+        const double x0 = i - 0.5, x1 = i + 0.5, y0 = j - 0.5, y1 = j + 0.5, z0 = k - 0.5, z1 = k + 0.5;
+        if (!selected(i - 1, j, k)) out.insert(out.end(), {world(x0, y0, z0), world(x0, y0, z1), world(x0, y1, z1), world(x0, y1, z0)});
+        if (!selected(i + 1, j, k)) out.insert(out.end(), {world(x1, y0, z0), world(x1, y1, z0), world(x1, y1, z1), world(x1, y0, z1)});
+        if (!selected(i, j - 1, k)) out.insert(out.end(), {world(x0, y0, z0), world(x1, y0, z0), world(x1, y0, z1), world(x0, y0, z1)});
+        if (!selected(i, j + 1, k)) out.insert(out.end(), {world(x0, y1, z0), world(x0, y1, z1), world(x1, y1, z1), world(x1, y1, z0)});
+        if (!selected(i, j, k - 1)) out.insert(out.end(), {world(x0, y0, z0), world(x0, y1, z0), world(x1, y1, z0), world(x1, y0, z0)});
+        if (!selected(i, j, k + 1)) out.insert(out.end(), {world(x0, y0, z1), world(x1, y0, z1), world(x1, y1, z1), world(x0, y1, z1)});
+      }
+  }
+  if (count == 0) throw std::invalid_argument("no voxel holds the selected labels");
+  std::size_t total = 0;
+  for (const auto& s : slice_points) total += s.size();
+  std::vector<openvdb::Vec3s> points;
+  points.reserve(total);
+  for (auto& s : slice_points) {
+    points.insert(points.end(), s.begin(), s.end());
+    std::vector<openvdb::Vec3s>().swap(s);
+  }
+  std::vector<openvdb::Vec4I> quads(points.size() / 4);
+  for (std::size_t q = 0; q < quads.size(); ++q) {
+    const auto v = static_cast<openvdb::Index32>(4 * q);
+    quads[q] = openvdb::Vec4I(v, v + 1, v + 2, v + 3);
+  }
+  // Exact distances to the faces on the world lattice; the sign comes from a flood fill, so face
+  // orientation and the edges where two voxels touch are harmless.
+  const openvdb::math::Transform::Ptr xform = lattice_transform(voxel_size);
+  openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec4I> mesh(points, quads);
+  const float width = static_cast<float>(std::max(half_width, 2));
+  auto impl = std::make_unique<Impl>();
+  impl->grid = openvdb::tools::meshToVolume<openvdb::FloatGrid>(mesh, *xform, width, width);
+  impl->h = voxel_size;
+  return LevelSet(std::move(impl));
+}
+
+LevelSet LevelSet::from_surface(const SurfaceMesh& surface, double voxel_size, int half_width) {
+  if (!(voxel_size > 0)) throw std::invalid_argument("voxel size must be positive");
+  if (surface.triangle_count() == 0) throw std::invalid_argument("cannot voxelise an empty surface");
+  initialise_openvdb();
+  std::vector<openvdb::Vec3s> points(static_cast<std::size_t>(surface.vertex_count()));
+  for (std::size_t v = 0; v < points.size(); ++v)
+    points[v] = openvdb::Vec3s(static_cast<float>(surface.vertices[3 * v]), static_cast<float>(surface.vertices[3 * v + 1]),
+                               static_cast<float>(surface.vertices[3 * v + 2]));
+  std::vector<openvdb::Vec3I> triangles(static_cast<std::size_t>(surface.triangle_count()));
+  for (std::size_t t = 0; t < triangles.size(); ++t)
+    triangles[t] = openvdb::Vec3I(static_cast<unsigned>(surface.triangles[3 * t]),
+                                  static_cast<unsigned>(surface.triangles[3 * t + 1]),
+                                  static_cast<unsigned>(surface.triangles[3 * t + 2]));
+  const openvdb::math::Transform::Ptr xform = lattice_transform(voxel_size);
+  auto impl = std::make_unique<Impl>();
+  impl->grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, points, triangles,
+                                                                  static_cast<float>(std::max(half_width, 2)));
+  impl->h = voxel_size;
+  return LevelSet(std::move(impl));
+}
+
+double LevelSet::volume() const { return openvdb::tools::levelSetVolume(*m_impl->grid, true); }
+
+SurfaceMesh LevelSet::surface() const {
+  std::vector<openvdb::Vec3s> points;
+  std::vector<openvdb::Vec3I> triangles;
+  std::vector<openvdb::Vec4I> quads;
+  openvdb::tools::volumeToMesh(*m_impl->grid, points, triangles, quads, 0.0, 0.0);
+  SurfaceMesh mesh;
+  mesh.vertices.reserve(3 * points.size());
+  for (const openvdb::Vec3s& p : points) mesh.vertices.insert(mesh.vertices.end(), {p.x(), p.y(), p.z()});
+  // OpenVDB orders polygons clockwise seen from outside; reversed here to the outward
+  // (counter-clockwise) orientation used by surface_volume().
+  for (const openvdb::Vec3I& t : triangles)
+    mesh.triangles.insert(mesh.triangles.end(), {static_cast<int>(t[2]), static_cast<int>(t[1]), static_cast<int>(t[0])});
+  auto length2 = [&](unsigned a, unsigned b) { return (points[a] - points[b]).lengthSqr(); };
+  for (const openvdb::Vec4I& q : quads) {
+    const int a = static_cast<int>(q[0]), b = static_cast<int>(q[1]), c = static_cast<int>(q[2]), d = static_cast<int>(q[3]);
+    if (length2(q[0], q[2]) <= length2(q[1], q[3]))
+      mesh.triangles.insert(mesh.triangles.end(), {c, b, a, d, c, a});
+    else
+      mesh.triangles.insert(mesh.triangles.end(), {d, b, a, d, c, b});
+  }
+  return mesh;
+}
+
+}  // namespace fascia

@@ -1,0 +1,58 @@
+// Narrow-band signed distance fields on an axis-aligned lattice of spacing h (voxel centres at
+// h * index, world axes, metres; negative inside), held by OpenVDB: the geometric domain that
+// VoxelDomain answers inside tests and voxel coverage from.
+//
+// Built straight from a label image: the object is the union of the image's voxels that hold
+// one of its labels (oblique, anisotropic voxels placed by the image's affine map), and OpenVDB
+// computes exact distances to its boundary, the faces between a selected voxel and an unselected
+// one, on the world lattice (tools::meshToVolume with those faces as quads). No surface is
+// reconstructed or smoothed: the domain holds exactly the voxels' volume (count times voxel
+// volume), up to the sub-voxel rounding of the lattice of spacing h.
+//
+// OpenVDB stays behind this interface (pimpl); level_set_grid.hpp exposes the grid to the
+// discretisation's own sources.
+#pragma once
+
+#include "core/small_math.hpp"
+#include "discretise/label_image.hpp"
+#include "discretise/surface_mesh.hpp"
+
+#include <memory>
+#include <vector>
+
+namespace fascia {
+
+class LevelSet {
+ public:
+  struct Impl;
+
+  // The union of the voxels of `image` holding one of `labels`, on the lattice of spacing
+  // voxel_size (m), with exact distances within half_width lattice voxels of the surface (>= 2).
+  // Throws std::invalid_argument when no voxel holds one of the labels or voxel_size <= 0.
+  static LevelSet from_labels(const LabelImage& image, const std::vector<int>& labels, double voxel_size,
+                              int half_width = 3);
+  // The inside of a closed surface (tools::meshToLevelSet, sign by flood fill).
+  static LevelSet from_surface(const SurfaceMesh& surface, double voxel_size, int half_width = 3);
+
+  explicit LevelSet(std::unique_ptr<Impl> impl);
+  ~LevelSet();
+  LevelSet(LevelSet&&) noexcept;
+  LevelSet& operator=(LevelSet&&) noexcept;
+
+  double voxel_size() const;
+  // Half width of the band of exact distances, m.
+  double band() const;
+  // Enclosed volume of the zero level set, m^3 (OpenVDB's tools::levelSetVolume, from the
+  // polygonised surface).
+  double volume() const;
+  // The zero level set as a closed triangle surface (tools::volumeToMesh, quads split along
+  // their shorter diagonal), m: the boundary of the object for output and couplings.
+  SurfaceMesh surface() const;
+
+  const Impl& impl() const { return *m_impl; }
+
+ private:
+  std::unique_ptr<Impl> m_impl;
+};
+
+}  // namespace fascia
