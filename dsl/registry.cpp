@@ -59,7 +59,7 @@ std::string ParamSpec::expected() const {
     case ParamType::vector3: return "three values [x, y, z] of " + (unit == dim::none ? std::string("numbers") : q);
     case ParamType::vector3_pair: return "two corners [[x, y, z], [x, y, z]] of " + q;
     case ParamType::integer_list:
-      return length ? "a list of " + std::to_string(length) + " integers" : "a list of integers";
+      return length ? "a list of " + std::to_string(length) + " integers" : "an integer or a list of integers";
     case ParamType::string_list: return length ? "a list of " + std::to_string(length) + " names" : "a list of names";
     case ParamType::path: return "a file path";
   }

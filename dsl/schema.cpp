@@ -87,9 +87,11 @@ json schema_of(const ParamSpec& spec) {
         as_list["minItems"] = spec.length;
         as_list["maxItems"] = spec.length;
       }
-      // include/extends also take one path.
+      // include/extends also take one path, and lists of any length of integers one integer.
       if (spec.name == "include" || spec.name == "extends")
         s = {{"anyOf", json::array({as_list, json{{"type", "string"}}})}};
+      else if (spec.type == ParamType::integer_list && !spec.length)
+        s = {{"anyOf", json::array({as_list, item})}};
       else
         s = as_list;
       break;
