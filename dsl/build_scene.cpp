@@ -379,6 +379,72 @@ bool make_image_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& b
   return true;
 }
 
+// A meshless tissue filling the space within `within` of two organs' rest surfaces, outside
+// both (LevelSet::between on the lattice of spacing sample_spacing / 2).
+bool make_between_tissue(const SceneSpec& scene, std::vector<ObjectPart>& parts, ObjectPart& part, MemoryBudget& budget,
+                         Diagnostics& diagnostics) {
+  const ObjectSpec& o = *part.spec;
+  const MeshlessSpec& ml = *o.meshless;
+  const MeshlessOptions options = meshless_options(ml);
+  if (!(options.sample_spacing < options.frame_spacing)) {
+    diagnostics.error(ml.sample_spacing.where, "sample_spacing must be smaller than frame_spacing");
+    return false;
+  }
+  const double h = options.sample_spacing / 2, within = o.within->value;
+  const int band = static_cast<int>(std::ceil(within / h)) + 3;
+  std::vector<LevelSet> organs;
+  for (const Located<std::string>& name : o.between) {
+    const ObjectPart* organ = nullptr;
+    for (const ObjectPart& p : parts)
+      if (p.spec->name == name.value) organ = &p;
+    if (organ == nullptr || organ == &part) {
+      diagnostics.error(name.where, organ ? "a tissue cannot lie between itself and another object"
+                                          : "unknown object '" + name.value + "' in between");
+      return false;
+    }
+    if (!organ->spec->between.empty() || organ->spec->kind.value == "shell") {
+      diagnostics.error(name.where, "'" + name.value + "' is " +
+                                        (organ->spec->kind.value == "shell" ? std::string("a shell, whose surface encloses no volume")
+                                                                            : std::string("itself a tissue between organs")) +
+                                        "; 'between' takes tissues or rigid bodies");
+      return false;
+    }
+    try {
+      organs.push_back(LevelSet::from_surface(organ->surface, h, band));
+    } catch (const std::exception& e) {
+      diagnostics.error(name.where, "cannot voxelise '" + name.value + "': " + e.what());
+      return false;
+    }
+  }
+  MeshlessBuild result;
+  try {
+    const LevelSet level_set = LevelSet::between(organs[0], organs[1], within);
+    part.surface = level_set.surface();
+    const ObjectEstimate estimate = estimate_meshless(part.surface, options);
+    if (!budget.admit(o, estimate,
+                      "about " + count_text(estimate.samples) + " samples (sample_spacing " +
+                          metres(options.sample_spacing) + ") and " + count_text(estimate.frames) +
+                          " frames (frame_spacing " + metres(options.frame_spacing) + ")",
+                      ml.sample_spacing.where, diagnostics))
+      return false;
+    const VoxelDomain domain(level_set);
+    result = build_meshless_model(domain, domain.volume(), scene_material(scene, o), options);
+  } catch (const std::exception& e) {
+    diagnostics.error(o.within->where, "cannot build the tissue between '" + o.between[0].value + "' and '" +
+                                           o.between[1].value + "': " + e.what());
+    return false;
+  }
+  part.part = std::move(result.model);
+  if (o.lock_rotations) lock_rotations(part.part);
+  part.meshless = true;
+  part.shape = options.shape;
+  part.discretisation = "meshless (" + ml.shape.value + ") between '" + o.between[0].value + "' and '" +
+                        o.between[1].value + "' within " + metres(within) + ", " +
+                        std::to_string(part.surface.triangle_count()) + " boundary triangles";
+  part.statistics = result.statistics;
+  return true;
+}
+
 bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& budget, Diagnostics& diagnostics) {
   const ObjectSpec& o = *part.spec;
   if (!read_transformed_surface(o, part.surface, budget, diagnostics)) return false;
@@ -525,6 +591,7 @@ BuiltScene build_scene(const SceneSpec& scene, const ResourceLimits& limits) {
     if (o.kind.value == "tissue") {
       if (o.surface) make_meshless_tissue(scene, part, budget, diagnostics);
       else if (o.image) make_image_tissue(scene, part, budget, diagnostics);
+      else if (!o.between.empty()) continue;  // built from its organs below
       else make_mesh_tissue(scene, part, budget, diagnostics);
     } else if (o.kind.value == "shell") {
       if (!read_transformed_surface(o, part.surface, budget, diagnostics)) continue;
@@ -540,6 +607,9 @@ BuiltScene build_scene(const SceneSpec& scene, const ResourceLimits& limits) {
       part.discretisation = "rigid, " + std::to_string(part.surface.triangle_count()) + " triangles";
     }
   }
+  if (!diagnostics.empty()) throw SceneError(diagnostics);
+  for (ObjectPart& part : parts)
+    if (!part.spec->between.empty()) make_between_tissue(scene, parts, part, budget, diagnostics);
   if (!diagnostics.empty()) throw SceneError(diagnostics);
 
   const bool single = parts.size() == 1 && scene.objects[0].kind.value == "tissue" && scene.couplings.empty();
@@ -564,6 +634,27 @@ BuiltScene build_scene(const SceneSpec& scene, const ResourceLimits& limits) {
         }
       } catch (const std::exception& e) {
         diagnostics.error(o.where, "cannot build '" + o.name + "': " + e.what());
+      }
+    }
+    if (!diagnostics.empty()) throw SceneError(diagnostics);
+    // A tissue between two organs is bound to each: its frames within frame_spacing of an organ's
+    // rest surface are shared with it (attached to it when rigid).
+    for (const ObjectPart& part : parts) {
+      const ObjectSpec& o = *part.spec;
+      if (o.between.empty()) continue;
+      const double within = o.meshless->frame_spacing.value;
+      for (const Located<std::string>& organ : o.between) {
+        const int it = builder.find(o.name), io = builder.find(organ.value);
+        const bool rigid = scene.object(organ.value)->kind.value == "rigid";
+        try {
+          const int n = rigid ? builder.attach(it, io, within) : builder.share(it, io, within);
+          built.couplings.push_back(CouplingReport{rigid ? "attach" : "share", o.name, organ.value, n, within, organ.where});
+          if (n == 0)
+            diagnostics.error(organ.where, "no frame of '" + o.name + "' lies within frame_spacing " + metres(within) +
+                                               " of '" + organ.value + "': use a smaller frame_spacing");
+        } catch (const std::invalid_argument& e) {
+          diagnostics.error(organ.where, e.what());
+        }
       }
     }
     if (!diagnostics.empty()) throw SceneError(diagnostics);

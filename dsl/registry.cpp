@@ -180,6 +180,11 @@ ParamSpec build_registry() {
   ParamSpec cells = above(leaf("cells", ParamType::integer_list, "number of cells along x, y, z"), 1, false);
   cells.length = 3;
   cells.default_value = "[1, 1, 1]";
+  ParamSpec between = leaf("between", ParamType::string_list,
+                           "[a, b]: meshless tissue filling the space within 'within' of both organs' rest "
+                           "surfaces, outside both; its frames near each organ are shared with it (attached to a "
+                           "rigid body)");
+  between.length = 2;
   ParamSpec obj = object(
       "object", "a simulated object",
       {
@@ -200,6 +205,8 @@ ParamSpec build_registry() {
                "own spacing, origin and orientation (RAS+ world axes, the file's millimetres read as metres x 1e-3)"),
           leaf("label", ParamType::integer_list,
                "with image: the label of the voxels that form the object, or a list of labels (their union)"),
+          between,
+          above(quantity("within", dim::length, "with between: the largest distance from each organ"), 0),
           object("discretisation", "how the object is turned into frames and samples",
                  {with_default(below(above(leaf("quadrature", ParamType::integer,
                                                 "samples per element: tet 1 or 4, hex 1, 8 or 27 (0 = tet 4, hex 8)"),

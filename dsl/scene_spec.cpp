@@ -164,6 +164,9 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
       if (o.has("mesh")) spec.mesh = located_str(o.at("mesh"));
       if (o.has("surface")) spec.surface = located_str(o.at("surface"));
       if (o.has("image")) spec.image = located_str(o.at("image"));
+      if (const Value* between = o.find("between"))
+        for (const Value& b : between->items) spec.between.push_back(located_str(b));
+      if (o.has("within")) spec.within = located_num(o.at("within"));
       if (const Value* label = o.find("label")) {
         Located<std::vector<int>> labels{{}, label->where};
         for (const Value& item : label->items) labels.value.push_back(static_cast<int>(item.integer));
@@ -206,13 +209,14 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
       if (o.has("fixed")) spec.fixed = Located<bool>{o.flag("fixed"), o.at("fixed").where};
 
       // Which geometry: exactly one source per object.
-      const int sources = (spec.mesh ? 1 : 0) + (spec.box ? 1 : 0) + (spec.surface ? 1 : 0) + (spec.image ? 1 : 0);
+      const int sources = (spec.mesh ? 1 : 0) + (spec.box ? 1 : 0) + (spec.surface ? 1 : 0) + (spec.image ? 1 : 0) +
+                          (spec.between.empty() ? 0 : 1);
       if (partial) {
         // skip: geometry keys may have been dropped by validation errors
       } else if (sources == 0 && spec.kind.value == "tissue") {
-        diagnostics.error(o.where, "object '" + name + "' has no geometry: give one of mesh, box, surface or image");
+        diagnostics.error(o.where, "object '" + name + "' has no geometry: give one of mesh, box, surface, image or between");
       } else if (sources > 1) {
-        diagnostics.error(o.where, "object '" + name + "' has several geometries: give only one of mesh, box, surface, image");
+        diagnostics.error(o.where, "object '" + name + "' has several geometries: give only one of mesh, box, surface, image, between");
       }
       if (partial) {
       } else if (spec.image && !spec.label) {
@@ -221,6 +225,14 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
       } else if (spec.label && !spec.image) {
         diagnostics.error(spec.label->where, "'label' selects voxels of a label image: object '" + name +
                                                  "' needs 'image' too");
+      } else if (!spec.between.empty() && !spec.within) {
+        diagnostics.error(spec.between.front().where, "object '" + name + "' between two organs needs 'within': the "
+                                                                          "largest distance from each");
+      } else if (spec.within && spec.between.empty()) {
+        diagnostics.error(spec.within->where, "'within' is the distance of a tissue between two organs: object '" +
+                                                  name + "' needs 'between' too");
+      } else if (!spec.between.empty() && spec.kind.value != "tissue") {
+        diagnostics.error(spec.between.front().where, "'between' makes a tissue; '" + name + "' is a " + spec.kind.value);
       } else if (spec.image && spec.kind.value != "tissue") {
         diagnostics.error(spec.image->where, "a label image gives the geometry of tissues only; '" + name + "' is a " +
                                                  spec.kind.value);
@@ -232,6 +244,10 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
           diagnostics.error(spec.surface->where, "tissue '" + name +
                                                      "' from a surface needs discretisation.meshless settings "
                                                      "(frame_spacing, sample_spacing)");
+        if (!spec.between.empty() && !spec.meshless)
+          diagnostics.error(spec.between.front().where, "tissue '" + name +
+                                                            "' between two organs needs discretisation.meshless "
+                                                            "settings (frame_spacing, sample_spacing)");
         if (spec.image && !spec.meshless)
           diagnostics.error(spec.image->where, "tissue '" + name +
                                                    "' from a label image needs discretisation.meshless settings "

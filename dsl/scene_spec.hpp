@@ -77,6 +77,8 @@ struct ObjectSpec {
   std::optional<Located<std::string>> surface;  // resolved path of a surface mesh
   std::optional<Located<std::string>> image;    // resolved path of a label image
   std::optional<Located<std::vector<int>>> label;  // labels of the image forming the object
+  std::vector<Located<std::string>> between;  // two organs bounding a connective tissue
+  std::optional<Located<double>> within;        // with between, m
   Located<int> quadrature;
   std::optional<MeshlessSpec> meshless;
   TransformSpec transform;

@@ -131,6 +131,43 @@ LevelSet LevelSet::from_surface(const SurfaceMesh& surface, double voxel_size, i
   return LevelSet(std::move(impl));
 }
 
+LevelSet LevelSet::between(const LevelSet& a, const LevelSet& b, double within) {
+  const double h = a.voxel_size();
+  if (std::abs(b.voxel_size() - h) > 1e-12 * h) throw std::invalid_argument("between: the organs' voxel sizes differ");
+  if (!(within > 0)) throw std::invalid_argument("between: the distance must be positive");
+  if (a.band() < within + 2 * h || b.band() < within + 2 * h)
+    throw std::invalid_argument("between: the organs' level sets are narrower than the distance");
+  const float d = static_cast<float>(within), background = static_cast<float>(3 * h);
+  const openvdb::FloatGrid& ga = *a.m_impl->grid;
+  const openvdb::FloatGrid& gb = *b.m_impl->grid;
+  // Candidates: the overlap of the two active boxes (each covers its organ dilated by its band).
+  openvdb::CoordBBox box = ga.evalActiveVoxelBoundingBox();
+  box.intersect(gb.evalActiveVoxelBoundingBox());
+  auto impl = std::make_unique<Impl>();
+  impl->h = h;
+  impl->grid = openvdb::FloatGrid::create(background);
+  impl->grid->setTransform(lattice_transform(h));
+  impl->grid->setGridClass(openvdb::GRID_LEVEL_SET);
+  long long inside = 0;
+  if (!box.empty()) {
+    auto acc_a = ga.getConstAccessor();
+    auto acc_b = gb.getConstAccessor();
+    auto out = impl->grid->getAccessor();
+    for (int x = box.min().x(); x <= box.max().x(); ++x)
+      for (int y = box.min().y(); y <= box.max().y(); ++y)
+        for (int z = box.min().z(); z <= box.max().z(); ++z) {
+          const openvdb::Coord c(x, y, z);
+          const float pa = acc_a.getValue(c), pb = acc_b.getValue(c);
+          const float phi = std::max({pa - d, pb - d, -pa, -pb});
+          if (phi >= background) continue;
+          out.setValue(c, std::max(phi, -background));
+          if (phi < 0) ++inside;
+        }
+  }
+  if (inside == 0) throw std::invalid_argument("between: no point lies within the distance of both organs outside them");
+  return LevelSet(std::move(impl));
+}
+
 double LevelSet::volume() const { return openvdb::tools::levelSetVolume(*m_impl->grid, true); }
 
 SurfaceMesh LevelSet::surface() const {

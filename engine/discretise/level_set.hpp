@@ -34,6 +34,14 @@ class LevelSet {
   // The inside of a closed surface (tools::meshToLevelSet, sign by flood fill).
   static LevelSet from_surface(const SurfaceMesh& surface, double voxel_size, int half_width = 3);
 
+  // Connective tissue between two organs (paper §4.2): the points within `within` (m) of both a
+  // and b and inside neither, phi = max(phi_a - d, phi_b - d, -phi_a, -phi_b) (level-set CSG:
+  // intersection of the dilated organs minus the organs). a and b share the voxel size and have
+  // bands wider than within + 2 h. The result is a distance bound, exact away from its creases,
+  // stored densely over its bounding box with a band of 3 voxels. Throws std::invalid_argument
+  // on mismatched inputs or when the region is empty.
+  static LevelSet between(const LevelSet& a, const LevelSet& b, double within);
+
   explicit LevelSet(std::unique_ptr<Impl> impl);
   ~LevelSet();
   LevelSet(LevelSet&&) noexcept;
