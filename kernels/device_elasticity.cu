@@ -1,5 +1,6 @@
 #include "device_buffers.cuh"
 #include "device_elasticity.hpp"
+#include "device_vector.cuh"
 #include "elasticity_kernels.cuh"
 #include "group_kernels.cuh"
 #include "group_layout.hpp"
@@ -74,6 +75,11 @@ struct DeviceElasticity::Impl {
   virtual double prepare() = 0;
   virtual void apply_tangent(const double* d, double* out) = 0;
   virtual void diagonal_blocks(double* blocks) = 0;
+  virtual void* stream() const = 0;
+  virtual void set_state_on_device(const double* positions, const double* orientations) = 0;
+  virtual double gradient_on_device(double* g) = 0;
+  virtual void apply_tangent_on_device(const double* d, double* out) = 0;
+  virtual const double* diagonal_blocks_on_device() const = 0;
   virtual double time_tangent_ms(int repeats) = 0;
   virtual double tangent_bytes() const = 0;
   virtual KernelResources tangent_kernel_resources() const = 0;
@@ -326,6 +332,27 @@ class System final : public DeviceElasticity::Impl {
     FASCIA_CUDA(cudaStreamSynchronize(m_stream));
     m_diag.download(blocks);
   }
+
+  void* stream() const override { return m_stream; }
+
+  void set_state_on_device(const double* positions, const double* orientations) override {
+    convert_async(positions, m_positions.data(), 3LL * m_n, m_stream);
+    convert_async(orientations, m_orientations.data(), 4LL * m_n, m_stream);
+  }
+
+  double gradient_on_device(double* g) override {
+    enqueue_gradient_pass(true);
+    convert_async(m_grad.data(), g, 6LL * m_n, m_stream);
+    return read_scalars().energy;
+  }
+
+  void apply_tangent_on_device(const double* d, double* out) override {
+    convert_async(d, m_d.data(), 6LL * m_n, m_stream);
+    enqueue_tangent(m_d.data(), m_out.data(), FrameTermsFlags{0.0, false}, false);
+    convert_async(m_out.data(), out, 6LL * m_n, m_stream);
+  }
+
+  const double* diagonal_blocks_on_device() const override { return m_diag.data(); }
 
   double time_tangent_ms(int repeats) override {
     std::vector<double> d(6 * static_cast<size_t>(m_n));
@@ -926,6 +953,13 @@ double DeviceElasticity::gradient(double* g) { return m_impl->gradient(g); }
 double DeviceElasticity::prepare() { return m_impl->prepare(); }
 void DeviceElasticity::apply_tangent(const double* d, double* out) { m_impl->apply_tangent(d, out); }
 void DeviceElasticity::tangent_diagonal_blocks(double* blocks) { m_impl->diagonal_blocks(blocks); }
+void* DeviceElasticity::stream() const { return m_impl->stream(); }
+void DeviceElasticity::set_state_on_device(const double* positions, const double* orientations) {
+  m_impl->set_state_on_device(positions, orientations);
+}
+double DeviceElasticity::gradient_on_device(double* gradient) { return m_impl->gradient_on_device(gradient); }
+void DeviceElasticity::apply_tangent_on_device(const double* d, double* out) { m_impl->apply_tangent_on_device(d, out); }
+const double* DeviceElasticity::diagonal_blocks_on_device() const { return m_impl->diagonal_blocks_on_device(); }
 bool DeviceElasticity::group_samples() const { return m_impl->grouped; }
 const std::string& DeviceElasticity::group_samples_refusal() const { return m_impl->grouped_refusal; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }

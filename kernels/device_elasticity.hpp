@@ -79,6 +79,17 @@ class DeviceElasticity {
   // K_ii [N][36] row-major, as Elasticity::tangent_diagonal_blocks.
   void tangent_diagonal_blocks(double* blocks);
 
+  // The same on device memory, for the device-resident step (device_potential.hpp): every
+  // pointer is a device array of doubles, the work is enqueued in order on stream() (a
+  // cudaStream_t). set_state_on_device copies positions [N][3] and orientations [N][4];
+  // gradient_on_device writes [N][6] and returns the energy (one scalar read); out = K d
+  // [N][6]; the diagonal blocks K_ii [N][36] are those of the last prepare().
+  void* stream() const;
+  void set_state_on_device(const double* positions, const double* orientations);
+  double gradient_on_device(double* gradient);
+  void apply_tangent_on_device(const double* d, double* out);
+  const double* diagonal_blocks_on_device() const;
+
   // Whether the launched tangent product runs the grouped pass (mesh-based models whose samples
   // share their frames in groups: group_layout.hpp), and why not where it does not.
   bool group_samples() const;

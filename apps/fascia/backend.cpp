@@ -2,6 +2,7 @@
 
 #if FASCIA_WITH_CUDA
 #include "cuda_elasticity.hpp"
+#include "cuda_step.hpp"
 #endif
 
 #include <iostream>
@@ -11,9 +12,9 @@ namespace fascia::app {
 void add_backend_options(CLI::App& command, BackendOptions& options) {
   command
       .add_option("--backend", options.backend,
-                  "cpu | cuda: where the volumetric elasticity is evaluated (cuda: the elastic forces and tangent "
-                  "products of the samples on the GPU; Newton, linear solves, loads, shells and rigid bodies stay on "
-                  "the CPU; exit 69 without a usable device)")
+                  "cpu | cuda (run: the whole step on the GPU for scenes without shells, stiffness damping or "
+                  "cholmod; otherwise, and in study, the volumetric elasticity on the GPU behind the CPU "
+                  "solver; exit 69 without a usable device)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
   command
       .add_option("--precision", options.precision,
@@ -39,6 +40,7 @@ int resolve_backend(const char* command, const BackendOptions& options, Backend&
   gpu::DeviceOptions device;
   device.precision = options.precision == "single" ? gpu::Precision::single_precision : gpu::Precision::double_precision;
   backend.elasticity = gpu::cuda_elasticity_factory(device);
+  backend.step = gpu::cuda_step_factory(device);
   backend.provenance = {{"backend", "cuda"}, {"gpu", info.name}, {"precision", options.precision}};
   backend.description = "cuda (" + info.name + ", " + options.precision + ")";
   return kOk;

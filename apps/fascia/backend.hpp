@@ -1,11 +1,12 @@
-// `--backend cpu|cuda` and `--precision double|single` of `fascia run` and `fascia study`: which
-// implementation evaluates the volumetric elasticity (engine/mechanics/volumetric_elasticity.hpp).
-// With cuda, the CUDA kernels (kernels/cuda_elasticity.hpp) evaluate the volumetric energy,
-// forces and tangent products; Newton, the linear solves, loads, shells and rigid bodies stay on
-// the CPU (docs/gpu.md).
+// `--backend cpu|cuda` and `--precision double|single` of `fascia run` and `fascia study`. With
+// cuda, `fascia run` runs the whole step on the device (kernels/cuda_step.hpp) where that covers
+// the scene; elsewhere, and in `fascia study`, the CUDA kernels (kernels/cuda_elasticity.hpp)
+// evaluate the volumetric energy, forces and tangent products behind the CPU engine's Newton
+// solver (docs/gpu.md).
 #pragma once
 
 #include "commands.hpp"
+#include "integrate/step_backend.hpp"
 #include "mechanics/volumetric_elasticity.hpp"
 
 #include <nlohmann/json.hpp>
@@ -24,6 +25,7 @@ void add_backend_options(CLI::App& command, BackendOptions& options);
 
 struct Backend {
   ElasticityFactory elasticity;  // empty for cpu
+  StepBackendFactory step;       // cuda: the whole step on the device where it covers the scene
   nlohmann::json provenance;     // {"backend", and for cuda "gpu", "precision"}
   std::string description;       // for logs: "cpu" or "cuda (NVIDIA H200, double)"
 };

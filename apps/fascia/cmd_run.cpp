@@ -262,6 +262,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   if (!scene) return code;
   dsl::BuiltScene& built = scene->built;
   built.settings.elasticity = backend.elasticity;
+  built.settings.step_backend = backend.step;
   if (options.threads >= 0) built.settings.threads = options.threads;
 
   const std::string output = output_path(options.request, scene->spec);
@@ -279,6 +280,13 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   const auto wall_start = std::chrono::steady_clock::now();
   const int steps = options.max_steps > 0 ? std::min(options.max_steps, built.steps) : built.steps;
   Simulation simulation(built.model, built.loads, built.settings, built.motions);
+  if (log && backend.step) {
+    if (simulation.on_step_backend())
+      std::cerr << "fascia: the whole step runs on the device\n";
+    else
+      std::cerr << "fascia: the step runs on the CPU with the volumetric elasticity on the device: "
+                << simulation.step_backend_refusal() << "\n";
+  }
   StepRecorder recorder(built, out_spec.samples);
   TrajectoryLayout layout = recorder.layout();
   // Rows to preallocate: the initial state, every output step, and one written on a signal. All

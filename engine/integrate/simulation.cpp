@@ -41,11 +41,26 @@ double kinetic_energy(const Model& model, const State& state) {
 
 struct Simulation::Impl {
   Impl(const Model& model, const ExternalLoads& loads, const SimulationSettings& settings)
-      : potential(model, loads, settings.threads, settings.elasticity) {}
-  StepPotential potential;
+      : backend(make_backend(model, loads, settings, refusal)),
+        potential(model, loads, settings.threads, backend ? ElasticityFactory{} : settings.elasticity) {}
+  static std::unique_ptr<StepBackend> make_backend(const Model& model, const ExternalLoads& loads,
+                                                   const SimulationSettings& settings, std::string& why) {
+    if (!settings.step_backend) return nullptr;
+    if (settings.integrator == Integrator::variational) {
+      why = "the variational integrator runs on the CPU engine";
+      return nullptr;
+    }
+    return settings.step_backend(model, loads, settings, why);
+  }
+  std::string refusal;                   // why the step backend does not run the steps
+  std::unique_ptr<StepBackend> backend;  // null: the CPU engine (StepPotential) solves
+  StepPotential potential;  // the CPU engine; with a backend, prescribed motions and rigid sync only
   std::unique_ptr<VariationalStep> variational;
   LinearSolver linear;  // keeps its factorisation from one step to the next
 };
+
+bool Simulation::on_step_backend() const { return m_impl->backend != nullptr; }
+const std::string& Simulation::step_backend_refusal() const { return m_impl->refusal; }
 
 Simulation::Simulation(Model model, ExternalLoads loads, SimulationSettings settings,
                        std::vector<PrescribedMotion> motions)
@@ -122,9 +137,12 @@ Simulation::Attempt Simulation::attempt(double h, State& trial) {
   apply_motions(m_model, m_motions, m_time + h, trial);
   potential.rigid_mapping().sync(trial);
   Attempt a;
+  StepBackend* backend = m_impl->backend.get();
   a.newton = variational ? m_impl->variational->advance(m_state, trial, m_settings.newton, reference, &m_impl->linear)
+             : backend   ? backend->backward_euler(m_state, trial, h, m_settings.rayleigh_mass, m_settings.newton, reference)
                          : minimise(potential, trial, m_settings.newton, reference, &m_impl->linear);
-  if (!variational && a.newton.converged) {  // the variational step sets its velocities from the momenta
+  // The variational step sets its velocities from the momenta, the backend from its increments.
+  if (!variational && !backend && a.newton.converged) {
     std::vector<double> delta;
     potential.increments(trial, delta);
     for (size_t k = 0; k < delta.size(); ++k) trial.velocities[k] = delta[k] / h;
@@ -137,7 +155,8 @@ bool Simulation::finish(StepReport& report, int step, double time, std::chrono::
   report.step = step;
   report.time = time;
   report.converged = true;
-  report.elastic_energy = m_impl->potential.elastic_energy(m_state);
+  report.elastic_energy =
+      m_impl->backend ? m_impl->backend->elastic_energy(m_state) : m_impl->potential.elastic_energy(m_state);
   report.kinetic_energy = kinetic_energy(m_model, m_state);
   report.external_potential = load_potential(m_model, m_loads, m_state);
   report.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -191,10 +210,14 @@ StepReport Simulation::step() {
     LoadStepping stepping;
     stepping.initial_steps = m_settings.load_steps;
     stepping.max_halvings = m_settings.max_load_halvings;
-    const NewtonResult r = minimise_load_stepping(potential, trial, m_settings.newton, stepping, [&](double factor) {
+    const std::function<double(double)> set_load_factor = [&](double factor) {
       loads.scale = factor;
       return load_force_norm(m_model, loads);
-    }, &m_impl->linear);
+    };
+    const NewtonResult r =
+        m_impl->backend
+            ? m_impl->backend->equilibrium(trial, m_settings.newton, stepping, set_load_factor)
+            : minimise_load_stepping(potential, trial, m_settings.newton, stepping, set_load_factor, &m_impl->linear);
     loads.scale = 1.0;
     report.newton_iterations = r.iterations;
     report.cg_iterations = r.cg_iterations;

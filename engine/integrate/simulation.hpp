@@ -3,6 +3,7 @@
 #pragma once
 
 #include "integrate/prescribed_motion.hpp"
+#include "integrate/step_backend.hpp"
 #include "integrate/step_controller.hpp"
 #include "mechanics/external_loads.hpp"
 #include "mechanics/volumetric_elasticity.hpp"
@@ -38,6 +39,9 @@ struct SimulationSettings {
   // Backend of the volumetric elasticity (mechanics/volumetric_elasticity.hpp); empty: the CPU
   // Elasticity. kernels/cuda_elasticity.hpp makes the CUDA one.
   ElasticityFactory elasticity;
+  // Backend of the whole step (step_backend.hpp); empty, or where it does not cover the model:
+  // the CPU engine (with `elasticity`). kernels/cuda_step.hpp makes the CUDA one.
+  StepBackendFactory step_backend;
 };
 
 struct StepReport {
@@ -86,6 +90,9 @@ class Simulation {
   State& state() { return m_state; }
   const ExternalLoads& loads() const { return m_loads; }
   const SimulationSettings& settings() const { return m_settings; }
+  // Whether the steps run on the settings' step backend, and why not where one was given.
+  bool on_step_backend() const;
+  const std::string& step_backend_refusal() const;
   double time() const { return m_time; }
   int steps_taken() const { return m_step; }
 

@@ -2,21 +2,13 @@
 
 #include "core/rotation.hpp"
 #include "mechanics/assembled_tangent.hpp"
+#include "mechanics/frame_inertia.hpp"
 #include "mechanics/shell.hpp"
 
 #include <cmath>
 #include <omp.h>
 
 namespace fascia {
-
-Mat3 inverse_left_jacobian(const Vec3& phi) {
-  const double t = norm(phi);
-  // Coefficient of [phi]x^2: 1/t^2 - (1 + cos t) / (2 t sin t); its Taylor series 1/12 + t^2/720
-  // below t = 1e-3, where the closed form loses about 10 digits to cancellation.
-  const double c = t < 1e-3 ? 1.0 / 12.0 + t * t / 720.0 : 1.0 / (t * t) - (1 + std::cos(t)) / (2 * t * std::sin(t));
-  const Mat3 K = skew(phi);
-  return identity3() - 0.5 * K + c * (K * K);
-}
 
 StepPotential::StepPotential(const Model& model, const ExternalLoads& loads, int threads,
                              const ElasticityFactory& elasticity)
@@ -84,28 +76,18 @@ double StepPotential::inertia_value(const State& state, std::vector<double>* gra
     m_start_elasticity->apply_tangent(delta.data(), kd.data());
   }
   double value = 0;
+  const Vec3 zero{0, 0, 0};
   for (int i = 0; i < n; ++i) {
-    const double m = m_model.frame_masses[i];
-    const Mat3 I = load_mat3(&m_world_inertia[9 * i]);
-    const Vec3 dx = load3(&delta[6 * i]), phi = load3(&delta[6 * i + 3]);
-    const Vec3 vx = load3(&m_start.velocities[6 * i]), w = load3(&m_start.velocities[6 * i + 3]);
-    const Vec3 ex = dx - h * vx, er = phi - h * w;
-    // 1/(2h^2) |Delta - h v|^2_M
-    value += 0.5 / (h * h) * (m * dot(ex, ex) + dot(er, I * er));
-    // 1/(2h) Delta^T (alpha M + beta K_n) Delta
-    Vec3 gx = (1 / (h * h)) * (m * ex) + (m_alpha / h) * (m * dx);
-    Vec3 gr = (1 / (h * h)) * (I * er) + (m_alpha / h) * (I * phi);
-    value += 0.5 * m_alpha / h * (m * dot(dx, dx) + dot(phi, I * phi));
-    if (m_beta > 0) {
-      value += 0.5 * m_beta / h * (dot(dx, load3(&kd[6 * i])) + dot(phi, load3(&kd[6 * i + 3])));
-      gx += (m_beta / h) * load3(&kd[6 * i]);
-      gr += (m_beta / h) * load3(&kd[6 * i + 3]);
-    }
+    const FrameIncrement d{load3(&delta[6 * i]), load3(&delta[6 * i + 3])};
+    const FrameInertiaTerm t = frame_inertia_term(
+        m_model.frame_masses[i], load_mat3(&m_world_inertia[9 * i]), d, load3(&m_start.velocities[6 * i]),
+        load3(&m_start.velocities[6 * i + 3]), h, m_alpha, m_beta, m_beta > 0 ? load3(&kd[6 * i]) : zero,
+        m_beta > 0 ? load3(&kd[6 * i + 3]) : zero);
+    value += t.value;
     if (gradient) {
-      const Vec3 grr = transpose(inverse_left_jacobian(phi)) * gr;
       double* g = gradient->data() + 6 * i;
-      g[0] += gx.x, g[1] += gx.y, g[2] += gx.z;
-      if (!m_model.rotations_locked) g[3] += grr.x, g[4] += grr.y, g[5] += grr.z;
+      g[0] += t.gx.x, g[1] += t.gx.y, g[2] += t.gx.z;
+      if (!m_model.rotations_locked) g[3] += t.gr.x, g[4] += t.gr.y, g[5] += t.gr.z;
     }
   }
   return value;

@@ -27,6 +27,7 @@
 #include "mechanics/elasticity.hpp"
 #include "mechanics/external_loads.hpp"
 #include "mechanics/force_field.hpp"
+#include "mechanics/frame_inertia.hpp"
 #include "mechanics/rigid_mapping.hpp"
 #include "mechanics/volumetric_elasticity.hpp"
 #include "solve/newton.hpp"
@@ -91,8 +92,5 @@ class StepPotential : public Potential {
   std::vector<double> m_expanded;     // d with mapped frames filled in
   std::vector<double> m_frame_diagonal;  // [N][10] translational t_i and rotational Q_i of the system
 };
-
-// J_l^{-1}(phi), the inverse left Jacobian of SO(3) (Barfoot, State Estimation, eq. 7.77a).
-Mat3 inverse_left_jacobian(const Vec3& phi);
 
 }  // namespace fascia

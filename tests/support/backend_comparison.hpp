@@ -26,12 +26,15 @@ inline double max_abs(const std::vector<double>& v) {
 
 // Runs `steps` steps of the scene on both backends and checks every step. Returns the largest
 // ratio of a measured difference to its bound (printed per step).
+// `other_settings` are the settings of the backend under test (its elasticity and step backend);
+// the CPU run uses `settings` with neither.
 inline double check_backends_agree(const char* label, const Model& model, const ExternalLoads& loads,
-                                   const SimulationSettings& settings, const ElasticityFactory& backend, int steps) {
-  SimulationSettings cpu_settings = settings, other_settings = settings;
+                                   const SimulationSettings& settings, const SimulationSettings& other_settings,
+                                   int steps, const std::vector<PrescribedMotion>& motions = {}) {
+  SimulationSettings cpu_settings = settings;
   cpu_settings.elasticity = {};
-  other_settings.elasticity = backend;
-  Simulation cpu(model, loads, cpu_settings), other(model, loads, other_settings);
+  cpu_settings.step_backend = {};
+  Simulation cpu(model, loads, cpu_settings, motions), other(model, loads, other_settings, motions);
   StepPotential probe(cpu.model(), cpu.loads(), settings.threads);
   const bool dynamic = settings.integrator == Integrator::backward_euler;
   double worst = 0;
@@ -66,6 +69,13 @@ inline double check_backends_agree(const char* label, const Model& model, const 
     worst = std::max({worst, d.position / bound_x, d.rotation / bound_r, dynamic ? d.velocity / bound_v : 0.0});
   }
   return worst;
+}
+
+inline double check_backends_agree(const char* label, const Model& model, const ExternalLoads& loads,
+                                   const SimulationSettings& settings, const ElasticityFactory& backend, int steps) {
+  SimulationSettings other_settings = settings;
+  other_settings.elasticity = backend;
+  return check_backends_agree(label, model, loads, settings, other_settings, steps);
 }
 
 }  // namespace fascia::test

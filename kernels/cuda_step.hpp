@@ -1,0 +1,20 @@
+// The CUDA step backend (engine/integrate/step_backend.hpp): `fascia run --backend cuda` with the
+// whole step on the device. Each solve uploads the start state once (positions, orientations,
+// velocities: 13 N doubles), runs Newton, the line search and the PCG over device vectors
+// (device_newton.hpp) on the device potential (device_potential.hpp), and reads the result back
+// once; inside, only the scalars that steer the iterations cross the bus.
+//
+// Covered: the static and backward-Euler integrators with cg or pcg on models without shells or
+// stiffness-proportional damping (rigid bodies and their attached frames included). Elsewhere the factory returns null with the
+// reason, and Simulation runs the CPU engine with the volumetric elasticity on the device
+// (cuda_elasticity.hpp).
+#pragma once
+
+#include "device_elasticity.hpp"
+#include "integrate/step_backend.hpp"
+
+namespace fascia::gpu {
+
+StepBackendFactory cuda_step_factory(const DeviceOptions& options = {});
+
+}  // namespace fascia::gpu

@@ -1,0 +1,429 @@
+#include "device_potential.hpp"
+
+#include "device_buffers.cuh"
+#include "device_rigid.hpp"
+#include "device_vector.cuh"
+#include "mechanics/frame_inertia.hpp"
+#include "mechanics/frame_loads.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace fascia::gpu {
+namespace {
+
+// Per-frame kernels use one thread per frame in a grid that strides over the frames.
+constexpr int kFrameThreads = 128;
+int frame_grid(int n) { return std::max(1, std::min((n + kFrameThreads - 1) / kFrameThreads, 65535)); }
+
+__device__ Mat3 load_mat3_d(const double* p) { return load_mat3(p); }
+
+// The frame terms of the step potential besides the elasticity: loads at factor `scale` and, with
+// `start_x` non-null, inertia and mass damping (frame_inertia_term). Adds the gradient to g where
+// g is non-null; block b of the fixed reduction grid writes its frames' value sum to partials[b].
+struct FrameTerms {
+  int n;
+  bool locked;  // rotations locked: no rotational inertia gradient (those DOFs are fixed)
+  const double* f;        // [N][3] loads at factor 1
+  const double* C;        // [N][9]
+  double scale;
+  const double* start_x;  // [N][3], null: static
+  const double* start_q;  // [N][4]
+  const double* start_v;  // [N][6]
+  const double* masses;   // [N]
+  const double* inertia;  // [N][9] world inertia at the step start
+  double h, alpha;
+};
+
+__global__ void k_frame_terms(FrameTerms t, const double* x, const double* q, double* g, double* partials) {
+  __shared__ double shared[1][kReduceThreads];
+  double sum[1] = {0.0};
+  for (int i = blockIdx.x * kReduceThreads + threadIdx.x; i < t.n; i += kReduceBlocks * kReduceThreads) {
+    const Vec3 xi = load3(x + 3 * i);
+    const Quat qi = load_quat(q + 4 * i);
+    const Mat3 R = rotation_matrix(qi);
+    const Vec3 f = load3(t.f + 3 * i);
+    const Mat3 C = load_mat3_d(t.C + 9 * i);
+    sum[0] += frame_load_value(f, C, xi, R, t.scale);
+    Vec3 gx, gr;
+    frame_load_gradient(f, C, R, t.scale, gx, gr);
+    if (t.start_x) {
+      const Vec3 zero{0, 0, 0};
+      const FrameIncrement d = frame_increment(xi, qi, load3(t.start_x + 3 * i), load_quat(t.start_q + 4 * i));
+      const FrameInertiaTerm in =
+          frame_inertia_term(t.masses[i], load_mat3_d(t.inertia + 9 * i), d, load3(t.start_v + 6 * i),
+                             load3(t.start_v + 6 * i + 3), t.h, t.alpha, 0.0, zero, zero);
+      sum[0] += in.value;
+      gx += in.gx;
+      if (!t.locked) gr += in.gr;
+    }
+    if (g) {
+      double* gi = g + 6 * i;
+      gi[0] += gx.x, gi[1] += gx.y, gi[2] += gx.z;
+      gi[3] += gr.x, gi[4] += gr.y, gi[5] += gr.z;
+    }
+  }
+  block_sum<1>(sum, shared);
+  if (threadIdx.x == 0) partials[blockIdx.x] = sum[0];
+}
+
+// The frame diagonal of the Hessian besides the elasticity, [N][10]: the translational scalar t_i
+// and the rotational block Q_i (inertia (1 + alpha h)/h^2 [m I3, I] when dynamic, plus the loads'
+// rotational block).
+__global__ void k_frame_diagonal(FrameTerms t, const double* q, double* diag) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= t.n) return;
+  const Mat3 R = rotation_matrix(load_quat(q + 4 * i));
+  Mat3 Q = frame_load_rotational_block(load_mat3_d(t.C + 9 * i), R, t.scale);
+  double tr = 0;
+  if (t.start_x) {
+    const double c = frame_inertia_scale(t.h, t.alpha);
+    tr = c * t.masses[i];
+    Q += c * load_mat3_d(t.inertia + 9 * i);
+  }
+  double* e = diag + 10 * i;
+  e[0] = tr;
+  store_mat3(e + 1, Q);
+}
+
+// out_i += [t_i d_x, Q_i d_r].
+__global__ void k_add_frame_diagonal(int n, const double* diag, const double* d, double* out) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const double* e = diag + 10 * i;
+  const Vec3 dr = load3(d + 6 * i + 3);
+  const Vec3 qr = load_mat3_d(e + 1) * dr;
+  double* o = out + 6 * i;
+  o[0] += e[0] * d[6 * i], o[1] += e[0] * d[6 * i + 1], o[2] += e[0] * d[6 * i + 2];
+  o[3] += qr.x, o[4] += qr.y, o[5] += qr.z;
+}
+
+// The diagonal blocks of H [N][36]: the elastic block (null: none) plus the frame diagonal.
+__global__ void k_diagonal_blocks(int n, const double* elastic, const double* diag, double* blocks) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  double* B = blocks + 36 * i;
+  for (int k = 0; k < 36; ++k) B[k] = elastic ? elastic[36 * i + k] : 0.0;
+  const double* e = diag + 10 * i;
+  for (int k = 0; k < 3; ++k) B[7 * k] += e[0];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) B[6 * (3 + r) + 3 + c] += e[1 + 3 * r + c];
+}
+
+// Inverse 6x6 diagonal blocks as the CPU's block Jacobi (engine/solve/linear_solver.cpp): fixed
+// DOFs get rows and columns of the largest diagonal entry; a block that is not positive definite
+// (Cholesky meets a pivot <= 0) is replaced by the inverse of its absolute diagonal.
+__global__ void k_block_jacobi(int n, const double* blocks, const std::uint8_t* fixed, double* inverse) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  double B[6][6];
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) B[r][c] = blocks[36 * i + 6 * r + c];
+  double largest = 0;
+  for (int k = 0; k < 6; ++k) largest = fmax(largest, fabs(B[k][k]));
+  if (largest == 0) largest = 1;
+  for (int k = 0; k < 6; ++k)
+    if (fixed[6 * i + k]) {
+      for (int c = 0; c < 6; ++c) B[k][c] = B[c][k] = 0;
+      B[k][k] = largest;
+    }
+  // Cholesky B = L L^T (lower triangle of B).
+  double L[6][6] = {};
+  bool ok = true;
+  for (int j = 0; j < 6 && ok; ++j) {
+    double s = B[j][j];
+    for (int k = 0; k < j; ++k) s -= L[j][k] * L[j][k];
+    if (!(s > 0)) {
+      ok = false;
+      break;
+    }
+    L[j][j] = sqrt(s);
+    for (int r = j + 1; r < 6; ++r) {
+      double t = B[r][j];
+      for (int k = 0; k < j; ++k) t -= L[r][k] * L[j][k];
+      L[r][j] = t / L[j][j];
+    }
+  }
+  double* out = inverse + 36 * i;
+  if (!ok) {
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) out[6 * r + c] = r == c ? 1.0 / fmax(fabs(B[r][r]), 1e-12 * largest) : 0.0;
+    return;
+  }
+  // L^{-1} (lower), then B^{-1} = L^{-T} L^{-1}.
+  double Li[6][6] = {};
+  for (int c = 0; c < 6; ++c) {
+    Li[c][c] = 1.0 / L[c][c];
+    for (int r = c + 1; r < 6; ++r) {
+      double s = 0;
+      for (int k = c; k < r; ++k) s -= L[r][k] * Li[k][c];
+      Li[r][c] = s / L[r][r];
+    }
+  }
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) {
+      double s = 0;
+      for (int k = (r > c ? r : c); k < 6; ++k) s += Li[k][r] * Li[k][c];
+      out[6 * r + c] = s;
+    }
+}
+
+// Slot `to` = slot `from` (+) scale d (state.cpp, retract).
+__global__ void k_retract(int n, bool locked, const double* x, const double* q, const double* d, double scale,
+                          double* x_to, double* q_to) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  for (int k = 0; k < 3; ++k) x_to[3 * i + k] = x[3 * i + k] + scale * d[6 * i + k];
+  const Quat qi = load_quat(q + 4 * i);
+  if (locked) {
+    store_quat(q_to + 4 * i, qi);
+    return;
+  }
+  const Vec3 dr{scale * d[6 * i + 3], scale * d[6 * i + 4], scale * d[6 * i + 5]};
+  store_quat(q_to + 4 * i, apply_increment(qi, dr));
+}
+
+__global__ void k_increments(int n, const double* x, const double* q, const double* x0, const double* q0,
+                             double* delta) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const FrameIncrement d = frame_increment(load3(x + 3 * i), load_quat(q + 4 * i), load3(x0 + 3 * i),
+                                           load_quat(q0 + 4 * i));
+  store3(delta + 6 * i, d.dx);
+  store3(delta + 6 * i + 3, d.phi);
+}
+
+// R_n I_0 R_n^T per frame.
+__global__ void k_world_inertia(int n, const double* q, const double* I0, double* I) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const Mat3 R = rotation_matrix(load_quat(q + 4 * i));
+  store_mat3(I + 9 * i, R * load_mat3_d(I0 + 9 * i) * transpose(R));
+}
+
+void check() { FASCIA_CUDA(cudaGetLastError()); }
+
+}  // namespace
+
+std::string device_potential_refusal(const Model& model, double rayleigh_stiffness) {
+  if (!model.shells.empty()) return "the model has shells";
+  if (rayleigh_stiffness != 0) return "stiffness-proportional damping (rayleigh_stiffness) is set";
+  return {};
+}
+
+struct DevicePotential::Impl {
+  Impl(const Model& model, const ExternalLoads& loads, const DeviceOptions& options)
+      : elasticity(model, options), ops(static_cast<cudaStream_t>(elasticity.stream())), mapping(model) {
+    const int n = model.frame_count();
+    stream = ops.stream();
+    std::vector<double> f, C;
+    frame_load_moments(model, loads, f, C);
+    load_f.upload(f);
+    load_C.upload(C);
+    std::vector<double> frame_masses = model.frame_masses, frame_inertias = model.frame_inertias;
+    frame_masses.resize(n, 0.0);
+    frame_inertias.resize(9 * static_cast<size_t>(n), 0.0);
+    masses.upload(frame_masses);
+    inertia0.upload(frame_inertias);
+    fixed.upload(mapping.reduced_fixed());
+    for (int s = 0; s < kSlots; ++s) {
+      x[s].resize(3 * static_cast<size_t>(n));
+      q[s].resize(4 * static_cast<size_t>(n));
+    }
+    start_x.resize(3 * static_cast<size_t>(n));
+    start_q.resize(4 * static_cast<size_t>(n));
+    start_v.resize(6 * static_cast<size_t>(n));
+    inertia.resize(9 * static_cast<size_t>(n));
+    diag.resize(10 * static_cast<size_t>(n));
+    minv.resize(36 * static_cast<size_t>(n));
+    scratch.resize(6 * static_cast<size_t>(n));
+    blocks.resize(36 * static_cast<size_t>(n));
+    if (!mapping.empty()) {
+      expanded.resize(6 * static_cast<size_t>(n));
+      full_g.resize(6 * static_cast<size_t>(n));
+    }
+    terms.n = n;
+    terms.locked = model.rotations_locked;
+    terms.f = load_f.data();
+    terms.C = load_C.data();
+    terms.scale = 1.0;
+    terms.masses = masses.data();
+    terms.inertia = inertia.data();
+    terms.start_q = start_q.data();
+    terms.start_v = start_v.data();
+    has_samples = model.sample_count() > 0;
+  }
+
+  // Makes the elasticity evaluate slot s.
+  void select(int s) { elasticity.set_state_on_device(x[s].data(), q[s].data()); }
+
+  // Phi and its gradient at slot s before the rigid mapping's reduction, into g.
+  double full_gradient(int s, double* g, long long dofs) {
+    double w = 0;
+    if (has_samples) {
+      select(s);
+      w = elasticity.gradient_on_device(g);
+    } else {
+      ops.fill(g, 0.0, dofs);
+    }
+    k_frame_terms<<<kReduceBlocks, kReduceThreads, 0, stream>>>(terms, x[s].data(), q[s].data(), g, ops.partials());
+    check();
+    return w + ops.finish(1)[0];
+  }
+
+  DeviceElasticity elasticity;
+  VectorOps ops;
+  DeviceRigidMapping mapping;
+  cudaStream_t stream = nullptr;
+  bool has_samples = false;
+  bool dynamic = false;
+  bool prepared = false;
+  FrameTerms terms{};
+  DeviceBuffer<double> load_f, load_C, masses, inertia0, inertia, start_x, start_q, start_v, diag, minv, scratch, blocks;
+  DeviceBuffer<double> expanded, full_g;  // rigid mapping: d with mapped frames filled in, unreduced gradient
+  DeviceBuffer<std::uint8_t> fixed;
+  DeviceBuffer<double> x[kSlots], q[kSlots];
+};
+
+DevicePotential::DevicePotential(const Model& model, const ExternalLoads& loads, const DeviceOptions& options)
+    : m_model(model) {
+  const std::string why = device_potential_refusal(model, 0.0);
+  if (!why.empty()) throw std::invalid_argument("the device step does not cover this model: " + why);
+  m_impl = std::make_unique<Impl>(model, loads, options);
+}
+
+DevicePotential::~DevicePotential() = default;
+
+VectorOps& DevicePotential::ops() { return m_impl->ops; }
+const std::uint8_t* DevicePotential::fixed() const { return m_impl->fixed.data(); }
+
+void DevicePotential::set_load_scale(double scale) { m_impl->terms.scale = scale; }
+
+void DevicePotential::set_static() {
+  m_impl->dynamic = false;
+  m_impl->terms.start_x = nullptr;
+}
+
+void DevicePotential::set_dynamic(const State& start, double dt, double rayleigh_mass) {
+  Impl& m = *m_impl;
+  const int n = m_model.frame_count();
+  m.dynamic = true;
+  m.start_x.upload(start.positions);
+  m.start_q.upload(start.orientations);
+  std::vector<double> v = start.velocities;
+  v.resize(6 * static_cast<size_t>(n), 0.0);
+  m.start_v.upload(v);
+  k_world_inertia<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.start_q.data(), m.inertia0.data(),
+                                                                  m.inertia.data());
+  check();
+  m.terms.start_x = m.start_x.data();
+  m.terms.h = dt;
+  m.terms.alpha = rayleigh_mass;
+}
+
+void DevicePotential::upload(int slot, const State& state) {
+  FASCIA_CUDA(cudaStreamSynchronize(m_impl->stream));  // DeviceBuffer::upload is synchronous
+  m_impl->x[slot].upload(state.positions);
+  m_impl->q[slot].upload(state.orientations);
+}
+
+void DevicePotential::download(int slot, State& state) const {
+  FASCIA_CUDA(cudaStreamSynchronize(m_impl->stream));
+  state.positions.resize(3 * static_cast<size_t>(m_model.frame_count()));
+  state.orientations.resize(4 * static_cast<size_t>(m_model.frame_count()));
+  m_impl->x[slot].download(state.positions.data());
+  m_impl->q[slot].download(state.orientations.data());
+}
+
+void DevicePotential::increments(int slot, double* delta_host) {
+  Impl& m = *m_impl;
+  const int n = m_model.frame_count();
+  k_increments<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.x[slot].data(), m.q[slot].data(), m.start_x.data(),
+                                                               m.start_q.data(), m.scratch.data());
+  check();
+  FASCIA_CUDA(cudaStreamSynchronize(m.stream));
+  m.scratch.download(delta_host);
+}
+
+double DevicePotential::elastic_energy(int slot) {
+  if (!m_impl->has_samples) return 0.0;
+  m_impl->select(slot);
+  return m_impl->elasticity.energy();
+}
+
+double DevicePotential::value(int slot) {
+  Impl& m = *m_impl;
+  const double w = elastic_energy(slot);
+  k_frame_terms<<<kReduceBlocks, kReduceThreads, 0, m.stream>>>(m.terms, m.x[slot].data(), m.q[slot].data(), nullptr,
+                                                                m.ops.partials());
+  check();
+  return w + m.ops.finish(1)[0];
+}
+
+double DevicePotential::gradient(int slot, double* g) {
+  Impl& m = *m_impl;
+  const double phi = m.full_gradient(slot, g, dofs());
+  if (!m.mapping.empty()) {
+    m.mapping.set_state(m.x[slot].data(), m.stream);
+    m.mapping.reduce(g, m.stream);
+  }
+  return phi;
+}
+
+void DevicePotential::prepare_hessian(int slot) {
+  Impl& m = *m_impl;
+  const int n = m_model.frame_count();
+  if (!m.mapping.empty()) {  // first: the gradient pass reuses the elasticity's buffers
+    m.full_gradient(slot, m.full_g.data(), dofs());
+    m.mapping.set_state(m.x[slot].data(), m.stream);
+    m.mapping.set_geometric(m.full_g.data(), m.stream);
+  }
+  if (m.has_samples) {
+    m.select(slot);
+    m.elasticity.prepare();
+  }
+  k_frame_diagonal<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(m.terms, m.q[slot].data(), m.diag.data());
+  check();
+  k_diagonal_blocks<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(
+      n, m.has_samples ? m.elasticity.diagonal_blocks_on_device() : nullptr, m.diag.data(), m.blocks.data());
+  check();
+  m.mapping.reduce_diagonal_blocks(m.blocks.data(), m.stream);
+  k_block_jacobi<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.blocks.data(), m.fixed.data(), m.minv.data());
+  check();
+  m.prepared = true;
+}
+
+void DevicePotential::apply(const double* d_reduced, double* out) {
+  Impl& m = *m_impl;
+  const int n = m_model.frame_count();
+  const double* d = d_reduced;
+  if (!m.mapping.empty()) {
+    m.ops.copy(d_reduced, m.expanded.data(), dofs());
+    m.mapping.expand(m.expanded.data(), m.stream);
+    d = m.expanded.data();
+  }
+  if (m.has_samples)
+    m.elasticity.apply_tangent_on_device(d, out);
+  else
+    m.ops.fill(out, 0.0, dofs());
+  k_add_frame_diagonal<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.diag.data(), d, out);
+  check();
+  if (!m.mapping.empty()) {
+    m.mapping.reduce(out, m.stream);
+    m.mapping.add_geometric(d_reduced, out, m.stream);
+  }
+}
+
+const double* DevicePotential::preconditioner() const { return m_impl->prepared ? m_impl->minv.data() : nullptr; }
+
+void DevicePotential::retract(int from, const double* d, double scale, int to) {
+  Impl& m = *m_impl;
+  const int n = m_model.frame_count();
+  k_retract<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m_model.rotations_locked, m.x[from].data(),
+                                                           m.q[from].data(), d, scale, m.x[to].data(), m.q[to].data());
+  check();
+  m.mapping.sync(m.x[to].data(), m.q[to].data(), m.stream);
+}
+
+}  // namespace fascia::gpu
