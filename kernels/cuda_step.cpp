@@ -1,7 +1,6 @@
 #include "cuda_step.hpp"
 
-#include "device_newton.hpp"
-#include "device_potential.hpp"
+#include "device_problem.hpp"
 #include "integrate/simulation.hpp"
 
 namespace fascia::gpu {
@@ -10,38 +9,44 @@ namespace {
 class CudaStep final : public StepBackend {
  public:
   CudaStep(const Model& model, const ExternalLoads& loads, const DeviceOptions& options)
-      : m_potential(model, loads, options) {}
+      : m_potential(model, loads, options), m_state(m_potential.make_state()) {}
 
   NewtonResult backward_euler(const State& start, State& trial, double dt, double rayleigh_mass,
                               const NewtonSettings& settings, double reference_force) override {
     m_potential.set_load_scale(1.0);
     m_potential.set_dynamic(start, dt, rayleigh_mass);
-    m_potential.upload(DevicePotential::kCurrent, trial);
-    const NewtonResult r = minimise_on_device(m_potential, settings, reference_force);
-    m_potential.download(DevicePotential::kCurrent, trial);
+    m_state.upload(trial);
+    DeviceProblem problem(m_potential, settings.linear);
+    const NewtonResult r = newton(problem, m_state, settings, reference_force);
+    m_state.download(trial);
     trial.velocities.resize(static_cast<size_t>(m_potential.dofs()));
-    m_potential.increments(DevicePotential::kCurrent, trial.velocities.data());
+    m_potential.increments(m_state, trial.velocities.data());
     for (double& v : trial.velocities) v /= dt;
     return r;
   }
 
-  NewtonResult equilibrium(State& state, double load_scale, const NewtonSettings& settings,
-                           double reference_force) override {
+  NewtonResult equilibrium(State& state, const NewtonSettings& settings, const LoadStepping& stepping,
+                           const std::function<double(double)>& set_load_factor) override {
     m_potential.set_static();
-    m_potential.set_load_scale(load_scale);
-    m_potential.upload(DevicePotential::kCurrent, state);
-    const NewtonResult r = minimise_on_device(m_potential, settings, reference_force);
-    m_potential.download(DevicePotential::kCurrent, state);
+    m_state.upload(state);
+    DeviceProblem problem(m_potential, settings.linear);
+    const NewtonResult r = newton_load_stepping(problem, m_state, settings, stepping, [&](double factor) {
+      m_potential.set_load_scale(factor);
+      return set_load_factor(factor);
+    });
+    m_potential.set_load_scale(1.0);
+    m_state.download(state);
     return r;
   }
 
   double elastic_energy(const State& state) override {
-    m_potential.upload(DevicePotential::kTrial, state);
-    return m_potential.elastic_energy(DevicePotential::kTrial);
+    m_state.upload(state);
+    return m_potential.elastic_energy(m_state);
   }
 
  private:
   DevicePotential m_potential;
+  DeviceFrames m_state;
 };
 
 }  // namespace
@@ -49,8 +54,12 @@ class CudaStep final : public StepBackend {
 StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
   return [options](const Model& model, const ExternalLoads& loads, const SimulationSettings& settings,
                    std::string& why) -> std::unique_ptr<StepBackend> {
-    if (settings.newton.linear.method == LinearMethod::cholmod) {
-      why = "the linear method is cholmod, which runs on the CPU";
+    if (!DeviceProblem::supported(settings.newton.linear)) {
+      why = std::string("the linear solve (") + to_string(settings.newton.linear.method) +
+            (settings.newton.linear.method == LinearMethod::pcg
+                 ? std::string(" preconditioned by ") + to_string(settings.newton.linear.preconditioner)
+                 : std::string()) +
+            ") runs on the CPU";
       return nullptr;
     }
     why = device_potential_refusal(model, settings.integrator == Integrator::backward_euler ? settings.rayleigh_stiffness : 0.0);

@@ -4,8 +4,9 @@
 // (device_newton.hpp) on the device potential (device_potential.hpp), and reads the result back
 // once; inside, only the scalars that steer the iterations cross the bus.
 //
-// Covered: the static and backward-Euler integrators with cg or pcg on models without shells or
-// stiffness-proportional damping (rigid bodies and their attached frames included). Elsewhere the factory returns null with the
+// Covered: the static and backward-Euler integrators with cg, or pcg preconditioned by block
+// Jacobi, on every model (tissues, shells, rigid bodies and their attached frames), without
+// stiffness-proportional damping. Elsewhere the factory returns null with the
 // reason, and Simulation runs the CPU engine with the volumetric elasticity on the device
 // (cuda_elasticity.hpp).
 #pragma once

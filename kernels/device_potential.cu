@@ -2,6 +2,7 @@
 
 #include "device_buffers.cuh"
 #include "device_rigid.hpp"
+#include "device_shell.hpp"
 #include "device_vector.cuh"
 #include "mechanics/frame_inertia.hpp"
 #include "mechanics/frame_loads.hpp"
@@ -169,19 +170,14 @@ __global__ void k_block_jacobi(int n, const double* blocks, const std::uint8_t* 
     }
 }
 
-// Slot `to` = slot `from` (+) scale d (state.cpp, retract).
-__global__ void k_retract(int n, bool locked, const double* x, const double* q, const double* d, double scale,
-                          double* x_to, double* q_to) {
+// q <- q (+) scale d (model/state.cpp, retract).
+__global__ void k_retract(int n, bool locked, const double* d, double scale, double* x, double* q) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
-  for (int k = 0; k < 3; ++k) x_to[3 * i + k] = x[3 * i + k] + scale * d[6 * i + k];
-  const Quat qi = load_quat(q + 4 * i);
-  if (locked) {
-    store_quat(q_to + 4 * i, qi);
-    return;
-  }
+  for (int k = 0; k < 3; ++k) x[3 * i + k] += scale * d[6 * i + k];
+  if (locked) return;
   const Vec3 dr{scale * d[6 * i + 3], scale * d[6 * i + 4], scale * d[6 * i + 5]};
-  store_quat(q_to + 4 * i, apply_increment(qi, dr));
+  store_quat(q + 4 * i, apply_increment(load_quat(q + 4 * i), dr));
 }
 
 __global__ void k_increments(int n, const double* x, const double* q, const double* x0, const double* q0,
@@ -206,15 +202,34 @@ void check() { FASCIA_CUDA(cudaGetLastError()); }
 
 }  // namespace
 
-std::string device_potential_refusal(const Model& model, double rayleigh_stiffness) {
-  if (!model.shells.empty()) return "the model has shells";
+std::string device_potential_refusal(const Model&, double rayleigh_stiffness) {
   if (rayleigh_stiffness != 0) return "stiffness-proportional damping (rayleigh_stiffness) is set";
   return {};
 }
 
+// The stream of a potential: the elasticity's where the model has samples, else its own.
+struct PotentialStream {
+  PotentialStream(const Model& model, const DeviceOptions& options) {
+    if (model.sample_count() > 0) {
+      elasticity = std::make_unique<DeviceElasticity>(model, options);
+      stream = static_cast<cudaStream_t>(elasticity->stream());
+    } else {
+      FASCIA_CUDA(cudaStreamCreateWithFlags(&own, cudaStreamNonBlocking));
+      stream = own;
+    }
+  }
+  ~PotentialStream() {
+    if (own) cudaStreamDestroy(own);
+  }
+  PotentialStream(const PotentialStream&) = delete;
+  PotentialStream& operator=(const PotentialStream&) = delete;
+  std::unique_ptr<DeviceElasticity> elasticity;  // null without samples
+  cudaStream_t stream = nullptr, own = nullptr;
+};
+
 struct DevicePotential::Impl {
   Impl(const Model& model, const ExternalLoads& loads, const DeviceOptions& options)
-      : elasticity(model, options), ops(static_cast<cudaStream_t>(elasticity.stream())), mapping(model) {
+      : device(model, options), elasticity(device.elasticity.get()), ops(device.stream), mapping(model), shells(model) {
     const int n = model.frame_count();
     stream = ops.stream();
     std::vector<double> f, C;
@@ -227,10 +242,6 @@ struct DevicePotential::Impl {
     masses.upload(frame_masses);
     inertia0.upload(frame_inertias);
     fixed.upload(mapping.reduced_fixed());
-    for (int s = 0; s < kSlots; ++s) {
-      x[s].resize(3 * static_cast<size_t>(n));
-      q[s].resize(4 * static_cast<size_t>(n));
-    }
     start_x.resize(3 * static_cast<size_t>(n));
     start_q.resize(4 * static_cast<size_t>(n));
     start_v.resize(6 * static_cast<size_t>(n));
@@ -252,38 +263,39 @@ struct DevicePotential::Impl {
     terms.inertia = inertia.data();
     terms.start_q = start_q.data();
     terms.start_v = start_v.data();
-    has_samples = model.sample_count() > 0;
   }
 
-  // Makes the elasticity evaluate slot s.
-  void select(int s) { elasticity.set_state_on_device(x[s].data(), q[s].data()); }
+  // Makes the elasticity evaluate s.
+  void select(const DeviceFrames& s) { elasticity->set_state_on_device(s.positions(), s.orientations()); }
 
-  // Phi and its gradient at slot s before the rigid mapping's reduction, into g.
-  double full_gradient(int s, double* g, long long dofs) {
+  // Phi and its gradient at s before the rigid mapping's reduction, into g.
+  double full_gradient(const DeviceFrames& s, double* g, long long dofs) {
     double w = 0;
-    if (has_samples) {
+    if (elasticity) {
       select(s);
-      w = elasticity.gradient_on_device(g);
+      w = elasticity->gradient_on_device(g);
     } else {
       ops.fill(g, 0.0, dofs);
     }
-    k_frame_terms<<<kReduceBlocks, kReduceThreads, 0, stream>>>(terms, x[s].data(), q[s].data(), g, ops.partials());
+    w += shells.add_gradient(s.positions(), s.orientations(), g, ops);
+    k_frame_terms<<<kReduceBlocks, kReduceThreads, 0, stream>>>(terms, s.positions(), s.orientations(), g,
+                                                              ops.partials());
     check();
-    return w + ops.finish(1)[0];
+    return w + ops.finish();
   }
 
-  DeviceElasticity elasticity;
+  PotentialStream device;
+  DeviceElasticity* elasticity;  // null without samples
   VectorOps ops;
   DeviceRigidMapping mapping;
+  DeviceShells shells;
   cudaStream_t stream = nullptr;
-  bool has_samples = false;
   bool dynamic = false;
   bool prepared = false;
   FrameTerms terms{};
   DeviceBuffer<double> load_f, load_C, masses, inertia0, inertia, start_x, start_q, start_v, diag, minv, scratch, blocks;
   DeviceBuffer<double> expanded, full_g;  // rigid mapping: d with mapped frames filled in, unreduced gradient
   DeviceBuffer<std::uint8_t> fixed;
-  DeviceBuffer<double> x[kSlots], q[kSlots];
 };
 
 DevicePotential::DevicePotential(const Model& model, const ExternalLoads& loads, const DeviceOptions& options)
@@ -295,7 +307,8 @@ DevicePotential::DevicePotential(const Model& model, const ExternalLoads& loads,
 
 DevicePotential::~DevicePotential() = default;
 
-VectorOps& DevicePotential::ops() { return m_impl->ops; }
+const VectorOps& DevicePotential::ops() const { return m_impl->ops; }
+DeviceFrames DevicePotential::make_state() const { return DeviceFrames(m_model.frame_count(), m_impl->stream); }
 const std::uint8_t* DevicePotential::fixed() const { return m_impl->fixed.data(); }
 
 void DevicePotential::set_load_scale(double scale) { m_impl->terms.scale = scale; }
@@ -322,72 +335,64 @@ void DevicePotential::set_dynamic(const State& start, double dt, double rayleigh
   m.terms.alpha = rayleigh_mass;
 }
 
-void DevicePotential::upload(int slot, const State& state) {
-  FASCIA_CUDA(cudaStreamSynchronize(m_impl->stream));  // DeviceBuffer::upload is synchronous
-  m_impl->x[slot].upload(state.positions);
-  m_impl->q[slot].upload(state.orientations);
-}
-
-void DevicePotential::download(int slot, State& state) const {
-  FASCIA_CUDA(cudaStreamSynchronize(m_impl->stream));
-  state.positions.resize(3 * static_cast<size_t>(m_model.frame_count()));
-  state.orientations.resize(4 * static_cast<size_t>(m_model.frame_count()));
-  m_impl->x[slot].download(state.positions.data());
-  m_impl->q[slot].download(state.orientations.data());
-}
-
-void DevicePotential::increments(int slot, double* delta_host) {
+void DevicePotential::increments(const DeviceFrames& q, double* delta_host) {
   Impl& m = *m_impl;
   const int n = m_model.frame_count();
-  k_increments<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.x[slot].data(), m.q[slot].data(), m.start_x.data(),
+  k_increments<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, q.positions(), q.orientations(), m.start_x.data(),
                                                                m.start_q.data(), m.scratch.data());
   check();
   FASCIA_CUDA(cudaStreamSynchronize(m.stream));
   m.scratch.download(delta_host);
 }
 
-double DevicePotential::elastic_energy(int slot) {
-  if (!m_impl->has_samples) return 0.0;
-  m_impl->select(slot);
-  return m_impl->elasticity.energy();
+double DevicePotential::elastic_energy(const DeviceFrames& q) {
+  Impl& m = *m_impl;
+  double w = 0;
+  if (m.elasticity) {
+    m.select(q);
+    w = m.elasticity->energy();
+  }
+  return w + m.shells.energy(q.positions(), q.orientations(), m.ops);
 }
 
-double DevicePotential::value(int slot) {
+double DevicePotential::value(const DeviceFrames& q) {
   Impl& m = *m_impl;
-  const double w = elastic_energy(slot);
-  k_frame_terms<<<kReduceBlocks, kReduceThreads, 0, m.stream>>>(m.terms, m.x[slot].data(), m.q[slot].data(), nullptr,
+  const double w = elastic_energy(q);
+  k_frame_terms<<<kReduceBlocks, kReduceThreads, 0, m.stream>>>(m.terms, q.positions(), q.orientations(), nullptr,
                                                                 m.ops.partials());
   check();
-  return w + m.ops.finish(1)[0];
+  return w + m.ops.finish();
 }
 
-double DevicePotential::gradient(int slot, double* g) {
+double DevicePotential::gradient(const DeviceFrames& q, double* g) {
   Impl& m = *m_impl;
-  const double phi = m.full_gradient(slot, g, dofs());
+  const double phi = m.full_gradient(q, g, dofs());
   if (!m.mapping.empty()) {
-    m.mapping.set_state(m.x[slot].data(), m.stream);
+    m.mapping.set_state(q.positions(), m.stream);
     m.mapping.reduce(g, m.stream);
   }
   return phi;
 }
 
-void DevicePotential::prepare_hessian(int slot) {
+void DevicePotential::prepare_hessian(const DeviceFrames& q) {
   Impl& m = *m_impl;
   const int n = m_model.frame_count();
   if (!m.mapping.empty()) {  // first: the gradient pass reuses the elasticity's buffers
-    m.full_gradient(slot, m.full_g.data(), dofs());
-    m.mapping.set_state(m.x[slot].data(), m.stream);
+    m.full_gradient(q, m.full_g.data(), dofs());
+    m.mapping.set_state(q.positions(), m.stream);
     m.mapping.set_geometric(m.full_g.data(), m.stream);
   }
-  if (m.has_samples) {
-    m.select(slot);
-    m.elasticity.prepare();
+  if (m.elasticity) {
+    m.select(q);
+    m.elasticity->prepare();
   }
-  k_frame_diagonal<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(m.terms, m.q[slot].data(), m.diag.data());
+  m.shells.prepare(q.positions(), q.orientations(), m.stream);
+  k_frame_diagonal<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(m.terms, q.orientations(), m.diag.data());
   check();
   k_diagonal_blocks<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(
-      n, m.has_samples ? m.elasticity.diagonal_blocks_on_device() : nullptr, m.diag.data(), m.blocks.data());
+      n, m.elasticity ? m.elasticity->diagonal_blocks_on_device() : nullptr, m.diag.data(), m.blocks.data());
   check();
+  m.shells.add_diagonal_blocks(m.blocks.data(), m.stream);
   m.mapping.reduce_diagonal_blocks(m.blocks.data(), m.stream);
   k_block_jacobi<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.blocks.data(), m.fixed.data(), m.minv.data());
   check();
@@ -403,12 +408,13 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
     m.mapping.expand(m.expanded.data(), m.stream);
     d = m.expanded.data();
   }
-  if (m.has_samples)
-    m.elasticity.apply_tangent_on_device(d, out);
+  if (m.elasticity)
+    m.elasticity->apply_tangent_on_device(d, out);
   else
     m.ops.fill(out, 0.0, dofs());
   k_add_frame_diagonal<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.diag.data(), d, out);
   check();
+  m.shells.add_tangent(d, out, m.stream);
   if (!m.mapping.empty()) {
     m.mapping.reduce(out, m.stream);
     m.mapping.add_geometric(d_reduced, out, m.stream);
@@ -417,13 +423,13 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
 
 const double* DevicePotential::preconditioner() const { return m_impl->prepared ? m_impl->minv.data() : nullptr; }
 
-void DevicePotential::retract(int from, const double* d, double scale, int to) {
+void DevicePotential::retract(DeviceFrames& q, const double* d, double scale) {
   Impl& m = *m_impl;
   const int n = m_model.frame_count();
-  k_retract<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m_model.rotations_locked, m.x[from].data(),
-                                                           m.q[from].data(), d, scale, m.x[to].data(), m.q[to].data());
+  k_retract<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m_model.rotations_locked, d, scale, q.positions(),
+                                                           q.orientations());
   check();
-  m.mapping.sync(m.x[to].data(), m.q[to].data(), m.stream);
+  m.mapping.sync(q.positions(), q.orientations(), m.stream);
 }
 
 }  // namespace fascia::gpu

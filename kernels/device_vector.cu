@@ -2,33 +2,29 @@
 
 #include "device_vector.cuh"
 
+#include <cmath>
+
 namespace fascia::gpu {
 namespace {
 
-// partials[b] = sum of x_k y_k over the block's stride (y null: sum of x; fixed non-null: the
-// free entries only).
-__global__ void k_dot_partials(long long n, const double* x, const double* y, const std::uint8_t* fixed,
-                               double* partials) {
+// partials[b] = sum of x_k y_k over block b's stride (y null: sum of x_k).
+__global__ void k_dot_partials(long long n, const double* x, const double* y, double* partials) {
   __shared__ double shared[1][kReduceThreads];
   double s[1] = {0.0};
   for (long long k = blockIdx.x * static_cast<long long>(kReduceThreads) + threadIdx.x; k < n;
-       k += static_cast<long long>(kReduceBlocks) * kReduceThreads) {
-    if (fixed && fixed[k]) continue;
+       k += static_cast<long long>(kReduceBlocks) * kReduceThreads)
     s[0] += y ? x[k] * y[k] : x[k];
-  }
   block_sum<1>(s, shared);
   if (threadIdx.x == 0) partials[blockIdx.x] = s[0];
 }
 
-// out[w] = sum of partials[w * kReduceBlocks + b] over b, for w < width (one block).
-__global__ void k_sum_partials(const double* partials, int width, double* out) {
-  __shared__ double shared[2][kReduceThreads];
-  double s[2] = {0.0, 0.0};
-  for (int w = 0; w < width; ++w)
-    for (int b = threadIdx.x; b < kReduceBlocks; b += kReduceThreads) s[w] += partials[w * kReduceBlocks + b];
-  block_sum<2>(s, shared);
-  if (threadIdx.x == 0)
-    for (int w = 0; w < width; ++w) out[w] = s[w];
+// out[0] = sum of the kReduceBlocks partials (one block).
+__global__ void k_sum_partials(const double* partials, double* out) {
+  __shared__ double shared[1][kReduceThreads];
+  double s[1] = {0.0};
+  for (int b = threadIdx.x; b < kReduceBlocks; b += kReduceThreads) s[0] += partials[b];
+  block_sum<1>(s, shared);
+  if (threadIdx.x == 0) out[0] = s[0];
 }
 
 __global__ void k_fill(long long n, double value, double* x) {
@@ -58,101 +54,123 @@ __global__ void k_scale_project(long long n, double s, const double* x, const st
     y[k] = fixed && fixed[k] ? 0.0 : s * x[k];
 }
 
-// One PCG update over the free DOFs, fused with the preconditioner and both reductions:
-//   x += alpha p, r -= alpha Hp, z = P^{-1} r (projected; z = r without P), and the partial
-// sums of r.r (partials[b]) and r.z (partials[kReduceBlocks + b]) of block b of the fixed grid.
-// One thread per frame; fixed DOFs keep r = z = 0.
-__global__ void k_cg_update(int n, double alpha, const double* p, const double* hp, const double* minv,
-                            const std::uint8_t* fixed, double* x, double* r, double* z, double* partials) {
-  __shared__ double shared[2][kReduceThreads];
-  double sums[2] = {0.0, 0.0};
-  for (int i = blockIdx.x * kReduceThreads + threadIdx.x; i < n; i += kReduceBlocks * kReduceThreads) {
-    double ri[6];
-    for (int a = 0; a < 6; ++a) {
-      const int k = 6 * i + a;
-      x[k] += alpha * p[k];
-      ri[a] = fixed[k] ? 0.0 : r[k] - alpha * hp[k];
-      r[k] = ri[a];
-      sums[0] += ri[a] * ri[a];
-    }
-    for (int a = 0; a < 6; ++a) {
-      double s = ri[a];
-      if (minv) {
-        s = 0;
-        for (int c = 0; c < 6; ++c) s += minv[36 * i + 6 * a + c] * ri[c];
-      }
-      if (fixed[6 * i + a]) s = 0;
-      z[6 * i + a] = s;
-      sums[1] += ri[a] * s;
-    }
+// y_i = B_i x_i per frame (6x6 row-major blocks).
+__global__ void k_block_apply(int frames, const double* blocks, const double* x, double* y) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= frames) return;
+  double xi[6];
+  for (int c = 0; c < 6; ++c) xi[c] = x[6 * i + c];
+  for (int r = 0; r < 6; ++r) {
+    double s = 0;
+    for (int c = 0; c < 6; ++c) s += blocks[36 * i + 6 * r + c] * xi[c];
+    y[6 * i + r] = s;
   }
-  block_sum<2>(sums, shared);
-  if (threadIdx.x == 0) {
-    partials[blockIdx.x] = sums[0];
-    partials[kReduceBlocks + blockIdx.x] = sums[1];
-  }
+}
+
+// x = a x
+__global__ void k_scale(long long n, double a, double* x) {
+  for (long long k = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x; k < n;
+       k += static_cast<long long>(gridDim.x) * blockDim.x)
+    x[k] *= a;
 }
 
 void check() { FASCIA_CUDA(cudaGetLastError()); }
 
 }  // namespace
 
+DeviceVector::~DeviceVector() { release(); }
+
+DeviceVector::DeviceVector(DeviceVector&& o) noexcept : m_data(o.m_data), m_size(o.m_size), m_stream(o.m_stream) {
+  o.m_data = nullptr;
+  o.m_size = 0;
+}
+
+DeviceVector& DeviceVector::operator=(DeviceVector&& o) noexcept {
+  if (this != &o) {
+    release();
+    m_data = o.m_data;
+    m_size = o.m_size;
+    m_stream = o.m_stream;
+    o.m_data = nullptr;
+    o.m_size = 0;
+  }
+  return *this;
+}
+
+void DeviceVector::resize(long long n, cudaStream_t stream) {
+  if (n == m_size && stream == m_stream) return;
+  release();
+  m_stream = stream;
+  if (n > 0) FASCIA_CUDA(cudaMallocAsync(reinterpret_cast<void**>(&m_data), n * sizeof(double), stream));
+  m_size = n;
+}
+
+void DeviceVector::release() {
+  if (m_data) cudaFreeAsync(m_data, m_stream);
+  m_data = nullptr;
+  m_size = 0;
+}
+
 VectorOps::VectorOps(cudaStream_t stream) : m_stream(stream) {
-  m_partials.resize(2 * kReduceBlocks);
-  m_result.resize(2);
-  FASCIA_CUDA(cudaMallocHost(&m_host, 2 * sizeof(double)));
+  m_partials.resize(kReduceBlocks);
+  m_result.resize(1);
+  FASCIA_CUDA(cudaMallocHost(&m_host, sizeof(double)));
 }
 
 VectorOps::~VectorOps() { cudaFreeHost(m_host); }
 
-void VectorOps::copy(const double* x, double* y, long long n) { convert_async(x, y, n, m_stream); }
+void VectorOps::copy(const double* x, double* y, long long n) const { convert_async(x, y, n, m_stream); }
 
-void VectorOps::fill(double* x, double value, long long n) {
+void VectorOps::fill(double* x, double value, long long n) const {
   if (n <= 0) return;
   k_fill<<<vector_grid(n), kVectorThreads, 0, m_stream>>>(n, value, x);
   check();
 }
 
-void VectorOps::axpy(double a, const double* x, double* y, long long n) {
+void VectorOps::axpy(double a, const double* x, double* y, long long n) const {
   if (n <= 0) return;
   k_axpy<<<vector_grid(n), kVectorThreads, 0, m_stream>>>(n, a, x, y);
   check();
 }
 
-void VectorOps::xpay(const double* x, double a, double* y, long long n) {
+void VectorOps::xpay(const double* x, double a, double* y, long long n) const {
   if (n <= 0) return;
   k_xpay<<<vector_grid(n), kVectorThreads, 0, m_stream>>>(n, x, a, y);
   check();
 }
 
-void VectorOps::scale_project(double s, const double* x, const std::uint8_t* fixed, double* y, long long n) {
+void VectorOps::scale(double a, double* x, long long n) const {
   if (n <= 0) return;
-  k_scale_project<<<vector_grid(n), kVectorThreads, 0, m_stream>>>(n, s, x, fixed, y);
+  k_scale<<<vector_grid(n), kVectorThreads, 0, m_stream>>>(n, a, x);
   check();
 }
 
-double VectorOps::dot(const double* x, const double* y, long long n, const std::uint8_t* fixed) {
-  k_dot_partials<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, x, y, fixed, m_partials.data());
+void VectorOps::project(double* x, const std::uint8_t* fixed, long long n) const {
+  if (n <= 0 || !fixed) return;
+  k_scale_project<<<vector_grid(n), kVectorThreads, 0, m_stream>>>(n, 1.0, x, fixed, x);
   check();
-  return finish(1)[0];
 }
 
-const double* VectorOps::finish(int width) {
-  k_sum_partials<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), width, m_result.data());
+void VectorOps::block_apply(const double* blocks, const double* x, double* y, int frames) const {
+  if (frames <= 0) return;
+  k_block_apply<<<vector_grid(frames), kVectorThreads, 0, m_stream>>>(frames, blocks, x, y);
   check();
-  FASCIA_CUDA(cudaMemcpyAsync(m_host, m_result.data(), width * sizeof(double), cudaMemcpyDeviceToHost, m_stream));
+}
+
+double VectorOps::dot(const double* x, const double* y, long long n) const {
+  k_dot_partials<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, x, y, m_partials.data());
+  check();
+  return finish();
+}
+
+double VectorOps::finish() const {
+  k_sum_partials<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), m_result.data());
+  check();
+  FASCIA_CUDA(cudaMemcpyAsync(m_host, m_result.data(), sizeof(double), cudaMemcpyDeviceToHost, m_stream));
   FASCIA_CUDA(cudaStreamSynchronize(m_stream));
-  return m_host;
+  return *m_host;
 }
 
-std::pair<double, double> VectorOps::cg_update(int frames, double alpha, const double* p, const double* hp,
-                                              const double* minv, const std::uint8_t* fixed, double* x, double* r,
-                                              double* z) {
-  k_cg_update<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(frames, alpha, p, hp, minv, fixed, x, r, z,
-                                                              m_partials.data());
-  check();
-  const double* s = finish(2);
-  return {s[0], s[1]};
-}
+double DeviceVectorOps::norm(const Vector& x) const { return std::sqrt(dot(x, x)); }
 
 }  // namespace fascia::gpu

@@ -1,23 +1,49 @@
-// Vector operations on device arrays of doubles, the backend operations the Newton solver and
-// the PCG are written over (DESIGN.md, "One step, two backends"): copy, fill, axpy, the
-// projection of fixed DOFs, and dot products reduced on the device.
+// Vector operations on device arrays of doubles: the backend operations that the one Newton and
+// the one PCG (engine/solve/newton.hpp, pcg.hpp) are written over (engine/solve/vector_ops.hpp
+// gives the concept; DeviceVectorOps implements it), and the device states they step.
 //
 // Reductions are deterministic: kReduceBlocks blocks of kReduceThreads threads stride over the
 // array in a fixed pattern, each block sums its values in a fixed tree, and one block sums the
-// partials in a fixed tree. The order depends on neither the device nor the launch, so repeated
-// runs give bitwise-identical results. Each reduction returns to the host through a pinned
-// 8-byte (or 16-byte) read: the only data that crosses the bus in the solver loops.
+// partials in a fixed tree (device_vector.cuh). The order depends on neither the device nor the
+// launch, so repeated runs give bitwise-identical results. Each reduction returns to the host
+// through a pinned 8-byte read: with the energies of the line search, the only data that cross
+// the bus inside a solve.
+//
+// All work of one solve is enqueued in order on one stream; device memory of vectors and states
+// comes from the stream-ordered allocator (cudaMallocAsync), so the solvers' temporaries cost no
+// device synchronisation.
 #pragma once
 
 #include "device_buffers.cuh"
 
 #include <cstdint>
-#include <utility>
 
 namespace fascia::gpu {
 
-// The operations on one stream, with the reduction scratch and a pinned host slot for results.
-// Sizes n are element counts; pointers are device arrays.
+// An owning device array of doubles allocated on a stream, movable, not copyable.
+class DeviceVector {
+ public:
+  DeviceVector() = default;
+  ~DeviceVector();
+  DeviceVector(DeviceVector&& o) noexcept;
+  DeviceVector& operator=(DeviceVector&& o) noexcept;
+  DeviceVector(const DeviceVector&) = delete;
+  DeviceVector& operator=(const DeviceVector&) = delete;
+
+  // Holds n values (contents unspecified); allocations and frees are ordered on `stream`.
+  void resize(long long n, cudaStream_t stream);
+  double* data() { return m_data; }
+  const double* data() const { return m_data; }
+  long long size() const { return m_size; }
+
+ private:
+  void release();
+  double* m_data = nullptr;
+  long long m_size = 0;
+  cudaStream_t m_stream = nullptr;
+};
+
+// Reductions and element-wise operations on device arrays, enqueued on one stream.
 class VectorOps {
  public:
   explicit VectorOps(cudaStream_t stream);
@@ -26,31 +52,60 @@ class VectorOps {
   VectorOps& operator=(const VectorOps&) = delete;
 
   cudaStream_t stream() const { return m_stream; }
-  // Reduction scratch for fused kernels: 2 kReduceBlocks values (device_vector.cuh), value w of
-  // block b at w kReduceBlocks + b.
-  double* partials() { return m_partials.data(); }
+  // Reduction scratch for fused kernels: kReduceBlocks values (device_vector.cuh), block b's at b.
+  double* partials() const { return m_partials.data(); }
 
-  void copy(const double* x, double* y, long long n);
-  void fill(double* x, double value, long long n);
-  void axpy(double a, const double* x, double* y, long long n);   // y += a x
-  void xpay(const double* x, double a, double* y, long long n);   // y = x + a y
-  // y = s x on the free DOFs, 0 on the fixed ones (fixed may be null).
-  void scale_project(double s, const double* x, const std::uint8_t* fixed, double* y, long long n);
-  // sum_k x_k y_k (over the free DOFs where fixed is non-null); y null: sum_k x_k.
-  double dot(const double* x, const double* y, long long n, const std::uint8_t* fixed = nullptr);
-  // The fused update of the (preconditioned) conjugate gradients over the free DOFs, for 6-DOF
-  // frames: x += alpha p, r -= alpha Hp, z = P^{-1} r with P^{-1} the [frames][36] inverse
-  // diagonal blocks (z = r where minv is null), fixed entries of r and z zero. Returns (r.r, r.z).
-  std::pair<double, double> cg_update(int frames, double alpha, const double* p, const double* hp, const double* minv,
-                                      const std::uint8_t* fixed, double* x, double* r, double* z);
-  // Sums the partials of `width` values (1 or 2) that a fused kernel left in partials() and
-  // returns them to the host (valid until the next call).
-  const double* finish(int width);
+  void copy(const double* x, double* y, long long n) const;
+  void fill(double* x, double value, long long n) const;
+  void axpy(double a, const double* x, double* y, long long n) const;  // y += a x
+  void xpay(const double* x, double a, double* y, long long n) const;  // y = x + a y
+  void scale(double a, double* x, long long n) const;                  // x = a x
+  // x_k = 0 where fixed[k] (fixed may be null: nothing).
+  void project(double* x, const std::uint8_t* fixed, long long n) const;
+  // y_i = B_i x_i for 6-vectors and 6x6 row-major blocks B [frames][36].
+  void block_apply(const double* blocks, const double* x, double* y, int frames) const;
+  // sum_k x_k y_k; y null: sum_k x_k.
+  double dot(const double* x, const double* y, long long n) const;
+  // Sums the kReduceBlocks partials that a fused kernel left in partials() and returns the sum.
+  double finish() const;
 
  private:
   cudaStream_t m_stream;
-  DeviceBuffer<double> m_partials, m_result;
+  mutable DeviceBuffer<double> m_partials, m_result;
   double* m_host = nullptr;  // pinned
+};
+
+// The vector-operations concept of engine/solve/vector_ops.hpp on DeviceVector: n values, a
+// device mask of fixed DOFs (the projection), the operations of `ops`.
+class DeviceVectorOps {
+ public:
+  using Vector = DeviceVector;
+
+  DeviceVectorOps(const VectorOps& ops, long long n, const std::uint8_t* fixed) : m_ops(ops), m_n(n), m_fixed(fixed) {}
+
+  long long size() const { return m_n; }
+  void resize(Vector& x) const { x.resize(m_n, m_ops.stream()); }
+  void fill(Vector& x, double a) const {
+    resize(x);
+    m_ops.fill(x.data(), a, m_n);
+  }
+  void copy(const Vector& x, Vector& y) const {
+    resize(y);
+    m_ops.copy(x.data(), y.data(), m_n);
+  }
+  void axpy(double a, const Vector& x, Vector& y) const { m_ops.axpy(a, x.data(), y.data(), m_n); }
+  void xpay(const Vector& x, double a, Vector& y) const { m_ops.xpay(x.data(), a, y.data(), m_n); }
+  void scale(double a, Vector& x) const { m_ops.scale(a, x.data(), m_n); }
+  double dot(const Vector& x, const Vector& y) const { return m_ops.dot(x.data(), y.data(), m_n); }
+  double norm(const Vector& x) const;
+  void project(Vector& x) const { m_ops.project(x.data(), m_fixed, m_n); }
+  const std::uint8_t* fixed() const { return m_fixed; }
+  const VectorOps& ops() const { return m_ops; }
+
+ private:
+  const VectorOps& m_ops;
+  long long m_n;
+  const std::uint8_t* m_fixed;
 };
 
 }  // namespace fascia::gpu

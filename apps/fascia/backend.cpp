@@ -12,8 +12,8 @@ namespace fascia::app {
 void add_backend_options(CLI::App& command, BackendOptions& options) {
   command
       .add_option("--backend", options.backend,
-                  "cpu | cuda (run: the whole step on the GPU for scenes without shells, stiffness damping or "
-                  "cholmod; otherwise, and in study, the volumetric elasticity on the GPU behind the CPU "
+                  "cpu | cuda (run: the whole step on the GPU, except with rayleigh_stiffness or a cholmod solve or "
+                  "preconditioner; there, and in study, the volumetric elasticity on the GPU behind the CPU "
                   "solver; exit 69 without a usable device)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
   command

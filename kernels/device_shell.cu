@@ -1,0 +1,133 @@
+#include "device_shell.hpp"
+
+#include "core/rotation.hpp"
+
+#include <algorithm>
+
+namespace fascia::gpu {
+namespace {
+
+constexpr int kThreads = 128;
+int grid(int n) { return std::max(1, (n + kThreads - 1) / kThreads); }
+void check() { FASCIA_CUDA(cudaGetLastError()); }
+
+// The nodes' positions and rotations of triangle e.
+__device__ void gather_nodes(const ShellElementRest& e, const double* x, const double* q, Vec3 (&xs)[3], Mat3 (&Rs)[3]) {
+  for (int k = 0; k < 3; ++k) {
+    xs[k] = load3(x + 3 * e.nodes[k]);
+    Rs[k] = rotation_matrix(load_quat(q + 4 * e.nodes[k]));
+  }
+}
+
+// Per triangle: its energy, and with `values` its gradient [18]; with `hessians` its Hessian.
+__global__ void k_shell_elements(int count, const ShellElementRest* elements, const ShellModuli* moduli,
+                                 const double* x, const double* q, double* energies, double* values,
+                                 double* hessians) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= count) return;
+  const ShellElementRest e = elements[t];
+  Vec3 xs[3];
+  Mat3 Rs[3];
+  gather_nodes(e, x, q, xs, Rs);
+  if (hessians) {
+    double g[kShellElementDofs];
+    energies[t] = shell_element_hessian(e, moduli[t], xs, Rs, g,
+                                        hessians + static_cast<long long>(t) * kShellElementDofs * kShellElementDofs);
+  } else if (values) {
+    energies[t] = shell_element_gradient(e, moduli[t], xs, Rs, values + static_cast<long long>(t) * kShellElementDofs);
+  } else {
+    energies[t] = shell_element_energy(e, moduli[t], xs, Rs);
+  }
+}
+
+// values_t = H_t d_t [18] per triangle.
+__global__ void k_shell_products(int count, const ShellElementRest* elements, const double* hessians, const double* d,
+                                 double* values) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= count) return;
+  const ShellElementRest& e = elements[t];
+  double de[kShellElementDofs];
+  for (int k = 0; k < 3; ++k)
+    for (int c = 0; c < 6; ++c) de[6 * k + c] = d[6 * e.nodes[k] + c];
+  const double* H = hessians + static_cast<long long>(t) * kShellElementDofs * kShellElementDofs;
+  for (int r = 0; r < kShellElementDofs; ++r) {
+    double s = 0;
+    for (int c = 0; c < kShellElementDofs; ++c) s += H[kShellElementDofs * r + c] * de[c];
+    values[static_cast<long long>(t) * kShellElementDofs + r] = s;
+  }
+}
+
+// out_i += sum of its entries' 6 values, per frame in entry order.
+__global__ void k_shell_gather(int frames, const int* frame_ids, const int* offsets, const int* entries,
+                               const double* values, double* out) {
+  const int f = blockIdx.x * blockDim.x + threadIdx.x;
+  if (f >= frames) return;
+  double s[6] = {0, 0, 0, 0, 0, 0};
+  for (int e = offsets[f]; e < offsets[f + 1]; ++e) {
+    const int entry = entries[e];  // 3 t + node: values at 18 t + 6 node = 6 entry
+    for (int c = 0; c < 6; ++c) s[c] += values[6LL * entry + c];
+  }
+  double* o = out + 6 * frame_ids[f];
+  for (int c = 0; c < 6; ++c) o[c] += s[c];
+}
+
+// blocks_i += the node's 6x6 diagonal block of each of its triangles' Hessians.
+__global__ void k_shell_blocks(int frames, const int* frame_ids, const int* offsets, const int* entries,
+                               const double* hessians, double* blocks) {
+  const int f = blockIdx.x * blockDim.x + threadIdx.x;
+  if (f >= frames) return;
+  double* B = blocks + 36 * frame_ids[f];
+  for (int e = offsets[f]; e < offsets[f + 1]; ++e) {
+    const int t = entries[e] / 3, node = entries[e] % 3;
+    const double* H = hessians + static_cast<long long>(t) * kShellElementDofs * kShellElementDofs;
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) B[6 * r + c] += H[kShellElementDofs * (6 * node + r) + 6 * node + c];
+  }
+}
+
+}  // namespace
+
+double DeviceShells::energy(const double* x, const double* q, const VectorOps& ops) {
+  if (empty()) return 0.0;
+  k_shell_elements<<<grid(m_triangles), kThreads, 0, ops.stream()>>>(m_triangles, m_elements.data(), m_moduli.data(), x,
+                                                                     q, m_energies.data(), nullptr, nullptr);
+  check();
+  return ops.dot(m_energies.data(), nullptr, m_triangles);
+}
+
+double DeviceShells::add_gradient(const double* x, const double* q, double* g, const VectorOps& ops) {
+  if (empty()) return 0.0;
+  k_shell_elements<<<grid(m_triangles), kThreads, 0, ops.stream()>>>(m_triangles, m_elements.data(), m_moduli.data(), x,
+                                                                     q, m_energies.data(), m_values.data(), nullptr);
+  check();
+  k_shell_gather<<<grid(m_frames), kThreads, 0, ops.stream()>>>(m_frames, m_frame_ids.data(), m_offsets.data(),
+                                                                m_entries.data(), m_values.data(), g);
+  check();
+  return ops.dot(m_energies.data(), nullptr, m_triangles);
+}
+
+void DeviceShells::prepare(const double* x, const double* q, cudaStream_t stream) {
+  if (empty()) return;
+  k_shell_elements<<<grid(m_triangles), kThreads, 0, stream>>>(m_triangles, m_elements.data(), m_moduli.data(), x, q,
+                                                               m_energies.data(), nullptr, m_hessians.data());
+  check();
+}
+
+void DeviceShells::add_tangent(const double* d, double* out, cudaStream_t stream) {
+  if (empty()) return;
+  k_shell_products<<<grid(m_triangles), kThreads, 0, stream>>>(m_triangles, m_elements.data(), m_hessians.data(), d,
+                                                               m_values.data());
+  check();
+  k_shell_gather<<<grid(m_frames), kThreads, 0, stream>>>(m_frames, m_frame_ids.data(), m_offsets.data(),
+                                                          m_entries.data(), m_values.data(), out);
+  check();
+}
+
+void DeviceShells::add_diagonal_blocks(double* blocks, cudaStream_t stream) const {
+  if (empty()) return;
+  k_shell_blocks<<<grid(m_frames), kThreads, 0, stream>>>(m_frames, m_frame_ids.data(), m_offsets.data(),
+                                                          m_entries.data(), m_hessians.data(), blocks);
+  check();
+}
+
+}  // namespace fascia::gpu
