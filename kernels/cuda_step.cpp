@@ -55,11 +55,7 @@ StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
   return [options](const Model& model, const ExternalLoads& loads, const SimulationSettings& settings,
                    std::string& why) -> std::unique_ptr<StepBackend> {
     if (!DeviceProblem::supported(settings.newton.linear)) {
-      why = std::string("the linear solve (") + to_string(settings.newton.linear.method) +
-            (settings.newton.linear.method == LinearMethod::pcg
-                 ? std::string(" preconditioned by ") + to_string(settings.newton.linear.preconditioner)
-                 : std::string()) +
-            ") runs on the CPU";
+      why = "the linear method is cholmod (a direct solve), which runs on the CPU";
       return nullptr;
     }
     why = device_potential_refusal(model, settings.integrator == Integrator::backward_euler ? settings.rayleigh_stiffness : 0.0);

@@ -4,9 +4,11 @@
 // (device_newton.hpp) on the device potential (device_potential.hpp), and reads the result back
 // once; inside, only the scalars that steer the iterations cross the bus.
 //
-// Covered: the static and backward-Euler integrators with cg, or pcg preconditioned by block
-// Jacobi, on every model (tissues, shells, rigid bodies and their attached frames), without
-// stiffness-proportional damping. Elsewhere the factory returns null with the
+// Covered: the static and backward-Euler integrators with cg or pcg on every model (tissues,
+// shells, rigid bodies and their attached frames), without stiffness-proportional damping. On the
+// device pcg is preconditioned by block Jacobi, also where the scene asks for the CPU's sparse
+// factorisation (solver.linear.preconditioner: cholmod, the default), which has no device
+// counterpart: the same tolerance, more CG iterations. Elsewhere the factory returns null with the
 // reason, and Simulation runs the CPU engine with the volumetric elasticity on the device
 // (cuda_elasticity.hpp).
 #pragma once
