@@ -188,7 +188,7 @@ struct ObjectPart {
   VolumeMesh mesh;                 // mesh-based tissue
   BoundarySurface boundary;        // mesh-based tissue
   SurfaceMesh surface;             // triangles (mesh-based: over all mesh vertices)
-  MeshlessShapeOptions shape;      // meshless tissue
+  MeshlessShape shape;             // meshless tissue: its frames' shape functions
   double density = 0;              // rigid body
   ShellProperties shell;           // shell
   std::string discretisation;
@@ -299,8 +299,7 @@ MeshlessOptions meshless_options(const MeshlessSpec& ml) {
   MeshlessOptions options;
   options.frame_spacing = ml.frame_spacing.value;
   options.sample_spacing = ml.sample_spacing.value;
-  options.shape.kind = ml.shape.value == "rbf" ? MeshlessShapeKind::rbf : MeshlessShapeKind::mls;
-  options.shape.neighbours = ml.neighbours.value;
+  options.shape.support_neighbours = ml.neighbours.value;
   options.seed = static_cast<std::uint64_t>(ml.seed.value);
   options.thin_parts = ml.thin_parts.value == "stop" ? ThinParts::stop : ThinParts::repair;
   return options;
@@ -479,7 +478,7 @@ bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget
   part.part = std::move(result.model);
   if (o.lock_rotations) lock_rotations(part.part);
   part.meshless = true;
-  part.shape = options.shape;
+  part.shape = result.shape;
   part.discretisation = "meshless (" + ml.shape.value + "), " + std::to_string(part.surface.triangle_count()) +
                         " surface triangles, " + std::to_string(result.statistics.added_frames) +
                         " frames added in thin parts";
@@ -490,7 +489,7 @@ bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget
 // Shape-function table of `points` over one object's own frames, re-indexed to the assembled
 // model's frames with the rest offsets re-based on them (l = p - x_g, as ModelBuilder does).
 NeighbourTable object_table(const ObjectPart& part, const Model& model, const std::vector<double>& points) {
-  NeighbourTable t = build_meshless_table(part.part.frame_rest_positions, points, part.shape).neighbours;
+  NeighbourTable t = build_meshless_table(part.shape, points).neighbours;
   for (std::size_t q = 0; q + 1 < t.offsets.size(); ++q)
     for (int pr = t.offsets[q]; pr < t.offsets[q + 1]; ++pr) {
       const std::size_t r = static_cast<std::size_t>(pr);

@@ -105,10 +105,13 @@ ObjectEstimate estimate_meshless(const SurfaceMesh& surface, const MeshlessOptio
     for (double s : {size.x, size.y, size.z}) cells *= s * std::sqrt(3.0) / r + 5;
     return 4 * cells;
   };
+  // Neighbour frames per sample: the frames within support_scale times the distance holding
+  // support_neighbours of them, about support_scale^3 support_neighbours inside the object.
+  const double neighbours = std::pow(options.shape.support_scale, 3) * options.shape.support_neighbours;
   // One slice of covered voxels at a time (32 bytes each) per thread.
   const double slice = 32 * (size.x / h + 1) * (size.y / h + 1);
   e.bytes = kBandVoxelBytes * e.voxels + std::max(grid(rf), grid(rs)) + slice +
-            e.samples * sample_bytes(options.shape.neighbours) + e.frames * kFrameBytes;
+            e.samples * sample_bytes(neighbours) + e.frames * kFrameBytes;
   if (extent > kLargestBody)
     e.cause = "the surface is " + length_text(extent) +
               " across: missing 'transform: {scale: 1e-3}' for a surface in millimetres?";

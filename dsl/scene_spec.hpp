@@ -53,8 +53,8 @@ struct BoxSpec {
 
 struct MeshlessSpec {
   Located<double> frame_spacing, sample_spacing;  // m
-  Located<std::string> shape;       // "mls" | "rbf"
-  Located<int> neighbours;          // k nearest frames per sample
+  Located<std::string> shape;       // "mls"
+  Located<int> neighbours;          // k: frame supports from the k-th nearest frame
   Located<long long> seed;          // Poisson-disk seed
   Located<std::string> thin_parts;  // "repair" | "stop"
 };

@@ -3,7 +3,6 @@
 #include "bench/discretise_bench.hpp"
 
 #include <iostream>
-#include <map>
 #include <memory>
 
 namespace fascia::app {
@@ -15,9 +14,9 @@ void add_bench_discretise(CLI::App& bench, Action& action) {
       "discretise", "Time the meshless discretisation (voxelise, frames, samples, volumes, shape functions)");
   cmd->add_option("--samples", options->sample_counts, "Target sample counts (about 10 per frame)")
       ->capture_default_str();
-  const std::map<std::string, MeshlessShapeKind> kinds{{"mls", MeshlessShapeKind::mls}, {"rbf", MeshlessShapeKind::rbf}};
-  cmd->add_option("--shape", options->shape, "Shape functions")->transform(CLI::CheckedTransformer(kinds, CLI::ignore_case));
-  cmd->add_option("--neighbours", options->neighbours, "Frames per sample (k nearest)")->capture_default_str();
+  cmd->add_option("--neighbours", options->neighbours,
+                  "Each frame's support is 1.6 times the distance to its k-th nearest frame: k")
+      ->capture_default_str();
   cmd->add_option("--seed", options->seed, "Poisson-disk seed")->capture_default_str();
   cmd->add_flag("--json", *json, "One JSON object per line on stdout");
   cmd->callback([options, json, &action] {

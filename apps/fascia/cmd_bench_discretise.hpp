@@ -1,4 +1,4 @@
-// `fascia bench discretise [--json] [--samples N]... [--shape mls|rbf] [--neighbours K] [--seed S]`
+// `fascia bench discretise [--json] [--samples N]... [--neighbours K] [--seed S]`
 #pragma once
 
 #include "commands.hpp"

@@ -27,7 +27,7 @@ struct StudyOptions {
 };
 
 const char* const kMeshMethods[] = {"frame-hex", "frame-tet", "fem-hex", "fem-tet"};
-const char* const kMeshlessMethods[] = {"frame-meshless-mls", "frame-meshless-rbf"};
+const char* const kMeshlessMethods[] = {"frame-meshless-mls"};
 
 // --resolution selects mesh-based cases and --frame-spacing meshless ones; with neither, the
 // default cases of both.
@@ -116,8 +116,8 @@ void register_study(CLI::App& app, Action& action) {
   CLI::App* beam = study->add_subcommand("beam", "Cantilever convergence study (paper §4.1, Figure 3)");
   beam->add_flag("--json", options->json, "One JSON object per line on stdout");
   beam->add_option("--method", options->methods,
-                   "Only these methods (frame-hex, frame-tet, fem-hex, fem-tet, frame-meshless-mls, frame-meshless-rbf)")
-      ->check(CLI::IsMember({"frame-hex", "frame-tet", "fem-hex", "fem-tet", "frame-meshless-mls", "frame-meshless-rbf"}));
+                   "Only these methods (frame-hex, frame-tet, fem-hex, fem-tet, frame-meshless-mls)")
+      ->check(CLI::IsMember({"frame-hex", "frame-tet", "fem-hex", "fem-tet", "frame-meshless-mls"}));
   beam->add_option("--resolution", options->resolutions, "Mesh-based cases: resolutions NXxNYxNZ (hexahedra per axis)");
   beam->add_option("--frame-spacing", options->frame_spacings, "Meshless cases: frame spacings r_f (m)")
       ->check(CLI::PositiveNumber);

@@ -16,8 +16,7 @@ DiscretiseBenchRow bench_discretise_once(long target, const DiscretiseBenchOptio
   MeshlessOptions m;
   m.sample_spacing = row.sample_spacing;
   m.frame_spacing = row.frame_spacing;
-  m.shape.kind = options.shape;
-  m.shape.neighbours = options.neighbours;
+  m.shape.support_neighbours = options.neighbours;
   m.seed = options.seed;
   const SurfaceMesh box = box_surface({0, 0, 0}, {4, 1, 1});
   const MeshlessBuild build = build_meshless_model(box, make_material(MaterialLaw::stvk, 4e4, 0.3, 1000), m);

@@ -11,8 +11,7 @@ namespace fascia {
 
 struct DiscretiseBenchOptions {
   std::vector<long> sample_counts{10000, 100000, 1000000};  // targets, about 10 samples per frame
-  MeshlessShapeKind shape = MeshlessShapeKind::mls;
-  int neighbours = 12;
+  int neighbours = MeshlessShapeOptions{}.support_neighbours;
   std::uint64_t seed = 1;
 };
 

@@ -3,7 +3,9 @@
 #include "discretise/point_grid.hpp"
 #include "discretise/poisson_disk.hpp"
 #include "discretise/sample_volumes.hpp"
+#include "discretise/surface_quadrature.hpp"
 #include "discretise/voxel_domain.hpp"
+#include "shape/consistent_integration.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -55,7 +57,10 @@ std::string MeshlessStatistics::describe() const {
   std::ostringstream out;
   out << "frames " << frames << " (" << added_frames << " added for thin parts), samples " << samples << "\n"
       << "neighbours per sample min " << neighbours_min << " mean " << neighbours_mean << " max " << neighbours_max
-      << ", smallest spread " << min_spread << "\n"
+      << ", smallest spread " << min_spread << ", frame supports " << support_min << " to " << support_max
+      << " m\n"
+      << "consistent integration: " << boundary_points << " surface points, defect " << integration_defect_before
+      << " -> " << integration_defect << " (" << integration_iterations << " CG iterations)\n"
       << "voxel size " << voxel_size << " m, " << voxels << " voxels\n"
       << "volume: surface " << surface_volume << " m^3, voxels " << voxel_volume << " m^3 (error "
       << 100 * volume_error << " %";
@@ -79,6 +84,30 @@ MeshlessBuild build_meshless_model(const SurfaceMesh& surface, const Material& m
   const double seconds_voxelise = seconds_since(t0);
   MeshlessBuild build = build_meshless_model(domain, std::abs(surface_volume(surface)), material, options);
   build.statistics.seconds_voxelise = seconds_voxelise;
+
+  // Consistent integration; it also tilts the volumes so that they integrate x exactly, hence
+  // the masses are computed again.
+  t0 = std::chrono::steady_clock::now();
+  Model& model = build.model;
+  MeshlessStatistics& st = build.statistics;
+  const SurfaceQuadrature boundary = surface_quadrature(surface, rs);
+  const MeshlessTable boundary_table = build_meshless_table(build.shape, boundary.points);
+  if (!boundary_table.failed.empty()) {
+    const Vec3 b = load3(&boundary.points[3 * boundary_table.failed.front()]);
+    throw std::runtime_error("meshless: " + std::to_string(boundary_table.failed.size()) +
+                             " surface points are not covered by enough frames, e.g. (" + std::to_string(b.x) + ", " +
+                             std::to_string(b.y) + ", " + std::to_string(b.z) + ") m; use a smaller frame_spacing");
+  }
+  const ConsistentIntegrationReport integration =
+      make_integration_consistent(model.neighbours, model.samples.volumes, model.samples.rest_positions, build.shape,
+                                  boundary_table.neighbours, boundary.points, boundary.normals);
+  compute_frame_inertia(model);
+  st.sample_volume = model.total_volume();
+  st.boundary_points = static_cast<long long>(boundary.points.size() / 3);
+  st.integration_defect_before = integration.initial_defect;
+  st.integration_defect = integration.defect;
+  st.integration_iterations = integration.iterations;
+  st.seconds_integration = seconds_since(t0);
   build.statistics.seconds_total = seconds_since(t_start);
   return build;
 }
@@ -122,7 +151,8 @@ MeshlessBuild build_meshless_model(const VoxelDomain& domain, double reference_v
   st.seconds_volumes = seconds_since(t0);
 
   t0 = std::chrono::steady_clock::now();
-  MeshlessTable table = build_meshless_table(frames, samples, options.shape);
+  MeshlessShape shape = make_meshless_shape(frames, options.shape);
+  MeshlessTable table = build_meshless_table(shape, samples);
   std::vector<int> bad = badly_supported(table, options.min_spread);
   if (!bad.empty() && options.thin_parts == ThinParts::stop)
     throw std::runtime_error("meshless: " + thin_part_message(bad, table, samples, domain, options, false));
@@ -149,7 +179,8 @@ MeshlessBuild build_meshless_model(const VoxelDomain& domain, double reference_v
       }
     }
     if (frames.size() == before) break;
-    table = build_meshless_table(frames, samples, options.shape);
+    shape = make_meshless_shape(frames, options.shape);
+    table = build_meshless_table(shape, samples);
     bad = badly_supported(table, options.min_spread);
   }
   if (!bad.empty()) throw std::runtime_error("meshless: " + thin_part_message(bad, table, samples, domain, options, true));
@@ -166,6 +197,9 @@ MeshlessBuild build_meshless_model(const VoxelDomain& domain, double reference_v
     if (i >= poisson_frames) ++st.added_frames;
   }
   for (int& i : table.neighbours.frames) i = renumber[i];
+  build.shape.frames = model.frame_rest_positions;
+  for (int i = 0; i < n_all; ++i)
+    if (renumber[i] >= 0) build.shape.supports.push_back(shape.supports[i]);
   st.seconds_shape = seconds_since(t0);
 
   model.samples.rest_positions = samples;
@@ -174,7 +208,6 @@ MeshlessBuild build_meshless_model(const VoxelDomain& domain, double reference_v
   model.neighbours = std::move(table.neighbours);
   model.materials = {material};
   build_reverse_table(model);
-  compute_frame_inertia(model);
   model.fixed_dofs.assign(model.dof_count(), 0);
 
   st.frames = model.frame_count();
@@ -191,12 +224,13 @@ MeshlessBuild build_meshless_model(const VoxelDomain& domain, double reference_v
   st.voxel_volume = volumes.assigned + volumes.unassigned;
   st.unassigned_volume = volumes.unassigned;
   st.volume_error = (st.voxel_volume - st.surface_volume) / st.surface_volume;
-  if (options.normalise_volumes) {
-    st.volume_scale = st.surface_volume / volumes.assigned;
-    for (double& v : model.samples.volumes) v *= st.volume_scale;
-    compute_frame_inertia(model);
-  }
+  st.volume_scale = st.surface_volume / volumes.assigned;
+  for (double& v : model.samples.volumes) v *= st.volume_scale;
+
+  compute_frame_inertia(model);
   st.sample_volume = model.total_volume();
+  st.support_min = *std::min_element(build.shape.supports.begin(), build.shape.supports.end());
+  st.support_max = *std::max_element(build.shape.supports.begin(), build.shape.supports.end());
   st.seconds_total = seconds_since(t_start);
   return build;
 }

@@ -1,7 +1,9 @@
 // Meshless discretisation from a closed surface mesh (paper §2.1): voxelise the surface with
 // OpenVDB, place frames and samples by two Poisson-disk samplings (radii r_f > r_s), give each
-// sample the volume of the voxels nearest to it, and attach each sample to its neighbour frames
-// with meshless shape functions (shape/meshless_shape.hpp).
+// sample the volume of the voxels nearest to it, attach each sample to its neighbour frames with
+// meshless shape functions (shape/meshless_shape.hpp: one conforming field per frame), and make
+// the sample integration variationally consistent (shape/consistent_integration.hpp: boundary
+// integrals on the surface mesh with surface_quadrature at spacing r_s).
 //
 // Thin parts. A sheet thinner than r_f (typical of fasciae) holds a single layer of frames, so a
 // sample's neighbour frames are nearly coplanar: MLS becomes singular and the gradient across
@@ -35,11 +37,6 @@ struct MeshlessOptions {
   ThinParts thin_parts = ThinParts::repair;
   double min_spread = 0.15;   // see above; 0 disables the check (MLS singularities still fail)
   int repair_passes = 3;
-  // Scale the sample volumes so that they sum to the enclosed volume of the surface mesh
-  // (divergence theorem, exact for the triangulation). The coverage ramp of the voxelisation
-  // rounds convex edges (measured about +0.13 h^2 per metre of 90-degree edge), which matters
-  // for coarse voxels on boxy shapes such as the cantilever beam.
-  bool normalise_volumes = true;
   // Frames placed by the caller, [K][3] m, e.g. a grid on a clamped face: Dirichlet conditions
   // fix frames, and Poisson-disk frames (all strictly inside) sit up to r_f from the boundary.
   // Poisson-disk frames closer than r_f / 2 to one of these are dropped.
@@ -61,10 +58,18 @@ struct MeshlessStatistics {
   double voxel_volume = 0;    // m^3, sum of covered voxel fractions
   double unassigned_volume = 0;  // m^3, voxels with no sample in reach (thinner than a voxel)
   double volume_error = 0;    // (voxel_volume - surface_volume) / surface_volume, before scaling
-  double volume_scale = 1;    // factor applied to the voxel shares (normalise_volumes)
+  // The sample volumes are scaled to the enclosed volume of the surface mesh (divergence
+  // theorem, exact for the triangulation), which consistent integration requires; the coverage
+  // ramp of the voxelisation rounds convex edges (about +0.13 h^2 per metre of 90-degree edge).
+  double volume_scale = 1;    // factor applied to the voxel shares
   double sample_volume = 0;   // m^3, sum of the final sample volumes
+  double support_min = 0, support_max = 0;  // m, frame supports rho_i
+  long long boundary_points = 0;            // surface quadrature points
+  double integration_defect_before = 0;     // consistent_integration.hpp, relative
+  double integration_defect = 0;            // after the correction
+  int integration_iterations = 0;
   double seconds_voxelise = 0, seconds_frames = 0, seconds_samples = 0, seconds_volumes = 0,
-         seconds_shape = 0, seconds_total = 0;
+         seconds_shape = 0, seconds_integration = 0, seconds_total = 0;
 
   // Multi-line human-readable summary (`fascia check`).
   std::string describe() const;
@@ -72,6 +77,7 @@ struct MeshlessStatistics {
 
 struct MeshlessBuild {
   Model model;
+  MeshlessShape shape;  // the model's frames and supports: evaluates the fields at other points
   MeshlessStatistics statistics;
 };
 
@@ -83,7 +89,9 @@ MeshlessBuild build_meshless_model(const SurfaceMesh& surface, const Material& m
 class VoxelDomain;
 // The same on a voxelised domain (a label image, a region derived from other objects): the
 // domain's voxel size replaces options.voxel_size, and reference_volume (m^3, > 0) the
-// surface's enclosed volume in volume_error and normalise_volumes.
+// surface's enclosed volume in volume_error and the volume scaling. Without a surface mesh there
+// is no boundary rule: the conforming MLS fields are used without the consistent-integration
+// correction (integration_defect stays 0, boundary_points 0).
 MeshlessBuild build_meshless_model(const VoxelDomain& domain, double reference_volume, const Material& material,
                                    const MeshlessOptions& options);
 

@@ -71,8 +71,8 @@ Probe make_probe(const VolumeMesh& mesh, const Vec3& point) {
   throw std::invalid_argument("probe point lies outside the mesh");
 }
 
-Probe make_meshless_probe(const Model& model, const MeshlessShapeOptions& shape, const Vec3& point) {
-  const MeshlessTable table = build_meshless_table(model.frame_rest_positions, {point.x, point.y, point.z}, shape);
+Probe make_meshless_probe(const MeshlessShape& shape, const Vec3& point) {
+  const MeshlessTable table = build_meshless_table(shape, {point.x, point.y, point.z});
   if (!table.failed.empty()) throw std::invalid_argument("meshless shape functions cannot be built at the probe point");
   Probe p;
   p.rest_position = point;

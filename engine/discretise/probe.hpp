@@ -21,12 +21,11 @@ struct Probe {
 // returns its interpolation; throws std::invalid_argument when the point is outside the mesh.
 Probe make_probe(const VolumeMesh& mesh, const Vec3& point);
 
-// The same for a meshless model: the shape functions of `shape` (the options the model was built
-// with) evaluated at an arbitrary rest point, e.g. on the surface where no sample lies. The point
-// gets its own k-nearest frames and support, as a sample would. Throws std::invalid_argument when
-// the model has no frames or the shape functions cannot be built there (MLS with coplanar
-// neighbours).
-Probe make_meshless_probe(const Model& model, const MeshlessShapeOptions& shape, const Vec3& point);
+// The same for a meshless model: its shape functions (MeshlessBuild::shape) evaluated at an
+// arbitrary rest point, e.g. on the surface where no sample lies; the fields are the ones the
+// samples see. Throws std::invalid_argument when no frame covers the point or the shape functions
+// cannot be built there (MLS with coplanar neighbours).
+Probe make_meshless_probe(const MeshlessShape& shape, const Vec3& point);
 
 // Current position p = sum_i w_i (x_i + R_i l_i), eq. (3).
 Vec3 probe_position(const Probe& probe, const State& state);

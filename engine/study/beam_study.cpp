@@ -20,9 +20,8 @@ struct DiscreteBeam {
 };
 
 DiscreteBeam discretise_beam(const BeamCase& beam, const BeamSettings& s) {
-  if (beam.method == "frame-meshless-mls" || beam.method == "frame-meshless-rbf") {
-    const MeshlessShapeKind kind = beam.method == "frame-meshless-mls" ? MeshlessShapeKind::mls : MeshlessShapeKind::rbf;
-    MeshlessBeam m = build_meshless_beam(s, kind, beam.frame_spacing);
+  if (is_meshless_beam_method(beam.method)) {
+    MeshlessBeam m = build_meshless_beam(s, beam.frame_spacing);
     return {std::move(m.model), std::move(m.tip), m.clamped_frames};
   }
   const bool tet = beam.method == "frame-tet" || beam.method == "fem-tet";
@@ -44,7 +43,7 @@ DiscreteBeam discretise_beam(const BeamCase& beam, const BeamSettings& s) {
 }  // namespace
 
 bool is_meshless_beam_method(const std::string& method) {
-  return method == "frame-meshless-mls" || method == "frame-meshless-rbf";
+  return method == "frame-meshless-mls";
 }
 
 BeamCase meshless_beam_case(const std::string& method, double frame_spacing, const BeamSettings& settings) {
@@ -99,8 +98,7 @@ std::vector<BeamCase> default_beam_cases() {
   std::vector<BeamCase> cases;
   for (const char* method : {"frame-hex", "frame-tet", "fem-hex", "fem-tet"})
     for (const auto& r : res) cases.push_back({method, r[0], r[1], r[2]});
-  for (const char* method : {"frame-meshless-mls", "frame-meshless-rbf"})
-    for (double rf : default_meshless_frame_spacings()) cases.push_back(meshless_beam_case(method, rf));
+  for (double rf : default_meshless_frame_spacings()) cases.push_back(meshless_beam_case("frame-meshless-mls", rf));
   return cases;
 }
 

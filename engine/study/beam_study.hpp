@@ -15,7 +15,7 @@
 namespace fascia {
 
 struct BeamCase {
-  // frame-hex | frame-tet | fem-hex | fem-tet | frame-meshless-mls | frame-meshless-rbf
+  // frame-hex | frame-tet | fem-hex | fem-tet | frame-meshless-mls
   std::string method;
   // Mesh-based: hexahedra per axis (tetrahedra: 6 per hexahedron). Meshless: cells of the grid of
   // spacing about frame_spacing (meshless_beam_resolution), for comparison with the mesh rows.
@@ -55,9 +55,9 @@ BeamCase meshless_beam_case(const std::string& method, double frame_spacing, con
 
 // Mesh-based methods: frame-* use 6-DOF frames at the vertices; fem-* lock the rotations
 // (classic total-Lagrangian FEM, DESIGN.md). Hexahedra carry 2x2x2 samples, tetrahedra 4.
-// Meshless methods (study/meshless_beam.hpp): Poisson-disk frames and samples in the box with
-// MLS or Shepard-RBF shape functions, a grid of fixed frames on x = 0, the tip probe evaluated
-// with the same shape functions.
+// Meshless method (study/meshless_beam.hpp): Poisson-disk frames and samples in the box with MLS
+// shape functions and consistent integration, a grid of fixed frames on x = 0, the tip probe
+// evaluated with the same shape functions.
 BeamResult run_beam_case(const BeamCase& beam, const BeamSettings& settings);
 
 // Resolutions up to 64 x 4 x 4 hexahedra, including the paper's 20 x 9 frames (19 x 2 x 2), and

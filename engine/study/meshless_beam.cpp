@@ -16,13 +16,12 @@ void meshless_beam_resolution(const BeamSettings& s, double frame_spacing, int& 
   nz = cells(s.height, frame_spacing);
 }
 
-MeshlessBeam build_meshless_beam(const BeamSettings& s, MeshlessShapeKind kind, double frame_spacing) {
+MeshlessBeam build_meshless_beam(const BeamSettings& s, double frame_spacing) {
   if (!(frame_spacing > 0)) throw std::invalid_argument("meshless beam: frame_spacing must be positive");
   if (!(s.samples_per_frame > 1)) throw std::invalid_argument("meshless beam: samples_per_frame must exceed 1");
   MeshlessOptions options;
   options.frame_spacing = frame_spacing;
   options.sample_spacing = frame_spacing / std::cbrt(s.samples_per_frame);
-  options.shape.kind = kind;
   options.seed = s.seed;
   int nx, ny, nz;
   meshless_beam_resolution(s, frame_spacing, nx, ny, nz);
@@ -36,7 +35,7 @@ MeshlessBeam build_meshless_beam(const BeamSettings& s, MeshlessShapeKind kind, 
   MeshlessBeam beam{std::move(build.model), Probe{}, build.statistics, 0};
   // Grid frames sit exactly on x = 0; every Poisson or repair frame is off it.
   beam.clamped_frames = fix_frames(beam.model, [](double x, double, double) { return x == 0.0; });
-  beam.tip = make_meshless_probe(beam.model, options.shape, Vec3{s.length, 0.5 * s.width, 0.5 * s.height});
+  beam.tip = make_meshless_probe(build.shape, Vec3{s.length, 0.5 * s.width, 0.5 * s.height});
   return beam;
 }
 

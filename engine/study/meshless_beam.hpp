@@ -22,7 +22,7 @@ struct MeshlessBeam {
 };
 
 // frame_spacing r_f (m); the sample spacing is r_f / cbrt(settings.samples_per_frame).
-MeshlessBeam build_meshless_beam(const BeamSettings& settings, MeshlessShapeKind kind, double frame_spacing);
+MeshlessBeam build_meshless_beam(const BeamSettings& settings, double frame_spacing);
 
 // Cells per axis of the grid of spacing about r_f over the beam (the study's `resolution` of a
 // meshless row): ceil(extent / r_f - 1e-9), at least 1.

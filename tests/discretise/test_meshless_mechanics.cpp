@@ -12,9 +12,8 @@ using namespace fascia;
 using namespace fascia::test;
 
 TEST_CASE("meshless: forces are minus the gradient of the energy", "[discretise][meshless][fd]") {
-  const MeshlessShapeKind kind = GENERATE(MeshlessShapeKind::mls, MeshlessShapeKind::rbf);
   const MaterialLaw law = GENERATE(MaterialLaw::stvk, MaterialLaw::neo_hookean);
-  const Model model = small_meshless_box(kind, law).model;
+  const Model model = small_meshless_box(law).model;
   // Displacements of 2 mm on 40 mm frame spacing: strains ~ 0.05 to 0.1, no inversion.
   const State state = random_state(model, 7, 0.002, 0.3, 2.0);
   Elasticity elasticity(model, 1);  // tiny model: one thread avoids OpenMP overhead
@@ -35,8 +34,7 @@ TEST_CASE("meshless: forces are minus the gradient of the energy", "[discretise]
 }
 
 TEST_CASE("meshless: tangent product is the Hessian of the energy and symmetric", "[discretise][meshless][fd]") {
-  const MeshlessShapeKind kind = GENERATE(MeshlessShapeKind::mls, MeshlessShapeKind::rbf);
-  const Model model = small_meshless_box(kind, MaterialLaw::stvk).model;
+  const Model model = small_meshless_box(MaterialLaw::stvk).model;
   const State state = random_state(model, 11, 0.002, 0.5, 2.5);
   Elasticity elasticity(model, 1);  // tiny model: one thread avoids OpenMP overhead
   elasticity.prepare(state);
@@ -58,8 +56,7 @@ TEST_CASE("meshless: tangent product is the Hessian of the energy and symmetric"
 
 TEST_CASE("meshless: rigid motions give zero energy and force; forces rotate with the body",
           "[discretise][meshless][invariance]") {
-  const MeshlessShapeKind kind = GENERATE(MeshlessShapeKind::mls, MeshlessShapeKind::rbf);
-  const Model model = small_meshless_box(kind, MaterialLaw::stvk).model;
+  const Model model = small_meshless_box(MaterialLaw::stvk).model;
   const Vec3 rot{1.1, -0.4, 2.0}, t{0.3, 0.1, -0.7};
   const Quat q = quat_exp(rot);
   const Mat3 Q = rotation_matrix(q);

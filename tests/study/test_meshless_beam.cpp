@@ -27,7 +27,7 @@ TEST_CASE("meshless MLS cantilever under a small load deflects as a Timoshenko b
   // deflection over Poisson-disk seeds 1, 2, 3 is 1.054, 1.095 and 1.055 times q L^4 / (8 E I),
   // and 0.93 to 0.97 at r_f = 0.7 m: the discretisation error of this resolution is up to 10 %,
   // of either sign. 15 % keeps seed 1 (this case) clear of that scatter, while a missing
-  // consistency property fails it: Shepard RBF at the same spacing gives 1.48 to 1.72 times.
+  // consistency property fails it (a Shepard kernel at the same spacing gave 1.48 to 1.72 times).
   REQUIRE(std::abs(-r.tip_displacement.z / expected - 1) <= 0.15);
   // The clamp grid on x = 0 holds the end in place: the tip moves along z only, to first order.
   REQUIRE(std::abs(r.tip_displacement.x) <= 1e-3 * expected);
