@@ -366,7 +366,7 @@ bool make_image_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& b
   part.part = std::move(result.model);
   if (o.lock_rotations) lock_rotations(part.part);
   part.meshless = true;
-  part.shape = options.shape;
+  part.shape = result.shape;
   std::string label_text;
   for (std::size_t k = 0; k < labels.size(); ++k) label_text += (k ? ", " : "") + std::to_string(labels[k]);
   part.discretisation = "meshless (" + ml.shape.value + ") from label " + label_text + " of a " +
@@ -436,7 +436,7 @@ bool make_between_tissue(const SceneSpec& scene, std::vector<ObjectPart>& parts,
   part.part = std::move(result.model);
   if (o.lock_rotations) lock_rotations(part.part);
   part.meshless = true;
-  part.shape = options.shape;
+  part.shape = result.shape;
   part.discretisation = "meshless (" + ml.shape.value + ") between '" + o.between[0].value + "' and '" +
                         o.between[1].value + "' within " + metres(within) + ", " +
                         std::to_string(part.surface.triangle_count()) + " boundary triangles";

@@ -62,7 +62,7 @@ TEST_CASE("an image object is the union of its labels' voxels, placed by the ima
   const auto [label, voxels] = GENERATE(std::make_pair(std::string("3"), 480), std::make_pair(std::string("[3, 4]"), 768));
   CAPTURE(label);
   const BuiltScene built = build_scene(parse_scene_text(scene_text(image, label), "image.yaml"));
-  // The sample volumes are scaled to voxel count x voxel volume (meshless normalise_volumes).
+  // The sample volumes are scaled to voxel count x voxel volume (the meshless volume scaling).
   REQUIRE(built.model.total_volume() == Approx(voxels * voxel).epsilon(1e-9));
   REQUIRE(built.objects.size() == 1);
   REQUIRE(built.objects[0].meshless);
