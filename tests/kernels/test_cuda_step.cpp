@@ -208,7 +208,16 @@ TEST_CASE("every shipped scene: --backend cuda equals the CPU engine", "[gpu]") 
   REQUIRE(!scenes.empty());
   for (const std::string& path : scenes) {
     const dsl::BuiltScene built = dsl::build_scene(dsl::parse_scene(path));
-    SimulationSettings device = built.settings;
+    // Backends are compared in lockstep over fixed steps. An adaptive scene's first dt may be one
+    // that fails by design (scenes/tool_strike.yaml inverts elements at 10 ms and is resolved by
+    // rejections), so its steps are compared at 0.1 ms, within the range its controller takes
+    // (docs/solvers.md).
+    SimulationSettings cpu = built.settings;
+    if (cpu.adaptive.enabled) {
+      cpu.adaptive.enabled = false;
+      cpu.dt = 1e-4;
+    }
+    SimulationSettings device = cpu;
     device.elasticity = cuda_elasticity_factory();
     device.step_backend = cuda_step_factory();
     bool whole = false;
@@ -219,7 +228,7 @@ TEST_CASE("every shipped scene: --backend cuda equals the CPU engine", "[gpu]") 
                   whole ? "" : probe.step_backend_refusal().c_str());
     }
     // Three steps (static scenes: one full solve each), each from the CPU's state.
-    CHECK(check_backends_agree(path.c_str(), built.model, built.loads, built.settings, device,
+    CHECK(check_backends_agree(path.c_str(), built.model, built.loads, cpu, device,
                                std::min(3, built.steps), built.motions) <= 1.0);
   }
 }
