@@ -368,7 +368,16 @@ ParamSpec build_registry() {
                          "write the samples: positions and fields (45 values per sample and step; false keeps "
                          "frames and surfaces)"),
                     "true"),
-       with_default(leaf("xdmf", ParamType::boolean, "write the XDMF sidecar for ParaView"), "true")});
+       with_default(leaf("xdmf", ParamType::boolean, "write the XDMF sidecar for ParaView"), "true"),
+       object("checkpoint", "the state to continue the run from (fascia run --resume; docs/hpc.md)",
+              {with_default(above(leaf("every", ParamType::integer,
+                                       "write a checkpoint every n-th step (0 = only by interval, on a stop and at the end)"),
+                                  0, false),
+                            "0"),
+               with_default(above(quantity("interval", dim::time,
+                                           "wall-clock time between checkpoints (0 = only by step count, on a stop and at the end)"),
+                                  0, false),
+                            "10 min")})});
 
   ParamSpec include = leaf("include", ParamType::string_list,
                            "scenes merged under this one (paths relative to this file; this file wins)");

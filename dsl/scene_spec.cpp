@@ -429,6 +429,8 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   scene.output.every = static_cast<int>(output.integer_at("every"));
   scene.output.samples = output.flag("samples");
   scene.output.xdmf = output.flag("xdmf");
+  scene.output.checkpoint_every = static_cast<int>(output.at("checkpoint").integer_at("every"));
+  scene.output.checkpoint_interval = output.at("checkpoint").num("interval");
   if (output.has("file")) {
     scene.output.file = output.str("file");
   } else {

@@ -146,6 +146,8 @@ struct OutputSpec {
   int every = 1;
   bool samples = true;
   bool xdmf = true;
+  int checkpoint_every = 0;           // steps, 0 = off
+  double checkpoint_interval = 600;   // wall-clock s, 0 = off
 };
 
 struct SceneSpec {

@@ -1,16 +1,25 @@
 // fascia run SCENE: simulate a scene and write its trajectory (HDF5, H5MD layout) and XDMF sidecar.
 //
-// Robustness contract (DESIGN.md): every written step is flushed, so a run killed at any moment
-// leaves a readable file; SIGINT/SIGTERM finish the current step, write it, close the file and
-// exit 75; a solver failure keeps the completed steps and exits 1; non-finite states are never
-// written. --backend cuda without a usable device exits 69 before anything is read or written.
+// Robustness contract (DESIGN.md, docs/hpc.md): every written step is flushed, so a run killed at
+// any moment leaves a readable file; a checkpoint (io/checkpoint.hpp) is committed after the
+// initial state, at the scene's cadence, on a stop and at the end, so a run can continue with
+// --resume; a stop signal or --max-wall (stop_signals.hpp) abandons the step in progress, writes
+// the last completed step and a checkpoint and exits 75; a solver failure keeps the completed
+// steps and exits 1; non-finite states are never written; an existing output is never replaced
+// without --overwrite, and an input never (run_files.hpp). --backend cuda without a usable device
+// exits 69 before anything is read or written.
 #include "backend.hpp"
 #include "commands.hpp"
 #include "output_check.hpp"
 #include "progress.hpp"
+#include "run_files.hpp"
+#include "run_identity.hpp"
 #include "run_scene.hpp"
 #include "scene_report.hpp"
+#include "stop_signals.hpp"
 
+#include "core/stop_request.hpp"
+#include "io/checkpoint.hpp"
 #include "io/sample_fields.hpp"
 #include "io/trajectory.hpp"
 #include "io/vertex_fields.hpp"
@@ -37,19 +46,6 @@ namespace fascia::app {
 namespace {
 
 namespace fs = std::filesystem;
-
-volatile std::sig_atomic_t g_stop_signal = 0;
-
-void on_stop_signal(int signal) { g_stop_signal = signal; }
-
-void install_signal_handlers() {
-  struct sigaction action {};
-  action.sa_handler = on_stop_signal;
-  sigemptyset(&action.sa_mask);
-  action.sa_flags = 0;  // no SA_RESTART: let blocking calls return
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
-}
 
 std::string shell_quote(const std::string& s) {
   if (!s.empty() && s.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-./=:,+@") ==
@@ -250,6 +246,54 @@ bool finite_state(const State& state) {
   return true;
 }
 
+// The run's file when --resume finds it: the committed checkpoint to continue from, or a reason
+// to refuse (exit code and message), or nothing (start over).
+struct ResumePoint {
+  std::optional<Checkpoint> checkpoint;
+  std::vector<double> times;  // of the trajectory rows kept
+  int code = kOk;
+  std::string refusal;
+};
+
+ResumePoint resume_point(const std::string& output, const dsl::SceneSpec& spec) {
+  ResumePoint point;
+  CheckpointIdentity stored;
+  try {
+    point.checkpoint = read_checkpoint(output, &stored);
+    if (!point.checkpoint) {
+      // Killed before its first checkpoint was committed: at most the initial state is lost.
+      const TrajectoryReader reader(output);
+      if (reader.step_count() > 1) {
+        point.code = kDataError;
+        point.refusal = output + " holds " + std::to_string(reader.step_count()) +
+                        " steps but no checkpoint to continue from; give --overwrite to start over";
+      }
+      return point;
+    }
+    const TrajectoryReader reader(output);
+    point.times = reader.times();
+  } catch (const TrajectoryError& e) {
+    point.code = kDataError;
+    point.refusal = std::string(e.what()) + "; cannot resume (give --overwrite to start over)";
+    return point;
+  }
+  if (stored.build != build_identity()) {
+    point.code = kDataError;
+    point.refusal = output + ": the checkpoint was written by another build (" + stored.build + "; this is " +
+                    build_identity() + "); resume with that build, or give --overwrite to start over";
+  } else if (const std::string diff = first_difference(scene_identity(spec), stored.scene); !diff.empty()) {
+    point.code = kDataError;
+    point.refusal = output + ": the checkpoint belongs to another scene (" + diff +
+                    "); resume with the same scene and --set values, or give --overwrite to start over";
+  } else if (static_cast<std::size_t>(point.checkpoint->rows) > point.times.size()) {
+    point.code = kDataError;
+    point.refusal = output + ": the checkpoint keeps " + std::to_string(point.checkpoint->rows) +
+                    " trajectory rows, the file has " + std::to_string(point.times.size());
+  }
+  point.times.resize(std::min(point.times.size(), static_cast<std::size_t>(point.checkpoint->rows)));
+  return point;
+}
+
 }  // namespace
 
 int run_scene(const RunOptions& options, RunFigures* run_figures) {
@@ -257,6 +301,21 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   // The device first: a missing GPU is reported before the scene is discretised.
   Backend backend;
   if (const int code = resolve_backend("run", options.backend, backend); code != kOk) return code;
+  const ExistingOutput existing =
+      options.resume ? ExistingOutput::resume : options.overwrite ? ExistingOutput::overwrite : ExistingOutput::refuse;
+  // An existing output named on the command line is refused before the scene is discretised.
+  if (!options.request.output.empty()) {
+    const std::string refusal = output_refusal({options.request.output}, {}, existing);
+    if (!refusal.empty()) {
+      std::cerr << "fascia: error: " << refusal << "\n";
+      return kCantCreate;
+    }
+  }
+  // From here a stop signal is recorded; it takes effect once the run has a file to write to.
+  install_stop_signals();
+  const auto wall_start = std::chrono::steady_clock::now();
+  if (options.max_wall) arm_max_wall(*options.max_wall);
+
   int code = 0;
   std::unique_ptr<LoadedScene> scene = load_scene(options.request, code);
   if (!scene) return code;
@@ -265,20 +324,64 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   built.settings.step_backend = backend.step;
   if (options.threads >= 0) built.settings.threads = options.threads;
 
+  // The steps of this run: the scene's, or fewer under a benchmark's cap.
+  const int steps = options.max_steps > 0 ? std::min(options.max_steps, built.steps) : built.steps;
   const std::string output = output_path(options.request, scene->spec);
   const dsl::OutputSpec& out_spec = scene->spec.output;
+  const std::string xmf = xdmf_path_for(output);
+  {
+    std::vector<std::string> outputs{output};
+    if (out_spec.xdmf) {
+      outputs.push_back(xmf);
+      outputs.push_back(xmf + "2");  // the XDMF 2 sidecar (io/xdmf.hpp)
+    }
+    const std::string refusal = output_refusal(outputs, run_inputs(scene->spec), existing);
+    if (!refusal.empty()) {
+      std::cerr << "fascia: error: " << refusal << "\n";
+      return kCantCreate;
+    }
+  }
+  ResumePoint resume;
+  std::error_code exists_error;
+  if (options.resume && fs::exists(output, exists_error)) {
+    resume = resume_point(output, scene->spec);
+    if (resume.code != kOk) {
+      std::cerr << "fascia: error: " << resume.refusal << "\n";
+      return resume.code;
+    }
+  }
+  const int checkpoint_every = options.checkpoint_every.value_or(out_spec.checkpoint_every);
+  const double checkpoint_interval = options.checkpoint_interval.value_or(out_spec.checkpoint_interval);
+
   Progress progress(Progress::mode_for(options.quiet), options.status_interval);
   const bool log = !options.quiet;
+  if (resume.checkpoint && resume.checkpoint->finished) {
+    // A finished run asked to resume (a requeued task that had completed): nothing to do.
+    std::cerr << "fascia: " << output << ": the run finished (step " << resume.checkpoint->step << ", t = "
+              << resume.checkpoint->time << " s); nothing to resume\n";
+    if (options.json)
+      std::cout << nlohmann::json{{"scene", options.request.path}, {"output", output}, {"status", "finished"},
+                                  {"exit_code", kOk}, {"steps", resume.checkpoint->step},
+                                  {"steps_planned", steps}, {"time", resume.checkpoint->time}}
+                       .dump()
+                << "\n";
+    return kOk;
+  }
+  if (resume.checkpoint && built.settings.adaptive.enabled) {
+    std::cerr << "fascia: error: " << output << ": a stopped run with solver.adaptive cannot be resumed (its "
+              << "checkpoint holds no step-controller state); start it again with --overwrite\n";
+    return kDataError;
+  }
   if (log) {
     const dsl::DiscretisationStats& s = built.stats;
     std::cerr << "fascia: " << options.request.path << ": " << s.frames << " frames, " << s.samples << " samples, " << s.dofs
               << " dofs, " << built.steps << " steps of " << built.settings.dt << " s (" << to_string(built.settings.integrator)
               << "), backend " << backend.description << " -> " << output << "\n";
+    if (resume.checkpoint)
+      std::cerr << "fascia: resuming from the checkpoint at step " << resume.checkpoint->step << " (t = "
+                << resume.checkpoint->time << " s)\n";
   }
 
-  install_signal_handlers();
-  const auto wall_start = std::chrono::steady_clock::now();
-  const int steps = options.max_steps > 0 ? std::min(options.max_steps, built.steps) : built.steps;
   Simulation simulation(built.model, built.loads, built.settings, built.motions);
   if (log && backend.step) {
     if (simulation.on_step_backend()) {
@@ -295,14 +398,16 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   }
   StepRecorder recorder(built, out_spec.samples);
   TrajectoryLayout layout = recorder.layout();
-  // Rows to preallocate: the initial state, every output step, and one written on a signal. All
+  // Rows to preallocate: the initial state, every output step, and one written on a stop. All
   // of them up front: growing datasets later is the one write a kill could corrupt.
-  layout.capacity = static_cast<int>(output_rows(steps, out_spec.every));  // load_scene checked the range
+  const int first_step = resume.checkpoint ? resume.checkpoint->step + 1 : 1;
+  const int rows_to_come = steps / out_spec.every - (first_step - 1) / out_spec.every + 1;
+  layout.capacity = (resume.checkpoint ? resume.checkpoint->rows : 1) + rows_to_come + 1;
 
   std::unique_ptr<TrajectoryWriter> writer;
-  const std::string xmf = xdmf_path_for(output);
+  std::optional<CheckpointWriter> checkpoints;
   const std::string h5_name = fs::path(output).filename().string();
-  std::vector<double> written_times;
+  std::vector<double> written_times = resume.times;
   auto last_xdmf = std::chrono::steady_clock::now();
   double xdmf_seconds = 0;  // how long the last rewrite took
   // The sidecars are rewritten after each flushed step while the run is short, then at most once
@@ -329,27 +434,65 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   std::string status = "completed";
   int exit_code = kOk;
   std::string failure;
+  // The regular rows written so far (a row written only because of a stop is not one of them:
+  // a resume drops it, and the file ends as an uninterrupted run's would).
+  int regular_rows = 0;
+  int checkpointed_step = -1;
+  auto last_checkpoint_wall = std::chrono::steady_clock::now();
+  auto write_checkpoint = [&](bool finished) {
+    Checkpoint c;
+    c.step = simulation.steps_taken();
+    c.time = simulation.time();
+    c.dt = built.settings.dt;
+    c.rows = regular_rows;
+    c.finished = finished;
+    c.state = simulation.state();
+    checkpoints->write(c);
+    checkpointed_step = c.step;
+    last_checkpoint_wall = std::chrono::steady_clock::now();
+  };
+  bool last_step_written = false;
 
   try {
-    TrajectoryHeader header;
-    header.creator_version = FASCIA_VERSION;
-    header.author = env("USER");
-    header.scene = scene->spec.resolved_yaml;
-    header.scene_file = options.request.path;
-    header.command_line = command_line();
-    header.environment = environment_json(built.settings.threads, backend.provenance);
-    writer = std::make_unique<TrajectoryWriter>(output, header, layout);
+    if (resume.checkpoint) {
+      const Checkpoint& c = *resume.checkpoint;
+      simulation.restore(c.state, c.step, c.time);
+      writer = std::make_unique<TrajectoryWriter>(output, layout, c.rows);
+      checkpoints = CheckpointWriter::open(writer->file_id(), output);
+      regular_rows = c.rows;
+      checkpointed_step = c.step;
+      last.step = c.step;
+      last.time = c.time;
+      figures.step = c.step;
+      figures.time = c.time;
+      last_step_written = true;  // the checkpoint's state is the run's; nothing to add on a stop
+      update_xdmf(true);
+    } else {
+      TrajectoryHeader header;
+      header.creator_version = FASCIA_VERSION;
+      header.author = env("USER");
+      header.scene = scene->spec.resolved_yaml;
+      header.scene_file = options.request.path;
+      header.command_line = command_line();
+      header.environment = environment_json(built.settings.threads, backend.provenance);
+      writer = std::make_unique<TrajectoryWriter>(output, header, layout);
+      checkpoints = CheckpointWriter::create(writer->file_id(), output, built.model.frame_count(),
+                                             {scene_identity(scene->spec), build_identity()});
 
-    // Step 0: the initial configuration.
-    StepReport initial;
-    initial.step = 0;
-    initial.time = simulation.time();
-    initial.converged = true;
-    initial.kinetic_energy = kinetic_energy(simulation.model(), simulation.state());
-    initial.external_potential = load_potential(simulation.model(), simulation.loads(), simulation.state());
-    writer->append(recorder.record(simulation.state(), initial));
-    written_times.push_back(initial.time);
-    update_xdmf(true);
+      // Step 0: the initial configuration, and the first checkpoint.
+      StepReport initial;
+      initial.step = 0;
+      initial.time = simulation.time();
+      initial.converged = true;
+      initial.kinetic_energy = kinetic_energy(simulation.model(), simulation.state());
+      initial.external_potential = load_potential(simulation.model(), simulation.loads(), simulation.state());
+      writer->append(recorder.record(simulation.state(), initial));
+      ++regular_rows;
+      written_times.push_back(initial.time);
+      write_checkpoint(steps == 0);
+      last_step_written = true;
+      update_xdmf(true);
+    }
 
     const auto steps_start = std::chrono::steady_clock::now();
     if (run_figures) run_figures->setup_seconds = std::chrono::duration<double>(steps_start - setup_start).count();
@@ -358,10 +501,13 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     // steps of its own; a row sums the iterations and counts the steps since the previous one.
     const bool adaptive = simulation.controller() != nullptr;
     StepReport row;  // the steps since the last row (fixed steps)
-    for (int k = adaptive ? std::min(out_spec.every, steps) : 1; k <= steps;
+    bool completed = steps == 0;
+    for (int k = adaptive ? std::min(out_spec.every, steps) : first_step; k <= steps && !stop_requested();
          k = adaptive && k < steps ? std::min(k + out_spec.every, steps) : k + 1) {
       try {
         last = adaptive ? simulation.advance_to(k * built.settings.dt) : simulation.step();
+      } catch (const StopRequested&) {
+        break;  // the step in progress is abandoned; the state is the last completed step's
       } catch (const SolverError& e) {
         failure = e.what();
         status = "solver failed";
@@ -377,26 +523,47 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       total_newton += last.newton_iterations;
       total_cg += last.cg_iterations;
       row.accepted_steps += last.accepted_steps;
-      const bool stop = g_stop_signal != 0;
-      if (adaptive || k % out_spec.every == 0 || k == steps || stop) {
+      last_step_written = adaptive || k % out_spec.every == 0 || k == steps;
+      if (last_step_written) {
         if (!adaptive) last.accepted_steps = row.accepted_steps;
         writer->append(recorder.record(simulation.state(), last));
+        ++regular_rows;
         written_times.push_back(last.time);
-        update_xdmf(k == steps || stop);
+        update_xdmf(k == steps);
         row = StepReport{};
       }
+      const double since_checkpoint =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - last_checkpoint_wall).count();
+      // Adaptive runs checkpoint their end alone: their internal steps are not resumable yet.
+      if (k == steps ||
+          (!adaptive && (take_checkpoint_request() || (checkpoint_every > 0 && k % checkpoint_every == 0) ||
+                         (checkpoint_interval > 0 && since_checkpoint >= checkpoint_interval))))
+        write_checkpoint(k == steps);
+      completed = k == steps;
+      if (take_hangup() && log) std::cerr << "\nfascia: SIGHUP ignored; the run goes on\n";
       figures.step = k;
       figures.time = last.time;
       figures.newton = last.newton_iterations;
       figures.cg = last.cg_iterations;
       figures.residual = last.residual;
       progress.update(figures);
-      if (stop) {
-        status = std::string("stopped by ") + (g_stop_signal == SIGINT ? "SIGINT" : "SIGTERM") + " after step " +
-                 std::to_string(simulation.steps_taken()) + " (written)";
-        exit_code = kStoppedOnSignal;
-        break;
+    }
+    if (exit_code == kOk && stop_requested() && !completed) {
+      // Stopped: the last completed step is checkpointed (fixed steps), then written if it was
+      // not a row.
+      const int done = simulation.steps_taken();
+      if (!adaptive && checkpointed_step != done) write_checkpoint(false);
+      if (!last_step_written) {
+        StepReport report = last;
+        report.step = done;
+        report.time = simulation.time();
+        writer->append(recorder.record(simulation.state(), report));
+        written_times.push_back(report.time);
       }
+      status = "stopped by " + stop_reason_name(stop_requested()) + " after step " + std::to_string(done) +
+               (adaptive ? " (written; adaptive runs are not resumable)"
+                         : " (written, checkpoint committed; continue with --resume)");
+      exit_code = kStoppedOnSignal;
     }
     writer->close();  // shrinks the datasets to the written steps
     update_xdmf(true);
@@ -424,10 +591,11 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
         {"output", output},
         {"status", exit_code == kOk ? "ok" : exit_code == kStoppedOnSignal ? "stopped" : "solver_failed"},
         {"exit_code", exit_code},
-        {"steps", figures.step},
+        {"steps", simulation.steps_taken()},
         {"steps_planned", steps},
         {"steps_written", writer ? writer->steps_written() : 0},
-        {"time", figures.time},
+        {"resumed_from", resume.checkpoint ? nlohmann::json(resume.checkpoint->step) : nlohmann::json(nullptr)},
+        {"time", simulation.time()},
         {"newton_iterations", total_newton},
         {"cg_iterations", total_cg},
         {"accepted_steps", simulation.steps_taken()},
@@ -447,11 +615,55 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     run_figures->frames = built.stats.frames;
     run_figures->samples = built.stats.samples;
     run_figures->dofs = built.stats.dofs;
-    run_figures->steps = simulation.steps_taken();
+    run_figures->steps = simulation.steps_taken() - (resume.checkpoint ? resume.checkpoint->step : 0);
     run_figures->newton_iterations = total_newton;
     run_figures->cg_iterations = total_cg;
   }
   return exit_code;
+}
+
+namespace {
+
+// A duration option: a quantity ("90 min", "2 h", "3600") or a Slurm time ("1:30:00").
+CLI::Option* add_duration(CLI::App& command, const std::string& name, std::optional<double>& target,
+                          const std::string& doc, bool zero_allowed) {
+  return command
+      .add_option_function<std::string>(
+          name,
+          [&target, name, zero_allowed](const std::string& text) {
+            const std::optional<double> seconds = parse_duration(text);
+            if (!seconds || (!zero_allowed && *seconds == 0))
+              throw CLI::ValidationError(name, "'" + text + "' is not a duration (e.g. 90 min, 2 h, 1:30:00)");
+            target = seconds;
+          },
+          doc)
+      ->type_name("DURATION");
+}
+
+}  // namespace
+
+void add_run_options(CLI::App& cmd, RunOptions& options) {
+  add_backend_options(cmd, options.backend);
+  cmd.add_option("--threads", options.threads, "CPU threads (0 = all; default: the scene's solver.threads)")
+      ->check(CLI::NonNegativeNumber);
+  CLI::Option* overwrite =
+      cmd.add_flag("--overwrite", options.overwrite, "Replace an existing output file (refused otherwise, exit 73)");
+  cmd.add_flag("--resume", options.resume,
+               "Continue the run in the output file from its checkpoint (start it when there is no file)")
+      ->excludes(overwrite);
+  add_duration(cmd, "--max-wall", options.max_wall,
+               "Stop after this wall time with a checkpoint, exit 75 (e.g. 2 h, 1:55:00)", false);
+  cmd.add_option_function<int>(
+         "--checkpoint-every", [&options](const int& n) { options.checkpoint_every = n; },
+         "Checkpoint every n-th step (0 = off; default: output.checkpoint.every)")
+      ->check(CLI::NonNegativeNumber);
+  add_duration(cmd, "--checkpoint-interval", options.checkpoint_interval,
+               "Wall time between checkpoints (0 = off; default: output.checkpoint.interval)", true);
+  cmd.add_flag("-q,--quiet", options.quiet, "No progress output");
+  cmd.add_flag("--json", options.json, "Print a JSON summary on stdout at the end");
+  cmd.add_option("--status-interval", options.status_interval,
+                 "Seconds between status lines when stderr is not a terminal")
+      ->check(CLI::PositiveNumber);
 }
 
 void register_run(CLI::App& app, Action& action) {
@@ -460,14 +672,7 @@ void register_run(CLI::App& app, Action& action) {
   cmd->add_option("scene", options->request.path, "Scene file (YAML)")->required();
   cmd->add_option("-o,--output", options->request.output, "Output file (default: the scene's output.file)");
   add_scene_options(*cmd, options->request);
-  add_backend_options(*cmd, options->backend);
-  cmd->add_option("--threads", options->threads, "CPU threads (0 = all; default: the scene's solver.threads)")
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_flag("-q,--quiet", options->quiet, "No progress output");
-  cmd->add_flag("--json", options->json, "Print a JSON summary on stdout at the end");
-  cmd->add_option("--status-interval", options->status_interval,
-                  "Seconds between status lines when stderr is not a terminal")
-      ->check(CLI::PositiveNumber);
+  add_run_options(*cmd, *options);
   cmd->callback([&action, options] { action = [options] { return run_scene(*options); }; });
 }
 

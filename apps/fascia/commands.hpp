@@ -17,6 +17,7 @@ enum ExitCode : int {
   kNoInput = 66,
   kUnavailable = 69,  // a required service is missing: --backend cuda without a usable CUDA device
   kTooLarge = 71,     // refused for size: more memory than --max-memory, more disk than is free, an input over its cap
+  kCantCreate = 73,   // the output exists (no --overwrite or --resume) or is one of the run's inputs
   kIoError = 74,
   kStoppedOnSignal = 75,
   kBadScene = 78,
@@ -32,5 +33,7 @@ void register_schema(CLI::App& app, Action& action);
 void register_study(CLI::App& app, Action& action);
 void register_bench(CLI::App& app, Action& action);
 void register_render(CLI::App& app, Action& action);
+void register_sweep(CLI::App& app, Action& action);
+void register_collect(CLI::App& app, Action& action);
 
 }  // namespace fascia::app

@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
   fascia::app::register_study(app, action);
   fascia::app::register_bench(app, action);
   fascia::app::register_render(app, action);
+  fascia::app::register_sweep(app, action);
+  fascia::app::register_collect(app, action);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

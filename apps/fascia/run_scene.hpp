@@ -5,6 +5,9 @@
 #include "backend.hpp"
 #include "scene_report.hpp"
 
+#include <CLI/CLI.hpp>
+
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,6 +19,11 @@ struct RunOptions {
   int threads = -1;
   bool quiet = false;
   bool json = false;
+  bool overwrite = false;                     // replace an existing output
+  bool resume = false;                        // continue the output's run from its checkpoint
+  std::optional<double> max_wall;             // s: stop with a checkpoint after this wall time
+  std::optional<int> checkpoint_every;        // steps; overrides output.checkpoint.every
+  std::optional<double> checkpoint_interval;  // s; overrides output.checkpoint.interval
   double status_interval = 10.0;
   int max_steps = 0;  // > 0: stop after this many steps (the benchmark's cap); 0: the scene's count
 };
@@ -33,5 +41,9 @@ struct RunFigures {
 // Runs a scene as `fascia run` does; returns its exit code (commands.hpp). figures: filled when
 // not null.
 int run_scene(const RunOptions& options, RunFigures* figures = nullptr);
+
+// Adds the options shared by `fascia run` and `fascia sweep --task` (everything but the scene,
+// -o and --set) to a subcommand.
+void add_run_options(CLI::App& command, RunOptions& options);
 
 }  // namespace fascia::app

@@ -89,6 +89,16 @@ Simulation::Simulation(Model model, ExternalLoads loads, SimulationSettings sett
 
 Simulation::~Simulation() = default;
 
+void Simulation::restore(const State& state, int step, double time) {
+  if (state.positions.size() != m_state.positions.size() || state.orientations.size() != m_state.orientations.size() ||
+      state.velocities.size() != m_state.velocities.size())
+    throw std::invalid_argument("restored state has " + std::to_string(state.frame_count()) + " frames, the model " +
+                                std::to_string(m_state.frame_count()));
+  m_state = state;
+  m_step = step;
+  m_time = time;
+}
+
 namespace {
 
 bool finite_state(const State& s) {

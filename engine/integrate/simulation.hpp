@@ -72,7 +72,8 @@ class Simulation {
   // One step: a backward-Euler or variational time step, or for static equilibrium a full solve with load
   // stepping (repeated static steps follow prescribed motions in pseudo-time dt). Throws
   // SolverError when Newton fails or the state becomes non-finite; the state is then left at
-  // the last converged step.
+  // the last converged step. A stop request (core/stop_request.hpp) abandons the step with
+  // StopRequested, leaving the state at the last completed step likewise.
   StepReport step();
 
   // Adaptive backward Euler (settings().adaptive.enabled): steps from time() to exactly t_target
@@ -84,6 +85,10 @@ class Simulation {
   // The controller's state (checkpoints); null unless adaptive.
   const StepController* controller() const { return m_controller.get(); }
   StepController* controller() { return m_controller.get(); }
+  // Continues from a saved state: after restore(state, k, t) the next step() computes step k + 1
+  // exactly as an uninterrupted simulation would (the state, step count and time are all a step
+  // depends on; io/checkpoint.hpp saves them).
+  void restore(const State& state, int step, double time);
 
   const Model& model() const { return m_model; }
   const State& state() const { return m_state; }

@@ -1,5 +1,7 @@
 #include "io/trajectory.hpp"
 
+#include "io/hdf5_handle.hpp"
+
 #include <hdf5.h>
 
 #include <algorithm>
@@ -10,36 +12,6 @@
 namespace fascia {
 
 namespace {
-
-// Owns an HDF5 identifier and closes it with the matching H5?close.
-class Handle {
- public:
-  Handle() = default;
-  Handle(hid_t id, herr_t (*close)(hid_t)) : m_id(id), m_close(close) {}
-  Handle(Handle&& o) noexcept : m_id(o.m_id), m_close(o.m_close) { o.m_id = H5I_INVALID_HID; }
-  Handle& operator=(Handle&& o) noexcept {
-    if (this != &o) {
-      reset();
-      m_id = o.m_id;
-      m_close = o.m_close;
-      o.m_id = H5I_INVALID_HID;
-    }
-    return *this;
-  }
-  Handle(const Handle&) = delete;
-  Handle& operator=(const Handle&) = delete;
-  ~Handle() { reset(); }
-  void reset() {
-    if (m_id >= 0 && m_close) m_close(m_id);
-    m_id = H5I_INVALID_HID;
-  }
-  hid_t get() const { return m_id; }
-  bool valid() const { return m_id >= 0; }
-
- private:
-  hid_t m_id = H5I_INVALID_HID;
-  herr_t (*m_close)(hid_t) = nullptr;
-};
 
 // HDF5 closes the files still open when the program exits; a file whose last write failed (a
 // full disk) cannot be closed, and that clean-up then crashes in H5F__close_cb. Files are closed
@@ -229,30 +201,21 @@ Series make_series(hid_t parent, const std::string& name, const std::vector<hsiz
   return s;
 }
 
-}  // namespace
-
-std::size_t particle_count(const TrajectoryLayout& layout, const std::string& group) {
-  if (group == "frames") return static_cast<std::size_t>(layout.frames);
-  if (group == "samples") return static_cast<std::size_t>(layout.samples);
-  for (const SurfaceLayout& s : layout.surfaces)
-    if (s.name == group) return s.vertex_frames.size();
-  return 0;
-}
-
-struct TrajectoryWriter::Impl {
-  Handle file;
-  std::vector<Series> particles;   // frames position, orientation, samples position, surfaces
-  std::vector<Series> observables;
+// One time series of the layout: its group, element name, per-step shape, type and unit.
+struct SeriesPlan {
+  std::string group;  // "/particles/frames", "/observables"
+  std::string name;
+  std::vector<hsize_t> shape;
+  bool integer = false;
+  std::string unit;
 };
 
-TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHeader& header,
-                                   const TrajectoryLayout& layout)
-    : m_path(path), m_layout(layout), m_impl(std::make_unique<Impl>()) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with our messages
-  // Metadata is written only by H5Fflush: with evictions enabled the metadata cache may write a
-  // chunk index node that points past the end-of-allocation recorded on disk while a step is half
-  // written, and a run killed then leaves earlier steps unreadable ("addr overflow"). Keeping dirty
-  // metadata in memory until the flush closes that window except during the flush itself.
+// File access for writing: metadata is written only by H5Fflush. With evictions enabled the
+// metadata cache may write a chunk index node that points past the end-of-allocation recorded on
+// disk while a step is half written, and a run killed then leaves earlier steps unreadable ("addr
+// overflow"). Keeping dirty metadata in memory until the flush closes that window except during
+// the flush itself.
+Handle writer_access(const std::string& path) {
   Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   H5AC_cache_config_t cache;
   cache.version = H5AC__CURR_CACHE_CONFIG_VERSION;
@@ -264,6 +227,80 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
   cache.set_initial_size = true;
   cache.initial_size = std::min<std::size_t>(cache.max_size, 8u << 20);
   checked(H5Pset_mdc_config(fapl.get(), &cache), path, "set metadata cache configuration", 0);
+  return fapl;
+}
+
+Series open_series(hid_t file, const SeriesPlan& plan, const std::string& path) {
+  Series s;
+  s.name = plan.name;
+  const std::string where = plan.group + "/" + plan.name;
+  s.group = Handle(checked(H5Gopen2(file, where.c_str(), H5P_DEFAULT), path, "open " + where), H5Gclose);
+  Handle dapl(H5Pcreate(H5P_DATASET_ACCESS), H5Pclose);
+  H5Pset_chunk_cache(dapl.get(), 0, 0, 1.0);  // write through, in program order
+  auto open = [&](const char* name) {
+    return Handle(checked(H5Dopen2(s.group.get(), name, dapl.get()), path, "open " + where + "/" + name), H5Dclose);
+  };
+  s.step = open("step");
+  s.time = open("time");
+  s.value = open("value");
+  std::vector<hsize_t> dims = dataset_dims(s.value.get());
+  dims.erase(dims.begin());
+  if (dims != plan.shape) fail(path, where + " has another shape than this run's (a different scene?)");
+  s.mem_type = plan.integer ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE;
+  for (hsize_t d : plan.shape) s.count *= d;
+  return s;
+}
+
+}  // namespace
+
+std::size_t particle_count(const TrajectoryLayout& layout, const std::string& group) {
+  if (group == "frames") return static_cast<std::size_t>(layout.frames);
+  if (group == "samples") return static_cast<std::size_t>(layout.samples);
+  for (const SurfaceLayout& s : layout.surfaces)
+    if (s.name == group) return s.vertex_frames.size();
+  return 0;
+}
+
+namespace {
+
+// Every time series of a layout, in the order of TrajectoryWriter::append's arrays: frames
+// (position, orientation), samples, surfaces, the per-particle fields, then the observables.
+std::vector<SeriesPlan> series_plan(const TrajectoryLayout& layout) {
+  std::vector<SeriesPlan> plan;
+  const hsize_t n = static_cast<hsize_t>(layout.frames);
+  plan.push_back({"/particles/frames", "position", {n, 3}, false, "m"});
+  plan.push_back({"/particles/frames", "orientation", {n, 4}, false, ""});
+  if (layout.samples > 0)
+    plan.push_back({"/particles/samples", "position", {static_cast<hsize_t>(layout.samples), 3}, false, "m"});
+  for (const SurfaceLayout& s : layout.surfaces)
+    plan.push_back({"/particles/" + s.name, "position", {static_cast<hsize_t>(s.vertex_frames.size()), 3}, false, "m"});
+  for (const FieldLayout& field : layout.fields) {
+    std::vector<hsize_t> shape{static_cast<hsize_t>(particle_count(layout, field.group))};
+    if (field.components == 3) shape.push_back(3);
+    if (field.components == 9) shape.insert(shape.end(), {3, 3});
+    plan.push_back({"/particles/" + field.group, field.name, shape, false, field.unit});
+  }
+  for (const auto& [name, integer] : layout.observables) {
+    std::string unit;
+    if (name.find("energy") != std::string::npos || name.find("potential") != std::string::npos) unit = "J";
+    if (name == "wall_time") unit = "s";
+    plan.push_back({"/observables", name, {}, integer, unit});
+  }
+  return plan;
+}
+
+}  // namespace
+
+struct TrajectoryWriter::Impl {
+  Handle file;
+  std::vector<Series> series;  // series_plan() order
+};
+
+TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHeader& header,
+                                   const TrajectoryLayout& layout)
+    : m_path(path), m_layout(layout), m_impl(std::make_unique<Impl>()) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with our messages
+  Handle fapl = writer_access(path);
   m_impl->file = Handle(checked(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), path, "cannot create file"),
                         H5Fclose);
   const hid_t f = m_impl->file.get();
@@ -287,20 +324,15 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
   }
 
   Handle particles = group(f, "particles", path);
-  const hsize_t n = static_cast<hsize_t>(layout.frames);
   const hsize_t capacity = static_cast<hsize_t>(std::max(layout.capacity, 1));
   m_capacity = static_cast<int>(capacity);
   {
     Handle frames = group(particles.get(), "frames", path);
     write_box(frames.get(), path);
-    m_impl->particles.push_back(make_series(frames.get(), "position", {n, 3}, false, "m", capacity, path));
-    m_impl->particles.push_back(make_series(frames.get(), "orientation", {n, 4}, false, "", capacity, path));
   }
   if (layout.samples > 0) {
     Handle samples = group(particles.get(), "samples", path);
     write_box(samples.get(), path);
-    m_impl->particles.push_back(
-        make_series(samples.get(), "position", {static_cast<hsize_t>(layout.samples), 3}, false, "m", capacity, path));
   }
   {
     Handle connectivity = group(f, "connectivity", path);
@@ -327,7 +359,6 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
       Handle g = group(particles.get(), s.name, path);
       write_box(g.get(), path);
       const hsize_t v = s.vertex_frames.size();
-      m_impl->particles.push_back(make_series(g.get(), "position", {v, 3}, false, "m", capacity, path));
       {
         Handle space(H5Screate_simple(1, &v, nullptr), H5Sclose);
         Handle ds(checked(H5Dcreate2(g.get(), "frames", H5T_STD_I32LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
@@ -357,19 +388,45 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
       fail(path, "field " + field.name + " names no particle group '" + field.group + "'");
     if (field.components != 1 && field.components != 3 && field.components != 9)
       fail(path, "field " + field.name + " has " + std::to_string(field.components) + " components (1, 3 or 9)");
-    Handle g(checked(H5Gopen2(particles.get(), field.group.c_str(), H5P_DEFAULT), path, "open group " + field.group),
-             H5Gclose);
-    std::vector<hsize_t> shape{count};
-    if (field.components == 3) shape.push_back(3);
-    if (field.components == 9) shape.insert(shape.end(), {3, 3});
-    m_impl->particles.push_back(make_series(g.get(), field.name, shape, false, field.unit, capacity, path));
   }
   Handle observables = group(f, "observables", path);
-  for (const auto& [name, integer] : layout.observables) {
-    std::string unit;
-    if (name.find("energy") != std::string::npos || name.find("potential") != std::string::npos) unit = "J";
-    if (name == "wall_time") unit = "s";
-    m_impl->observables.push_back(make_series(observables.get(), name, {}, integer, unit, capacity, path));
+  for (const SeriesPlan& plan : series_plan(layout)) {
+    Handle parent(checked(H5Gopen2(f, plan.group.c_str(), H5P_DEFAULT), path, "open " + plan.group), H5Gclose);
+    m_impl->series.push_back(make_series(parent.get(), plan.name, plan.shape, plan.integer, plan.unit, capacity, path));
+  }
+  checked(H5Fflush(f, H5F_SCOPE_GLOBAL), path, "flush", 0);
+}
+
+TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryLayout& layout, int keep_rows)
+    : m_path(path), m_layout(layout), m_impl(std::make_unique<Impl>()) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  Handle fapl = writer_access(path);
+  m_impl->file = Handle(checked(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.get()), path, "cannot open file for writing"),
+                        H5Fclose);
+  const hid_t f = m_impl->file.get();
+  hsize_t rows = std::numeric_limits<hsize_t>::max();
+  for (const SeriesPlan& plan : series_plan(layout)) {
+    m_impl->series.push_back(open_series(f, plan, path));
+    rows = std::min(rows, dataset_dims(m_impl->series.back().step.get()).at(0));
+  }
+  if (keep_rows < 0 || static_cast<hsize_t>(keep_rows) > rows)
+    fail(path, "cannot keep " + std::to_string(keep_rows) + " rows of " + std::to_string(rows));
+  m_steps = keep_rows;
+  m_capacity = std::max(layout.capacity, keep_rows + 1);
+  // Rows past the kept ones are invalidated (step -1, time NaN) before anything new is written,
+  // so that no reader takes an old row for a new one, whenever the run is stopped.
+  std::vector<hsize_t> old_rows;
+  for (Series& s : m_impl->series) old_rows.push_back(dataset_dims(s.step.get()).at(0));
+  resize_all(static_cast<hsize_t>(m_capacity));
+  for (std::size_t i = 0; i < m_impl->series.size(); ++i) {
+    Series& s = m_impl->series[i];
+    const hsize_t end = std::min<hsize_t>(old_rows[i], static_cast<hsize_t>(m_capacity));
+    for (hsize_t row = static_cast<hsize_t>(keep_rows); row < end; ++row) {
+      const int step = -1;
+      const double time = std::numeric_limits<double>::quiet_NaN();
+      write_row(s.step.get(), H5T_NATIVE_INT, &step, row, path, s.name + "/step");
+      write_row(s.time.get(), H5T_NATIVE_DOUBLE, &time, row, path, s.name + "/time");
+    }
   }
   checked(H5Fflush(f, H5F_SCOPE_GLOBAL), path, "flush", 0);
 }
@@ -381,6 +438,8 @@ TrajectoryWriter::~TrajectoryWriter() {
     // destructors must not throw; close() explicitly to see errors
   }
 }
+
+long long TrajectoryWriter::file_id() const { return m_impl ? static_cast<long long>(m_impl->file.get()) : -1; }
 
 void TrajectoryWriter::close() {
   if (!m_impl) return;
@@ -395,8 +454,7 @@ void TrajectoryWriter::close() {
     }
     H5Fflush(m_impl->file.get(), H5F_SCOPE_GLOBAL);
   }
-  m_impl->particles.clear();
-  m_impl->observables.clear();
+  m_impl->series.clear();
   m_impl->file.reset();
   m_impl.reset();
 }
@@ -459,9 +517,10 @@ void TrajectoryWriter::append(const TrajectoryStep& step) {
     write_row(s.time.get(), H5T_NATIVE_DOUBLE, &step.time, row, m_path, s.name + "/time");
     write_row(s.step.get(), H5T_NATIVE_INT, &step.step, row, m_path, s.name + "/step");
   };
-  for (std::size_t i = 0; i < m_impl->particles.size(); ++i) write_series(m_impl->particles[i], arrays[i].first);
-  for (std::size_t i = 0; i < m_impl->observables.size(); ++i) {
-    Series& s = m_impl->observables[i];
+  const std::size_t particles = arrays.size();
+  for (std::size_t i = 0; i < particles; ++i) write_series(m_impl->series[i], arrays[i].first);
+  for (std::size_t i = 0; i < step.observables.size(); ++i) {
+    Series& s = m_impl->series[particles + i];
     if (s.mem_type == H5T_NATIVE_INT) {
       const int v = static_cast<int>(std::lround(step.observables[i]));
       write_series(s, &v);
@@ -479,8 +538,7 @@ void TrajectoryWriter::resize_all(unsigned long long rows) {
     set_rows(s.time.get(), rows, m_path, s.name + "/time");
     set_rows(s.step.get(), rows, m_path, s.name + "/step");
   };
-  for (Series& s : m_impl->particles) resize(s);
-  for (Series& s : m_impl->observables) resize(s);
+  for (Series& s : m_impl->series) resize(s);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -10,6 +10,7 @@
 //   /connectivity/frames, samples [n] int, 0..n-1 (vertex cells for XDMF point clouds)
 //   /observables/<name>/          step, time, value [T]
 //   /parameters/                  scene (resolved YAML), scene_file, command_line, version, environment
+//   /checkpoint/                  the state to continue the run from (io/checkpoint.hpp)
 //
 // Each time-dependent element is a group {step [T] int32, time [T] float64, value [T][...]},
 // chunked and unlimited in T. A step is written value -> time -> step for every element, then
@@ -96,6 +97,9 @@ class TrajectoryWriter {
  public:
   // Creates (truncates) the file and writes /h5md, /parameters and /connectivity.
   TrajectoryWriter(const std::string& path, const TrajectoryHeader& header, const TrajectoryLayout& layout);
+  // Continues a file written with the same layout after its first keep_rows rows (a resumed run):
+  // the rows after them are invalidated before the constructor returns, and appends follow.
+  TrajectoryWriter(const std::string& path, const TrajectoryLayout& layout, int keep_rows);
   ~TrajectoryWriter();
   TrajectoryWriter(const TrajectoryWriter&) = delete;
   TrajectoryWriter& operator=(const TrajectoryWriter&) = delete;
@@ -108,6 +112,8 @@ class TrajectoryWriter {
   int rows_allocated() const { return m_impl ? m_capacity : m_steps; }
   const std::string& path() const { return m_path; }
   const TrajectoryLayout& layout() const { return m_layout; }
+  // The open HDF5 file (hid_t), for the checkpoint kept in the same file (io/checkpoint.hpp).
+  long long file_id() const;
   void close();
 
  private:

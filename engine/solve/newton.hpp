@@ -26,6 +26,7 @@
 // there, as for residual problems, a step that reduces |g| is accepted.
 #pragma once
 
+#include "core/stop_request.hpp"
 #include "model/state.hpp"
 #include "solve/linear_solver.hpp"
 
@@ -80,6 +81,7 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
   const double scale = std::max({reference_force, g_norm, 1e-300});
   const int iterations = settings.fixed_iterations > 0 ? settings.fixed_iterations : settings.max_iterations;
   for (int it = 0; it < iterations; ++it) {
+    throw_if_stop_requested();  // core/stop_request.hpp: the step is abandoned
     result.residual = g_norm / scale;
     if (settings.fixed_iterations == 0 && result.residual <= settings.tolerance) {
       result.converged = true;
@@ -104,6 +106,7 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
     double alpha = 1.0;
     bool accepted = false;
     for (int b = 0; b <= settings.max_backtracks && !accepted; ++b, alpha *= 0.5) {
+      throw_if_stop_requested();
       trial = state;
       problem.retract(trial, d, alpha);
       if (minimises) {
@@ -176,7 +179,13 @@ NewtonResult newton_load_stepping(Problem& problem, typename Problem::State& sta
     const double target = std::min(1.0, done + increment);
     const double reference = set_load_factor(target);
     attempt = state;
-    const NewtonResult r = newton(problem, attempt, settings, reference);
+    NewtonResult r;
+    try {
+      r = newton(problem, attempt, settings, reference);
+    } catch (const StopRequested&) {
+      set_load_factor(1.0);  // an abandoned step leaves the loads at full scale
+      throw;
+    }
     total.iterations += r.iterations;
     total.cg_iterations += r.cg_iterations;
     if (r.converged) {

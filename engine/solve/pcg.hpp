@@ -11,6 +11,7 @@
 // (Steihaug's truncation; Nocedal & Wright, Numerical Optimization, Alg. 7.2).
 #pragma once
 
+#include "core/stop_request.hpp"
 #include "solve/linear_result.hpp"
 
 #include <cmath>
@@ -50,6 +51,7 @@ LinearResult pcg(const Ops& ops, Apply&& apply, Precondition&& precondition, con
   ops.copy(z, p);
   double rz = ops.dot(r, z);
   for (int k = 0; k < settings.max_iterations; ++k) {
+    throw_if_stop_requested();  // a stop takes effect within one product
     apply(p, hp);
     ops.project(hp);
     const double curvature = ops.dot(p, hp);

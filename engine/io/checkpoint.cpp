@@ -1,0 +1,206 @@
+#include "io/checkpoint.hpp"
+
+#include "io/hdf5_handle.hpp"
+#include "io/trajectory.hpp"
+
+#include <hdf5.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <vector>
+
+namespace fascia {
+
+namespace {
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  throw TrajectoryError(path + ": checkpoint: " + what);
+}
+
+hid_t checked(hid_t id, const std::string& path, const std::string& what) {
+  if (id < 0) fail(path, what);
+  return id;
+}
+
+// A fixed-size dataset whose storage is allocated now: later writes touch raw data only.
+void fixed_dataset(hid_t parent, const char* name, hid_t type, const std::vector<hsize_t>& dims,
+                   const std::string& path) {
+  Handle space(dims.empty() ? H5Screate(H5S_SCALAR) : H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr),
+               H5Sclose);
+  Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  H5Pset_layout(dcpl.get(), H5D_CONTIGUOUS);
+  H5Pset_alloc_time(dcpl.get(), H5D_ALLOC_TIME_EARLY);
+  H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_ALLOC);  // zero: the commit record reads "none yet"
+  H5Pset_obj_track_times(dcpl.get(), 0);
+  Handle ds(checked(H5Dcreate2(parent, name, type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT), path,
+                    std::string("create ") + name),
+            H5Dclose);
+}
+
+void text_dataset(hid_t parent, const char* name, const std::string& value, const std::string& path) {
+  Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(type.get(), H5T_VARIABLE);
+  H5Tset_cset(type.get(), H5T_CSET_UTF8);
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle ds(checked(H5Dcreate2(parent, name, type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path,
+                    std::string("create ") + name),
+            H5Dclose);
+  const char* data = value.c_str();
+  if (H5Dwrite(ds.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &data) < 0) fail(path, std::string("write ") + name);
+}
+
+std::string read_text(hid_t parent, const char* name, const std::string& path) {
+  Handle ds(checked(H5Dopen2(parent, name, H5P_DEFAULT), path, std::string("open ") + name), H5Dclose);
+  Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(type.get(), H5T_VARIABLE);
+  H5Tset_cset(type.get(), H5T_CSET_UTF8);
+  char* data = nullptr;
+  if (H5Dread(ds.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &data) < 0 || !data) fail(path, std::string("read ") + name);
+  std::string s(data);
+  H5free_memory(data);
+  return s;
+}
+
+void int_attribute(hid_t object, const char* name, int value, const std::string& path) {
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle attr(checked(H5Acreate2(object, name, H5T_STD_I32LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), path,
+                      std::string("create attribute ") + name),
+              H5Aclose);
+  if (H5Awrite(attr.get(), H5T_NATIVE_INT, &value) < 0) fail(path, std::string("write attribute ") + name);
+}
+
+int read_int_attribute(hid_t object, const char* name, const std::string& path) {
+  Handle attr(checked(H5Aopen(object, name, H5P_DEFAULT), path, std::string("open attribute ") + name), H5Aclose);
+  int value = 0;
+  if (H5Aread(attr.get(), H5T_NATIVE_INT, &value) < 0) fail(path, std::string("read attribute ") + name);
+  return value;
+}
+
+void write_data(hid_t parent, const char* name, hid_t mem_type, const void* data, const std::string& path) {
+  Handle ds(checked(H5Dopen2(parent, name, H5P_DEFAULT), path, std::string("open ") + name), H5Dclose);
+  if (H5Dwrite(ds.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) fail(path, std::string("write ") + name);
+}
+
+void read_data(hid_t parent, const char* name, hid_t mem_type, void* data, const std::string& path) {
+  Handle ds(checked(H5Dopen2(parent, name, H5P_DEFAULT), path, std::string("open ") + name), H5Dclose);
+  if (H5Dread(ds.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) fail(path, std::string("read ") + name);
+}
+
+// Flushes HDF5's buffers to the operating system, then the operating system's to the disk.
+void flush_and_sync(hid_t file, const std::string& path) {
+  if (H5Fflush(file, H5F_SCOPE_GLOBAL) < 0) fail(path, "flush");
+  void* handle = nullptr;
+  if (H5Fget_vfd_handle(file, H5P_DEFAULT, &handle) < 0 || !handle) fail(path, "no file descriptor to sync");
+  if (::fsync(*static_cast<int*>(handle)) != 0) fail(path, "fsync failed");
+}
+
+const char* slot_name(long long sequence) { return sequence % 2 == 0 ? "slot_0" : "slot_1"; }
+
+}  // namespace
+
+CheckpointWriter CheckpointWriter::create(long long file_id, const std::string& path, int frames,
+                                          const CheckpointIdentity& identity) {
+  const hid_t f = static_cast<hid_t>(file_id);
+  Handle group(checked(H5Gcreate2(f, "checkpoint", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path, "create /checkpoint"),
+               H5Gclose);
+  int_attribute(group.get(), "format", kCheckpointFormat, path);
+  int_attribute(group.get(), "frames", frames, path);
+  text_dataset(group.get(), "scene", identity.scene, path);
+  text_dataset(group.get(), "build", identity.build, path);
+  const hsize_t n = static_cast<hsize_t>(frames);
+  for (const char* slot : {"slot_0", "slot_1"}) {
+    Handle g(checked(H5Gcreate2(group.get(), slot, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path,
+                     std::string("create ") + slot),
+             H5Gclose);
+    fixed_dataset(g.get(), "counters", H5T_STD_I64LE, {4}, path);
+    fixed_dataset(g.get(), "clock", H5T_IEEE_F64LE, {2}, path);
+    fixed_dataset(g.get(), "positions", H5T_IEEE_F64LE, {n, 3}, path);
+    fixed_dataset(g.get(), "orientations", H5T_IEEE_F64LE, {n, 4}, path);
+    fixed_dataset(g.get(), "velocities", H5T_IEEE_F64LE, {n, 6}, path);
+  }
+  fixed_dataset(group.get(), "commit", H5T_STD_I64LE, {2}, path);
+  return CheckpointWriter(file_id, path, frames, 0);
+}
+
+CheckpointWriter CheckpointWriter::open(long long file_id, const std::string& path) {
+  const hid_t f = static_cast<hid_t>(file_id);
+  Handle group(checked(H5Gopen2(f, "checkpoint", H5P_DEFAULT), path, "open /checkpoint"), H5Gclose);
+  const int frames = read_int_attribute(group.get(), "frames", path);
+  long long commit[2] = {0, 0};
+  read_data(group.get(), "commit", H5T_NATIVE_LLONG, commit, path);
+  return CheckpointWriter(file_id, path, frames, commit[0]);
+}
+
+void CheckpointWriter::write(const Checkpoint& c) {
+  const std::size_t n = static_cast<std::size_t>(m_frames);
+  if (c.state.positions.size() != 3 * n || c.state.orientations.size() != 4 * n || c.state.velocities.size() != 6 * n)
+    fail(m_path, "state of " + std::to_string(c.state.frame_count()) + " frames, file made for " +
+                     std::to_string(m_frames));
+  const hid_t f = static_cast<hid_t>(m_file);
+  const long long sequence = m_sequence + 1;
+  Handle group(checked(H5Gopen2(f, "checkpoint", H5P_DEFAULT), m_path, "open /checkpoint"), H5Gclose);
+  {
+    Handle slot(checked(H5Gopen2(group.get(), slot_name(sequence), H5P_DEFAULT), m_path, "open slot"), H5Gclose);
+    const long long counters[4] = {sequence, c.step, c.rows, c.finished ? 1 : 0};
+    const double clock[2] = {c.time, c.dt};
+    write_data(slot.get(), "counters", H5T_NATIVE_LLONG, counters, m_path);
+    write_data(slot.get(), "clock", H5T_NATIVE_DOUBLE, clock, m_path);
+    write_data(slot.get(), "positions", H5T_NATIVE_DOUBLE, c.state.positions.data(), m_path);
+    write_data(slot.get(), "orientations", H5T_NATIVE_DOUBLE, c.state.orientations.data(), m_path);
+    write_data(slot.get(), "velocities", H5T_NATIVE_DOUBLE, c.state.velocities.data(), m_path);
+  }
+  flush_and_sync(f, m_path);
+  const long long commit[2] = {sequence, c.step};
+  write_data(group.get(), "commit", H5T_NATIVE_LLONG, commit, m_path);
+  flush_and_sync(f, m_path);
+  m_sequence = sequence;
+}
+
+std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIdentity* identity) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!file.valid()) throw TrajectoryError(path + ": not a readable HDF5 file");
+  if (H5Lexists(file.get(), "checkpoint", H5P_DEFAULT) <= 0) return std::nullopt;
+  Handle group(checked(H5Gopen2(file.get(), "checkpoint", H5P_DEFAULT), path, "open /checkpoint"), H5Gclose);
+  const int format = read_int_attribute(group.get(), "format", path);
+  if (format > kCheckpointFormat)
+    fail(path, "format " + std::to_string(format) + " is newer than this build reads (" +
+                   std::to_string(kCheckpointFormat) + ")");
+  if (identity) {
+    identity->scene = read_text(group.get(), "scene", path);
+    identity->build = read_text(group.get(), "build", path);
+  }
+  long long commit[2] = {0, 0};
+  read_data(group.get(), "commit", H5T_NATIVE_LLONG, commit, path);
+  if (commit[0] <= 0) return std::nullopt;
+  const int frames = read_int_attribute(group.get(), "frames", path);
+  Handle slot(checked(H5Gopen2(group.get(), slot_name(commit[0]), H5P_DEFAULT), path, "open slot"), H5Gclose);
+  Checkpoint c;
+  long long counters[4] = {0, 0, 0, 0};
+  double clock[2] = {0, 0};
+  read_data(slot.get(), "counters", H5T_NATIVE_LLONG, counters, path);
+  read_data(slot.get(), "clock", H5T_NATIVE_DOUBLE, clock, path);
+  const long long sequence = counters[0], step = counters[1], rows = counters[2], finished = counters[3];
+  if (sequence != commit[0] || step != commit[1])
+    fail(path, "the committed record (sequence " + std::to_string(commit[0]) + ") and its slot (sequence " +
+                   std::to_string(sequence) + ") disagree");
+  c.sequence = sequence;
+  c.step = static_cast<int>(step);
+  c.rows = static_cast<int>(rows);
+  c.finished = finished != 0;
+  c.time = clock[0];
+  c.dt = clock[1];
+  const std::size_t n = static_cast<std::size_t>(frames);
+  c.state.positions.resize(3 * n);
+  c.state.orientations.resize(4 * n);
+  c.state.velocities.resize(6 * n);
+  read_data(slot.get(), "positions", H5T_NATIVE_DOUBLE, c.state.positions.data(), path);
+  read_data(slot.get(), "orientations", H5T_NATIVE_DOUBLE, c.state.orientations.data(), path);
+  read_data(slot.get(), "velocities", H5T_NATIVE_DOUBLE, c.state.velocities.data(), path);
+  for (const std::vector<double>* v : {&c.state.positions, &c.state.orientations, &c.state.velocities})
+    for (double x : *v)
+      if (!std::isfinite(x)) fail(path, "non-finite values in the committed state");
+  return c;
+}
+
+}  // namespace fascia

@@ -1,0 +1,75 @@
+// Checkpoints: everything a run needs to continue exactly, kept in its trajectory file.
+//
+//   /checkpoint                   attributes format (int), frames (int); datasets scene, build
+//                                 (text: what the run's identity was when the file was created)
+//   /checkpoint/slot_0, slot_1    counters int64 [4]: sequence, step, rows, finished;
+//                                 clock float64 [2]: time, dt (s);
+//                                 positions [N][3], orientations [N][4], velocities [N][6]
+//   /checkpoint/commit            int64 [2]: the committed sequence number (0: none yet) and its step
+//
+// Atomicity: every dataset is contiguous and allocated when the file is created, so writing a
+// checkpoint changes raw data only, never HDF5 metadata. A checkpoint with sequence number s goes
+// to slot s % 2 (the slot not committed), is flushed and synced to disk, and only then is the
+// 16-byte commit record written, flushed and synced. A process killed at any instant leaves the
+// commit record pointing at a complete slot: the new checkpoint or the one before.
+//
+// format 1 holds what the integrators carry from step to step today: the frames' state, the step
+// count and the time (Simulation::restore) and the step size dt. A later format adds datasets to
+// the slots (an adaptive step controller's state, ...) and raises `format`; a reader refuses a
+// format newer than its own.
+#pragma once
+
+#include "model/state.hpp"
+
+#include <optional>
+#include <string>
+
+namespace fascia {
+
+constexpr int kCheckpointFormat = 1;
+
+struct Checkpoint {
+  long long sequence = 0;  // 1, 2, ... in the order written
+  int step = 0;            // completed steps
+  double time = 0;         // s, after `step`
+  double dt = 0;           // s, the step size of the next step
+  int rows = 0;            // trajectory rows that belong to the run up to `step` (a resume keeps these)
+  bool finished = false;   // the run had completed every step
+  State state;             // frames: positions, orientations, velocities
+};
+
+// What a checkpoint may be resumed by: the resolved scene and the build that wrote it.
+struct CheckpointIdentity {
+  std::string scene;
+  std::string build;
+};
+
+class CheckpointWriter {
+ public:
+  // Creates /checkpoint, both slots and an empty commit record in an open HDF5 file
+  // (TrajectoryWriter::file_id(); the caller flushes with its first step).
+  static CheckpointWriter create(long long file_id, const std::string& path, int frames,
+                                 const CheckpointIdentity& identity);
+  // Continues the checkpoints of an existing file (a resumed run).
+  static CheckpointWriter open(long long file_id, const std::string& path);
+
+  // Writes `checkpoint` with the next sequence number (its own is ignored) and commits it.
+  // Throws TrajectoryError on HDF5 or disk failure.
+  void write(const Checkpoint& checkpoint);
+  long long sequence() const { return m_sequence; }
+
+ private:
+  CheckpointWriter(long long file_id, std::string path, int frames, long long sequence)
+      : m_file(file_id), m_path(std::move(path)), m_frames(frames), m_sequence(sequence) {}
+  long long m_file;
+  std::string m_path;
+  int m_frames;
+  long long m_sequence;
+};
+
+// The committed checkpoint of a trajectory file, nullopt when none was committed (or the file
+// has no /checkpoint). identity, when given, receives the stored scene and build. Throws
+// TrajectoryError when the file cannot be read or holds an inconsistent or newer checkpoint.
+std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIdentity* identity = nullptr);
+
+}  // namespace fascia

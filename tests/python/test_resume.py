@@ -1,0 +1,186 @@
+"""Checkpoints and `fascia run --resume`: a run stopped by a signal (inside a step, or between
+steps), by --max-wall or killed with SIGKILL continues from its checkpoint into the same file and
+ends bitwise identical to an uninterrupted run (same build, backend, precision and threads);
+refusals of checkpoints from another scene; SIGHUP and SIGUSR2 do not stop a run."""
+import signal
+import subprocess
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+STOPPED = 75
+DATA_ERROR = 65
+
+# tool_pull for 0.3 s: 30 backward-Euler steps with a prescribed motion, on one thread. Bitwise
+# continuation needs a linear solver that carries nothing from step to step: block-Jacobi PCG
+# (the CHOLMOD preconditioner keeps a factorisation across steps; docs/hpc.md).
+SCENE = ["scenes/tool_pull.yaml", "--set", "run.duration=0.3 s", "--set", "solver.linear.preconditioner=block_jacobi",
+         "--threads", "1"]
+
+
+def run(fascia_bin, root, *args):
+    return subprocess.run([fascia_bin, "run", *args], cwd=root, capture_output=True, text=True, timeout=600)
+
+
+def start(fascia_bin, root, *args):
+    return subprocess.Popen([fascia_bin, "run", *args], cwd=root, stderr=subprocess.PIPE, text=True)
+
+
+def rows(path):
+    """Every time series of a trajectory (wall_time aside), as arrays of its complete rows."""
+    out = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            if (isinstance(obj, h5py.Group) and "step" in obj and "value" in obj and "wall_time" not in name
+                    and not name.startswith("checkpoint")):
+                for part in ("step", "time", "value"):
+                    out[f"{name}/{part}"] = obj[part][()]
+        f.visititems(visit)
+    return out
+
+
+def assert_bitwise_equal(a, b):
+    ra, rb = rows(a), rows(b)
+    assert ra.keys() == rb.keys()
+    for key in ra:
+        assert ra[key].shape == rb[key].shape, key
+        assert ra[key].tobytes() == rb[key].tobytes(), key  # bitwise, not within a tolerance
+
+
+def wait_for_rows(path, n, process, timeout=300):
+    start_time = time.time()
+    while time.time() - start_time < timeout:
+        assert process.poll() is None, "fascia ended early"
+        try:
+            with h5py.File(path, "r", locking=False) as f:
+                steps = f["particles/frames/position/step"][()]
+                if np.sum(steps >= 0) >= n:
+                    return
+        except (OSError, KeyError):
+            pass
+        time.sleep(0.05)
+    raise AssertionError("no progress")
+
+
+@pytest.fixture(scope="module")
+def reference(fascia_bin, root, tmp_path_factory):
+    out = tmp_path_factory.mktemp("reference") / "full.h5"
+    r = run(fascia_bin, root, *SCENE, "-o", str(out), "-q")
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+@pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGUSR1, signal.SIGINT])
+def test_a_stopped_run_resumes_to_the_same_bits(fascia_bin, root, tmp_path, reference, stop):
+    out = tmp_path / "part.h5"
+    p = start(fascia_bin, root, *SCENE, "-o", str(out), "-q")
+    wait_for_rows(out, 5, p)
+    p.send_signal(stop)
+    _, err = p.communicate(timeout=300)
+    assert p.returncode == STOPPED, err
+    assert f"stopped by {stop.name}" in err and "--resume" in err
+    with h5py.File(out, "r") as f:
+        assert "checkpoint" in f and f["checkpoint/commit"][0] > 0
+        assert 5 <= f["particles/frames/position/value"].shape[0] < 31
+    r = run(fascia_bin, root, *SCENE, "-o", str(out), "--resume", "-q")
+    assert r.returncode == 0, r.stderr
+    assert_bitwise_equal(out, reference)
+    # The velocities are recorded with the positions.
+    with h5py.File(out, "r") as f:
+        assert f["particles/frames/velocity/value"].shape == f["particles/frames/position/value"].shape
+        assert np.abs(f["particles/frames/velocity/value"][-1]).max() > 0
+    # A finished run resumed does nothing and says so.
+    before = out.read_bytes()
+    r = run(fascia_bin, root, *SCENE, "-o", str(out), "--resume", "-q")
+    assert r.returncode == 0 and "nothing to resume" in r.stderr
+    assert out.read_bytes() == before
+
+
+def test_a_stop_row_off_the_output_cadence_is_dropped_on_resume(fascia_bin, root, tmp_path):
+    """With output.every = 4 a stop writes its last step as an extra row; the resumed file has
+    exactly the rows of an uninterrupted run."""
+    every = ["--set", "output.every=4"]
+    full = tmp_path / "full.h5"
+    assert run(fascia_bin, root, *SCENE, *every, "-o", str(full), "-q").returncode == 0
+    out = tmp_path / "part.h5"
+    # --max-wall stops the run in the same way as a signal.
+    r = run(fascia_bin, root, *SCENE, *every, "--set", "run.duration=100 s", "-o", str(tmp_path / "long.h5"),
+            "--max-wall", "1.5 s", "-q")
+    assert r.returncode == STOPPED and "stopped by --max-wall" in r.stderr
+    p = start(fascia_bin, root, *SCENE, *every, "-o", str(out), "-q")
+    wait_for_rows(out, 3, p)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=300)
+    assert p.returncode == STOPPED, err
+    r = run(fascia_bin, root, *SCENE, *every, "-o", str(out), "--resume", "-q")
+    assert r.returncode == 0, r.stderr
+    assert_bitwise_equal(out, full)
+
+
+def test_a_stop_inside_a_step_abandons_it(fascia_bin, root, tmp_path):
+    """One step that would take hours (CG without a tolerance, 10^8 iterations): a stop is seen
+    inside the linear solve, the run keeps step 0 and its checkpoint and exits 75."""
+    out = tmp_path / "slow.h5"
+    p = start(fascia_bin, root, "scenes/tool_pull.yaml", "-o", str(out), "--set", "solver.linear.method=cg",
+              "--set", "solver.linear.fixed_iterations=true", "--set", "solver.linear.max_iterations=100000000")
+    wait_for_rows(out, 1, p)
+    time.sleep(0.5)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == STOPPED, err
+    assert "stopped by SIGTERM after step 0" in err
+    with h5py.File(out, "r") as f:
+        assert list(f["particles/frames/position/step"][()]) == [0]
+        assert f["checkpoint/commit"][1] == 0
+
+
+def test_sighup_and_sigusr2_do_not_stop_a_run(fascia_bin, root, tmp_path):
+    out = tmp_path / "hup.h5"
+    p = start(fascia_bin, root, *SCENE, "--set", "run.duration=100 s", "-o", str(out), "--checkpoint-interval", "0")
+    wait_for_rows(out, 2, p)
+    with h5py.File(out, "r", locking=False) as f:
+        sequence = f["checkpoint/commit"][0]
+    p.send_signal(signal.SIGHUP)
+    p.send_signal(signal.SIGUSR2)  # a checkpoint now, and go on
+    n = 0
+    with h5py.File(out, "r", locking=False) as f:
+        n = int(np.sum(f["particles/frames/position/step"][()] >= 0))
+    wait_for_rows(out, n + 3, p)
+    assert p.poll() is None
+    with h5py.File(out, "r", locking=False) as f:
+        assert f["checkpoint/commit"][0] > sequence
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=300)
+    assert p.returncode == STOPPED, err
+    assert "SIGHUP ignored" in err
+
+
+def test_a_run_killed_with_sigkill_resumes_to_the_same_bits(fascia_bin, root, tmp_path, reference):
+    out = tmp_path / "killed.h5"
+    for kill_after_rows in (4, 12):
+        args = [*SCENE, "-o", str(out), "--checkpoint-every", "1", "-q"]
+        p = start(fascia_bin, root, *args, *(["--resume"] if out.exists() else []))
+        wait_for_rows(out, kill_after_rows, p)
+        p.kill()
+        p.wait(timeout=60)
+    r = run(fascia_bin, root, *SCENE, "-o", str(out), "--resume", "-q")
+    assert r.returncode == 0, r.stderr
+    assert_bitwise_equal(out, reference)
+
+
+def test_a_checkpoint_of_another_scene_is_refused(fascia_bin, root, tmp_path):
+    out = tmp_path / "other.h5"
+    p = start(fascia_bin, root, *SCENE, "-o", str(out), "-q")
+    wait_for_rows(out, 3, p)
+    p.send_signal(signal.SIGTERM)
+    p.communicate(timeout=300)
+    assert p.returncode == STOPPED
+    before = out.read_bytes()
+    r = run(fascia_bin, root, *SCENE, "--set", "materials.fascia.young=50 kPa", "-o", str(out), "--resume", "-q")
+    assert r.returncode == DATA_ERROR
+    assert "another scene" in r.stderr and "50000" in r.stderr
+    assert out.read_bytes() == before
+    # --resume and --overwrite contradict each other.
+    assert run(fascia_bin, root, *SCENE, "-o", str(out), "--resume", "--overwrite").returncode == 64
