@@ -71,7 +71,8 @@ std::string output_refusal(const std::vector<std::string>& outputs, const std::v
   std::error_code ec;
   if (existing == ExistingOutput::refuse)
     for (const std::string& o : outputs)
-      if (fs::exists(o, ec))
+      // A directory is no earlier run: the output check reports it as unwritable (exit 74).
+      if (fs::exists(o, ec) && !fs::is_directory(o, ec))
         return o + " exists; give --overwrite to replace it, --resume to continue the run it holds, or another -o";
   return "";
 }
