@@ -3,27 +3,20 @@
 #include "device_problem.hpp"
 #include "integrate/simulation.hpp"
 
-#include <memory>
-
 namespace fascia::gpu {
 namespace {
 
 class CudaStep final : public StepBackend {
  public:
-  CudaStep(const Model& model, const ExternalLoads& loads, const SimulationSettings& settings,
-           const DeviceOptions& options)
-      : m_potential(model, loads, options), m_state(m_potential.make_state()) {
-    if (DeviceProblem::uses_host_factorisation(settings.newton.linear))
-      m_host = std::make_unique<HostFactorisation>(model, loads, settings.threads);
-  }
+  CudaStep(const Model& model, const ExternalLoads& loads, const DeviceOptions& options)
+      : m_potential(model, loads, options), m_state(m_potential.make_state()) {}
 
   NewtonResult backward_euler(const State& start, State& trial, double dt, double rayleigh_mass,
                               const NewtonSettings& settings, double reference_force) override {
     m_potential.set_load_scale(1.0);
     m_potential.set_dynamic(start, dt, rayleigh_mass);
-    if (m_host) m_host->potential.set_dynamic(start, dt, rayleigh_mass, 0.0);
     m_state.upload(trial);
-    DeviceProblem problem(m_potential, settings.linear, m_host.get());
+    DeviceProblem problem(m_potential, settings.linear);
     const NewtonResult r = newton(problem, m_state, settings, reference_force);
     m_state.download(trial);
     trial.velocities.resize(static_cast<size_t>(m_potential.dofs()));
@@ -35,9 +28,8 @@ class CudaStep final : public StepBackend {
   NewtonResult equilibrium(State& state, const NewtonSettings& settings, const LoadStepping& stepping,
                            const std::function<double(double)>& set_load_factor) override {
     m_potential.set_static();
-    if (m_host) m_host->potential.set_static();
     m_state.upload(state);
-    DeviceProblem problem(m_potential, settings.linear, m_host.get());
+    DeviceProblem problem(m_potential, settings.linear);
     const NewtonResult r = newton_load_stepping(problem, m_state, settings, stepping, [&](double factor) {
       m_potential.set_load_scale(factor);
       return set_load_factor(factor);
@@ -55,7 +47,6 @@ class CudaStep final : public StepBackend {
  private:
   DevicePotential m_potential;
   DeviceFrames m_state;
-  std::unique_ptr<HostFactorisation> m_host;  // pcg with the cholmod preconditioner
 };
 
 }  // namespace
@@ -69,7 +60,7 @@ StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
     }
     why = device_potential_refusal(model, settings.integrator == Integrator::backward_euler ? settings.rayleigh_stiffness : 0.0);
     if (!why.empty()) return nullptr;
-    return std::make_unique<CudaStep>(model, loads, settings, options);
+    return std::make_unique<CudaStep>(model, loads, options);
   };
 }
 

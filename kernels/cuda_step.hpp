@@ -5,11 +5,12 @@
 // once; inside, only the scalars that steer the iterations cross the bus.
 //
 // Covered: the static and backward-Euler integrators with cg or pcg on every model (tissues,
-// shells, rigid bodies and their attached frames), without stiffness-proportional damping. pcg
-// takes the scene's preconditioner: block Jacobi on the device, or the CPU's kept sparse
-// factorisation (the default) applied on the host (device_problem.hpp). Elsewhere the factory
-// returns null with the reason, and Simulation runs the CPU engine with the volumetric elasticity
-// on the device (cuda_elasticity.hpp).
+// shells, rigid bodies and their attached frames), without stiffness-proportional damping. On the
+// device pcg is preconditioned by block Jacobi, also where the scene asks for the CPU's sparse
+// factorisation (solver.linear.preconditioner: cholmod, the default), which has no device
+// counterpart: the same tolerance, more CG iterations. Elsewhere the factory returns null with the
+// reason, and Simulation runs the CPU engine with the volumetric elasticity on the device
+// (cuda_elasticity.hpp).
 #pragma once
 
 #include "device_elasticity.hpp"

@@ -387,8 +387,8 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     if (simulation.on_step_backend()) {
       const LinearSettings& linear = built.settings.newton.linear;
       std::cerr << "fascia: the whole step runs on the device"
-                << (linear.method == LinearMethod::pcg && linear.preconditioner == Preconditioner::cholmod
-                        ? " (pcg preconditioned by the CPU's kept cholmod factorisation, applied on the host)"
+                << (linear.method == LinearMethod::pcg && linear.preconditioner != Preconditioner::block_jacobi
+                        ? " (pcg preconditioned by block_jacobi: a cholmod preconditioner runs on the CPU only)"
                         : "")
                 << "\n";
     }

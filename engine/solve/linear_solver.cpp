@@ -44,26 +44,19 @@ Preconditioner parse_preconditioner(const std::string& name) {
 LinearSolver::LinearSolver() : m_cholesky(std::make_unique<SparseCholesky>()) {}
 LinearSolver::~LinearSolver() = default;
 
-PcgSettings pcg_settings(const LinearSettings& settings) {
-  PcgSettings pcg;
-  pcg.tolerance = settings.tolerance;
-  pcg.max_iterations = settings.max_iterations;
-  pcg.fixed_iterations = settings.fixed_iterations;
-  return pcg;
-}
-
-LinearResult factorise(SparseCholesky& cholesky, const LinearSystem& system) {
+LinearResult LinearSolver::factorise(const LinearSystem& system) {
   LinearResult r;
   r.factorised = true;
-  if (!cholesky.factorise(system.assemble(), system.fixed)) {
+  if (!m_cholesky->factorise(system.assemble(), system.fixed)) {
     r.message = "CHOLMOD: tangent could not be factorised even with a diagonal shift";
     return r;
   }
+  m_stale = false;
   r.converged = true;
-  if (cholesky.shift() > 0) {
+  if (m_cholesky->shift() > 0) {
     r.shifted = true;
     std::ostringstream msg;
-    msg << "CHOLMOD: tangent not positive definite, shifted by " << cholesky.shift() << " diag(H)";
+    msg << "CHOLMOD: tangent not positive definite, shifted by " << m_cholesky->shift() << " diag(H)";
     r.message = msg.str();
   }
   return r;
@@ -73,22 +66,25 @@ LinearResult LinearSolver::solve(const LinearSystem& system, const LinearSetting
                                  const std::vector<double>& b, std::vector<double>& x) {
   const HostVectorOps ops(system.size, system.fixed);
   auto apply = [&](const std::vector<double>& p, std::vector<double>& out) { system.apply(p.data(), out.data()); };
-  const PcgSettings pcg_settings_ = pcg_settings(settings);
+  PcgSettings pcg_settings;
+  pcg_settings.tolerance = settings.tolerance;
+  pcg_settings.max_iterations = settings.max_iterations;
+  pcg_settings.fixed_iterations = settings.fixed_iterations;
 
   if (settings.method == LinearMethod::cg)
-    return pcg(ops, apply, IdentityPreconditioner<HostVectorOps>{ops}, pcg_settings_, b, x);
+    return pcg(ops, apply, IdentityPreconditioner<HostVectorOps>{ops}, pcg_settings, b, x);
 
   if (settings.method == LinearMethod::pcg && settings.preconditioner == Preconditioner::block_jacobi) {
     std::vector<double> blocks(36 * static_cast<size_t>(system.size / 6));
     system.diagonal_blocks(blocks.data());
     const BlockJacobi jacobi(std::move(blocks), system.fixed);
     return pcg(ops, apply, [&](const std::vector<double>& r, std::vector<double>& z) { jacobi.apply(r, z); },
-               pcg_settings_, b, x);
+               pcg_settings, b, x);
   }
 
   if (settings.method == LinearMethod::cholmod) {
-    LinearResult r = factorise(*m_cholesky, system);
-    if (!r.converged) return r;
+    LinearResult r = factorise(system);
+    if (!m_cholesky->factorised()) return r;
     std::vector<double> rhs = b;
     ops.project(rhs);
     m_cholesky->solve(rhs, x);
@@ -101,10 +97,27 @@ LinearResult LinearSolver::solve(const LinearSystem& system, const LinearSetting
     return r;
   }
 
-  // pcg + cholmod: PCG preconditioned by the kept factorisation.
-  return m_reuse.solve(
-      ops, apply, [&] { return factorise(*m_cholesky, system); },
-      [&](const std::vector<double>& r, std::vector<double>& z) { m_cholesky->solve(r, z); }, settings, b, x);
+  // PCG preconditioned by the reused factorisation: refactorise when stale, and once more when
+  // the reused one could not reach the tolerance within the cap.
+  const bool was_stale = m_stale || !m_cholesky->factorised();
+  LinearResult fresh;
+  if (was_stale) {
+    fresh = factorise(system);
+    if (!m_cholesky->factorised()) return fresh;
+  }
+  auto precondition = [&](const std::vector<double>& r, std::vector<double>& z) { m_cholesky->solve(r, z); };
+  LinearResult r = pcg(ops, apply, precondition, pcg_settings, b, x);
+  if (!r.converged && !was_stale && !settings.fixed_iterations) {
+    const int spent = r.iterations;
+    fresh = factorise(system);
+    if (!m_cholesky->factorised()) return fresh;
+    r = pcg(ops, apply, precondition, pcg_settings, b, x);
+    r.iterations += spent;
+  }
+  r.factorised = was_stale || fresh.factorised;
+  r.shifted = fresh.shifted;
+  if (r.iterations > settings.refactorise_above) m_stale = true;
+  return r;
 }
 
 }  // namespace fascia

@@ -13,7 +13,6 @@
 #pragma once
 
 #include "solve/linear_result.hpp"
-#include "solve/pcg.hpp"
 
 #include <Eigen/SparseCore>
 
@@ -57,56 +56,6 @@ struct LinearSystem {
   std::function<Eigen::SparseMatrix<double>()> assemble;        // H, both triangles
 };
 
-// The PCG settings of a linear method's tolerance and cap.
-PcgSettings pcg_settings(const LinearSettings& settings);
-
-// Factorises the free-free block of the assembled H into `cholesky`. converged: it succeeded;
-// shifted (with a message): H was not positive definite and a diagonal shift was added.
-LinearResult factorise(SparseCholesky& cholesky, const LinearSystem& system);
-
-// PCG preconditioned by a sparse factorisation kept from one solve to the next (Newton iterations
-// and steps): refactorised before a solve when stale, and once more when the kept one could not
-// reach the tolerance within the cap; stale after a solve that took more than
-// LinearSettings::refactorise_above iterations. Written over a backend's vector operations like
-// pcg(): the CPU's LinearSolver and the CUDA step (kernels/device_problem.hpp) keep one each.
-class ReusedFactorisation {
- public:
-  // @param factorise     callable () -> LinearResult: assembles H at the current iterate and
-  //                      factorises it (solve/linear_solver.hpp, factorise); converged: success
-  // @param precondition  callable (const Vector& r, Vector& z): z = (L L^T)^{-1} r with the kept
-  //                      factorisation
-  template <class Ops, class Apply, class Factorise, class Precondition>
-  LinearResult solve(const Ops& ops, Apply&& apply, Factorise&& factorise, Precondition&& precondition,
-                     const LinearSettings& settings, const typename Ops::Vector& b, typename Ops::Vector& x) {
-    const PcgSettings pcg_settings_ = pcg_settings(settings);
-    const bool was_stale = m_stale;
-    LinearResult fresh;
-    if (was_stale) {
-      fresh = factorise();
-      if (!fresh.converged) return fresh;
-      m_stale = false;
-    }
-    LinearResult r = pcg(ops, apply, precondition, pcg_settings_, b, x);
-    if (!r.converged && !was_stale && !settings.fixed_iterations) {
-      const int spent = r.iterations;
-      fresh = factorise();
-      if (!fresh.converged) {
-        m_stale = true;
-        return fresh;
-      }
-      r = pcg(ops, apply, precondition, pcg_settings_, b, x);
-      r.iterations += spent;
-    }
-    r.factorised = was_stale || fresh.factorised;
-    r.shifted = fresh.shifted;
-    if (r.iterations > settings.refactorise_above) m_stale = true;
-    return r;
-  }
-
- private:
-  bool m_stale = true;  // refactorise before the next solve
-};
-
 // Solves with the method of the settings. Keeps the sparse factorisation between solves (pcg +
 // cholmod reuses it as its preconditioner; cholmod reuses the symbolic analysis): one solver per
 // sequence of systems of one model.
@@ -124,8 +73,10 @@ class LinearSolver {
   const SparseCholesky& factorisation() const { return *m_cholesky; }
 
  private:
+  LinearResult factorise(const LinearSystem& system);
+
   std::unique_ptr<SparseCholesky> m_cholesky;
-  ReusedFactorisation m_reuse;  // pcg + cholmod
+  bool m_stale = true;  // refactorise before the next pcg + cholmod solve
 };
 
 }  // namespace fascia
