@@ -2,10 +2,18 @@
 
 #include <Eigen/Dense>
 
+#include <omp.h>
+
 #include <algorithm>
 #include <set>
 
 namespace fascia {
+namespace {
+
+constexpr int kParallelMin = 256;               // fewer samples: one thread
+constexpr long long kChunkValues = 1LL << 22;   // sample-matrix values formed per chunk (32 MiB)
+
+}  // namespace
 
 TangentAssembler::TangentAssembler(const Model& model) {
   const int n = model.frame_count();
@@ -54,33 +62,69 @@ const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& 
   double* values = m_matrix.valuePtr();
   const int* outer = m_matrix.outerIndexPtr();
   std::fill(values, values + m_matrix.nonZeros(), 0.0);
-  Eigen::Matrix<double, 9, 9, Eigen::RowMajor> D;
-  Eigen::Matrix<double, 9, Eigen::Dynamic> B, DB;
-  Eigen::Matrix<double, 9, 6, Eigen::RowMajor> Bp;
-  Eigen::MatrixXd H;
-  // Serial scatter: each (sample, a, b) adds into a distinct block position, but different
-  // samples share blocks; one thread keeps the sums in a fixed order.
-  for (int s = 0; s < model.sample_count(); ++s) {
-    const int begin = nb.offsets[s], k = nb.offsets[s + 1] - begin;
-    elasticity.material_matrix(s, D.data());
-    B.resize(9, 6 * k);
-    for (int a = 0; a < k; ++a) {
-      elasticity.pair_jacobian(begin + a, Bp.data());
-      B.middleCols(6 * a, 6) = Bp;
-    }
-    // Rows of D are vec(dP[E_k]): the operator acting on vec(dF) is D^T (= D for hyperelastic laws).
-    DB.noalias() = D.transpose() * B;
-    H.noalias() = model.samples.volumes[s] * (B.transpose() * DB);
-    const int* slot = &m_pair_slots[m_pair_offsets[s]];
-    for (int a = 0; a < k; ++a)
-      for (int b = 0; b < k; ++b) {
-        const int j = nb.frames[begin + b];
-        const int row_block = slot[a * k + b];
-        for (int c = 0; c < 6; ++c) {
-          double* column = values + outer[6 * j + c] + 6 * row_block;
-          for (int r = 0; r < 6; ++r) column[r] += H(6 * a + r, 6 * b + c);
+  const int samples = model.sample_count(), frames = model.frame_count();
+  // Samples in chunks: the sample matrices H_s = v_s B_s^T D_s B_s [6k x 6k] of a chunk are formed
+  // in parallel into `chunk_values`, then scattered with each thread owning a contiguous range of
+  // column frames and visiting the chunk's samples in order, so every entry sums its samples in
+  // sample order: the same bits for any thread count.
+  std::vector<long long> chunk_offsets;
+  std::vector<double> chunk_values;
+#pragma omp parallel num_threads(elasticity.threads()) if (samples > kParallelMin)
+  {
+    Eigen::Matrix<double, 9, 9, Eigen::RowMajor> D;
+    Eigen::Matrix<double, 9, Eigen::Dynamic> B, DB;
+    Eigen::Matrix<double, 9, 6, Eigen::RowMajor> Bp;
+    const int thread = omp_get_thread_num(), threads = omp_get_num_threads();
+    const int own_begin = static_cast<int>(static_cast<long long>(frames) * thread / threads);
+    const int own_end = static_cast<int>(static_cast<long long>(frames) * (thread + 1) / threads);
+    for (int s0 = 0; s0 < samples;) {
+      int s1 = s0;
+#pragma omp single
+      {
+        chunk_offsets.assign(1, 0);
+        while (s1 < samples && chunk_offsets.back() < kChunkValues) {
+          const long long k = nb.offsets[s1 + 1] - nb.offsets[s1];
+          chunk_offsets.push_back(chunk_offsets.back() + 36 * k * k);
+          ++s1;
+        }
+        if (chunk_values.size() < static_cast<size_t>(chunk_offsets.back()))
+          chunk_values.resize(static_cast<size_t>(chunk_offsets.back()));
+      }  // implicit barrier: every thread sees the chunk
+      s1 = s0 + static_cast<int>(chunk_offsets.size()) - 1;
+#pragma omp for schedule(dynamic, 16)
+      for (int s = s0; s < s1; ++s) {
+        const int begin = nb.offsets[s], k = nb.offsets[s + 1] - begin;
+        elasticity.material_matrix(s, D.data());
+        B.resize(9, 6 * k);
+        for (int a = 0; a < k; ++a) {
+          elasticity.pair_jacobian(begin + a, Bp.data());
+          B.middleCols(6 * a, 6) = Bp;
+        }
+        // Rows of D are vec(dP[E_k]): the operator acting on vec(dF) is D^T (= D for hyperelastic
+        // laws).
+        DB.noalias() = D.transpose() * B;
+        Eigen::Map<Eigen::MatrixXd> H(chunk_values.data() + chunk_offsets[s - s0], 6 * k, 6 * k);
+        H.noalias() = model.samples.volumes[s] * (B.transpose() * DB);
+      }  // implicit barrier
+      for (int s = s0; s < s1; ++s) {
+        const int begin = nb.offsets[s], k = nb.offsets[s + 1] - begin;
+        const Eigen::Map<const Eigen::MatrixXd> H(chunk_values.data() + chunk_offsets[s - s0], 6 * k, 6 * k);
+        const int* slot = &m_pair_slots[m_pair_offsets[s]];
+        for (int b = 0; b < k; ++b) {
+          const int j = nb.frames[begin + b];
+          if (j < own_begin || j >= own_end) continue;
+          for (int a = 0; a < k; ++a) {
+            const int row_block = slot[a * k + b];
+            for (int c = 0; c < 6; ++c) {
+              double* column = values + outer[6 * j + c] + 6 * row_block;
+              for (int r = 0; r < 6; ++r) column[r] += H(6 * a + r, 6 * b + c);
+            }
+          }
         }
       }
+      s0 = s1;
+#pragma omp barrier
+    }
   }
   const std::vector<double>& blocks = elasticity.rotational_blocks();
   for (int i = 0; i < model.frame_count(); ++i) {
