@@ -198,8 +198,54 @@ struct ObjectPart {
 
 Material scene_material(const SceneSpec& scene, const ObjectSpec& o) {
   const MaterialSpec* m = scene.material(o.material->value);
+  if (m->law.value == "hgo") {
+    const FibresSpec& f = *m->fibres;
+    Fibres fibres{f.k1.value, f.k2.value, f.dispersion.value, Vec3{1, 0, 0}};
+    // Without a material direction the object gives every sample its own (place_fibres; the
+    // scene checks ensure it).
+    if (f.direction) fibres.direction = Vec3{f.direction->value[0], f.direction->value[1], f.direction->value[2]};
+    return make_hgo_material(m->young.value, m->poisson.value, m->density.value, fibres);
+  }
   const MaterialLaw law = m->law.value == "neo_hookean" ? MaterialLaw::neo_hookean : MaterialLaw::stvk;
   return make_material(law, m->young.value, m->poisson.value, m->density.value);
+}
+
+// The object's fibre directions (ObjectSpec::fibres) on the samples of its model `model`: one
+// direction for all, or per sample (fibre regions; `from`, the gradient of that organ's
+// distance field `from`), where each sample gets its own entry of model.materials.
+void place_fibres(const ObjectSpec& o, Model& model, const LevelSet* from, Diagnostics& diagnostics) {
+  if (!o.fibres) return;
+  const ObjectFibresSpec& f = *o.fibres;
+  if (f.direction) {
+    for (Material& m : model.materials) m = with_fibre_direction(m, to_vec3(f.direction->value));
+    return;
+  }
+  const std::vector<Material> shared = model.materials;
+  const int S = model.sample_count();
+  model.materials.resize(static_cast<std::size_t>(S));
+  for (int s = 0; s < S; ++s) {
+    const std::size_t si = static_cast<std::size_t>(s);
+    const Vec3 p = load3(&model.samples.rest_positions[3 * si]);
+    Material m = shared[static_cast<std::size_t>(model.samples.materials[si])];
+    if (from) {
+      const Vec3 g = from->gradient(p);
+      if (!(norm(g) > 1e-6)) {
+        diagnostics.error(f.from->where, "fibres.from: the distance to '" + f.from->value +
+                                                "' has no gradient at the sample at (" + metres(p.x) + ", " +
+                                                metres(p.y) + ", " + metres(p.z) + ")");
+        return;
+      }
+      m = with_fibre_direction(m, g);
+    } else {
+      for (const ObjectFibresSpec::Region& r : f.regions)
+        if (r.region.contains({p.x, p.y, p.z}, 0)) {
+          m = with_fibre_direction(m, to_vec3(r.direction.value));
+          break;
+        }
+    }
+    model.materials[si] = m;
+    model.samples.materials[si] = s;
+  }
 }
 
 bool read_transformed_surface(const ObjectSpec& o, SurfaceMesh& surface, MemoryBudget& budget,
@@ -428,6 +474,9 @@ bool make_between_tissue(const SceneSpec& scene, std::vector<ObjectPart>& parts,
       return false;
     const VoxelDomain domain(level_set);
     result = build_meshless_model(domain, domain.volume(), scene_material(scene, o), options);
+    const LevelSet* from = nullptr;
+    if (o.fibres && o.fibres->from) from = &organs[o.fibres->from->value == o.between[0].value ? 0 : 1];
+    place_fibres(o, result.model, from, diagnostics);
   } catch (const std::exception& e) {
     diagnostics.error(o.within->where, "cannot build the tissue between '" + o.between[0].value + "' and '" +
                                            o.between[1].value + "': " + e.what());
@@ -592,6 +641,7 @@ BuiltScene build_scene(const SceneSpec& scene, const ResourceLimits& limits) {
       else if (o.image) make_image_tissue(scene, part, budget, diagnostics);
       else if (!o.between.empty()) continue;  // built from its organs below
       else make_mesh_tissue(scene, part, budget, diagnostics);
+      place_fibres(o, part.part, nullptr, diagnostics);
     } else if (o.kind.value == "shell") {
       if (!read_transformed_surface(o, part.surface, budget, diagnostics)) continue;
       const MaterialSpec* m = scene.material(o.material->value);

@@ -169,13 +169,30 @@ ParamSpec build_registry() {
   ParamSpec material = object(
       "material", "a hyperelastic material",
       {
-          with_default(enumeration("law", {"stvk", "neo_hookean"},
-                                   "constitutive law: Saint Venant-Kirchhoff (paper eq. 19) or compressible neo-Hookean"),
+          with_default(enumeration("law", {"stvk", "neo_hookean", "hgo"},
+                                   "constitutive law: Saint Venant-Kirchhoff (paper eq. 19), compressible neo-Hookean, "
+                                   "or hgo: that neo-Hookean reinforced by a family of fibres (Holzapfel-Gasser-Ogden, "
+                                   "needs fibres)"),
                        "stvk"),
-          required(above(quantity("young", dim::pressure, "Young's modulus E"), 0)),
+          required(above(quantity("young", dim::pressure, "Young's modulus E (of the ground substance for hgo)"), 0)),
           with_default(below(above(quantity("poisson", dim::none, "Poisson ratio nu"), -1), 0.5), "0.3"),
           with_default(above(quantity("density", dim::density, "mass density rho"), 0), "1000 kg/m^3"),
+          object("fibres",
+                 "hgo: psi_f = k1/(2 k2) (exp(k2 <E_f>^2) - 1), E_f = kappa (I1 - 3) + (1 - 3 kappa)(I4 - 1), "
+                 "in tension only",
+                 {required(above(quantity("k1", dim::pressure, "fibre stiffness k1"), 0, false)),
+                  required(above(quantity("k2", dim::none, "fibre exponent k2 (dimensionless)"), 0)),
+                  with_default(below(above(quantity("dispersion", dim::none,
+                                                    "fibre dispersion kappa: 0 aligned, 1/3 isotropic"),
+                                           0, false),
+                                     1.0 / 3, false),
+                               "0"),
+                  vec3("direction", dim::none,
+                       "fibre direction at rest, world axes (normalised); objects may give their own (object fibres)")}),
       });
+  ParamSpec fibre_region = object("fibre_region", "fibres of the samples in a region",
+                                  {required(region("region", "which samples (rest positions, world axes)")),
+                                   required(vec3("direction", dim::none, "their fibre direction (normalised)"))});
 
   ParamSpec cells = above(leaf("cells", ParamType::integer_list, "number of cells along x, y, z"), 1, false);
   cells.length = 3;
@@ -243,6 +260,14 @@ ParamSpec build_registry() {
           with_default(leaf("fixed", ParamType::boolean,
                             "rigid body held in place (move one instead with a motion load, region all: true)"),
                        "false"),
+          one_of("fibres", "tissue of an hgo material: where its fibres run, instead of the material's direction",
+                 {vec3("direction", dim::none, "one direction for the whole object (rest, world axes; normalised)"),
+                  leaf("from", ParamType::string,
+                       "with between: one of the two organs; the fibres follow the gradient of the distance to it "
+                       "(from one organ across to the other)"),
+                  list("regions", "per region: the first region holding a sample gives its direction, the "
+                                  "material's direction elsewhere",
+                       fibre_region)}),
       });
 
   ParamSpec constraint =

@@ -106,6 +106,14 @@ RegionSpec region_from(const Value& v, Diagnostics& diagnostics) {
   return r;
 }
 
+// A fibre direction: nonzero (it is normalised when built).
+Located<Vec3d> fibre_direction(const Value& v, Diagnostics& diagnostics) {
+  const Located<Vec3d> d = located(v.vec3(), v);
+  if (!(std::abs(d.value[0]) + std::abs(d.value[1]) + std::abs(d.value[2]) > 0))
+    diagnostics.error(v.where, "a fibre direction must not be zero");
+  return d;
+}
+
 std::vector<std::string> names_of(const std::vector<MaterialSpec>& m) {
   std::vector<std::string> out;
   for (const MaterialSpec& x : m) out.push_back(x.name);
@@ -141,6 +149,20 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
       if (m.has("young")) spec.young = located_num(m.at("young"));
       spec.poisson = located_num(m.at("poisson"));
       spec.density = located_num(m.at("density"));
+      if (const Value* f = m.find("fibres")) {
+        FibresSpec fibres;
+        fibres.where = f->where;
+        fibres.k1 = located_num(f->at("k1"));
+        fibres.k2 = located_num(f->at("k2"));
+        fibres.dispersion = located_num(f->at("dispersion"));
+        if (const Value* d = f->find("direction")) fibres.direction = fibre_direction(*d, diagnostics);
+        spec.fibres = fibres;
+      }
+      if (spec.law.value == "hgo" && !spec.fibres)
+        diagnostics.error(spec.law.where, "law hgo needs 'fibres' in material '" + name + "': k1, k2 and optionally "
+                                          "dispersion and direction");
+      else if (spec.law.value != "hgo" && spec.fibres)
+        diagnostics.error(spec.fibres->where, "'fibres' belong to law hgo; material '" + name + "' is " + spec.law.value);
       scene.materials.push_back(spec);
     } catch (const std::logic_error&) {
       // incomplete after validation errors
@@ -207,6 +229,27 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
       if (o.has("thickness")) spec.thickness = located_num(o.at("thickness"));
       if (o.has("density")) spec.density = located_num(o.at("density"));
       if (o.has("fixed")) spec.fixed = Located<bool>{o.flag("fixed"), o.at("fixed").where};
+      if (const Value* f = o.find("fibres"); f && !f->fields.empty()) {
+        ObjectFibresSpec fibres;
+        fibres.where = f->where;
+        const auto& [key, value] = f->fields.front();
+        if (key == "direction") {
+          fibres.direction = fibre_direction(value, diagnostics);
+        } else if (key == "from") {
+          fibres.from = located_str(value);
+        } else if (key == "regions") {
+          for (const Value& r : value.items) {
+            ObjectFibresSpec::Region region{region_from(r.at("region"), diagnostics),
+                                            fibre_direction(r.at("direction"), diagnostics)};
+            if (region.region.kind == RegionSpec::Kind::ids)
+              diagnostics.error(region.region.where, "fibre regions select samples by their rest position; ids "
+                                                     "select frames: use box, sphere, half_space or all");
+            fibres.regions.push_back(region);
+          }
+          if (fibres.regions.empty()) diagnostics.error(value.where, "fibres.regions: the list is empty");
+        }
+        spec.fibres = fibres;
+      }
 
       // Which geometry: exactly one source per object.
       const int sources = (spec.mesh ? 1 : 0) + (spec.box ? 1 : 0) + (spec.surface ? 1 : 0) + (spec.image ? 1 : 0) +
@@ -270,10 +313,36 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   }
 
   for (const ObjectSpec& o : scene.objects) {
-    if (o.material && !scene.material(o.material->value)) {
+    const MaterialSpec* material = o.material ? scene.material(o.material->value) : nullptr;
+    if (o.material && !material) {
       diagnostics.error(o.material->where, "unknown material '" + o.material->value + "'" +
                                                did_you_mean(o.material->value, names_of(scene.materials)) +
                                                (scene.materials.empty() ? "; the scene defines no materials" : ""));
+    }
+    if (partial) continue;
+    const bool hgo = material && material->law.value == "hgo" && material->fibres;
+    if (o.fibres && (!hgo || o.kind.value != "tissue")) {
+      diagnostics.error(o.fibres->where, "'fibres' place the fibres of a tissue of an hgo material; object '" + o.name +
+                                             "' is " + (o.kind.value != "tissue" ? "a " + o.kind.value
+                                                        : material ? "of law " + material->law.value
+                                                                   : std::string("without a material")));
+    } else if (o.fibres && o.fibres->from) {
+      const Located<std::string>& organ = *o.fibres->from;
+      if (o.between.empty())
+        diagnostics.error(organ.where, "fibres.from follows the distance to an organ that the tissue lies "
+                                         "between; object '" + o.name + "' has no 'between'");
+      else if (organ.value != o.between[0].value && (o.between.size() < 2 || organ.value != o.between[1].value))
+        diagnostics.error(organ.where, "fibres.from: '" + organ.value + "' is not one of the organs '" + o.name +
+                                             "' lies between (" + o.between[0].value +
+                                             (o.between.size() > 1 ? ", " + o.between[1].value : std::string()) + ")");
+    } else if (hgo && o.kind.value == "tissue" && !material->fibres->direction &&
+               !(o.fibres && (o.fibres->direction || o.fibres->from))) {
+      diagnostics.error(o.fibres ? o.fibres->where : o.where,
+                        "object '" + o.name + "' of hgo material '" + material->name + "' has no fibre direction" +
+                            (o.fibres ? " outside its fibre regions" : "") +
+                            ": give fibres.direction in the material, or fibres (direction or from) in the object");
+    } else if (hgo && o.kind.value == "shell") {
+      diagnostics.error(o.material->where, "shells take an isotropic material; '" + material->name + "' is hgo");
     }
   }
 

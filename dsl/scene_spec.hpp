@@ -20,13 +20,23 @@ struct Located {
 
 using Vec3d = std::array<double, 3>;
 
+// The fibres of an hgo material.
+struct FibresSpec {
+  Location where;
+  Located<double> k1;          // Pa
+  Located<double> k2;          // dimensionless
+  Located<double> dispersion;  // kappa in [0, 1/3]
+  std::optional<Located<Vec3d>> direction;  // nonzero, normalised when built
+};
+
 struct MaterialSpec {
   std::string name;
   Location where;
-  Located<std::string> law;  // "stvk" | "neo_hookean"
+  Located<std::string> law;  // "stvk" | "neo_hookean" | "hgo"
   Located<double> young;     // Pa
   Located<double> poisson;
   Located<double> density;  // kg/m^3
+  std::optional<FibresSpec> fibres;  // hgo
 };
 
 // A selection of frames (constraints, loads) or boundary faces (surface forces), tested on rest
@@ -67,6 +77,18 @@ struct TransformSpec {
   Vec3d apply(const Vec3d& p) const;
 };
 
+// Where the fibres of a tissue of an hgo material run (exactly one of the three).
+struct ObjectFibresSpec {
+  struct Region {
+    RegionSpec region;
+    Located<Vec3d> direction;
+  };
+  Location where;
+  std::optional<Located<Vec3d>> direction;    // one direction for the object
+  std::optional<Located<std::string>> from;  // an organ of between: the gradient of the distance to it
+  std::vector<Region> regions;                 // first match wins; the material's direction elsewhere
+};
+
 struct ObjectSpec {
   std::string name;
   Location where;
@@ -85,6 +107,7 @@ struct ObjectSpec {
   bool lock_rotations = false;
   std::optional<Located<double>> thickness, density;
   std::optional<Located<bool>> fixed;
+  std::optional<ObjectFibresSpec> fibres;
 };
 
 struct ConstraintSpec {

@@ -765,7 +765,8 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
   __shared__ double row_held[InRegisters ? 1 : kResidentRowTerms * kResidentThreads];
   __shared__ R pair_held[InRegisters ? 1 : 4 * MaxPairs * kResidentThreads];  // [w, g (3)] per pair
   __shared__ unsigned short slot_held[StagedFrames ? MaxPairs * kResidentThreads : 1];  // block-local slot per pair
-  // StagedFrames without InRegisters: the sample's material [lambda, mu, density] and law.
+  // StagedFrames without InRegisters: the sample's material [lambda, mu, density] and law (an hgo
+  // sample reads its fibres from global memory where it uses them).
   constexpr bool kMaterialHeld = StagedFrames && !InRegisters;
   __shared__ double material_held[kMaterialHeld ? 3 * kResidentThreads : 1];
   __shared__ MaterialLaw law_held[kMaterialHeld ? kResidentThreads : 1];
@@ -941,6 +942,8 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
         mat.lambda = held(material_held, 0);
         mat.mu = held(material_held, 1);
         mat.density = held(material_held, 2);
+        // hgo's fibres are not held: read with the rest of its material from the model's table.
+        if (mat.law == MaterialLaw::hgo) mat = m.materials[m.sample_materials[s]];
         ell_sample_material(m, f.sample_state, s, mat, F, cache);
       } else if constexpr (!InRegisters) {
         ell_sample_material(m, f.sample_state, s, F, cache);

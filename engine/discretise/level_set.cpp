@@ -2,6 +2,7 @@
 
 #include "discretise/level_set_grid.hpp"
 
+#include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/LevelSetMeasure.h>
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/VolumeToMesh.h>
@@ -166,6 +167,17 @@ LevelSet LevelSet::between(const LevelSet& a, const LevelSet& b, double within) 
   }
   if (inside == 0) throw std::invalid_argument("between: no point lies within the distance of both organs outside them");
   return LevelSet(std::move(impl));
+}
+
+Vec3 LevelSet::gradient(const Vec3& x) const {
+  const auto acc = m_impl->grid->getConstAccessor();
+  const double h = m_impl->h;
+  const auto phi = [&](double dx, double dy, double dz) {
+    const openvdb::Vec3d index((x.x + dx) / h, (x.y + dy) / h, (x.z + dz) / h);
+    return static_cast<double>(openvdb::tools::BoxSampler::sample(acc, index));
+  };
+  return Vec3{(phi(h, 0, 0) - phi(-h, 0, 0)) / (2 * h), (phi(0, h, 0) - phi(0, -h, 0)) / (2 * h),
+              (phi(0, 0, h) - phi(0, 0, -h)) / (2 * h)};
 }
 
 double LevelSet::volume() const { return openvdb::tools::levelSetVolume(*m_impl->grid, true); }

@@ -53,6 +53,10 @@ class LevelSet {
   // Enclosed volume of the zero level set, m^3 (OpenVDB's tools::levelSetVolume, from the
   // polygonised surface).
   double volume() const;
+  // The gradient of the signed distance at world point x (m), by central differences of its
+  // trilinear interpolation over one voxel on each axis: a unit vector pointing away from the
+  // object where x and its neighbours lie within the band, zero beyond it (the band's constant).
+  Vec3 gradient(const Vec3& x) const;
   // The zero level set as a closed triangle surface (tools::volumeToMesh, quads split along
   // their shorter diagonal), m: the boundary of the object for output and couplings.
   SurfaceMesh surface() const;

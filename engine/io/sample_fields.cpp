@@ -28,7 +28,7 @@ Field make(const char* name, int components, const char* unit, std::size_t n) {
 
 }  // namespace
 
-std::vector<Field> measure_fields(std::size_t n) {
+std::vector<Field> measure_fields(std::size_t n, bool fibres) {
   std::vector<Field> f;
   f.push_back(make("green_strain", 9, "", n));
   f.push_back(make("second_piola", 9, "Pa", n));
@@ -39,6 +39,7 @@ std::vector<Field> measure_fields(std::size_t n) {
   f.push_back(make("second_piola_von_mises", 1, "Pa", n));
   f.push_back(make("cauchy_von_mises", 1, "Pa", n));
   f.push_back(make("strain_energy_density", 1, "J/m^3", n));
+  if (fibres) f.push_back(make("fibre_stretch", 1, "", n));
   return f;
 }
 
@@ -52,6 +53,13 @@ void set_measures(std::vector<Field>& f, std::size_t i, const StressMeasures& m)
   f[6].values[i] = von_mises(m.second_piola);
   f[7].values[i] = von_mises(m.cauchy);
   f[8].values[i] = m.energy_density;
+  if (f.size() > 9) f[9].values[i] = m.fibre_stretch;
+}
+
+bool has_fibres(const Model& model) {
+  for (const Material& m : model.materials)
+    if (m.law == MaterialLaw::hgo) return true;
+  return false;
 }
 
 std::vector<Field> sample_fields(const Model& model, const State& state, const std::vector<double>& rotations) {
@@ -59,7 +67,7 @@ std::vector<Field> sample_fields(const Model& model, const State& state, const s
   std::vector<Field> f;
   f.push_back(make("displacement", 3, "m", n));
   f.push_back(make("velocity", 3, "m/s", n));
-  std::vector<Field> measures = measure_fields(n);
+  std::vector<Field> measures = measure_fields(n, has_fibres(model));
 
   const NeighbourTable& t = model.neighbours;
   const PairTableView view{t.offsets.data(), t.frames.data(), t.weights.data(), t.weight_gradients.data(),

@@ -8,6 +8,9 @@
 //   green_strain_principal, second_piola_principal, cauchy_principal   eigenvalues, largest first
 //   second_piola_von_mises, cauchy_von_mises        Pa
 //   strain_energy_density                           psi per rest volume, J/m^3
+//   fibre_stretch                                   |F a| (models with an hgo material only; 0 at
+//                                                   samples whose law has no fibres; frames average
+//                                                   the samples with fibres only, vertex_fields.hpp)
 // Frames (i): displacement x_i - x̄_i (m), velocity v_i (m/s), angular_velocity omega_i (rad/s,
 // world axes), axis_x, axis_y, axis_z: the columns of R_i (the frame's axes in world coordinates).
 #pragma once
@@ -35,9 +38,13 @@ std::vector<Field> sample_fields(const Model& model, const State& state, const s
 // The frame fields in the order listed above.
 std::vector<Field> frame_fields(const Model& model, const State& state, const std::vector<double>& rotations);
 
-// The strain and stress measure fields (green_strain ... strain_energy_density above) for n
-// particles, zero, and their values for particle `index` from a point's measures.
-std::vector<Field> measure_fields(std::size_t n);
+// The strain and stress measure fields (green_strain ... strain_energy_density above, and
+// fibre_stretch with `fibres`) for n particles, zero, and their values for particle `index` from
+// a point's measures.
+std::vector<Field> measure_fields(std::size_t n, bool fibres = false);
 void set_measures(std::vector<Field>& measures, std::size_t index, const StressMeasures& m);
+
+// Whether any material of the model has fibres (its sample fields include fibre_stretch).
+bool has_fibres(const Model& model);
 
 }  // namespace fascia

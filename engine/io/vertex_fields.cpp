@@ -37,25 +37,35 @@ StressMeasures shell_membrane_measures(const Model& model, const Shell& shell, i
 }
 
 std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& samples) {
-  const std::size_t n = static_cast<std::size_t>(model.frame_count());
-  std::vector<double> weight(n, 0.0);
+  const std::size_t n = static_cast<std::size_t>(model.frame_count()), S = static_cast<std::size_t>(model.sample_count());
+  // The fibre stretch averages the samples that have fibres only (weight_fibred): a frame that a
+  // ligament shares with an isotropic organ shows the ligament's stretch, not a blend with 0.
+  std::vector<char> fibred(S);
+  for (std::size_t s = 0; s < S; ++s)
+    fibred[s] = model.materials[static_cast<std::size_t>(model.samples.materials[s])].law == MaterialLaw::hgo;
+  std::vector<double> weight(n, 0.0), weight_fibred(n, 0.0);
   const NeighbourTable& t = model.neighbours;
-  for (std::size_t s = 0; s < static_cast<std::size_t>(model.sample_count()); ++s)
-    for (int q = t.offsets[s]; q < t.offsets[s + 1]; ++q)
-      weight[static_cast<std::size_t>(t.frames[static_cast<std::size_t>(q)])] +=
-          std::abs(t.weights[static_cast<std::size_t>(q)]) * model.samples.volumes[s];
-  std::vector<Field> out = measure_fields(n);
+  for (std::size_t s = 0; s < S; ++s)
+    for (int q = t.offsets[s]; q < t.offsets[s + 1]; ++q) {
+      const std::size_t i = static_cast<std::size_t>(t.frames[static_cast<std::size_t>(q)]);
+      const double w = std::abs(t.weights[static_cast<std::size_t>(q)]) * model.samples.volumes[s];
+      weight[i] += w;
+      if (fibred[s]) weight_fibred[i] += w;
+    }
+  std::vector<Field> out = measure_fields(n, has_fibres(model));
   for (Field& field : out) {
     const Field* source = nullptr;
     for (const Field& f : samples)
       if (f.name == field.name) source = &f;
     if (!source) continue;
+    const bool fibres_only = field.name == "fibre_stretch";
+    const std::vector<double>& total = fibres_only ? weight_fibred : weight;
     const std::size_t c = static_cast<std::size_t>(field.components);
-    for (std::size_t s = 0; s < static_cast<std::size_t>(model.sample_count()); ++s)
+    for (std::size_t s = 0; s < S; ++s)
       for (int q = t.offsets[s]; q < t.offsets[s + 1]; ++q) {
         const std::size_t i = static_cast<std::size_t>(t.frames[static_cast<std::size_t>(q)]);
-        if (!(weight[i] > 0)) continue;
-        const double w = std::abs(t.weights[static_cast<std::size_t>(q)]) * model.samples.volumes[s] / weight[i];
+        if (!(total[i] > 0) || (fibres_only && !fibred[s])) continue;
+        const double w = std::abs(t.weights[static_cast<std::size_t>(q)]) * model.samples.volumes[s] / total[i];
         for (std::size_t k = 0; k < c; ++k) field.values[c * i + k] += w * source->values[c * s + k];
       }
   }

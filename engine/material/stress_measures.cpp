@@ -11,6 +11,7 @@ StressMeasures stress_measures(const Material& material, const Mat3& F) {
   StressMeasures out;
   out.green_strain = green_lagrange_strain(F);
   out.energy_density = energy_density(material, F);
+  if (material.law == MaterialLaw::hgo) out.fibre_stretch = fibre_stretch(material.fibres, F);
   const double J = det(F);
   if (material.law == MaterialLaw::stvk) {
     out.second_piola = stvk_stress_from_strain<double>(material.lambda, material.mu, out.green_strain);

@@ -6,7 +6,7 @@
 //   psi                                  strain energy density per rest volume, J/m^3
 // von Mises: sqrt(3/2 s : s), s = A - tr(A)/3 I (the deviator), for any symmetric A; principal
 // values: the eigenvalues of a symmetric A, largest first.
-// Fibre stretch is not among them: no law in material.hpp has fibres.
+//   lambda_f = |F a|                     fibre stretch of a law with fibres (hgo.hpp), 0 without
 #pragma once
 
 #include "material/material.hpp"
@@ -20,6 +20,7 @@ struct StressMeasures {
   Mat3 second_piola;   // S, Pa
   Mat3 cauchy;         // sigma, Pa
   double energy_density = 0;  // psi, J/m^3
+  double fibre_stretch = 0;   // |F a| (hgo), 0 for a law without fibres
 };
 
 // @pre det F > 0 for the Cauchy stress and the neo-Hookean law (an inverted sample has no Cauchy

@@ -25,7 +25,7 @@ TEST_CASE("the JSON Schema follows the registry", "[dsl][schema]") {
   const auto& material = s["properties"]["materials"]["additionalProperties"];
   CHECK(material["required"] == nlohmann::json::array({"young"}));
   CHECK_THAT(material["properties"]["young"]["description"].get<std::string>(), Catch::Contains("Pa"));
-  CHECK(material["properties"]["law"]["enum"] == nlohmann::json::array({"stvk", "neo_hookean"}));
+  CHECK(material["properties"]["law"]["enum"] == nlohmann::json::array({"stvk", "neo_hookean", "hgo"}));
   CHECK(material["properties"]["poisson"]["exclusiveMaximum"] == 0.5);
   CHECK(material["properties"]["poisson"]["default"] == 0.3);
   const auto& load = s["properties"]["loads"]["items"];

@@ -26,8 +26,20 @@ inline double relative_difference(const std::vector<double>& a, const std::vecto
 
 // A box of tetrahedra (4 neighbours per sample) or hexahedra (8), the x = 0 face fixed, in a
 // random deformed state with random velocities.
+// With MaterialLaw::hgo each sample has its own material (fibres k1 = 3 E, k2 = 5, dispersion
+// 0.1 along a direction that turns from sample to sample), as a fibre field makes them: the
+// device reads each sample's fibres through its material index, and the random states stretch
+// some samples' fibres and shorten others'.
 inline Model kernels_test_model(CellType type, MaterialLaw law, int nx = 4, int ny = 3, int nz = 2) {
-  Model model = small_box_model(type, law, nx, ny, nz);
+  Model model = small_box_model(type, law == MaterialLaw::hgo ? MaterialLaw::neo_hookean : law, nx, ny, nz);
+  if (law == MaterialLaw::hgo) {
+    model.materials.clear();
+    for (int s = 0; s < model.sample_count(); ++s) {
+      const Vec3 a{std::cos(0.7 * s), std::sin(0.7 * s), 0.5 * std::cos(1.3 * s)};
+      model.materials.push_back(make_hgo_material(1.0e4, 0.3, 1000.0, Fibres{3.0e4, 5.0, 0.1, a}));
+      model.samples.materials[static_cast<size_t>(s)] = s;
+    }
+  }
   fix_frames(model, [](double x, double, double) { return x < 1e-9; });
   return model;
 }

@@ -1,6 +1,6 @@
 // The CUDA backend against the CPU reference (fascia::Elasticity and the host PCG of
 // reference_step.hpp): energy, forces, tangent products, diagonal blocks and a full Newton step,
-// for both laws, both storage precisions, the grouped and the coalesced tangent pass, and the
+// for the three laws (hgo with a fibre direction per sample), both storage precisions, the grouped and the coalesced tangent pass, and the
 // resident, two-barrier and launched PCG; and bitwise-identical repeated runs.
 //
 // Bounds. Double: 1e-12 relative (norm-wise); the device sums in other orders than the CPU, so
@@ -85,8 +85,12 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
                           Case{Precision::double_precision, Shape::hexahedra, MaterialLaw::stvk},
                           Case{Precision::double_precision, Shape::hexahedra, MaterialLaw::neo_hookean},
                           Case{Precision::double_precision, Shape::single_samples, MaterialLaw::neo_hookean},
+                          Case{Precision::double_precision, Shape::tetrahedra, MaterialLaw::hgo},
+                          Case{Precision::double_precision, Shape::hexahedra, MaterialLaw::hgo},
+                          Case{Precision::double_precision, Shape::single_samples, MaterialLaw::hgo},
                           Case{Precision::single_precision, Shape::tetrahedra, MaterialLaw::stvk},
                           Case{Precision::single_precision, Shape::hexahedra, MaterialLaw::neo_hookean},
+                          Case{Precision::single_precision, Shape::hexahedra, MaterialLaw::hgo},
                           Case{Precision::single_precision, Shape::single_samples, MaterialLaw::stvk});
   const Model model = test_model(c.shape, c.law);
   const State state = kernels_test_state(model, 21);
@@ -132,8 +136,11 @@ TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]")
   const Case c = GENERATE(Case{Precision::double_precision, Shape::tetrahedra, MaterialLaw::stvk},
                           Case{Precision::double_precision, Shape::hexahedra, MaterialLaw::neo_hookean},
                           Case{Precision::double_precision, Shape::single_samples, MaterialLaw::stvk},
+                          Case{Precision::double_precision, Shape::tetrahedra, MaterialLaw::hgo},
+                          Case{Precision::double_precision, Shape::hexahedra, MaterialLaw::hgo},
                           Case{Precision::single_precision, Shape::tetrahedra, MaterialLaw::stvk},
                           Case{Precision::single_precision, Shape::hexahedra, MaterialLaw::neo_hookean},
+                          Case{Precision::single_precision, Shape::tetrahedra, MaterialLaw::hgo},
                           Case{Precision::single_precision, Shape::single_samples, MaterialLaw::neo_hookean});
   const bool persistent = GENERATE(true, false);
   const Model model = test_model(c.shape, c.law);
