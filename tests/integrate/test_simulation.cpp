@@ -26,12 +26,14 @@ struct Bar {
   double lambda = 1, lateral = 1;  // analytic stretches
 };
 
-Bar make_bar(CellType type, bool locked) {
+// material: the bar's law (StVK, E = 4e4 Pa, nu = 0.3, unless given); the analytic stretches
+// below are StVK's (the hgo test computes its own).
+Bar make_bar(CellType type, bool locked, const Material* material = nullptr) {
   const double L = 2.0, a = 0.5, E = 4e4, nu = 0.3, f = 2000.0;
   const VolumeMesh mesh = type == CellType::hexahedron ? box_hex_mesh({0, 0, 0}, {L, a, a}, 4, 1, 1)
                                                        : box_tet_mesh({0, 0, 0}, {L, a, a}, 4, 1, 1);
   Bar bar;
-  bar.model = build_mesh_model(mesh, make_material(MaterialLaw::stvk, E, nu, 1));
+  bar.model = build_mesh_model(mesh, material ? *material : make_material(MaterialLaw::stvk, E, nu, 1));
   if (locked) lock_rotations(bar.model);
   // Mirror symmetry on the plane x_k = 0 fixes the normal translation and, for 6-DOF frames, the
   // rotations about the two in-plane axes.
@@ -102,6 +104,56 @@ TEST_CASE("StVK bar under end tractions reaches the analytic uniaxial stretch", 
     REQUIRE(x.z == Approx(bar.lateral * X.z).margin(1e-9));
   }
   REQUIRE(bar.lambda > 1.05);  // a genuinely nonlinear stretch (P11 / E = 0.2)
+}
+
+TEST_CASE("hgo bar under end tractions reaches the closed-form stretch along and across its fibres",
+          "[integrate][analytic][hgo]") {
+  // The traction P11 = f / a^2 = 8000 Pa along x on the bar of make_bar, fibres along x or y (k1 =
+  // 5e4 Pa, k2 = 5, no dispersion), ground substance E = 4e4 Pa, nu = 0.3. Homogeneous
+  // F = diag(s, t2, t3); from hgo.hpp with the lateral faces free (tests/material/test_hgo.cpp):
+  //   along:  mu (t^2 - 1) + lambda ln(s t^2) = 0,  P11 = mu (s - t^2 / s) + 2 g s,
+  //           g = k1 (s^2 - 1) exp(k2 (s^2 - 1)^2);  t2 = t3 = t
+  //   across: the fibres (along y) shorten and carry nothing: P11 = mu (s - t^2 / s) with the same
+  //           lateral equation.
+  // Each lateral t is a bisection root; s is found by bisection on P11(s) = f / a^2.
+  const bool along = GENERATE(true, false);
+  const CellType type = GENERATE(CellType::hexahedron, CellType::tetrahedron);
+  INFO("fibres " << (along ? "along" : "across") << " the load, tetrahedra " << (type == CellType::tetrahedron));
+  const Material m = make_hgo_material(4e4, 0.3, 1, Fibres{5e4, 5, 0, along ? Vec3{1, 0, 0} : Vec3{0, 1, 0}});
+  Bar bar = make_bar(type, true, &m);
+  const auto bisect = [](auto f, double lo, double hi) {
+    for (int it = 0; it < 200; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      if (mid <= lo || mid >= hi) break;
+      (f(mid) < 0 ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+  };
+  const auto lateral = [&](double s) {
+    return bisect([&](double t) { return m.mu * (t * t - 1) + m.lambda * std::log(s * t * t); }, 0.3, 1.0);
+  };
+  const auto p11 = [&](double s) {
+    const double t = lateral(s), e = s * s - 1;
+    return m.mu * (s - t * t / s) + (along ? 2 * m.fibres.k1 * e * std::exp(m.fibres.k2 * e * e) * s : 0.0);
+  };
+  const double s = bisect([&](double x) { return p11(x) - 2000.0 / 0.25; }, 1.0, 2.0), t = lateral(s);
+  SimulationSettings settings;
+  settings.integrator = Integrator::static_equilibrium;
+  settings.newton.tolerance = 1e-11;
+  settings.newton.linear.method = LinearMethod::cholmod;
+  Simulation sim(bar.model, bar.loads, settings);
+  sim.step();
+  for (int i = 0; i < bar.model.frame_count(); ++i) {
+    const Vec3 X = load3(&bar.model.frame_rest_positions[3 * i]);
+    const Vec3 x = load3(&sim.state().positions[3 * i]);
+    // Homogeneous, reproduced exactly by the elements (as the StVK case): the Newton tolerance.
+    REQUIRE(x.x == Approx(s * X.x).margin(1e-9));
+    REQUIRE(x.y == Approx(t * X.y).margin(1e-9));
+    REQUIRE(x.z == Approx(t * X.z).margin(1e-9));
+  }
+  // Fibres along the load stiffen it: a smaller stretch than across (the ground substance alone).
+  if (along) REQUIRE(s < 1.1);
+  else REQUIRE(s > 1.15);
 }
 
 TEST_CASE("with 6-DOF frames the analytic uniaxial state is an equilibrium", "[integrate][analytic]") {
