@@ -447,6 +447,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     c.rows = regular_rows;
     c.finished = finished;
     c.state = simulation.state();
+    c.tangent = simulation.reused_tangent();
     checkpoints->write(c);
     checkpointed_step = c.step;
     last_checkpoint_wall = std::chrono::steady_clock::now();
@@ -457,6 +458,10 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     if (resume.checkpoint) {
       const Checkpoint& c = *resume.checkpoint;
       simulation.restore(c.state, c.step, c.time);
+      if (!simulation.restore_tangent(c.tangent))
+        std::cerr << "fascia: warning: the preconditioner's factorisation could not be repeated exactly (its "
+                     "sparsity analysis differs); the run continues correctly, to the solver's tolerances, "
+                     "but may differ from an uninterrupted run in the last bits\n";
       writer = std::make_unique<TrajectoryWriter>(output, layout, c.rows);
       checkpoints = CheckpointWriter::open(writer->file_id(), output);
       regular_rows = c.rows;

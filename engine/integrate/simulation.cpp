@@ -3,6 +3,7 @@
 #include "core/rotation.hpp"
 #include "integrate/step_potential.hpp"
 #include "integrate/variational_step.hpp"
+#include "solve/sparse_cholesky.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -99,6 +100,44 @@ void Simulation::restore(const State& state, int step, double time) {
   m_time = time;
 }
 
+void Simulation::keep_tangent() {
+  const LinearSettings& linear = m_settings.newton.linear;
+  m_reused.held = !m_impl->backend && linear.method == LinearMethod::pcg &&
+                  linear.preconditioner == Preconditioner::cholmod && m_impl->linear.reuses_factorisation();
+  if (!m_reused.held) {
+    m_reused = ReusedTangent{};
+    return;
+  }
+  m_reused.origin = m_impl->variational ? m_impl->variational->assembled_at() : m_impl->potential.assembled_at();
+  m_reused.pattern = m_impl->linear.factorisation().pattern_fingerprint();
+}
+
+bool Simulation::restore_tangent(const ReusedTangent& tangent) {
+  m_reused = tangent;
+  if (!tangent.held || m_impl->backend) return true;
+  const TangentOrigin& o = tangent.origin;
+  if (o.state.frame_count() != m_model.frame_count())
+    throw std::invalid_argument("restored tangent origin has " + std::to_string(o.state.frame_count()) +
+                                " frames, the model " + std::to_string(m_model.frame_count()));
+  StepPotential& potential = m_impl->potential;
+  LinearSystem system;
+  if (m_settings.integrator == Integrator::variational) {
+    potential.set_static();
+    system = m_impl->variational->iteration_matrix(o.start, o.state);
+  } else {
+    if (m_settings.integrator == Integrator::static_equilibrium)
+      potential.set_static();
+    else
+      potential.set_dynamic(o.start, o.dt, m_settings.rayleigh_mass, m_settings.rayleigh_stiffness);
+    m_loads.scale = o.load_scale;
+    potential.prepare_hessian(o.state);
+    system = potential.system();
+  }
+  const bool factorised = m_impl->linear.restore_factorisation(system);
+  m_loads.scale = 1.0;
+  return factorised && m_impl->linear.factorisation().pattern_fingerprint() == tangent.pattern;
+}
+
 namespace {
 
 bool finite_state(const State& s) {
@@ -157,6 +196,7 @@ Simulation::Attempt Simulation::attempt(double h, State& trial) {
     potential.increments(trial, delta);
     for (size_t k = 0; k < delta.size(); ++k) trial.velocities[k] = delta[k] / h;
   }
+  keep_tangent();
   a.finite = finite_state(trial);
   return a;
 }
@@ -229,6 +269,7 @@ StepReport Simulation::step() {
             ? m_impl->backend->equilibrium(trial, m_settings.newton, stepping, set_load_factor)
             : minimise_load_stepping(potential, trial, m_settings.newton, stepping, set_load_factor, &m_impl->linear);
     loads.scale = 1.0;
+    keep_tangent();
     report.newton_iterations = r.iterations;
     report.cg_iterations = r.cg_iterations;
     if (!r.converged || !finite_state(trial)) throw SolverError(r.converged ? "the state became non-finite (diverged)" : r.message);

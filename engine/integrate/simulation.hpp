@@ -5,6 +5,7 @@
 #include "integrate/prescribed_motion.hpp"
 #include "integrate/step_backend.hpp"
 #include "integrate/step_controller.hpp"
+#include "integrate/tangent_origin.hpp"
 #include "mechanics/external_loads.hpp"
 #include "mechanics/volumetric_elasticity.hpp"
 #include "model/model.hpp"
@@ -89,6 +90,15 @@ class Simulation {
   // exactly as an uninterrupted simulation would (the state, step count and time are all a step
   // depends on; io/checkpoint.hpp saves them).
   void restore(const State& state, int step, double time);
+  // PCG's reused CHOLMOD factorisation (solver.linear: pcg + cholmod on the CPU engine) as it
+  // stands after the last completed step or attempt: a step abandoned on a stop does not change
+  // it. A checkpoint keeps it with the state.
+  const ReusedTangent& reused_tangent() const { return m_reused; }
+  // After restore(): assembles the tangent at `tangent`'s origin and factorises it as the one
+  // the next step reuses, so that the steps continue bitwise as the saved run's would have.
+  // Returns false where they may not: the factorisation failed, or its sparsity analysis differs
+  // from the saved one (an entry of the pattern the saved run analysed is exactly zero here).
+  bool restore_tangent(const ReusedTangent& tangent);
 
   const Model& model() const { return m_model; }
   const State& state() const { return m_state; }
@@ -109,6 +119,8 @@ class Simulation {
   // The report's step, time and energies after an accepted step; false (and report.message) when
   // the state or an energy is not finite.
   bool finish(StepReport& report, int step, double time, std::chrono::steady_clock::time_point t0);
+  // Records the linear solver's reused factorisation in m_reused (after a completed solve).
+  void keep_tangent();
   Model m_model;
   ExternalLoads m_loads;
   SimulationSettings m_settings;
@@ -119,6 +131,7 @@ class Simulation {
   std::unique_ptr<Impl> m_impl;
   std::unique_ptr<StepController> m_controller;
   double m_extent = 1;  // m, the error estimate's length (model_extent())
+  ReusedTangent m_reused;
 };
 
 // Newton failure or divergence: what() is a one-line message for the user.

@@ -119,6 +119,7 @@ double StepPotential::gradient(const State& state, std::vector<double>& g) {
 }
 
 void StepPotential::prepare_hessian(const State& state) {
+  m_prepared = state;
   if (!m_mapping.empty()) {  // first: the gradient pass reuses the elasticity's buffers
     full_gradient(state, m_scratch);
     m_mapping.set_state(state);
@@ -193,6 +194,10 @@ LinearSystem StepPotential::system() {
     if (!m_mapping.empty()) m_mapping.reduce_diagonal_blocks(blocks);
   };
   sys.assemble = [this, n, inertia_block]() {
+    m_assembled_at.start = m_dynamic ? m_start : State{};
+    m_assembled_at.state = m_prepared;
+    m_assembled_at.dt = m_dynamic ? m_dt : 0.0;
+    m_assembled_at.load_scale = m_loads.scale;
     if (!m_assembler) m_assembler = std::make_unique<TangentAssembler>(m_model);
     Eigen::SparseMatrix<double> H = m_assembler->assemble(m_elasticity->prepared_reference());
     std::vector<Eigen::Triplet<double>> t;

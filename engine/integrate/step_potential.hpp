@@ -23,6 +23,7 @@
 // only changes Newton's convergence rate, not the solution.
 #pragma once
 
+#include "integrate/tangent_origin.hpp"
 #include "mechanics/assembled_tangent.hpp"
 #include "mechanics/elasticity.hpp"
 #include "mechanics/external_loads.hpp"
@@ -68,6 +69,9 @@ class StepPotential : public Potential {
   // Delta = [x - x_n, log(R R_n^T)] of every frame w.r.t. the step start, [N][6].
   void increments(const State& state, std::vector<double>& delta) const;
 
+  // The inputs of the last matrix system().assemble() built (tangent_origin.hpp).
+  const TangentOrigin& assembled_at() const { return m_assembled_at; }
+
  private:
   double inertia_value(const State& state, std::vector<double>* gradient) const;
   // Phi and its gradient before the rigid mapping's reduction.
@@ -91,6 +95,8 @@ class StepPotential : public Potential {
   std::vector<std::uint8_t> m_fixed;  // model.fixed_dofs plus the rigidly mapped frames
   std::vector<double> m_expanded;     // d with mapped frames filled in
   std::vector<double> m_frame_diagonal;  // [N][10] translational t_i and rotational Q_i of the system
+  State m_prepared;                      // the state of the last prepare_hessian()
+  TangentOrigin m_assembled_at;
 };
 
 }  // namespace fascia

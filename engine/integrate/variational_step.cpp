@@ -273,7 +273,12 @@ LinearSystem VariationalStep::approximate_jacobian(const State& start, const Sta
     for (int a : m_end_mapping.mapped())
       for (int k = 0; k < 36; ++k) blocks[36 * a + k] = (k % 7 == 0) ? 1.0 : 0.0;
   };
-  sys.assemble = [this, n, K]() {
+  // start and end outlive the system: it is used within the linear solve it was made for.
+  sys.assemble = [this, n, K, &start, &end]() {
+    m_assembled_at.start = start;
+    m_assembled_at.state = end;
+    m_assembled_at.dt = m_dt;
+    m_assembled_at.load_scale = 1;
     Eigen::SparseMatrix<double> H = K.assemble();
     std::vector<Eigen::Triplet<double>> t;
     for (int i = 0; i < n; ++i)

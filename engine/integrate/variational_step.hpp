@@ -97,6 +97,8 @@ class VariationalStep {
   // The iteration matrix 4 H = 4 M_kin / h^2 + K(q_mid) at (start, end), N/m (see above): the
   // Jacobian of 4 r / h w.r.t. increments of q_{k+1} up to the omitted terms.
   LinearSystem iteration_matrix(const State& start, const State& end);
+  // The inputs of the last iteration matrix assembled (tangent_origin.hpp).
+  const TangentOrigin& assembled_at() const { return m_assembled_at; }
 
   // Free-DOF norm of the residual of (4) at the end of the last advance(), N s, and the force
   // scale its relative value was measured against (N).
@@ -120,6 +122,7 @@ class VariationalStep {
   RigidMapping m_start_mapping, m_end_mapping;  // J at q_k and at q_{k+1}
   std::vector<std::uint8_t> m_fixed;            // model.fixed_dofs plus the attached frames
   State m_mid;
+  TangentOrigin m_assembled_at;
   std::vector<double> m_mass_blocks;            // [N][36] M_kin of the current system
   std::vector<double> m_expanded, m_scratch;
   double m_residual_norm = 0, m_scale = 0;

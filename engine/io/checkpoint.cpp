@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 namespace fascia {
@@ -94,6 +95,40 @@ void flush_and_sync(hid_t file, const std::string& path) {
   if (::fsync(*static_cast<int*>(handle)) != 0) fail(path, "fsync failed");
 }
 
+// A state's three datasets, named prefix + positions | orientations | velocities.
+void create_state(hid_t slot, const std::string& prefix, hsize_t n, const std::string& path) {
+  fixed_dataset(slot, (prefix + "positions").c_str(), H5T_IEEE_F64LE, {n, 3}, path);
+  fixed_dataset(slot, (prefix + "orientations").c_str(), H5T_IEEE_F64LE, {n, 4}, path);
+  fixed_dataset(slot, (prefix + "velocities").c_str(), H5T_IEEE_F64LE, {n, 6}, path);
+}
+
+// An empty state is written as zeros (a tangent origin that is not held, a static step's start).
+void write_state(hid_t slot, const std::string& prefix, const State& state, std::size_t n, const std::string& path) {
+  const State zeros = state.positions.empty() ? State{std::vector<double>(3 * n, 0.0), std::vector<double>(4 * n, 0.0),
+                                                      std::vector<double>(6 * n, 0.0)}
+                                              : State{};
+  const State& s = state.positions.empty() ? zeros : state;
+  if (s.positions.size() != 3 * n || s.orientations.size() != 4 * n || s.velocities.size() != 6 * n)
+    fail(path, prefix + "state of " + std::to_string(s.frame_count()) + " frames, file made for " + std::to_string(n));
+  write_data(slot, (prefix + "positions").c_str(), H5T_NATIVE_DOUBLE, s.positions.data(), path);
+  write_data(slot, (prefix + "orientations").c_str(), H5T_NATIVE_DOUBLE, s.orientations.data(), path);
+  write_data(slot, (prefix + "velocities").c_str(), H5T_NATIVE_DOUBLE, s.velocities.data(), path);
+}
+
+State read_state(hid_t slot, const std::string& prefix, std::size_t n, const std::string& path) {
+  State s;
+  s.positions.resize(3 * n);
+  s.orientations.resize(4 * n);
+  s.velocities.resize(6 * n);
+  read_data(slot, (prefix + "positions").c_str(), H5T_NATIVE_DOUBLE, s.positions.data(), path);
+  read_data(slot, (prefix + "orientations").c_str(), H5T_NATIVE_DOUBLE, s.orientations.data(), path);
+  read_data(slot, (prefix + "velocities").c_str(), H5T_NATIVE_DOUBLE, s.velocities.data(), path);
+  for (const std::vector<double>* v : {&s.positions, &s.orientations, &s.velocities})
+    for (double x : *v)
+      if (!std::isfinite(x)) fail(path, "non-finite values in the committed " + prefix + "state");
+  return s;
+}
+
 const char* slot_name(long long sequence) { return sequence % 2 == 0 ? "slot_0" : "slot_1"; }
 
 }  // namespace
@@ -114,9 +149,11 @@ CheckpointWriter CheckpointWriter::create(long long file_id, const std::string& 
              H5Gclose);
     fixed_dataset(g.get(), "counters", H5T_STD_I64LE, {4}, path);
     fixed_dataset(g.get(), "clock", H5T_IEEE_F64LE, {2}, path);
-    fixed_dataset(g.get(), "positions", H5T_IEEE_F64LE, {n, 3}, path);
-    fixed_dataset(g.get(), "orientations", H5T_IEEE_F64LE, {n, 4}, path);
-    fixed_dataset(g.get(), "velocities", H5T_IEEE_F64LE, {n, 6}, path);
+    create_state(g.get(), "", n, path);
+    fixed_dataset(g.get(), "tangent", H5T_STD_I64LE, {2}, path);
+    fixed_dataset(g.get(), "tangent_clock", H5T_IEEE_F64LE, {2}, path);
+    create_state(g.get(), "tangent_start_", n, path);
+    create_state(g.get(), "tangent_", n, path);
   }
   fixed_dataset(group.get(), "commit", H5T_STD_I64LE, {2}, path);
   return CheckpointWriter(file_id, path, frames, 0);
@@ -145,9 +182,15 @@ void CheckpointWriter::write(const Checkpoint& c) {
     const double clock[2] = {c.time, c.dt};
     write_data(slot.get(), "counters", H5T_NATIVE_LLONG, counters, m_path);
     write_data(slot.get(), "clock", H5T_NATIVE_DOUBLE, clock, m_path);
-    write_data(slot.get(), "positions", H5T_NATIVE_DOUBLE, c.state.positions.data(), m_path);
-    write_data(slot.get(), "orientations", H5T_NATIVE_DOUBLE, c.state.orientations.data(), m_path);
-    write_data(slot.get(), "velocities", H5T_NATIVE_DOUBLE, c.state.velocities.data(), m_path);
+    write_state(slot.get(), "", c.state, n, m_path);
+    const ReusedTangent& t = c.tangent;
+    long long tangent[2] = {t.held ? 1 : 0, 0};
+    std::memcpy(&tangent[1], &t.pattern, sizeof t.pattern);
+    const double tangent_clock[2] = {t.origin.dt, t.origin.load_scale};
+    write_data(slot.get(), "tangent", H5T_NATIVE_LLONG, tangent, m_path);
+    write_data(slot.get(), "tangent_clock", H5T_NATIVE_DOUBLE, tangent_clock, m_path);
+    write_state(slot.get(), "tangent_start_", t.held ? t.origin.start : State{}, n, m_path);
+    write_state(slot.get(), "tangent_", t.held ? t.origin.state : State{}, n, m_path);
   }
   flush_and_sync(f, m_path);
   const long long commit[2] = {sequence, c.step};
@@ -163,9 +206,9 @@ std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIde
   if (H5Lexists(file.get(), "checkpoint", H5P_DEFAULT) <= 0) return std::nullopt;
   Handle group(checked(H5Gopen2(file.get(), "checkpoint", H5P_DEFAULT), path, "open /checkpoint"), H5Gclose);
   const int format = read_int_attribute(group.get(), "format", path);
-  if (format > kCheckpointFormat)
-    fail(path, "format " + std::to_string(format) + " is newer than this build reads (" +
-                   std::to_string(kCheckpointFormat) + ")");
+  if (format != kCheckpointFormat)
+    fail(path, "format " + std::to_string(format) + ", this build reads format " + std::to_string(kCheckpointFormat) +
+                   " (resume with the build that wrote it)");
   if (identity) {
     identity->scene = read_text(group.get(), "scene", path);
     identity->build = read_text(group.get(), "build", path);
@@ -191,15 +234,19 @@ std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIde
   c.time = clock[0];
   c.dt = clock[1];
   const std::size_t n = static_cast<std::size_t>(frames);
-  c.state.positions.resize(3 * n);
-  c.state.orientations.resize(4 * n);
-  c.state.velocities.resize(6 * n);
-  read_data(slot.get(), "positions", H5T_NATIVE_DOUBLE, c.state.positions.data(), path);
-  read_data(slot.get(), "orientations", H5T_NATIVE_DOUBLE, c.state.orientations.data(), path);
-  read_data(slot.get(), "velocities", H5T_NATIVE_DOUBLE, c.state.velocities.data(), path);
-  for (const std::vector<double>* v : {&c.state.positions, &c.state.orientations, &c.state.velocities})
-    for (double x : *v)
-      if (!std::isfinite(x)) fail(path, "non-finite values in the committed state");
+  c.state = read_state(slot.get(), "", n, path);
+  long long tangent[2] = {0, 0};
+  double tangent_clock[2] = {0, 1};
+  read_data(slot.get(), "tangent", H5T_NATIVE_LLONG, tangent, path);
+  read_data(slot.get(), "tangent_clock", H5T_NATIVE_DOUBLE, tangent_clock, path);
+  c.tangent.held = tangent[0] != 0;
+  if (c.tangent.held) {
+    std::memcpy(&c.tangent.pattern, &tangent[1], sizeof c.tangent.pattern);
+    c.tangent.origin.dt = tangent_clock[0];
+    c.tangent.origin.load_scale = tangent_clock[1];
+    c.tangent.origin.start = read_state(slot.get(), "tangent_start_", n, path);
+    c.tangent.origin.state = read_state(slot.get(), "tangent_", n, path);
+  }
   return c;
 }
 

@@ -4,7 +4,12 @@
 //                                 (text: what the run's identity was when the file was created)
 //   /checkpoint/slot_0, slot_1    counters int64 [4]: sequence, step, rows, finished;
 //                                 clock float64 [2]: time, dt (s);
-//                                 positions [N][3], orientations [N][4], velocities [N][6]
+//                                 positions [N][3], orientations [N][4], velocities [N][6];
+//                                 tangent int64 [2]: held, pattern fingerprint (bits of a uint64);
+//                                 tangent_clock float64 [2]: dt (s), load factor;
+//                                 tangent_start_{positions,orientations,velocities},
+//                                 tangent_{positions,orientations,velocities} as the state
+//                                 (integrate/tangent_origin.hpp; zeros where not held)
 //   /checkpoint/commit            int64 [2]: the committed sequence number (0: none yet) and its step
 //
 // Atomicity: every dataset is contiguous and allocated when the file is created, so writing a
@@ -13,12 +18,13 @@
 // 16-byte commit record written, flushed and synced. A process killed at any instant leaves the
 // commit record pointing at a complete slot: the new checkpoint or the one before.
 //
-// format 1 holds what the integrators carry from step to step today: the frames' state, the step
-// count and the time (Simulation::restore) and the step size dt. A later format adds datasets to
-// the slots (an adaptive step controller's state, ...) and raises `format`; a reader refuses a
-// format newer than its own.
+// format 2 holds what the integrators carry from step to step: the frames' state, the step count
+// and the time (Simulation::restore), the step size dt, and the origin of the factorisation PCG
+// reuses (Simulation::restore_tangent). A format that adds datasets to the slots raises `format`;
+// a reader reads its own format only (a checkpoint is resumed by the build that wrote it).
 #pragma once
 
+#include "integrate/tangent_origin.hpp"
 #include "model/state.hpp"
 
 #include <optional>
@@ -26,7 +32,7 @@
 
 namespace fascia {
 
-constexpr int kCheckpointFormat = 1;
+constexpr int kCheckpointFormat = 2;
 
 struct Checkpoint {
   long long sequence = 0;  // 1, 2, ... in the order written
@@ -36,6 +42,7 @@ struct Checkpoint {
   int rows = 0;            // trajectory rows that belong to the run up to `step` (a resume keeps these)
   bool finished = false;   // the run had completed every step
   State state;             // frames: positions, orientations, velocities
+  ReusedTangent tangent;    // PCG's reused factorisation (Simulation::reused_tangent())
 };
 
 // What a checkpoint may be resumed by: the resolved scene and the build that wrote it.

@@ -62,6 +62,14 @@ LinearResult LinearSolver::factorise(const LinearSystem& system) {
   return r;
 }
 
+bool LinearSolver::reuses_factorisation() const { return !m_stale && m_cholesky->factorised(); }
+
+bool LinearSolver::restore_factorisation(const LinearSystem& system) {
+  m_stale = true;
+  factorise(system);
+  return m_cholesky->factorised();
+}
+
 LinearResult LinearSolver::solve(const LinearSystem& system, const LinearSettings& settings,
                                  const std::vector<double>& b, std::vector<double>& x) {
   const HostVectorOps ops(system.size, system.fixed);

@@ -72,6 +72,14 @@ class LinearSolver {
 
   const SparseCholesky& factorisation() const { return *m_cholesky; }
 
+  // pcg + cholmod: whether the next solve reuses the held factorisation (it is current, not
+  // stale). A checkpoint keeps where it was computed (integrate/tangent_origin.hpp).
+  bool reuses_factorisation() const;
+  // Factorises `system` as the factorisation the next pcg + cholmod solves reuse: a resumed run
+  // factorises the matrix the interrupted run held, so that its solves are bitwise the same.
+  // Returns false when even the largest shift fails (the next solve factorises again).
+  bool restore_factorisation(const LinearSystem& system);
+
  private:
   LinearResult factorise(const LinearSystem& system);
 

@@ -5,6 +5,19 @@
 
 namespace fascia {
 
+namespace {
+
+std::uint64_t fnv1a(std::uint64_t h, const void* data, std::size_t bytes) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < bytes; ++i) {
+    h ^= p[i];
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+}  // namespace
+
 SparseCholesky::SparseCholesky() : m_factor(std::make_unique<Factor>()) {
   cholmod_common& c = m_factor->cholmod();
   c.print = 0;  // failures are reported by factorise(), not on stderr
@@ -58,6 +71,10 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
     m_inner = inner;
     m_analysed = true;
     ++m_analyses;
+    std::uint64_t h = 14695981039346656037ull;
+    h = fnv1a(h, m_fixed.data(), m_fixed.size());
+    h = fnv1a(h, m_outer.data(), m_outer.size() * sizeof(int));
+    m_pattern_fingerprint = fnv1a(h, m_inner.data(), m_inner.size() * sizeof(int));
   }
   ++m_factorisations;
   m_shift = 0;

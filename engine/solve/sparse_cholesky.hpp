@@ -35,6 +35,9 @@ class SparseCholesky {
   bool factorised() const { return m_factorised; }
   double shift() const { return m_shift; }          // tau of the last factorisation (0: none)
   int analyses() const { return m_analyses; }       // symbolic analyses so far
+  // FNV-1a (64 bits) of the analysed pattern and free-DOF mask: two factorisations of one matrix
+  // are bitwise equal when this agrees (the ordering follows the pattern; 0: none analysed).
+  std::uint64_t pattern_fingerprint() const { return m_pattern_fingerprint; }
   int factorisations() const { return m_factorisations; }
 
  private:
@@ -45,6 +48,7 @@ class SparseCholesky {
   std::vector<int> m_outer, m_inner;               // pattern of the analysed reduced matrix
   bool m_analysed = false, m_factorised = false;
   double m_shift = 0;
+  std::uint64_t m_pattern_fingerprint = 0;
   int m_analyses = 0, m_factorisations = 0;
 };
 

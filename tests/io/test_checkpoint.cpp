@@ -42,6 +42,17 @@ Checkpoint checkpoint_for(long long sequence) {
   for (int i = 0; i < 3 * kFrames; ++i) c.state.positions.push_back(static_cast<double>(sequence) + 1e-3 * i);
   for (int i = 0; i < kFrames; ++i) c.state.orientations.insert(c.state.orientations.end(), {1, 0, 0, 1e-6 * sequence});
   for (int i = 0; i < 6 * kFrames; ++i) c.state.velocities.push_back(-static_cast<double>(sequence) - 1e-3 * i);
+  // Every other checkpoint holds a reused factorisation's origin (two states apart from c.state).
+  c.tangent.held = sequence % 2 == 1;
+  if (c.tangent.held) {
+    c.tangent.pattern = 0xfedcba9876543210ull + static_cast<std::uint64_t>(sequence);  // all 64 bits kept
+    c.tangent.origin.dt = 0.005 * static_cast<double>(sequence);
+    c.tangent.origin.load_scale = 1.0 / static_cast<double>(sequence + 1);
+    c.tangent.origin.start = c.state;
+    c.tangent.origin.state = c.state;
+    for (double& x : c.tangent.origin.start.positions) x += 0.25;
+    for (double& v : c.tangent.origin.state.velocities) v *= 3;
+  }
   return c;
 }
 
@@ -56,6 +67,16 @@ void check_is(const Checkpoint& read, long long sequence) {
   CHECK(read.state.positions == expected.state.positions);  // bitwise
   CHECK(read.state.orientations == expected.state.orientations);
   CHECK(read.state.velocities == expected.state.velocities);
+  CHECK(read.tangent.held == expected.tangent.held);
+  CHECK(read.tangent.pattern == expected.tangent.pattern);
+  CHECK(read.tangent.origin.dt == expected.tangent.origin.dt);
+  CHECK(read.tangent.origin.load_scale == expected.tangent.origin.load_scale);
+  for (const auto& [a, b] : {std::pair{&read.tangent.origin.start, &expected.tangent.origin.start},
+                             std::pair{&read.tangent.origin.state, &expected.tangent.origin.state}}) {
+    CHECK(a->positions == b->positions);  // bitwise
+    CHECK(a->orientations == b->orientations);
+    CHECK(a->velocities == b->velocities);
+  }
 }
 
 struct FrameData {

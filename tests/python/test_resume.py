@@ -13,11 +13,10 @@ import pytest
 STOPPED = 75
 DATA_ERROR = 65
 
-# tool_pull for 0.3 s: 30 backward-Euler steps with a prescribed motion, on one thread. Bitwise
-# continuation needs a linear solver that carries nothing from step to step: block-Jacobi PCG
-# (the CHOLMOD preconditioner keeps a factorisation across steps; docs/hpc.md).
-SCENE = ["scenes/tool_pull.yaml", "--set", "run.duration=0.3 s", "--set", "solver.linear.preconditioner=block_jacobi",
-         "--threads", "1"]
+# tool_pull for 0.3 s: 30 backward-Euler steps with a prescribed motion, on one thread, with the
+# default linear solver (PCG preconditioned by a CHOLMOD factorisation reused across Newton
+# iterations and steps, which the checkpoint records where it was computed).
+SCENE = ["scenes/tool_pull.yaml", "--set", "run.duration=0.3 s", "--threads", "1"]
 
 
 def run(fascia_bin, root, *args):
@@ -96,6 +95,35 @@ def test_a_stopped_run_resumes_to_the_same_bits(fascia_bin, root, tmp_path, refe
     r = run(fascia_bin, root, *SCENE, "-o", str(out), "--resume", "-q")
     assert r.returncode == 0 and "nothing to resume" in r.stderr
     assert out.read_bytes() == before
+
+
+@pytest.mark.parametrize("scene,stop_after_rows", [
+    # bone: from step 47 on a solve takes at most 10 PCG iterations, so one factorisation serves
+    # several steps and the resumed run must start with the one the stopped run held.
+    (["scenes/bone.yaml"], 50),
+    # The variational integrator's iteration matrix (start and end states of the step).
+    (["scenes/tool_pull.yaml", "--set", "run.duration=0.2 s", "--set", "solver.integrator=variational",
+      "--set", "solver.rayleigh_mass=0"], 12),
+])
+def test_the_reused_factorisation_is_resumed(fascia_bin, root, tmp_path, scene, stop_after_rows):
+    """Default solver settings: the resumed run re-assembles and re-factorises the tangent the
+    stopped run's preconditioner was computed from, and repeats every PCG iteration."""
+    args = [*scene, "--threads", "1", "-q"]
+    full = tmp_path / "full.h5"
+    r = run(fascia_bin, root, *args, "-o", str(full))
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "part.h5"
+    p = start(fascia_bin, root, *args, "-o", str(out))
+    wait_for_rows(out, stop_after_rows, p)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=300)
+    assert p.returncode == STOPPED, err
+    with h5py.File(out, "r") as f:
+        assert f["checkpoint/slot_0/tangent"][0] + f["checkpoint/slot_1/tangent"][0] > 0  # a factorisation held
+    r = run(fascia_bin, root, *args, "-o", str(out), "--resume")
+    assert r.returncode == 0, r.stderr
+    assert "warning" not in r.stderr
+    assert_bitwise_equal(out, full)  # positions, velocities, fields, and the PCG iteration counts
 
 
 def test_a_stop_row_off_the_output_cadence_is_dropped_on_resume(fascia_bin, root, tmp_path):
