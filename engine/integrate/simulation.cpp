@@ -101,6 +101,7 @@ void Simulation::restore(const State& state, int step, double time) {
 }
 
 void Simulation::keep_tangent() {
+  // The step backend keeps nothing between solves (its pcg is preconditioned by block Jacobi).
   const LinearSettings& linear = m_settings.newton.linear;
   m_reused.held = !m_impl->backend && linear.method == LinearMethod::pcg &&
                   linear.preconditioner == Preconditioner::cholmod && m_impl->linear.reuses_factorisation();
@@ -114,7 +115,8 @@ void Simulation::keep_tangent() {
 
 bool Simulation::restore_tangent(const ReusedTangent& tangent) {
   m_reused = tangent;
-  if (!tangent.held || m_impl->backend) return true;
+  if (!tangent.held) return true;
+  if (m_impl->backend) return false;  // a CPU factorisation: the run was not on the step backend
   const TangentOrigin& o = tangent.origin;
   if (o.state.frame_count() != m_model.frame_count())
     throw std::invalid_argument("restored tangent origin has " + std::to_string(o.state.frame_count()) +

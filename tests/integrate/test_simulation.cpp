@@ -8,12 +8,11 @@
 #include "support/coupling_fixtures.hpp"
 #include "support/fixtures.hpp"
 #include "support/minimiser_bound.hpp"
+#include "support/resume_check.hpp"
 
 #include <catch2/catch.hpp>
 
-#include <algorithm>
 #include <cstring>
-#include <memory>
 
 using namespace fascia;
 
@@ -368,18 +367,12 @@ TEST_CASE("every linear solver gives the same step within the Newton tolerance",
 TEST_CASE("a simulation restored with its reused factorisation continues bit for bit", "[integrate][resume]") {
   // The default linear solver, PCG preconditioned by a CHOLMOD factorisation kept across Newton
   // iterations and steps: a simulation restored from the state, step, time and reused tangent of
-  // another one at step `split` repeats its later steps exactly, PCG iterations included.
+  // another one at step 3 repeats its later steps exactly, PCG iterations included.
   const Integrator integrator =
       GENERATE(Integrator::backward_euler, Integrator::static_equilibrium, Integrator::variational);
   INFO(to_string(integrator));
   Model model = fascia::test::small_box_model(CellType::hexahedron, MaterialLaw::neo_hookean, 3, 2, 1);
   fix_frames(model, [](double x, double, double) { return x < 1e-9; });
-  PrescribedMotion pull;  // the free end moves down at 0.5 m/s
-  double x_max = 0;
-  for (int i = 0; i < model.frame_count(); ++i) x_max = std::max(x_max, model.frame_rest_positions[3 * i]);
-  for (int i = 0; i < model.frame_count(); ++i)
-    if (model.frame_rest_positions[3 * i] > x_max - 1e-9) pull.frames.push_back(i);
-  pull.velocity = Vec3{0, 0, -0.5};
   ExternalLoads loads;
   loads.gravity = Vec3{0, 0, -9.81};
   SimulationSettings settings;
@@ -388,41 +381,14 @@ TEST_CASE("a simulation restored with its reused factorisation continues bit for
   settings.threads = 1;
   settings.load_steps = 2;  // static: a factorisation may be held from load factor 1/2
   settings.rayleigh_mass = integrator == Integrator::variational ? 0.0 : 0.5;
-  const int split = 3, total = 8;
-
-  Simulation full(model, loads, settings, {pull});
-  State at_split;
-  double time_at_split = 0;
-  ReusedTangent tangent;
-  std::vector<int> cg_full;
-  for (int k = 1; k <= total; ++k) {
-    const StepReport r = full.step();
-    if (k > split) cg_full.push_back(r.cg_iterations);
-    if (k == split) {
-      at_split = full.state();
-      time_at_split = full.time();
-      tangent = full.reused_tangent();
-    }
-  }
-  REQUIRE(tangent.held);
-
-  auto continued = [&](bool with_tangent, std::vector<int>& cg) {
-    auto s = std::make_unique<Simulation>(model, loads, settings, std::vector<PrescribedMotion>{pull});
-    s->restore(at_split, split, time_at_split);
-    if (with_tangent) REQUIRE(s->restore_tangent(tangent));
-    for (int k = split + 1; k <= total; ++k) cg.push_back(s->step().cg_iterations);
-    return s;
-  };
-  std::vector<int> cg_resumed;
-  const auto resumed = continued(true, cg_resumed);
-  CHECK(cg_resumed == cg_full);
-  CHECK(resumed->state().positions == full.state().positions);  // bitwise
-  CHECK(resumed->state().orientations == full.state().orientations);
-  CHECK(resumed->state().velocities == full.state().velocities);
+  const fascia::test::ResumeComparison c =
+      fascia::test::compare_resume(model, loads, {fascia::test::pull_free_end(model)}, settings, 3, 8);
+  REQUIRE(c.held);
+  CHECK(c.cg_resumed == c.cg_full);
+  CHECK(c.resumed.positions == c.full.positions);  // bitwise
+  CHECK(c.resumed.orientations == c.full.orientations);
+  CHECK(c.resumed.velocities == c.full.velocities);
   // Without the factorisation the continuation is another one (the checks above can fail): the
   // first solve factorises at the resumed state instead of reusing the held matrix.
-  std::vector<int> cg_fresh;
-  const auto fresh = continued(false, cg_fresh);
-  CHECK((cg_fresh != cg_full || fresh->state().positions != full.state().positions ||
-         fresh->state().velocities != full.state().velocities));
+  CHECK((c.cg_fresh != c.cg_full || c.fresh.positions != c.full.positions || c.fresh.velocities != c.full.velocities));
 }

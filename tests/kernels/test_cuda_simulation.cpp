@@ -10,11 +10,13 @@
 // relative, test_device_elasticity.cpp) enters only through the gradient at which Newton stops,
 // which the bound measures.
 #include "cuda_elasticity.hpp"
+#include "cuda_step.hpp"
 #include "discretise/mesh_based.hpp"
 #include "discretise/probe.hpp"
 #include "study/beam_study.hpp"
 #include "support/backend_comparison.hpp"
 #include "support/coupling_fixtures.hpp"
+#include "support/resume_check.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -145,4 +147,34 @@ TEST_CASE("a beam study row on the CUDA backend equals the CPU row", "[gpu]") {
   CHECK(diff <= bound);
   // The study's own check: the tip moved as much as the row in the README (-2.347 m).
   CHECK(cpu.tip_displacement.z == Approx(-2.347).margin(5e-4));
+}
+
+TEST_CASE("a CUDA run restored from its checkpoint continues bit for bit", "[gpu][resume]") {
+  // `fascia run --backend cuda --resume` (docs/hpc.md): the whole step on the device (cuda_step.hpp)
+  // restored at step 3 from what a checkpoint keeps. The device PCG is preconditioned by block
+  // Jacobi whatever the scene's preconditioner (the default cholmod included), so nothing but the
+  // state carries from step to step, and the continued steps equal the uninterrupted run's bit
+  // for bit: the device's summation order is fixed (no atomics).
+  const Integrator integrator = GENERATE(Integrator::backward_euler, Integrator::static_equilibrium);
+  const Preconditioner preconditioner = GENERATE(Preconditioner::cholmod, Preconditioner::block_jacobi);
+  INFO(to_string(integrator) << ", pcg + " << to_string(preconditioner));
+  Model model = small_box_model(CellType::hexahedron, MaterialLaw::neo_hookean, 4, 3, 2);
+  fix_frames(model, [](double x, double, double) { return x < 1e-9; });
+  SimulationSettings settings;
+  settings.integrator = integrator;
+  settings.dt = 0.01;
+  settings.threads = 1;
+  settings.load_steps = 2;
+  settings.rayleigh_mass = 0.5;
+  settings.newton.linear.preconditioner = preconditioner;
+  settings.elasticity = cuda_elasticity_factory();
+  settings.step_backend = cuda_step_factory();
+  const std::vector<PrescribedMotion> motions{pull_free_end(model)};
+  REQUIRE(Simulation(model, gravity(), settings, motions).on_step_backend());
+  const ResumeComparison c = compare_resume(model, gravity(), motions, settings, 3, 8);
+  CHECK_FALSE(c.held);  // no CPU factorisation: the device keeps none
+  CHECK(c.cg_resumed == c.cg_full);
+  CHECK(c.resumed.positions == c.full.positions);  // bitwise
+  CHECK(c.resumed.orientations == c.full.orientations);
+  CHECK(c.resumed.velocities == c.full.velocities);
 }
