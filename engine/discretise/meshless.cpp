@@ -125,24 +125,14 @@ MeshlessBuild build_meshless_model(const VoxelDomain& domain, double reference_v
   st.surface_volume = reference_volume;
 
   auto t0 = std::chrono::steady_clock::now();
-  std::vector<double> frames = poisson_disk_sample(domain, PoissonDiskOptions{rf, options.seed, 30});
+  // Caller-placed frames count as already placed: Poisson-disk frames keep r_f from them.
+  std::vector<double> frames = poisson_disk_sample(domain, PoissonDiskOptions{rf, options.seed, 30, options.extra_frames});
+  frames.insert(frames.end(), options.extra_frames.begin(), options.extra_frames.end());
   st.seconds_frames = seconds_since(t0);
   t0 = std::chrono::steady_clock::now();
   const std::vector<double> samples =
-      poisson_disk_sample(domain, PoissonDiskOptions{rs, options.seed ^ 0x5bd1e9955bd1e995ull, 30});
+      poisson_disk_sample(domain, PoissonDiskOptions{rs, options.seed ^ 0x5bd1e9955bd1e995ull, 30, {}});
   st.seconds_samples = seconds_since(t0);
-  if (!options.extra_frames.empty()) {
-    std::vector<double> kept;
-    const int k = static_cast<int>(options.extra_frames.size() / 3);
-    for (size_t i = 0; i < frames.size() / 3; ++i) {
-      bool near = false;
-      for (int j = 0; j < k && !near; ++j)
-        near = norm(load3(&frames[3 * i]) - load3(&options.extra_frames[3 * j])) < 0.5 * rf;
-      if (!near) kept.insert(kept.end(), {frames[3 * i], frames[3 * i + 1], frames[3 * i + 2]});
-    }
-    kept.insert(kept.end(), options.extra_frames.begin(), options.extra_frames.end());
-    frames = std::move(kept);
-  }
   if (frames.empty() || samples.empty())
     throw std::runtime_error("meshless: no voxel centre lies inside the surface; use a smaller voxel_size");
 

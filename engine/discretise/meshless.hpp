@@ -39,7 +39,8 @@ struct MeshlessOptions {
   int repair_passes = 3;
   // Frames placed by the caller, [K][3] m, e.g. a grid on a clamped face: Dirichlet conditions
   // fix frames, and Poisson-disk frames (all strictly inside) sit up to r_f from the boundary.
-  // Poisson-disk frames closer than r_f / 2 to one of these are dropped.
+  // Poisson-disk frames keep at least r_f from these (poisson_disk.hpp, prescribed points): a frame
+  // just inside a clamped face would leave the face's material free to move around it.
   std::vector<double> extra_frames;
   bool require_closed_surface = true;  // throw on holes, flipped or self-intersecting faces
 };

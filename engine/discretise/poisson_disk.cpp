@@ -2,10 +2,26 @@
 
 #include "discretise/point_grid.hpp"
 
+#include <nanoflann.hpp>
+
 #include <cmath>
 #include <stdexcept>
 
 namespace fascia {
+namespace {
+
+struct PointCloud {  // nanoflann adaptor over [K][3]
+  const std::vector<double>& xyz;
+  size_t kdtree_get_point_count() const { return xyz.size() / 3; }
+  double kdtree_get_pt(size_t i, size_t d) const { return xyz[3 * i + d]; }
+  template <class Box>
+  bool kdtree_get_bbox(Box&) const { return false; }
+};
+
+using PointTree =
+    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PointCloud>, PointCloud, 3, int>;
+
+}  // namespace
 
 Random::Random(std::uint64_t seed) {
   for (std::uint64_t& s : m_s) {  // splitmix64
@@ -39,12 +55,23 @@ std::vector<double> poisson_disk_sample(const VoxelDomain& domain, const Poisson
   Random rng(options.seed);
   std::vector<double> points;
   std::vector<int> active;
+  if (options.prescribed.size() % 3 != 0) throw std::invalid_argument("Poisson-disk prescribed points: [K][3]");
+  const PointCloud cloud{options.prescribed};
+  PointTree prescribed(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  prescribed.buildIndex();
+  const bool any_prescribed = !options.prescribed.empty();
 
-  // Accepts x if inside, in the grid and at least r from every point.
+  // Accepts x if inside, in the grid and at least r from every point, prescribed ones included.
   const auto try_add = [&](const Vec3& x) {
     const long long cell = grid.cell_of(x);
     if (cell < 0 || grid.at(cell) >= 0) return false;  // an occupied cell is closer than r
     if (grid.any_within(x, cell, r, points)) return false;
+    if (any_prescribed) {
+      int nearest;
+      double d2;
+      prescribed.knnSearch(&x.x, 1, &nearest, &d2);
+      if (d2 < r * r) return false;
+    }
     if (!probe.inside(x)) return false;
     const int id = static_cast<int>(points.size() / 3);
     points.insert(points.end(), {x.x, x.y, x.z});
@@ -53,29 +80,36 @@ std::vector<double> poisson_disk_sample(const VoxelDomain& domain, const Poisson
     return true;
   };
 
-  // Bridson's front: candidates uniform in the shell r <= |d| < 2r around a random active point.
+  // Candidates uniform in the shell r <= |d| < 2r around `centre`, until one is accepted.
+  const auto try_around = [&](const Vec3& centre) {
+    for (int a = 0; a < options.attempts; ++a) {
+      // Uniform in the shell by rejection from the cube [-2r, 2r]^3 (acceptance 7 pi / 48),
+      // drawn in units of r so that the test cannot overflow (r^2 is inf beyond 1.3e154 m).
+      Vec3 u;
+      double u2;
+      do {
+        u = 4.0 * Vec3{rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5};
+        u2 = dot(u, u);
+      } while (u2 < 1 || u2 >= 4);
+      if (try_add(centre + r * u)) return true;
+    }
+    return false;
+  };
+
+  // Bridson's front around a random active point.
   const auto grow = [&] {
     while (!active.empty()) {
       const size_t slot = static_cast<size_t>(rng.uniform() * static_cast<double>(active.size()));
-      const Vec3 centre = load3(&points[3 * active[slot]]);
-      bool added = false;
-      for (int a = 0; a < options.attempts && !added; ++a) {
-        // Uniform in the shell by rejection from the cube [-2r, 2r]^3 (acceptance 7 pi / 48),
-        // drawn in units of r so that the test cannot overflow (r^2 is inf beyond 1.3e154 m).
-        Vec3 u;
-        double u2;
-        do {
-          u = 4.0 * Vec3{rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5};
-          u2 = dot(u, u);
-        } while (u2 < 1 || u2 >= 4);
-        added = try_add(centre + r * u);
-      }
-      if (!added) {
+      if (!try_around(load3(&points[3 * active[slot]]))) {
         active[slot] = active.back();
         active.pop_back();
       }
     }
   };
+
+  // Fronts from the prescribed points first, each until it dies.
+  for (size_t i = 0; i < options.prescribed.size() / 3; ++i)
+    while (try_around(load3(&options.prescribed[3 * i]))) grow();
 
   // Seeds and gap filling: every interior voxel centre, in index order.
   std::vector<CoveredVoxel> voxels;

@@ -10,6 +10,9 @@
 //    r + h sqrt(3) / 2 of P). Bridson's dart throwing alone leaves gaps; here every interior voxel
 //    centre, in index order, is also tried as a seed and starts a new front when accepted, which
 //    fills the gaps and reaches every connected component (thin sheets included);
+//  * prescribed points (options.prescribed, e.g. frames a caller places on a clamped face) count as
+//    already placed: every returned point lies at least r from them, and Bridson's front starts
+//    around them, so the set is maximal and the first layer beside them regular;
 //  * deterministic: the same domain, radius and seed give the same points in the same order
 //    (own 64-bit generator, no std:: distributions, single-threaded).
 #pragma once
@@ -25,9 +28,10 @@ struct PoissonDiskOptions {
   double radius = 0;        // r, minimum distance between points, m
   std::uint64_t seed = 1;   // random stream
   int attempts = 30;        // Bridson's k: candidates tried around each active point
+  std::vector<double> prescribed;  // [K][3] m, points kept r away; anywhere (on the boundary, outside)
 };
 
-// Points [M][3] (m).
+// Points [M][3] (m), the prescribed ones not included.
 std::vector<double> poisson_disk_sample(const VoxelDomain& domain, const PoissonDiskOptions& options);
 
 // Small deterministic generator (splitmix64 seeding + xoshiro256**), identical on every platform.

@@ -24,7 +24,7 @@ TEST_CASE("Poisson-disk points are inside, at least r apart, and leave no room f
                                        torus_surface({0, 0, 0}, 0.3, 0.1, 64, 24));
   const double h = 0.01, r = 0.04;
   const VoxelDomain domain(surface, h);
-  const std::vector<double> points = poisson_disk_sample(domain, PoissonDiskOptions{r, 42, 30});
+  const std::vector<double> points = poisson_disk_sample(domain, PoissonDiskOptions{r, 42, 30, {}});
   const int n = static_cast<int>(points.size() / 3);
   REQUIRE(n > 100);
   for (int i = 0; i < n; ++i) REQUIRE(domain.signed_distance(load3(&points[3 * i])) < 0);
@@ -55,9 +55,9 @@ TEST_CASE("Poisson-disk points are inside, at least r apart, and leave no room f
 
 TEST_CASE("the same seed gives the same points; another seed other points", "[discretise][poisson]") {
   const VoxelDomain domain(box_surface({0, 0, 0}, {0.3, 0.2, 0.1}), 0.01);
-  const std::vector<double> a = poisson_disk_sample(domain, PoissonDiskOptions{0.03, 7, 30});
-  const std::vector<double> b = poisson_disk_sample(domain, PoissonDiskOptions{0.03, 7, 30});
-  const std::vector<double> c = poisson_disk_sample(domain, PoissonDiskOptions{0.03, 8, 30});
+  const std::vector<double> a = poisson_disk_sample(domain, PoissonDiskOptions{0.03, 7, 30, {}});
+  const std::vector<double> b = poisson_disk_sample(domain, PoissonDiskOptions{0.03, 7, 30, {}});
+  const std::vector<double> c = poisson_disk_sample(domain, PoissonDiskOptions{0.03, 8, 30, {}});
   REQUIRE(a == b);  // bitwise
   REQUIRE(a != c);
 }
@@ -71,7 +71,7 @@ TEST_CASE("every connected component and thin sheet receives points", "[discreti
   for (int v : sheet.triangles) s.triangles.push_back(v + offset);
   const VoxelDomain domain(s, 0.01);
   const double r = 0.08;
-  const std::vector<double> points = poisson_disk_sample(domain, PoissonDiskOptions{r, 1, 30});
+  const std::vector<double> points = poisson_disk_sample(domain, PoissonDiskOptions{r, 1, 30, {}});
   int in_box = 0, in_sheet = 0;
   for (size_t i = 0; i < points.size() / 3; ++i) (points[3 * i] < 0.3 ? in_box : in_sheet)++;
   REQUIRE(in_box > 0);
@@ -87,6 +87,44 @@ TEST_CASE("a radius whose square overflows (r > 1.3e154 m) ends with one point",
   const VoxelDomain domain(box_surface({0, 0, 0}, {0.3, 0.2, 0.1}), 0.01);
   const double r = 1e155;
   REQUIRE(std::isinf(r * r));
-  const std::vector<double> points = poisson_disk_sample(domain, PoissonDiskOptions{r, 7, 30});
+  const std::vector<double> points = poisson_disk_sample(domain, PoissonDiskOptions{r, 7, 30, {}});
   CHECK(points.size() == 3);
+}
+
+TEST_CASE("prescribed points count as placed: r away from every point, and the set stays maximal",
+          "[discretise][poisson]") {
+  // A grid on the face x = 0 of a box (on the boundary, where a clamp puts its frames) and one
+  // point outside it.
+  const VoxelDomain domain(box_surface({0, 0, 0}, {0.3, 0.2, 0.1}), 0.01);
+  const double r = 0.04;
+  PoissonDiskOptions options{r, 5, 30, {}};
+  for (double y = 0; y <= 0.2 + 1e-12; y += 0.05)
+    for (double z = 0; z <= 0.1 + 1e-12; z += 0.05) options.prescribed.insert(options.prescribed.end(), {0.0, y, z});
+  options.prescribed.insert(options.prescribed.end(), {0.35, 0.1, 0.05});
+  const std::vector<double> points = poisson_disk_sample(domain, options);
+  const int n = static_cast<int>(points.size() / 3), k = static_cast<int>(options.prescribed.size() / 3);
+  REQUIRE(n > 20);
+  REQUIRE(min_pair_distance(points) >= r);
+  int near_face = 0;
+  for (int i = 0; i < n; ++i) {
+    const Vec3 p = load3(&points[3 * i]);
+    REQUIRE(domain.signed_distance(p) < 0);
+    for (int j = 0; j < k; ++j) REQUIRE(norm(p - load3(&options.prescribed[3 * j])) >= r);
+    if (p.x < 2 * r) ++near_face;
+  }
+  REQUIRE(near_face > 0);  // the front grows from the face
+  // Maximal: every interior voxel centre lies closer than r to a point or a prescribed point.
+  std::vector<double> all = points;
+  all.insert(all.end(), options.prescribed.begin(), options.prescribed.end());
+  std::vector<CoveredVoxel> voxels;
+  for (int s = 0; s < domain.slice_count(); ++s) {
+    voxels.clear();
+    domain.covered_voxels(s, voxels);
+    for (const CoveredVoxel& v : voxels) {
+      if (v.fraction <= 0.5) continue;
+      double nearest = 1e300;
+      for (size_t i = 0; i < all.size() / 3; ++i) nearest = std::min(nearest, norm(v.centre - load3(&all[3 * i])));
+      REQUIRE(nearest < r);
+    }
+  }
 }

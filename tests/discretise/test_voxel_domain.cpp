@@ -55,7 +55,7 @@ TEST_CASE("sample volumes partition the voxelised volume", "[discretise][voxel]"
   const SurfaceMesh surface = sphere_surface({0.0, 0.0, 0.0}, 0.3, 4);
   const VoxelDomain domain(surface, 0.02);
   const double r = 0.05;
-  const std::vector<double> samples = poisson_disk_sample(domain, PoissonDiskOptions{r, 3, 30});
+  const std::vector<double> samples = poisson_disk_sample(domain, PoissonDiskOptions{r, 3, 30, {}});
   const SampleVolumes sv = sample_volumes(domain, samples, r);
   REQUIRE(sv.volumes.size() == samples.size() / 3);
   REQUIRE(sv.unassigned == 0);
