@@ -66,7 +66,8 @@ int info(const InfoOptions& options) {
     j["final"] = final_values;
     j["solver"] = solver;
     if (options.json) {
-      std::cout << j.dump(2) << "\n";
+      // Names and text from a damaged file may not be UTF-8: replaced (U+FFFD), not refused.
+      std::cout << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
       return kOk;
     }
     std::cout << options.file << " (H5MD " << (version.size() == 2 ? std::to_string(version[0]) + "." + std::to_string(version[1]) : "?")

@@ -1,6 +1,8 @@
 #include "io/checkpoint.hpp"
 
 #include "io/hdf5_handle.hpp"
+#include "io/hdf5_read.hpp"
+#include "io/hdf5_text.hpp"
 #include "io/trajectory.hpp"
 
 #include <hdf5.h>
@@ -38,30 +40,6 @@ void fixed_dataset(hid_t parent, const char* name, hid_t type, const std::vector
             H5Dclose);
 }
 
-void text_dataset(hid_t parent, const char* name, const std::string& value, const std::string& path) {
-  Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
-  H5Tset_size(type.get(), H5T_VARIABLE);
-  H5Tset_cset(type.get(), H5T_CSET_UTF8);
-  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
-  Handle ds(checked(H5Dcreate2(parent, name, type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path,
-                    std::string("create ") + name),
-            H5Dclose);
-  const char* data = value.c_str();
-  if (H5Dwrite(ds.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &data) < 0) fail(path, std::string("write ") + name);
-}
-
-std::string read_text(hid_t parent, const char* name, const std::string& path) {
-  Handle ds(checked(H5Dopen2(parent, name, H5P_DEFAULT), path, std::string("open ") + name), H5Dclose);
-  Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
-  H5Tset_size(type.get(), H5T_VARIABLE);
-  H5Tset_cset(type.get(), H5T_CSET_UTF8);
-  char* data = nullptr;
-  if (H5Dread(ds.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &data) < 0 || !data) fail(path, std::string("read ") + name);
-  std::string s(data);
-  H5free_memory(data);
-  return s;
-}
-
 void int_attribute(hid_t object, const char* name, int value, const std::string& path) {
   Handle space(H5Screate(H5S_SCALAR), H5Sclose);
   Handle attr(checked(H5Acreate2(object, name, H5T_STD_I32LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), path,
@@ -73,7 +51,7 @@ void int_attribute(hid_t object, const char* name, int value, const std::string&
 int read_int_attribute(hid_t object, const char* name, const std::string& path) {
   Handle attr(checked(H5Aopen(object, name, H5P_DEFAULT), path, std::string("open attribute ") + name), H5Aclose);
   int value = 0;
-  if (H5Aread(attr.get(), H5T_NATIVE_INT, &value) < 0) fail(path, std::string("read attribute ") + name);
+  read_attribute_exact(attr.get(), H5T_NATIVE_INT, {}, &value, path, std::string("checkpoint attribute ") + name);
   return value;
 }
 
@@ -82,9 +60,11 @@ void write_data(hid_t parent, const char* name, hid_t mem_type, const void* data
   if (H5Dwrite(ds.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) fail(path, std::string("write ") + name);
 }
 
-void read_data(hid_t parent, const char* name, hid_t mem_type, void* data, const std::string& path) {
+// Reads dataset `name`, of extent `dims`, into `data`.
+void read_data(hid_t parent, const char* name, hid_t mem_type, const std::vector<hsize_t>& dims, void* data,
+               const std::string& path) {
   Handle ds(checked(H5Dopen2(parent, name, H5P_DEFAULT), path, std::string("open ") + name), H5Dclose);
-  if (H5Dread(ds.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) fail(path, std::string("read ") + name);
+  read_exact(ds.get(), mem_type, dims, data, path, std::string("checkpoint dataset ") + name);
 }
 
 // Flushes HDF5's buffers to the operating system, then the operating system's to the disk.
@@ -120,9 +100,10 @@ State read_state(hid_t slot, const std::string& prefix, std::size_t n, const std
   s.positions.resize(3 * n);
   s.orientations.resize(4 * n);
   s.velocities.resize(6 * n);
-  read_data(slot, (prefix + "positions").c_str(), H5T_NATIVE_DOUBLE, s.positions.data(), path);
-  read_data(slot, (prefix + "orientations").c_str(), H5T_NATIVE_DOUBLE, s.orientations.data(), path);
-  read_data(slot, (prefix + "velocities").c_str(), H5T_NATIVE_DOUBLE, s.velocities.data(), path);
+  const hsize_t rows = n;
+  read_data(slot, (prefix + "positions").c_str(), H5T_NATIVE_DOUBLE, {rows, 3}, s.positions.data(), path);
+  read_data(slot, (prefix + "orientations").c_str(), H5T_NATIVE_DOUBLE, {rows, 4}, s.orientations.data(), path);
+  read_data(slot, (prefix + "velocities").c_str(), H5T_NATIVE_DOUBLE, {rows, 6}, s.velocities.data(), path);
   for (const std::vector<double>* v : {&s.positions, &s.orientations, &s.velocities})
     for (double x : *v)
       if (!std::isfinite(x)) fail(path, "non-finite values in the committed " + prefix + "state");
@@ -140,8 +121,8 @@ CheckpointWriter CheckpointWriter::create(long long file_id, const std::string& 
                H5Gclose);
   int_attribute(group.get(), "format", kCheckpointFormat, path);
   int_attribute(group.get(), "frames", frames, path);
-  text_dataset(group.get(), "scene", identity.scene, path);
-  text_dataset(group.get(), "build", identity.build, path);
+  write_text_dataset(group.get(), "scene", identity.scene, path);
+  write_text_dataset(group.get(), "build", identity.build, path);
   const hsize_t n = static_cast<hsize_t>(frames);
   for (const char* slot : {"slot_0", "slot_1"}) {
     Handle g(checked(H5Gcreate2(group.get(), slot, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path,
@@ -164,7 +145,7 @@ CheckpointWriter CheckpointWriter::open(long long file_id, const std::string& pa
   Handle group(checked(H5Gopen2(f, "checkpoint", H5P_DEFAULT), path, "open /checkpoint"), H5Gclose);
   const int frames = read_int_attribute(group.get(), "frames", path);
   long long commit[2] = {0, 0};
-  read_data(group.get(), "commit", H5T_NATIVE_LLONG, commit, path);
+  read_data(group.get(), "commit", H5T_NATIVE_LLONG, {2}, commit, path);
   return CheckpointWriter(file_id, path, frames, commit[0]);
 }
 
@@ -210,19 +191,19 @@ std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIde
     fail(path, "format " + std::to_string(format) + ", this build reads format " + std::to_string(kCheckpointFormat) +
                    " (resume with the build that wrote it)");
   if (identity) {
-    identity->scene = read_text(group.get(), "scene", path);
-    identity->build = read_text(group.get(), "build", path);
+    identity->scene = read_text_dataset(group.get(), "scene", path);
+    identity->build = read_text_dataset(group.get(), "build", path);
   }
   long long commit[2] = {0, 0};
-  read_data(group.get(), "commit", H5T_NATIVE_LLONG, commit, path);
+  read_data(group.get(), "commit", H5T_NATIVE_LLONG, {2}, commit, path);
   if (commit[0] <= 0) return std::nullopt;
   const int frames = read_int_attribute(group.get(), "frames", path);
   Handle slot(checked(H5Gopen2(group.get(), slot_name(commit[0]), H5P_DEFAULT), path, "open slot"), H5Gclose);
   Checkpoint c;
   long long counters[4] = {0, 0, 0, 0};
   double clock[2] = {0, 0};
-  read_data(slot.get(), "counters", H5T_NATIVE_LLONG, counters, path);
-  read_data(slot.get(), "clock", H5T_NATIVE_DOUBLE, clock, path);
+  read_data(slot.get(), "counters", H5T_NATIVE_LLONG, {4}, counters, path);
+  read_data(slot.get(), "clock", H5T_NATIVE_DOUBLE, {2}, clock, path);
   const long long sequence = counters[0], step = counters[1], rows = counters[2], finished = counters[3];
   if (sequence != commit[0] || step != commit[1])
     fail(path, "the committed record (sequence " + std::to_string(commit[0]) + ") and its slot (sequence " +
@@ -233,12 +214,16 @@ std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIde
   c.finished = finished != 0;
   c.time = clock[0];
   c.dt = clock[1];
+  // The frame count sizes the buffers: checked against the file before they are allocated.
+  if (frames < 0) fail(path, "negative frame count " + std::to_string(frames) + " (corrupt)");
+  check_fits_file(slot.get(), 13.0 * 8.0 * static_cast<double>(frames), path,
+                  "checkpoint of " + std::to_string(frames) + " frames");
   const std::size_t n = static_cast<std::size_t>(frames);
   c.state = read_state(slot.get(), "", n, path);
   long long tangent[2] = {0, 0};
   double tangent_clock[2] = {0, 1};
-  read_data(slot.get(), "tangent", H5T_NATIVE_LLONG, tangent, path);
-  read_data(slot.get(), "tangent_clock", H5T_NATIVE_DOUBLE, tangent_clock, path);
+  read_data(slot.get(), "tangent", H5T_NATIVE_LLONG, {2}, tangent, path);
+  read_data(slot.get(), "tangent_clock", H5T_NATIVE_DOUBLE, {2}, tangent_clock, path);
   c.tangent.held = tangent[0] != 0;
   if (c.tangent.held) {
     std::memcpy(&c.tangent.pattern, &tangent[1], sizeof c.tangent.pattern);

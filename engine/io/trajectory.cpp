@@ -1,6 +1,8 @@
 #include "io/trajectory.hpp"
 
 #include "io/hdf5_handle.hpp"
+#include "io/hdf5_read.hpp"
+#include "io/hdf5_text.hpp"
 
 #include <hdf5.h>
 
@@ -58,23 +60,6 @@ Handle group(hid_t parent, const std::string& name, const std::string& path) {
                 H5Gclose);
 }
 
-Handle string_type(std::size_t size) {
-  Handle t(H5Tcopy(H5T_C_S1), H5Tclose);
-  H5Tset_size(t.get(), size == 0 ? H5T_VARIABLE : size);
-  H5Tset_strpad(t.get(), H5T_STR_NULLTERM);
-  H5Tset_cset(t.get(), H5T_CSET_UTF8);
-  return t;
-}
-
-void string_attribute(hid_t object, const std::string& name, const std::string& value, const std::string& path) {
-  Handle type = string_type(value.size() + 1);
-  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
-  Handle attr(checked(H5Acreate2(object, name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), path,
-                      "create attribute " + name),
-              H5Aclose);
-  checked(H5Awrite(attr.get(), type.get(), value.c_str()), path, "write attribute " + name, 0);
-}
-
 void int_attribute(hid_t object, const std::string& name, const std::vector<int>& values, const std::string& path) {
   const hsize_t n = values.size();
   Handle space(values.size() == 1 ? H5Screate(H5S_SCALAR) : H5Screate_simple(1, &n, nullptr), H5Sclose);
@@ -84,21 +69,12 @@ void int_attribute(hid_t object, const std::string& name, const std::vector<int>
   checked(H5Awrite(attr.get(), H5T_NATIVE_INT, values.data()), path, "write attribute " + name, 0);
 }
 
-void string_dataset(hid_t parent, const std::string& name, const std::string& value, const std::string& path) {
-  Handle type = string_type(0);
-  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
-  Handle ds(checked(H5Dcreate2(parent, name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-                    path, "create dataset " + name),
-            H5Dclose);
-  const char* data = value.c_str();
-  checked(H5Dwrite(ds.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &data), path, "write " + name, 0);
-}
-
 // H5MD requires a box in each particles group; ours is open (no periodic boundaries).
 void write_box(hid_t particles_group, const std::string& path) {
   Handle box = group(particles_group, "box", path);
   int_attribute(box.get(), "dimension", {3}, path);
-  Handle type = string_type(5);
+  Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(type.get(), 5);
   const hsize_t n = 3;
   Handle space(H5Screate_simple(1, &n, nullptr), H5Sclose);
   Handle attr(checked(H5Acreate2(box.get(), "boundary", type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), path,
@@ -193,9 +169,9 @@ Series make_series(hid_t parent, const std::string& name, const std::vector<hsiz
   s.group = group(parent, name, path);
   s.step = series_dataset(s.group.get(), "step", H5T_STD_I32LE, {}, capacity, path);
   s.time = series_dataset(s.group.get(), "time", H5T_IEEE_F64LE, {}, capacity, path);
-  string_attribute(s.time.get(), "unit", "s", path);
+  write_text_attribute(s.time.get(), "unit", "s", path);
   s.value = series_dataset(s.group.get(), "value", integer ? H5T_STD_I32LE : H5T_IEEE_F64LE, shape, capacity, path);
-  if (!unit.empty()) string_attribute(s.value.get(), "unit", unit, path);
+  if (!unit.empty()) write_text_attribute(s.value.get(), "unit", unit, path);
   s.mem_type = integer ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE;
   for (hsize_t d : shape) s.count *= d;
   return s;
@@ -309,18 +285,18 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
     Handle h5md = group(f, "h5md", path);
     int_attribute(h5md.get(), "version", {1, 1}, path);
     Handle author = group(h5md.get(), "author", path);
-    string_attribute(author.get(), "name", header.author.empty() ? "unknown" : header.author, path);
+    write_text_attribute(author.get(), "name", header.author.empty() ? "unknown" : header.author, path);
     Handle creator = group(h5md.get(), "creator", path);
-    string_attribute(creator.get(), "name", "fascia", path);
-    string_attribute(creator.get(), "version", header.creator_version, path);
+    write_text_attribute(creator.get(), "name", "fascia", path);
+    write_text_attribute(creator.get(), "version", header.creator_version, path);
   }
   {
     Handle parameters = group(f, "parameters", path);
-    string_dataset(parameters.get(), "scene", header.scene, path);
-    string_dataset(parameters.get(), "scene_file", header.scene_file, path);
-    string_dataset(parameters.get(), "command_line", header.command_line, path);
-    string_dataset(parameters.get(), "version", header.creator_version, path);
-    string_dataset(parameters.get(), "environment", header.environment, path);
+    write_text_dataset(parameters.get(), "scene", header.scene, path);
+    write_text_dataset(parameters.get(), "scene_file", header.scene_file, path);
+    write_text_dataset(parameters.get(), "command_line", header.command_line, path);
+    write_text_dataset(parameters.get(), "version", header.creator_version, path);
+    write_text_dataset(parameters.get(), "environment", header.environment, path);
   }
 
   Handle particles = group(f, "particles", path);
@@ -349,8 +325,8 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
       if (count > 0)
         checked(H5Dwrite(ds.get(), H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, ids.data()), path,
                 std::string("write connectivity of ") + name, 0);
-      string_attribute(ds.get(), "cell_type", "vertex", path);
-      string_attribute(ds.get(), "particles_group", std::string("/particles/") + name, path);
+      write_text_attribute(ds.get(), "cell_type", "vertex", path);
+      write_text_attribute(ds.get(), "particles_group", std::string("/particles/") + name, path);
     };
     vertices("frames", layout.frames);
     if (layout.samples > 0) vertices("samples", layout.samples);
@@ -376,8 +352,8 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
                 H5Dclose);
       checked(H5Dwrite(ds.get(), H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, s.faces.data()), path,
               "write connectivity of " + s.name, 0);
-      string_attribute(ds.get(), "cell_type", s.nodes_per_face == 3 ? "triangle" : "quadrilateral", path);
-      string_attribute(ds.get(), "particles_group", "/particles/" + s.name, path);
+      write_text_attribute(ds.get(), "cell_type", s.nodes_per_face == 3 ? "triangle" : "quadrilateral", path);
+      write_text_attribute(ds.get(), "particles_group", "/particles/" + s.name, path);
     }
   }
   for (const FieldLayout& field : layout.fields) {
@@ -546,14 +522,6 @@ void TrajectoryWriter::resize_all(unsigned long long rows) {
 
 namespace {
 
-std::vector<hsize_t> extent(hid_t ds) {
-  Handle space(H5Dget_space(ds), H5Sclose);
-  const int rank = H5Sget_simple_extent_ndims(space.get());
-  std::vector<hsize_t> dims(static_cast<std::size_t>(std::max(rank, 0)));
-  if (rank > 0) H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
-  return dims;
-}
-
 std::vector<std::string> children(hid_t parent, const std::string& name) {
   std::vector<std::string> out;
   if (H5Lexists(parent, name.c_str(), H5P_DEFAULT) <= 0) return out;
@@ -580,25 +548,6 @@ bool exists(hid_t file, const std::string& path) {
   return H5Lexists(file, path.c_str(), H5P_DEFAULT) > 0;
 }
 
-std::string read_string_attribute(hid_t object, const std::string& name) {
-  if (H5Aexists(object, name.c_str()) <= 0) return "";
-  Handle attr(H5Aopen(object, name.c_str(), H5P_DEFAULT), H5Aclose);
-  Handle type(H5Aget_type(attr.get()), H5Tclose);
-  if (H5Tis_variable_str(type.get()) > 0) {
-    char* data = nullptr;
-    Handle mem = string_type(0);
-    if (H5Aread(attr.get(), mem.get(), &data) < 0 || !data) return "";
-    std::string s(data);
-    H5free_memory(data);
-    return s;
-  }
-  const std::size_t size = H5Tget_size(type.get());
-  std::string s(size, '\0');
-  H5Aread(attr.get(), type.get(), s.data());
-  s.resize(std::strlen(s.c_str()));
-  return s;
-}
-
 }  // namespace
 
 namespace {
@@ -608,15 +557,16 @@ std::vector<T> read_rows(hid_t file, const std::string& path, hid_t mem_type, hs
                          const std::string& file_path) {
   Handle ds(H5Dopen2(file, path.c_str(), H5P_DEFAULT), H5Dclose);
   if (!ds.valid()) throw TrajectoryError(file_path + ": no dataset " + path);
-  std::vector<hsize_t> dims = extent(ds.get());
-  if (dims.empty()) dims.push_back(1);
+  const std::vector<hsize_t> dims = dataset_extent(ds.get(), file_path, path);
+  if (dims.empty()) throw TrajectoryError(file_path + ": " + path + " is a scalar, not a series (corrupt)");
   if (first + rows > dims[0]) throw TrajectoryError(file_path + ": " + path + " has only " + std::to_string(dims[0]) + " rows");
   std::vector<hsize_t> start(dims.size(), 0), count = dims;
   start[0] = first;
   count[0] = rows;
-  std::size_t total = 1;
-  for (hsize_t c : count) total *= c;
-  std::vector<T> out(total);
+  double total = 1;
+  for (hsize_t c : count) total *= static_cast<double>(c);
+  check_fits_file(ds.get(), total * sizeof(T), file_path, path);
+  std::vector<T> out(static_cast<std::size_t>(total));
   if (total == 0) return out;
   Handle fspace(H5Dget_space(ds.get()), H5Sclose);
   H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr);
@@ -649,9 +599,12 @@ TrajectoryReader::TrajectoryReader(const std::string& path) : m_impl(std::make_u
   long steps = m_impl->series.empty() ? 0 : std::numeric_limits<long>::max();
   for (const std::string& s : m_impl->series) {
     for (const char* part : {"step", "time", "value"}) {
-      Handle ds(H5Dopen2(f, (s + "/" + part).c_str(), H5P_DEFAULT), H5Dclose);
-      if (!ds.valid()) throw TrajectoryError(path + ": cannot open " + s + "/" + part);
-      steps = std::min<long>(steps, static_cast<long>(extent(ds.get()).at(0)));
+      const std::string name = s + "/" + part;
+      Handle ds(H5Dopen2(f, name.c_str(), H5P_DEFAULT), H5Dclose);
+      if (!ds.valid()) throw TrajectoryError(path + ": cannot open " + name);
+      const std::vector<hsize_t> dims = dataset_extent(ds.get(), path, name);
+      if (dims.empty()) throw TrajectoryError(path + ": " + name + " is a scalar, not a series (corrupt)");
+      steps = std::min<long>(steps, static_cast<long>(std::min<hsize_t>(dims[0], std::numeric_limits<int>::max())));
     }
   }
   // A killed run leaves preallocated rows whose step was never written (-1): not complete.
@@ -687,8 +640,11 @@ std::vector<ParticleGroupInfo> TrajectoryReader::particle_groups() const {
     const std::string p = "/particles/" + g + "/position/value";
     if (!exists(f, p)) continue;
     Handle ds(H5Dopen2(f, p.c_str(), H5P_DEFAULT), H5Dclose);
-    const std::vector<hsize_t> dims = extent(ds.get());
-    out.push_back({g, dims.size() > 1 ? static_cast<int>(dims[1]) : 0});
+    if (!ds.valid()) throw TrajectoryError(m_impl->path + ": cannot open " + p);
+    const std::vector<hsize_t> dims = dataset_extent(ds.get(), m_impl->path, p);
+    if (dims.size() != 3 || dims[1] > static_cast<hsize_t>(std::numeric_limits<int>::max()))
+      throw TrajectoryError(m_impl->path + ": " + p + " is not a series of particle positions (corrupt)");
+    out.push_back({g, static_cast<int>(dims[1])});
   }
   return out;
 }
@@ -717,42 +673,39 @@ std::vector<int> TrajectoryReader::connectivity(const std::string& surface, int&
   const std::string p = "/connectivity/" + surface;
   Handle ds(H5Dopen2(m_impl->file.get(), p.c_str(), H5P_DEFAULT), H5Dclose);
   if (!ds.valid()) throw TrajectoryError(m_impl->path + ": no " + p);
-  const std::vector<hsize_t> dims = extent(ds.get());
-  nodes_per_face = dims.size() > 1 ? static_cast<int>(dims[1]) : 0;
+  const std::vector<hsize_t> dims = dataset_extent(ds.get(), m_impl->path, p);
+  if (dims.size() != 2 || (dims[1] != 3 && dims[1] != 4))
+    throw TrajectoryError(m_impl->path + ": " + p + " is not a table of triangles or quadrilaterals (corrupt)");
+  nodes_per_face = static_cast<int>(dims[1]);
   return read_rows<int>(m_impl->file.get(), p, H5T_NATIVE_INT, 0, dims[0], m_impl->path);
 }
 
 std::string TrajectoryReader::parameter(const std::string& name) const {
   const std::string p = "/parameters/" + name;
   if (!exists(m_impl->file.get(), p)) return "";
-  Handle ds(H5Dopen2(m_impl->file.get(), p.c_str(), H5P_DEFAULT), H5Dclose);
-  Handle type = string_type(0);
-  char* data = nullptr;
-  if (H5Dread(ds.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &data) < 0 || !data) return "";
-  std::string s(data);
-  H5free_memory(data);
-  return s;
+  return read_text_dataset(m_impl->file.get(), p, m_impl->path);
 }
 
 std::vector<int> TrajectoryReader::h5md_version() const {
   Handle g(H5Gopen2(m_impl->file.get(), "/h5md", H5P_DEFAULT), H5Gclose);
+  if (!g.valid()) throw TrajectoryError(m_impl->path + ": cannot open /h5md");
   if (H5Aexists(g.get(), "version") <= 0) return {};
   Handle attr(H5Aopen(g.get(), "version", H5P_DEFAULT), H5Aclose);
   std::vector<int> v(2, 0);
-  H5Aread(attr.get(), H5T_NATIVE_INT, v.data());
+  read_attribute_exact(attr.get(), H5T_NATIVE_INT, {2}, v.data(), m_impl->path, "/h5md version");
   return v;
 }
 
-std::string TrajectoryReader::creator_name() const {
-  if (!exists(m_impl->file.get(), "/h5md/creator")) return "";
-  Handle g(H5Gopen2(m_impl->file.get(), "/h5md/creator", H5P_DEFAULT), H5Gclose);
-  return read_string_attribute(g.get(), "name");
-}
+std::string TrajectoryReader::creator_name() const { return creator_attribute("name"); }
 
-std::string TrajectoryReader::creator_version() const {
+std::string TrajectoryReader::creator_version() const { return creator_attribute("version"); }
+
+std::string TrajectoryReader::creator_attribute(const std::string& name) const {
   if (!exists(m_impl->file.get(), "/h5md/creator")) return "";
   Handle g(H5Gopen2(m_impl->file.get(), "/h5md/creator", H5P_DEFAULT), H5Gclose);
-  return read_string_attribute(g.get(), "version");
+  if (!g.valid()) throw TrajectoryError(m_impl->path + ": cannot open /h5md/creator");
+  if (H5Aexists(g.get(), name.c_str()) <= 0) return "";
+  return read_text_attribute(g.get(), name, m_impl->path);
 }
 
 }  // namespace fascia

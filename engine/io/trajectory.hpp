@@ -154,7 +154,7 @@ class TrajectoryReader {
   std::vector<double> particle_values(const std::string& group, const std::string& element, int k) const;
   // /connectivity/<surface> flattened, with its nodes per face.
   std::vector<int> connectivity(const std::string& surface, int& nodes_per_face) const;
-  // A string dataset under /parameters ("" when absent).
+  // A text dataset under /parameters ("" when absent; io/hdf5_text.hpp).
   std::string parameter(const std::string& name) const;
   // /h5md attributes.
   std::vector<int> h5md_version() const;
@@ -162,6 +162,7 @@ class TrajectoryReader {
   std::string creator_version() const;
 
  private:
+  std::string creator_attribute(const std::string& name) const;
   struct Impl;
   std::unique_ptr<Impl> m_impl;
   int m_steps = 0;

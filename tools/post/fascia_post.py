@@ -441,8 +441,11 @@ def main(argv=None) -> int:
     if args.file is not None:
         try:
             run = load(args.file)
-        except (OSError, KeyError) as e:  # unreadable, not HDF5, or not a fascia trajectory
-            return error(f"{args.file}: {e}", 65)
+        # Unreadable, not HDF5, not a fascia trajectory, or corrupt: h5py reports HDF5's errors as
+        # OSError, KeyError, ValueError or RuntimeError, and a corrupt layout surfaces as objects of
+        # the wrong kind or shape (TypeError, IndexError, AttributeError).
+        except (OSError, KeyError, ValueError, RuntimeError, TypeError, IndexError, AttributeError) as e:
+            return error(f"{args.file}: not a readable fascia trajectory: {type(e).__name__}: {e}", 65)
     try:
         if run is not None:
             if args.summary or not (args.tip or args.observables or args.render):
