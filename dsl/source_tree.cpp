@@ -77,6 +77,8 @@ struct Converter {
   int column_offset = 0;
   std::size_t values = 0;  // nodes converted so far, aliases counted at every use
   bool too_many = false;
+  int depth = 0;  // lists and maps open around the node being converted
+  bool too_deep = false;
 
   Location at(const YAML::Mark& mark) const { return location_of(mark, file, line_offset, column_offset); }
 
@@ -92,6 +94,18 @@ struct Converter {
                         ExitCode::too_large);
       return out;
     }
+    if ((node.IsSequence() || node.IsMap()) && depth >= kMaxSceneDepth) {
+      if (!too_deep)
+        diagnostics.error(out.where, "lists and maps nest more than " + std::to_string(kMaxSceneDepth) +
+                                         " levels deep here (a YAML alias '*name' inside its own anchor?)");
+      too_deep = true;
+      return out;
+    }
+    struct Level {
+      int& depth;
+      explicit Level(int& d) : depth(++d) {}
+      ~Level() { --depth; }
+    } level(depth);
     switch (node.Type()) {
       case YAML::NodeType::Undefined:
       case YAML::NodeType::Null:

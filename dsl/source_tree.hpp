@@ -17,6 +17,10 @@ namespace fascia::dsl {
 constexpr std::size_t kMaxSceneBytes = std::size_t(4) << 20;
 constexpr std::size_t kMaxSceneValues = 200000;
 constexpr std::size_t kMaxValueLength = 4096;
+// Nesting of lists and maps (a bad scene beyond it): the deepest scene value is a few levels
+// down; an alias inside its own anchor ('a: &a [*a]') nests without end, and the conversion
+// recurses once per level.
+constexpr int kMaxSceneDepth = 64;
 
 struct SourceNode {
   enum class Kind { null, scalar, sequence, map };

@@ -120,6 +120,19 @@ LabelImage read_nifti(const std::string& path) {
       fail(path, std::string("holds ") + nifti_datatype_string(nim->datatype) +
                      " voxels; a label image holds integers (or integral floating-point values)");
   }
+  // nifti_image_load allocates the header's size before reading: a header asking for more data
+  // than its file can hold is refused first. A gzip file inflates at most 1032-fold (DEFLATE's
+  // largest ratio), so a compressed image is held to that bound.
+  std::error_code ec;
+  const std::string image_file = nim->iname ? nim->iname : path;
+  const double file_bytes = static_cast<double>(std::filesystem::file_size(image_file, ec));
+  const bool gzip = image_file.size() > 3 && image_file.compare(image_file.size() - 3, 3, ".gz") == 0;
+  const double needed = static_cast<double>(nim->iname_offset) +
+                        static_cast<double>(image.voxel_count()) * static_cast<double>(nim->nbyper);
+  if (!ec && needed > file_bytes * (gzip ? 1032.0 : 1.0))
+    fail(path, "the header asks for " + std::to_string(static_cast<long long>(needed)) + " bytes of voxel data, the " +
+                   (gzip ? "compressed " : "") + "file holds " + std::to_string(static_cast<long long>(file_bytes)) +
+                   " (truncated or corrupt file?)");
   if (nifti_image_load(nim.get()) != 0 || nim->data == nullptr)
     fail(path, "the voxel data cannot be read (truncated or corrupt file?)");
   const std::size_t n = static_cast<std::size_t>(image.voxel_count());

@@ -241,6 +241,23 @@ TEST_CASE("bad label images get a message naming the file", "[label_image]") {
     REQUIRE(error_kind(path, message) == LabelImageError::Kind::bad_data);
     REQUIRE(message.find("truncated") != std::string::npos);
   }
+  SECTION("NIfTI header asking for more data than its file holds") {
+    // 1000^3 int16 voxels (2 GB, within kMaxLabelImageVoxels) in a file of a few kilobytes:
+    // refused from the file's size, before nifticlib allocates the 2 GB.
+    const std::string path = temp_path("oversized.nii");
+    write_nifti(path, labels, edges, Vec3{0, 0, 0}, true);
+    {
+      std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+      const std::int16_t big = 1000;
+      for (int d = 1; d <= 3; ++d) {
+        f.seekp(40 + 2 * d);
+        f.write(reinterpret_cast<const char*>(&big), sizeof big);
+      }
+    }
+    REQUIRE(error_kind(path, message) == LabelImageError::Kind::bad_data);
+    REQUIRE(message.find(path) == 0);
+    REQUIRE(message.find("asks for 2000000352 bytes of voxel data") != std::string::npos);
+  }
   SECTION("huge NIfTI header") {
     const std::string path = temp_path("huge.nii");
     write_nifti(path, labels, edges, Vec3{0, 0, 0}, true);
