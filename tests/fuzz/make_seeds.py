@@ -62,7 +62,7 @@ def trajectory(path, frames=2, rows=2):
                             ("environment", "{}"), ("version", "0.1.0")):
             f["parameters/" + name] = text(value)
         c = f.create_group("checkpoint")
-        c.attrs["format"] = np.int32(1)
+        c.attrs["format"] = np.int32(2)  # kCheckpointFormat
         c.attrs["frames"] = np.int32(frames)
         c["scene"] = text("scene")
         c["build"] = text("build")
@@ -71,9 +71,12 @@ def trajectory(path, frames=2, rows=2):
             s = c.create_group(slot)
             s["counters"] = np.array([1, 1, rows, 1], dtype="<i8")
             s["clock"] = np.array([0.01, 0.01])
-            s["positions"] = np.zeros((frames, 3))
-            s["orientations"] = np.tile([1.0, 0, 0, 0], (frames, 1))
-            s["velocities"] = np.zeros((frames, 6))
+            s["tangent"] = np.array([1, 0], dtype="<i8")  # a kept tangent: its two states follow
+            s["tangent_clock"] = np.array([0.01, 1.0])
+            for prefix in ("", "tangent_start_", "tangent_"):
+                s[prefix + "positions"] = np.zeros((frames, 3))
+                s[prefix + "orientations"] = np.tile([1.0, 0, 0, 0], (frames, 1))
+                s[prefix + "velocities"] = np.zeros((frames, 6))
 
 
 def gmsh(path):
