@@ -135,6 +135,8 @@ class System final : public DeviceElasticity::Impl {
     m_p = model.pair_count();
     m_locked = model.rotations_locked;
     m_max_neighbours = model.max_neighbours();
+    m_fibres = std::any_of(model.materials.begin(), model.materials.end(),
+                           [](const Material& mat) { return mat.law == MaterialLaw::hgo; });
 
     // Origin: centre of the rest bounding box of the frames.
     for (int k = 0; k < 3; ++k) {
@@ -822,7 +824,7 @@ class System final : public DeviceElasticity::Impl {
     // pair outputs can pass 48 KB, hence the opt-in before the occupancy query. In double with
     // staged lever records first, then without, where the larger shared memory leaves too few
     // blocks per multiprocessor.
-    if (m_max_neighbours <= kResidentPairs) {
+    if (m_max_neighbours <= kResidentPairs && !m_fibres) {
       m_resident = true;
       for (bool try_staged : {true, false}) {
         m_resident_try_staged = try_staged;
@@ -894,6 +896,7 @@ class System final : public DeviceElasticity::Impl {
   bool m_locked = false;
   int m_ell_entries = 0, m_keep = 2, m_max_neighbours = 0;
   bool m_resident = false;  // the persistent PCG is k_pcg_resident
+  bool m_fibres = false;    // some material is hgo: k_pcg_resident does not serve the model
   size_t m_shared_bytes = 0, m_ell_bytes = 0;
   size_t m_resident_frames_bytes = 0;  // the resident double kernel's with staged frames
   bool m_resident_try_staged = true;   // persistent_grid: the staged kernel is still a candidate

@@ -749,7 +749,9 @@ constexpr int kResidentSlots = 8;      // slots per frame held in registers (mor
 // reading its material through its index (every grid barrier invalidates the L1, so those loads
 // go to the L2, one after another). The same arithmetic as k_pcg_two_barrier, except that each slot
 // is summed by one thread. Requires at most MaxPairs pairs per sample and grid = max(sample
-// blocks, frame chunks).
+// blocks, frame chunks). Models without fibres only (no hgo material): the fibre term would
+// spill the double kernel's registers and slow the single one (those models run
+// k_pcg_two_barrier).
 constexpr int kResidentRowTerms = 13;  // [minv row (6), frame block row (3), inertia row (3), mass]
 
 template <class R, int MaxPairs, bool InRegisters, bool StagedFrames = false>
@@ -765,8 +767,7 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
   __shared__ double row_held[InRegisters ? 1 : kResidentRowTerms * kResidentThreads];
   __shared__ R pair_held[InRegisters ? 1 : 4 * MaxPairs * kResidentThreads];  // [w, g (3)] per pair
   __shared__ unsigned short slot_held[StagedFrames ? MaxPairs * kResidentThreads : 1];  // block-local slot per pair
-  // StagedFrames without InRegisters: the sample's material [lambda, mu, density] and law (an hgo
-  // sample reads its fibres from global memory where it uses them).
+  // StagedFrames without InRegisters: the sample's material [lambda, mu, density] and law.
   constexpr bool kMaterialHeld = StagedFrames && !InRegisters;
   __shared__ double material_held[kMaterialHeld ? 3 * kResidentThreads : 1];
   __shared__ MaterialLaw law_held[kMaterialHeld ? kResidentThreads : 1];
@@ -942,14 +943,12 @@ __global__ void __launch_bounds__(kResidentThreads, kResidentBlocksPerSM)
         mat.lambda = held(material_held, 0);
         mat.mu = held(material_held, 1);
         mat.density = held(material_held, 2);
-        // hgo's fibres are not held: read with the rest of its material from the model's table.
-        if (mat.law == MaterialLaw::hgo) mat = m.materials[m.sample_materials[s]];
         ell_sample_material(m, f.sample_state, s, mat, F, cache);
       } else if constexpr (!InRegisters) {
         ell_sample_material(m, f.sample_state, s, F, cache);
         mat = m.materials[m.sample_materials[s]];
       }
-      const Mat3T<R> dP = pk1_differential(mat, F, cache, dF);
+      const Mat3T<R> dP = pk1_differential<R, false>(mat, F, cache, dF);
       part = flags.k_scale * (static_cast<double>(v) * static_cast<double>(ddot(dF, dP)));
 #pragma unroll
       for (int j = 0; j < MaxPairs; ++j)

@@ -87,14 +87,18 @@ FASCIA_HD Mat3 energy_and_first_piola(const Material& m, const Mat3& F, Material
 
 // dP = (d^2 psi / dF^2) : dF at the state described by F and cache. T = float evaluates the same
 // expressions in single precision (the CUDA backend's single-precision tangent product).
-template <class T>
+// Fibres = false leaves out hgo's fibre term (its ground substance alone), for a kernel that
+// serves only models without fibres and must not carry the fibre code in its registers.
+template <class T, bool Fibres = true>
 FASCIA_HD Mat3T<T> pk1_differential(const Material& m, const Mat3T<T>& F, const MaterialCacheT<T>& cache,
                                     const Mat3T<T>& dF) {
   if (m.law == MaterialLaw::stvk)
     return stvk_pk1_differential<T>(static_cast<T>(m.lambda), static_cast<T>(m.mu), F, cache.a, dF);
   const Mat3T<T> dP =
       neo_hookean_pk1_differential<T>(static_cast<T>(m.lambda), static_cast<T>(m.mu), cache.a, cache.c, dF);
-  return m.law == MaterialLaw::hgo ? dP + fibre_pk1_differential<T>(m.fibres, F, dF) : dP;
+  if constexpr (Fibres)
+    if (m.law == MaterialLaw::hgo) return dP + fibre_pk1_differential<T>(m.fibres, F, dF);
+  return dP;
 }
 
 }  // namespace fascia
