@@ -367,11 +367,6 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
                 << "\n";
     return kOk;
   }
-  if (resume.checkpoint && built.settings.adaptive.enabled) {
-    std::cerr << "fascia: error: " << output << ": a stopped run with solver.adaptive cannot be resumed (its "
-              << "checkpoint holds no step-controller state); start it again with --overwrite\n";
-    return kDataError;
-  }
   if (log) {
     const dsl::DiscretisationStats& s = built.stats;
     std::cerr << "fascia: " << options.request.path << ": " << s.frames << " frames, " << s.samples << " samples, " << s.dofs
@@ -400,8 +395,23 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   TrajectoryLayout layout = recorder.layout();
   // Rows to preallocate: the initial state, every output step, and one written on a stop. All
   // of them up front: growing datasets later is the one write a kill could corrupt.
-  const int first_step = resume.checkpoint ? resume.checkpoint->step + 1 : 1;
-  const int rows_to_come = steps / out_spec.every - (first_step - 1) / out_spec.every + 1;
+  // Fixed steps: the loop runs over the steps, a row every output.every steps. Adaptive steps:
+  // it runs over the rows' times k dt (k a multiple of output.every, and the last step), and the
+  // simulation advances to each with steps of its own; a resumed run starts at the first row
+  // time after the checkpoint's (which may lie between two rows).
+  const bool adaptive = simulation.controller() != nullptr;
+  auto next_k = [&](int k) { return adaptive && k < steps ? std::min(k + out_spec.every, steps) : k + 1; };
+  int first_k = resume.checkpoint ? resume.checkpoint->step + 1 : 1;
+  if (adaptive) {
+    first_k = std::min(out_spec.every, steps);
+    while (resume.checkpoint && first_k < steps && first_k * built.settings.dt <= resume.checkpoint->time)
+      first_k = next_k(first_k);
+  }
+  int rows_to_come = steps / out_spec.every - (first_k - 1) / out_spec.every + 1;
+  if (adaptive) {
+    rows_to_come = 0;
+    for (int k = first_k; k <= steps; k = next_k(k)) ++rows_to_come;
+  }
   layout.capacity = (resume.checkpoint ? resume.checkpoint->rows : 1) + rows_to_come + 1;
 
   std::unique_ptr<TrajectoryWriter> writer;
@@ -448,11 +458,13 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     c.finished = finished;
     c.state = simulation.state();
     c.tangent = simulation.reused_tangent();
+    if (const StepController* controller = simulation.controller()) c.controller = controller->state();
+    c.progress = simulation.advance_progress();
     checkpoints->write(c);
     checkpointed_step = c.step;
     last_checkpoint_wall = std::chrono::steady_clock::now();
   };
-  bool last_step_written = false;
+  int row_step = -1;  // the simulation step of the last row (or of the checkpoint resumed from)
 
   try {
     if (resume.checkpoint) {
@@ -470,7 +482,11 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       last.time = c.time;
       figures.step = c.step;
       figures.time = c.time;
-      last_step_written = true;  // the checkpoint's state is the run's; nothing to add on a stop
+      if (StepController* controller = simulation.controller()) {
+        controller->restore(c.controller);
+        simulation.restore_progress(c.progress);
+      }
+      row_step = c.step;  // the checkpoint's state is the run's; nothing to add on a stop
       update_xdmf(true);
     } else {
       TrajectoryHeader header;
@@ -495,20 +511,16 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       ++regular_rows;
       written_times.push_back(initial.time);
       write_checkpoint(steps == 0);
-      last_step_written = true;
+      row_step = 0;
       update_xdmf(true);
     }
 
     const auto steps_start = std::chrono::steady_clock::now();
     if (run_figures) run_figures->setup_seconds = std::chrono::duration<double>(steps_start - setup_start).count();
-    // Fixed steps: every step, a row every output.every steps. Adaptive steps: the simulation
-    // advances to each row's time (k dt, k a multiple of output.every, and the last step) with
-    // steps of its own; a row sums the iterations and counts the steps since the previous one.
-    const bool adaptive = simulation.controller() != nullptr;
+    // A row sums the iterations and counts the steps since the previous one.
     StepReport row;  // the steps since the last row (fixed steps)
     bool completed = steps == 0;
-    for (int k = adaptive ? std::min(out_spec.every, steps) : first_step; k <= steps && !stop_requested();
-         k = adaptive && k < steps ? std::min(k + out_spec.every, steps) : k + 1) {
+    for (int k = first_k; k <= steps && !stop_requested(); k = next_k(k)) {
       try {
         last = adaptive ? simulation.advance_to(k * built.settings.dt) : simulation.step();
       } catch (const StopRequested&) {
@@ -528,8 +540,8 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       total_newton += last.newton_iterations;
       total_cg += last.cg_iterations;
       row.accepted_steps += last.accepted_steps;
-      last_step_written = adaptive || k % out_spec.every == 0 || k == steps;
-      if (last_step_written) {
+      if (adaptive || k % out_spec.every == 0 || k == steps) {
+        row_step = simulation.steps_taken();
         if (!adaptive) last.accepted_steps = row.accepted_steps;
         writer->append(recorder.record(simulation.state(), last));
         ++regular_rows;
@@ -539,10 +551,9 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       }
       const double since_checkpoint =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - last_checkpoint_wall).count();
-      // Adaptive runs checkpoint their end alone: their internal steps are not resumable yet.
-      if (k == steps ||
-          (!adaptive && (take_checkpoint_request() || (checkpoint_every > 0 && k % checkpoint_every == 0) ||
-                         (checkpoint_interval > 0 && since_checkpoint >= checkpoint_interval))))
+      // Adaptive runs: at their rows' times, k counting multiples of dt.
+      if (k == steps || take_checkpoint_request() || (checkpoint_every > 0 && k % checkpoint_every == 0) ||
+          (checkpoint_interval > 0 && since_checkpoint >= checkpoint_interval))
         write_checkpoint(k == steps);
       completed = k == steps;
       if (take_hangup() && log) std::cerr << "\nfascia: SIGHUP ignored; the run goes on\n";
@@ -554,11 +565,10 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       progress.update(figures);
     }
     if (exit_code == kOk && stop_requested() && !completed) {
-      // Stopped: the last completed step is checkpointed (fixed steps), then written if it was
-      // not a row.
+      // Stopped: the last completed step is checkpointed, then written if it was not a row.
       const int done = simulation.steps_taken();
-      if (!adaptive && checkpointed_step != done) write_checkpoint(false);
-      if (!last_step_written) {
+      if (checkpointed_step != done) write_checkpoint(false);
+      if (row_step != done) {
         StepReport report = last;
         report.step = done;
         report.time = simulation.time();
@@ -566,8 +576,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
         written_times.push_back(report.time);
       }
       status = "stopped by " + stop_reason_name(stop_requested()) + " after step " + std::to_string(done) +
-               (adaptive ? " (written; adaptive runs are not resumable)"
-                         : " (written, checkpoint committed; continue with --resume)");
+               " (written, checkpoint committed; continue with --resume)";
       exit_code = kStoppedOnSignal;
     }
     writer->close();  // shrinks the datasets to the written steps

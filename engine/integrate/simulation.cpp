@@ -295,15 +295,17 @@ StepReport Simulation::advance_to(double t_target) {
   StepReport report;
   State trial, previous;
   double previous_time = m_time;
+  // m_progress holds the counts of the attempts so far (a stop abandons the attempt in progress
+  // and keeps them for a checkpoint); the report gives them when the target is reached.
   while (m_time < t_target) {
     const double h = controller.next_step(m_time, t_target);
     const Attempt a = attempt(h, trial);
-    report.newton_iterations += a.newton.iterations;
-    report.cg_iterations += a.newton.cg_iterations;
+    m_progress.newton_iterations += a.newton.iterations;
+    m_progress.cg_iterations += a.newton.cg_iterations;
     report.residual = a.newton.residual;
     if (!a.ok()) {
       if (controller.failed(h)) {
-        ++report.rejected_steps;
+        ++m_progress.rejected;
         continue;
       }
       std::ostringstream msg;
@@ -313,20 +315,26 @@ StepReport Simulation::advance_to(double t_target) {
       throw SolverError(msg.str());
     }
     if (!controller.update(h, local_error(m_model, m_state, trial, h, m_extent))) {
-      ++report.rejected_steps;
+      ++m_progress.rejected;
       continue;
     }
     std::swap(previous, m_state);
     std::swap(m_state, trial);
     previous_time = m_time;
     ++m_step;
-    ++report.accepted_steps;
+    ++m_progress.accepted;
     report.dt = h;
     // The last step lands on t_target exactly, whatever the round-off of the sum of steps.
     m_time = m_time + h >= t_target - 1e-12 * std::max(1.0, std::abs(t_target)) ? t_target : m_time + h;
   }
+  report.newton_iterations = static_cast<int>(m_progress.newton_iterations);
+  report.cg_iterations = static_cast<int>(m_progress.cg_iterations);
+  report.accepted_steps = static_cast<int>(m_progress.accepted);
+  report.rejected_steps = static_cast<int>(m_progress.rejected);
+  m_progress = AdvanceProgress{};
   if (!finish(report, m_step, m_time, t0)) {
-    if (report.accepted_steps == 0) throw SolverError(report.message);
+    // Back to the step before when this call took it (not a step before a restore).
+    if (previous.positions.empty()) throw SolverError(report.message);
     m_state = std::move(previous);  // back to the step before, whose energies were finite
     m_time = previous_time;
     --m_step;

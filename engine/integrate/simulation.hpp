@@ -83,6 +83,11 @@ class Simulation {
   // rejected steps. Throws SolverError when a step fails at min_dt; the state is then left at
   // the last accepted step.
   StepReport advance_to(double t_target);
+  // The attempts of the advance_to() in progress, after the last completed attempt (zero after
+  // advance_to() returns); restore_progress() sets them on a resumed simulation, whose next
+  // advance_to() adds its attempts to them.
+  const AdvanceProgress& advance_progress() const { return m_progress; }
+  void restore_progress(const AdvanceProgress& progress) { m_progress = progress; }
   // The controller's state (checkpoints); null unless adaptive.
   const StepController* controller() const { return m_controller.get(); }
   StepController* controller() { return m_controller.get(); }
@@ -132,6 +137,7 @@ class Simulation {
   std::unique_ptr<StepController> m_controller;
   double m_extent = 1;  // m, the error estimate's length (model_extent())
   ReusedTangent m_reused;
+  AdvanceProgress m_progress;
 };
 
 // Newton failure or divergence: what() is a one-line message for the user.

@@ -34,6 +34,16 @@ struct StepControllerState {
   long rejected = 0;              // steps rejected since the start (error or failed solve)
 };
 
+// The attempts of an advance to an output time still in progress (Simulation::advance_to()): a
+// checkpoint taken between two output times keeps them, so that the row written at the next one
+// sums the same attempts as an uninterrupted run's.
+struct AdvanceProgress {
+  long newton_iterations = 0;
+  long cg_iterations = 0;
+  long accepted = 0;  // steps accepted since the last output time
+  long rejected = 0;  // attempts rejected since the last output time
+};
+
 class StepController {
  public:
   StepController(const AdaptiveSettings& settings, double first_dt);

@@ -135,6 +135,8 @@ CheckpointWriter CheckpointWriter::create(long long file_id, const std::string& 
     fixed_dataset(g.get(), "tangent_clock", H5T_IEEE_F64LE, {2}, path);
     create_state(g.get(), "tangent_start_", n, path);
     create_state(g.get(), "tangent_", n, path);
+    fixed_dataset(g.get(), "controller", H5T_IEEE_F64LE, {2}, path);
+    fixed_dataset(g.get(), "controller_counts", H5T_STD_I64LE, {6}, path);
   }
   fixed_dataset(group.get(), "commit", H5T_STD_I64LE, {2}, path);
   return CheckpointWriter(file_id, path, frames, 0);
@@ -172,6 +174,12 @@ void CheckpointWriter::write(const Checkpoint& c) {
     write_data(slot.get(), "tangent_clock", H5T_NATIVE_DOUBLE, tangent_clock, m_path);
     write_state(slot.get(), "tangent_start_", t.held ? t.origin.start : State{}, n, m_path);
     write_state(slot.get(), "tangent_", t.held ? t.origin.state : State{}, n, m_path);
+    const double controller[2] = {c.controller.dt, c.controller.after_rejection ? 1.0 : 0.0};
+    const long long counts[6] = {c.controller.accepted,        c.controller.rejected,
+                                 c.progress.newton_iterations, c.progress.cg_iterations,
+                                 c.progress.accepted,          c.progress.rejected};
+    write_data(slot.get(), "controller", H5T_NATIVE_DOUBLE, controller, m_path);
+    write_data(slot.get(), "controller_counts", H5T_NATIVE_LLONG, counts, m_path);
   }
   flush_and_sync(f, m_path);
   const long long commit[2] = {sequence, c.step};
@@ -224,6 +232,16 @@ std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIde
   double tangent_clock[2] = {0, 1};
   read_data(slot.get(), "tangent", H5T_NATIVE_LLONG, {2}, tangent, path);
   read_data(slot.get(), "tangent_clock", H5T_NATIVE_DOUBLE, {2}, tangent_clock, path);
+  double controller[2] = {0, 0};
+  long long counts[6] = {0, 0, 0, 0, 0, 0};
+  read_data(slot.get(), "controller", H5T_NATIVE_DOUBLE, {2}, controller, path);
+  read_data(slot.get(), "controller_counts", H5T_NATIVE_LLONG, {6}, counts, path);
+  c.controller.dt = controller[0];
+  c.controller.after_rejection = controller[1] != 0;
+  c.controller.accepted = static_cast<long>(counts[0]);
+  c.controller.rejected = static_cast<long>(counts[1]);
+  c.progress = AdvanceProgress{static_cast<long>(counts[2]), static_cast<long>(counts[3]), static_cast<long>(counts[4]),
+                               static_cast<long>(counts[5])};
   c.tangent.held = tangent[0] != 0;
   if (c.tangent.held) {
     std::memcpy(&c.tangent.pattern, &tangent[1], sizeof c.tangent.pattern);

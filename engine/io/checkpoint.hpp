@@ -9,7 +9,11 @@
 //                                 tangent_clock float64 [2]: dt (s), load factor;
 //                                 tangent_start_{positions,orientations,velocities},
 //                                 tangent_{positions,orientations,velocities} as the state
-//                                 (integrate/tangent_origin.hpp; zeros where not held)
+//                                 (integrate/tangent_origin.hpp; zeros where not held);
+//                                 controller float64 [2]: dt (s), after_rejection (0 or 1);
+//                                 controller_counts int64 [6]: accepted, rejected, and the
+//                                 advance in progress: Newton and CG iterations, accepted,
+//                                 rejected (integrate/step_controller.hpp; zeros unless adaptive)
 //   /checkpoint/commit            int64 [2]: the committed sequence number (0: none yet) and its step
 //
 // Atomicity: every dataset is contiguous and allocated when the file is created, so writing a
@@ -18,12 +22,14 @@
 // 16-byte commit record written, flushed and synced. A process killed at any instant leaves the
 // commit record pointing at a complete slot: the new checkpoint or the one before.
 //
-// format 2 holds what the integrators carry from step to step: the frames' state, the step count
-// and the time (Simulation::restore), the step size dt, and the origin of the factorisation PCG
-// reuses (Simulation::restore_tangent). A format that adds datasets to the slots raises `format`;
+// format 3 holds what the integrators carry from step to step: the frames' state, the step count
+// and the time (Simulation::restore), the step size dt, the origin of the factorisation PCG
+// reuses (Simulation::restore_tangent) and an adaptive run's step controller and the attempts
+// since its last output time (StepController::restore, Simulation::restore_progress). A format that adds datasets to the slots raises `format`;
 // a reader reads its own format only (a checkpoint is resumed by the build that wrote it).
 #pragma once
 
+#include "integrate/step_controller.hpp"
 #include "integrate/tangent_origin.hpp"
 #include "model/state.hpp"
 
@@ -32,7 +38,7 @@
 
 namespace fascia {
 
-constexpr int kCheckpointFormat = 2;
+constexpr int kCheckpointFormat = 3;
 
 struct Checkpoint {
   long long sequence = 0;  // 1, 2, ... in the order written
@@ -43,6 +49,8 @@ struct Checkpoint {
   bool finished = false;   // the run had completed every step
   State state;             // frames: positions, orientations, velocities
   ReusedTangent tangent;    // PCG's reused factorisation (Simulation::reused_tangent())
+  StepControllerState controller;  // adaptive steps: the controller (Simulation::controller())
+  AdvanceProgress progress;        // adaptive steps: since the last output time
 };
 
 // What a checkpoint may be resumed by: the resolved scene and the build that wrote it.

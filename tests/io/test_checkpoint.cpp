@@ -42,6 +42,9 @@ Checkpoint checkpoint_for(long long sequence) {
   for (int i = 0; i < 3 * kFrames; ++i) c.state.positions.push_back(static_cast<double>(sequence) + 1e-3 * i);
   for (int i = 0; i < kFrames; ++i) c.state.orientations.insert(c.state.orientations.end(), {1, 0, 0, 1e-6 * sequence});
   for (int i = 0; i < 6 * kFrames; ++i) c.state.velocities.push_back(-static_cast<double>(sequence) - 1e-3 * i);
+  c.controller = StepControllerState{0.002 * static_cast<double>(sequence), sequence % 3 == 0, 10 * sequence,
+                                     sequence + 1};
+  c.progress = AdvanceProgress{7 * sequence, 31 * sequence, sequence, 2 * sequence};
   // Every other checkpoint holds a reused factorisation's origin (two states apart from c.state).
   c.tangent.held = sequence % 2 == 1;
   if (c.tangent.held) {
@@ -67,6 +70,14 @@ void check_is(const Checkpoint& read, long long sequence) {
   CHECK(read.state.positions == expected.state.positions);  // bitwise
   CHECK(read.state.orientations == expected.state.orientations);
   CHECK(read.state.velocities == expected.state.velocities);
+  CHECK(read.controller.dt == expected.controller.dt);
+  CHECK(read.controller.after_rejection == expected.controller.after_rejection);
+  CHECK(read.controller.accepted == expected.controller.accepted);
+  CHECK(read.controller.rejected == expected.controller.rejected);
+  CHECK(read.progress.newton_iterations == expected.progress.newton_iterations);
+  CHECK(read.progress.cg_iterations == expected.progress.cg_iterations);
+  CHECK(read.progress.accepted == expected.progress.accepted);
+  CHECK(read.progress.rejected == expected.progress.rejected);
   CHECK(read.tangent.held == expected.tangent.held);
   CHECK(read.tangent.pattern == expected.tangent.pattern);
   CHECK(read.tangent.origin.dt == expected.tangent.origin.dt);

@@ -126,6 +126,51 @@ def test_the_reused_factorisation_is_resumed(fascia_bin, root, tmp_path, scene, 
     assert_bitwise_equal(out, full)  # positions, velocities, fields, and the PCG iteration counts
 
 
+ADAPTIVE = ["scenes/tool_strike.yaml", "--threads", "1", "-q"]  # solver.adaptive: steps of its own
+
+
+def test_an_adaptive_run_stopped_by_a_signal_resumes_to_the_same_bits(fascia_bin, root, tmp_path):
+    full = tmp_path / "full.h5"
+    assert run(fascia_bin, root, *ADAPTIVE, "-o", str(full)).returncode == 0
+    out = tmp_path / "part.h5"
+    p = start(fascia_bin, root, *ADAPTIVE, "-o", str(out))
+    wait_for_rows(out, 8, p)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=300)
+    assert p.returncode == STOPPED, err
+    assert "continue with --resume" in err
+    r = run(fascia_bin, root, *ADAPTIVE, "-o", str(out), "--resume")
+    assert r.returncode == 0, r.stderr
+    # Rows, the step sizes, the accepted and rejected counts and the iterations of every row.
+    assert_bitwise_equal(out, full)
+
+
+def test_an_adaptive_run_stopped_between_its_rows_resumes_to_the_same_bits(fascia_bin, root, tmp_path):
+    """One row at the end (output.every = 30): every stop by --max-wall falls between two rows,
+    inside the controller's sequence of steps, and the last row sums the attempts made before and
+    after each stop."""
+    args = [*ADAPTIVE, "--set", "output.every=30"]
+    full = tmp_path / "full.h5"
+    assert run(fascia_bin, root, *args, "-o", str(full)).returncode == 0
+    out = tmp_path / "part.h5"
+    stops, between = 0, 0
+    r = run(fascia_bin, root, *args, "-o", str(out), "--max-wall", "3 s")
+    while r.returncode == STOPPED and stops < 50:
+        stops += 1
+        with h5py.File(out, "r") as f:
+            slot = f"checkpoint/slot_{f['checkpoint/commit'][0] % 2}"
+            t = f[slot]["clock"][0]
+            assert 0 <= t < 0.3  # the rows are at 0 and 0.3 s (t = 0: stopped during the setup)
+            assert f[slot]["controller"][0] > 0  # the controller's next step size
+            between += 0 < t
+        r = run(fascia_bin, root, *args, "-o", str(out), "--resume", "--max-wall", "3 s")
+    assert r.returncode == 0, r.stderr
+    assert between >= 2, "the run was not stopped twice between its rows; lengthen it"
+    assert_bitwise_equal(out, full)
+    with h5py.File(out, "r") as f:
+        assert f["observables/rejected_steps/value"][-1] > 0  # the controller rejected steps
+
+
 def test_a_stop_row_off_the_output_cadence_is_dropped_on_resume(fascia_bin, root, tmp_path):
     """With output.every = 4 a stop writes its last step as an extra row; the resumed file has
     exactly the rows of an uninterrupted run."""
