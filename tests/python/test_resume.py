@@ -10,6 +10,8 @@ import h5py
 import numpy as np
 import pytest
 
+from trajectory_rows import rows
+
 STOPPED = 75
 DATA_ERROR = 65
 
@@ -25,19 +27,6 @@ def run(fascia_bin, root, *args):
 
 def start(fascia_bin, root, *args):
     return subprocess.Popen([fascia_bin, "run", *args], cwd=root, stderr=subprocess.PIPE, text=True)
-
-
-def rows(path):
-    """Every time series of a trajectory (wall_time aside), as arrays of its complete rows."""
-    out = {}
-    with h5py.File(path, "r") as f:
-        def visit(name, obj):
-            if (isinstance(obj, h5py.Group) and "step" in obj and "value" in obj and "wall_time" not in name
-                    and not name.startswith("checkpoint")):
-                for part in ("step", "time", "value"):
-                    out[f"{name}/{part}"] = obj[part][()]
-        f.visititems(visit)
-    return out
 
 
 def assert_bitwise_equal(a, b):

@@ -11,6 +11,7 @@ import h5py
 import pytest
 
 from slurm_cluster import SlurmCluster, SlurmUnavailable
+from trajectory_rows import rows
 
 
 @pytest.fixture
@@ -23,18 +24,6 @@ def cluster(tmp_path):
         pytest.skip(f"Slurm cannot start here: {e}")
     yield c
     c.stop()
-
-
-def rows(path):
-    out = {}
-    with h5py.File(path, "r") as f:
-        def visit(name, obj):
-            if (isinstance(obj, h5py.Group) and "step" in obj and "value" in obj and "wall_time" not in name
-                    and not name.startswith("checkpoint")):
-                for part in ("step", "time", "value"):
-                    out[f"{name}/{part}"] = obj[part][()]
-        f.visititems(visit)
-    return out
 
 
 def test_a_sweep_runs_as_a_job_array_and_a_task_resumes_after_its_time_limit(fascia_bin, root, tmp_path, cluster):
