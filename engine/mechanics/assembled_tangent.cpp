@@ -64,11 +64,9 @@ const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& 
   std::fill(values, values + m_matrix.nonZeros(), 0.0);
   const int samples = model.sample_count(), frames = model.frame_count();
   // Samples in chunks: the sample matrices H_s = v_s B_s^T D_s B_s [6k x 6k] of a chunk are formed
-  // in parallel into `chunk_values`, then scattered with each thread owning a contiguous range of
-  // column frames and visiting the chunk's samples in order, so every entry sums its samples in
-  // sample order: the same bits for any thread count.
-  std::vector<long long> chunk_offsets;
-  std::vector<double> chunk_values;
+  // in parallel into m_chunk_values (kept from one assembly to the next), then scattered with each
+  // thread owning a contiguous range of column frames and visiting the chunk's samples in order,
+  // so every entry sums its samples in sample order: the same bits for any thread count.
 #pragma omp parallel num_threads(elasticity.threads()) if (samples > kParallelMin)
   {
     Eigen::Matrix<double, 9, 9, Eigen::RowMajor> D;
@@ -81,16 +79,16 @@ const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& 
       int s1 = s0;
 #pragma omp single
       {
-        chunk_offsets.assign(1, 0);
-        while (s1 < samples && chunk_offsets.back() < kChunkValues) {
+        m_chunk_offsets.assign(1, 0);
+        while (s1 < samples && m_chunk_offsets.back() < kChunkValues) {
           const long long k = nb.offsets[s1 + 1] - nb.offsets[s1];
-          chunk_offsets.push_back(chunk_offsets.back() + 36 * k * k);
+          m_chunk_offsets.push_back(m_chunk_offsets.back() + 36 * k * k);
           ++s1;
         }
-        if (chunk_values.size() < static_cast<size_t>(chunk_offsets.back()))
-          chunk_values.resize(static_cast<size_t>(chunk_offsets.back()));
+        if (m_chunk_values.size() < static_cast<size_t>(m_chunk_offsets.back()))
+          m_chunk_values.resize(static_cast<size_t>(m_chunk_offsets.back()));
       }  // implicit barrier: every thread sees the chunk
-      s1 = s0 + static_cast<int>(chunk_offsets.size()) - 1;
+      s1 = s0 + static_cast<int>(m_chunk_offsets.size()) - 1;
 #pragma omp for schedule(dynamic, 16)
       for (int s = s0; s < s1; ++s) {
         const int begin = nb.offsets[s], k = nb.offsets[s + 1] - begin;
@@ -103,12 +101,13 @@ const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& 
         // Rows of D are vec(dP[E_k]): the operator acting on vec(dF) is D^T (= D for hyperelastic
         // laws).
         DB.noalias() = D.transpose() * B;
-        Eigen::Map<Eigen::MatrixXd> H(chunk_values.data() + chunk_offsets[s - s0], 6 * k, 6 * k);
+        Eigen::Map<Eigen::MatrixXd> H(m_chunk_values.data() + m_chunk_offsets[s - s0], 6 * k, 6 * k);
         H.noalias() = model.samples.volumes[s] * (B.transpose() * DB);
       }  // implicit barrier
       for (int s = s0; s < s1; ++s) {
         const int begin = nb.offsets[s], k = nb.offsets[s + 1] - begin;
-        const Eigen::Map<const Eigen::MatrixXd> H(chunk_values.data() + chunk_offsets[s - s0], 6 * k, 6 * k);
+        const Eigen::Map<const Eigen::MatrixXd> H(m_chunk_values.data() + m_chunk_offsets[s - s0], 6 * k,
+                                                  6 * k);
         const int* slot = &m_pair_slots[m_pair_offsets[s]];
         for (int b = 0; b < k; ++b) {
           const int j = nb.frames[begin + b];
