@@ -1,10 +1,11 @@
 // fascia: frame-based simulation of connective tissues from the command line.
 #include "commands.hpp"
+#include "unexpected_error.hpp"
 
 #include <iostream>
-#include <new>
 
 int main(int argc, char** argv) {
+  fascia::app::install_terminate_handler();
   CLI::App app{"fascia " FASCIA_VERSION " - frame-based simulation of connective tissues"};
   app.set_version_flag("--version", "fascia " FASCIA_VERSION);
   app.require_subcommand(1);
@@ -26,13 +27,9 @@ int main(int argc, char** argv) {
   }
   try {
     return action ? action() : fascia::app::kUsage;
-  } catch (const std::bad_alloc&) {
-    // The estimates made before allocating (--max-memory) missed this one: still a refusal for
-    // size, not a solver failure.
-    std::cerr << "fascia: error: out of memory; lower the resolution or run on a larger machine\n";
-    return fascia::app::kTooLarge;
-  } catch (const std::exception& e) {
-    std::cerr << "fascia: error: " << e.what() << "\n";
-    return fascia::app::kSolverFailed;
+  } catch (...) {
+    const fascia::app::Failure failure = fascia::app::classify_unexpected(std::current_exception());
+    std::cerr << failure.message << "\n";
+    return failure.exit_code;
   }
 }
