@@ -8,15 +8,21 @@ namespace {
 
 class CudaStep final : public StepBackend {
  public:
-  CudaStep(const Model& model, const ExternalLoads& loads, const DeviceOptions& options)
-      : m_potential(model, loads, options), m_state(m_potential.make_state()) {}
+  CudaStep(const Model& model, const ExternalLoads& loads, const DeviceOptions& options, bool factorise)
+      : m_potential(model, loads, options), m_state(m_potential.make_state()) {
+    if (factorise) m_factor = std::make_unique<DeviceCholesky>(model, m_potential.ops(), m_potential.fixed());
+  }
 
   NewtonResult backward_euler(const State& start, State& trial, double dt, double rayleigh_mass,
                               const NewtonSettings& settings, double reference_force) override {
     m_potential.set_load_scale(1.0);
     m_potential.set_dynamic(start, dt, rayleigh_mass);
     m_state.upload(trial);
-    DeviceProblem problem(m_potential, settings.linear);
+    DeviceProblem problem(m_potential, settings.linear, m_factor.get(), m_stale, [&](const DeviceFrames& q) {
+      factorising(q, settings.linear, 1.0);
+      m_origin.start = start;
+      m_origin.dt = dt;
+    });
     const NewtonResult r = newton(problem, m_state, settings, reference_force);
     m_state.download(trial);
     trial.velocities.resize(static_cast<size_t>(m_potential.dofs()));
@@ -29,8 +35,14 @@ class CudaStep final : public StepBackend {
                            const std::function<double(double)>& set_load_factor) override {
     m_potential.set_static();
     m_state.upload(state);
-    DeviceProblem problem(m_potential, settings.linear);
+    double load_factor = 1.0;
+    DeviceProblem problem(m_potential, settings.linear, m_factor.get(), m_stale, [&](const DeviceFrames& q) {
+      factorising(q, settings.linear, load_factor);
+      m_origin.start = State{};
+      m_origin.dt = 0;
+    });
     const NewtonResult r = newton_load_stepping(problem, m_state, settings, stepping, [&](double factor) {
+      load_factor = factor;
       m_potential.set_load_scale(factor);
       return set_load_factor(factor);
     });
@@ -44,9 +56,52 @@ class CudaStep final : public StepBackend {
     return m_potential.elastic_energy(m_state);
   }
 
+  ReusedTangent kept_tangent() const override {
+    ReusedTangent t;
+    t.held = m_kept && m_factor && m_factor->factorised() && !m_stale;
+    if (!t.held) return t;
+    t.origin = m_origin;
+    t.pattern = m_factor->fingerprint();
+    return t;
+  }
+
+  bool restore_tangent(const ReusedTangent& tangent, const SimulationSettings& settings) override {
+    m_stale = true;
+    if (!tangent.held) return true;
+    if (!m_factor || tangent.pattern != m_factor->fingerprint()) return false;
+    const TangentOrigin& o = tangent.origin;
+    if (settings.integrator == Integrator::static_equilibrium)
+      m_potential.set_static();
+    else
+      m_potential.set_dynamic(o.start, o.dt, settings.rayleigh_mass);
+    m_potential.set_load_scale(o.load_scale);
+    m_state.upload(o.state);
+    m_potential.prepare_hessian(m_state);
+    m_factor->factorise([this](const double* p, double* out) { m_potential.apply(p, out); });
+    m_potential.set_load_scale(1.0);
+    m_origin = o;
+    m_stale = !m_factor->factorised();
+    return m_factor->factorised();
+  }
+
  private:
+  // Records where the next factorisation is computed (a checkpoint keeps it: kept_tangent()).
+  void factorising(const DeviceFrames& q, const LinearSettings& linear, double load_factor) {
+    m_kept = linear.method == LinearMethod::pcg;
+    m_origin.load_scale = load_factor;
+    q.download(m_origin.state);
+    m_origin.state.velocities.assign(6 * m_origin.state.positions.size() / 3, 0.0);
+  }
+
   DevicePotential m_potential;
   DeviceFrames m_state;
+  // The factorisation of the cholmod method and preconditioner: pcg keeps it across Newton
+  // iterations and steps as the CPU does (solve/factorised_solve.hpp), and a checkpoint records
+  // where it was computed, so that a resumed run computes it again (restore_tangent).
+  std::unique_ptr<DeviceCholesky> m_factor;
+  bool m_stale = true;
+  bool m_kept = false;  // the factorisation is pcg's kept one (not a direct solve's)
+  TangentOrigin m_origin;
 };
 
 }  // namespace
@@ -54,13 +109,18 @@ class CudaStep final : public StepBackend {
 StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
   return [options](const Model& model, const ExternalLoads& loads, const SimulationSettings& settings,
                    std::string& why) -> std::unique_ptr<StepBackend> {
-    if (!DeviceProblem::supported(settings.newton.linear)) {
-      why = "the linear method is cholmod (a direct solve), which runs on the CPU";
-      return nullptr;
-    }
     why = device_potential_refusal(model, settings.integrator == Integrator::backward_euler ? settings.rayleigh_stiffness : 0.0);
     if (!why.empty()) return nullptr;
-    return std::make_unique<CudaStep>(model, loads, options);
+    const LinearSettings& linear = settings.newton.linear;
+    // Where the dense factor does not fit, pcg is preconditioned by block Jacobi and the direct
+    // cholmod solve runs on the CPU.
+    const bool factorises = DeviceProblem::factorises(linear);
+    const std::string dense = factorises ? DeviceCholesky::refusal(model.dof_count()) : std::string();
+    if (linear.method == LinearMethod::cholmod && !dense.empty()) {
+      why = "the direct cholmod solve runs on the CPU: " + dense;
+      return nullptr;
+    }
+    return std::make_unique<CudaStep>(model, loads, options, factorises && dense.empty());
   };
 }
 

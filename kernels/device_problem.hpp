@@ -1,15 +1,20 @@
 // The device potential (device_potential.hpp) as a problem of the one Newton solver
 // (engine/solve/newton.hpp): device vectors and states, the linear solve by the one PCG
-// (engine/solve/pcg.hpp) with the device Hessian product and block-Jacobi preconditioner. The
+// (engine/solve/pcg.hpp) with the device Hessian product, or by the factorised solves of
+// engine/solve/factorised_solve.hpp with the device Cholesky factor (device_cholesky.hpp). The
 // same algorithm, settings and stopping rules as the CPU engine (solve/newton.cpp,
 // HostPotentialProblem); the host reads only the scalars that steer the iterations.
 #pragma once
 
+#include "device_cholesky.hpp"
 #include "device_potential.hpp"
+#include "solve/factorised_solve.hpp"
 #include "solve/newton.hpp"
 #include "solve/pcg.hpp"
 
+#include <functional>
 #include <stdexcept>
+#include <utility>
 
 namespace fascia::gpu {
 
@@ -19,14 +24,28 @@ class DeviceProblem {
   using Vector = DeviceVector;
   using State = DeviceFrames;
 
-  // The linear method must be cg or pcg; pcg is preconditioned by block Jacobi whatever
-  // LinearSettings::preconditioner says (a sparse factorisation has no device counterpart).
-  DeviceProblem(DevicePotential& potential, const LinearSettings& linear)
-      : m_potential(potential), m_linear(linear), m_ops(potential.ops(), potential.dofs(), potential.fixed()) {
-    if (!supported(linear)) throw std::invalid_argument("the device step solves with cg or pcg, not cholmod");
+  // @param factor      the device factor for the cholmod method and preconditioner, kept by the
+  //                    caller between problems with its `stale` flag; null: pcg is preconditioned
+  //                    by block Jacobi whatever LinearSettings::preconditioner says, cholmod is
+  //                    refused.
+  // @param factorising called with the iterate before each factorisation (may be empty)
+  DeviceProblem(DevicePotential& potential, const LinearSettings& linear, DeviceCholesky* factor, bool& stale,
+                std::function<void(const DeviceFrames&)> factorising = {})
+      : m_potential(potential),
+        m_linear(linear),
+        m_ops(potential.ops(), potential.dofs(), potential.fixed()),
+        m_factor(factor),
+        m_stale(stale),
+        m_factorising(std::move(factorising)) {
+    if (!factor && linear.method == LinearMethod::cholmod)
+      throw std::invalid_argument("the direct cholmod solve needs the device factor");
   }
 
-  static bool supported(const LinearSettings& linear) { return linear.method != LinearMethod::cholmod; }
+  // Whether the settings want a factorisation of H.
+  static bool factorises(const LinearSettings& linear) {
+    return linear.method == LinearMethod::cholmod ||
+           (linear.method == LinearMethod::pcg && linear.preconditioner == Preconditioner::cholmod);
+  }
 
   const Ops& ops() const { return m_ops; }
   bool minimises() const { return true; }
@@ -39,14 +58,28 @@ class DeviceProblem {
   }
   LinearResult solve(const State& q, const Vector& rhs, Vector& d) {
     m_potential.prepare_hessian(q);
-    PcgSettings pcg_settings;
-    pcg_settings.tolerance = m_linear.tolerance;
-    pcg_settings.max_iterations = m_linear.max_iterations;
-    pcg_settings.fixed_iterations = m_linear.fixed_iterations;
     auto apply = [this](const Vector& p, Vector& out) {
       m_ops.resize(out);
       m_potential.apply(p.data(), out.data());
     };
+    if (m_factor && factorises(m_linear)) {
+      struct Kept {
+        DeviceProblem& problem;
+        const State& q;
+        LinearResult factorise() {
+          if (problem.m_factorising) problem.m_factorising(q);
+          return problem.m_factor->factorise([this](const double* p, double* out) { problem.m_potential.apply(p, out); });
+        }
+        bool factorised() const { return problem.m_factor->factorised(); }
+        void solve(const Vector& r, Vector& z) const { problem.m_factor->solve(r.data(), z.data()); }
+      } kept{*this, q};
+      if (m_linear.method == LinearMethod::cholmod) return direct_solve(m_ops, apply, kept, rhs, d);
+      return pcg_with_kept_factorisation(m_ops, apply, kept, m_stale, m_linear, rhs, d);
+    }
+    PcgSettings pcg_settings;
+    pcg_settings.tolerance = m_linear.tolerance;
+    pcg_settings.max_iterations = m_linear.max_iterations;
+    pcg_settings.fixed_iterations = m_linear.fixed_iterations;
     if (m_linear.method == LinearMethod::cg)
       return pcg(m_ops, apply, IdentityPreconditioner<Ops>{m_ops}, pcg_settings, rhs, d);
     const double* blocks = m_potential.preconditioner();
@@ -63,6 +96,9 @@ class DeviceProblem {
   DevicePotential& m_potential;
   const LinearSettings& m_linear;
   DeviceVectorOps m_ops;
+  DeviceCholesky* m_factor;
+  bool& m_stale;
+  std::function<void(const DeviceFrames&)> m_factorising;
 };
 
 }  // namespace fascia::gpu

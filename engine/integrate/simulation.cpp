@@ -105,9 +105,12 @@ void Simulation::restore(const State& state, int step, double time) {
 }
 
 void Simulation::keep_tangent() {
-  // The step backend keeps nothing between solves (its pcg is preconditioned by block Jacobi).
+  if (m_impl->backend) {
+    m_reused = m_impl->backend->kept_tangent();
+    return;
+  }
   const LinearSettings& linear = m_settings.newton.linear;
-  m_reused.held = !m_impl->backend && linear.method == LinearMethod::pcg &&
+  m_reused.held = linear.method == LinearMethod::pcg &&
                   linear.preconditioner == Preconditioner::cholmod && m_impl->linear.reuses_factorisation();
   if (!m_reused.held) {
     m_reused = ReusedTangent{};
@@ -120,7 +123,7 @@ void Simulation::keep_tangent() {
 bool Simulation::restore_tangent(const ReusedTangent& tangent) {
   m_reused = tangent;
   if (!tangent.held) return true;
-  if (m_impl->backend) return false;  // a CPU factorisation: the run was not on the step backend
+  if (m_impl->backend) return m_impl->backend->restore_tangent(tangent, m_settings);
   const TangentOrigin& o = tangent.origin;
   if (o.state.frame_count() != m_model.frame_count())
     throw std::invalid_argument("restored tangent origin has " + std::to_string(o.state.frame_count()) +

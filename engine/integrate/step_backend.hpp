@@ -4,6 +4,7 @@
 // prescribed motions, load stepping and the reports; the backend owns everything inside a solve.
 #pragma once
 
+#include "integrate/tangent_origin.hpp"
 #include "mechanics/external_loads.hpp"
 #include "model/model.hpp"
 #include "model/state.hpp"
@@ -32,6 +33,12 @@ class StepBackend {
                                    const std::function<double(double)>& set_load_factor) = 0;
   // Elastic energy of every force field at state (J).
   virtual double elastic_energy(const State& state) = 0;
+  // The factorisation the next solve reuses (pcg + cholmod), as a checkpoint keeps it; held =
+  // false when there is none.
+  virtual ReusedTangent kept_tangent() const = 0;
+  // Computes the factorisation of `tangent` (from kept_tangent() of an earlier run of the same
+  // scene) as the one the next solves reuse. False where it cannot be repeated exactly.
+  virtual bool restore_tangent(const ReusedTangent& tangent, const SimulationSettings& settings) = 0;
 };
 
 // Makes the backend for a model and its loads (which outlive it), or returns null where the

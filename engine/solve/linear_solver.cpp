@@ -1,6 +1,7 @@
 #include "solve/linear_solver.hpp"
 
 #include "solve/block_jacobi.hpp"
+#include "solve/factorised_solve.hpp"
 #include "solve/pcg.hpp"
 #include "solve/sparse_cholesky.hpp"
 #include "solve/vector_ops.hpp"
@@ -90,42 +91,15 @@ LinearResult LinearSolver::solve(const LinearSystem& system, const LinearSetting
                pcg_settings, b, x);
   }
 
-  if (settings.method == LinearMethod::cholmod) {
-    LinearResult r = factorise(system);
-    if (!m_cholesky->factorised()) return r;
-    std::vector<double> rhs = b;
-    ops.project(rhs);
-    m_cholesky->solve(rhs, x);
-    std::vector<double> hx(x.size());
-    apply(x, hx);
-    ops.project(hx);
-    ops.axpy(-1.0, rhs, hx);
-    const double b_norm = ops.norm(rhs);
-    r.relative_residual = b_norm > 0 ? ops.norm(hx) / b_norm : 0.0;
-    return r;
-  }
-
-  // PCG preconditioned by the reused factorisation: refactorise when stale, and once more when
-  // the reused one could not reach the tolerance within the cap.
-  const bool was_stale = m_stale || !m_cholesky->factorised();
-  LinearResult fresh;
-  if (was_stale) {
-    fresh = factorise(system);
-    if (!m_cholesky->factorised()) return fresh;
-  }
-  auto precondition = [&](const std::vector<double>& r, std::vector<double>& z) { m_cholesky->solve(r, z); };
-  LinearResult r = pcg(ops, apply, precondition, pcg_settings, b, x);
-  if (!r.converged && !was_stale && !settings.fixed_iterations) {
-    const int spent = r.iterations;
-    fresh = factorise(system);
-    if (!m_cholesky->factorised()) return fresh;
-    r = pcg(ops, apply, precondition, pcg_settings, b, x);
-    r.iterations += spent;
-  }
-  r.factorised = was_stale || fresh.factorised;
-  r.shifted = fresh.shifted;
-  if (r.iterations > settings.refactorise_above) m_stale = true;
-  return r;
+  struct Kept {
+    LinearSolver& solver;
+    const LinearSystem& system;
+    LinearResult factorise() { return solver.factorise(system); }
+    bool factorised() const { return solver.m_cholesky->factorised(); }
+    void solve(const std::vector<double>& r, std::vector<double>& z) const { solver.m_cholesky->solve(r, z); }
+  } kept{*this, system};
+  if (settings.method == LinearMethod::cholmod) return direct_solve(ops, apply, kept, b, x);
+  return pcg_with_kept_factorisation(ops, apply, kept, m_stale, settings, b, x);
 }
 
 }  // namespace fascia

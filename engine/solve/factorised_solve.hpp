@@ -1,0 +1,79 @@
+// Solves of H x = b with a factorisation of H (solve/linear_solver.hpp), written once over a
+// backend's vector operations (solve/vector_ops.hpp): the CPU factorises with CHOLMOD, the CUDA
+// backend densely on the device (kernels/device_cholesky.hpp).
+//
+// direct_solve: the cholmod method, a factorisation per solve. pcg_with_kept_factorisation: pcg
+// with the cholmod preconditioner, a factorisation kept from one solve to the next. The factorisation is computed when stale, reused by later solves (Newton iterations and steps),
+// marked stale after a solve that took more than `refactorise_above` iterations, and computed
+// again at once when the reused one could not reach the tolerance within the cap.
+//
+// Factorisation concept:
+//   LinearResult factorise();                 factorises H now: .factorised = true, .shifted and
+//                                             .message when H + tau diag|H| was factorised, or
+//                                             .message alone when it failed
+//   bool factorised() const;                  a factor is held
+//   void solve(const Vector& r, Vector& z);   z = F^{-1} r
+#pragma once
+
+#include "solve/linear_solver.hpp"
+#include "solve/pcg.hpp"
+
+namespace fascia {
+
+template <class Ops, class Apply, class Factorisation>
+LinearResult direct_solve(const Ops& ops, Apply&& apply, Factorisation& factor, const typename Ops::Vector& b,
+                          typename Ops::Vector& x) {
+  using Vector = typename Ops::Vector;
+  LinearResult r = factor.factorise();
+  if (!factor.factorised()) return r;
+  Vector rhs, hx;
+  ops.copy(b, rhs);
+  ops.project(rhs);
+  ops.resize(x);
+  factor.solve(rhs, x);
+  ops.project(x);
+  ops.resize(hx);
+  apply(x, hx);
+  ops.project(hx);
+  ops.axpy(-1.0, rhs, hx);
+  const double b_norm = ops.norm(rhs);
+  r.relative_residual = b_norm > 0 ? ops.norm(hx) / b_norm : 0.0;
+  return r;
+}
+
+template <class Ops, class Apply, class Factorisation>
+LinearResult pcg_with_kept_factorisation(const Ops& ops, Apply&& apply, Factorisation& factor, bool& stale,
+                                         const LinearSettings& settings, const typename Ops::Vector& b,
+                                         typename Ops::Vector& x) {
+  using Vector = typename Ops::Vector;
+  PcgSettings pcg_settings;
+  pcg_settings.tolerance = settings.tolerance;
+  pcg_settings.max_iterations = settings.max_iterations;
+  pcg_settings.fixed_iterations = settings.fixed_iterations;
+  auto factorise = [&] {
+    LinearResult f = factor.factorise();
+    if (factor.factorised()) stale = false;
+    return f;
+  };
+  const bool was_stale = stale || !factor.factorised();
+  LinearResult fresh;
+  if (was_stale) {
+    fresh = factorise();
+    if (!factor.factorised()) return fresh;
+  }
+  auto precondition = [&](const Vector& r, Vector& z) { factor.solve(r, z); };
+  LinearResult r = pcg(ops, apply, precondition, pcg_settings, b, x);
+  if (!r.converged && !was_stale && !settings.fixed_iterations) {
+    const int spent = r.iterations;
+    fresh = factorise();
+    if (!factor.factorised()) return fresh;
+    r = pcg(ops, apply, precondition, pcg_settings, b, x);
+    r.iterations += spent;
+  }
+  r.factorised = was_stale || fresh.factorised;
+  r.shifted = fresh.shifted;
+  if (r.iterations > settings.refactorise_above) stale = true;
+  return r;
+}
+
+}  // namespace fascia

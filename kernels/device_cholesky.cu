@@ -1,0 +1,209 @@
+#include "device_cholesky.hpp"
+
+#include "device_buffers.cuh"
+#include "integrate/tangent_probing.hpp"
+
+#include <cusolverDn.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+namespace fascia::gpu {
+namespace {
+
+constexpr long long kMaxDenseDofs = 32768;  // 8 GiB of doubles; a factorisation of ~1e13 flops
+constexpr int kThreads = 256;
+
+void cusolver_check(cusolverStatus_t s, const char* what) {
+  if (s != CUSOLVER_STATUS_SUCCESS)
+    throw std::runtime_error(std::string("cuSOLVER error ") + std::to_string(static_cast<int>(s)) + " in " + what);
+}
+#define FASCIA_CUSOLVER(call) cusolver_check((call), #call)
+
+unsigned blocks_for(long long n) { return static_cast<unsigned>((n + kThreads - 1) / kThreads); }
+
+__global__ void k_probe(const int* colour, const std::uint8_t* fixed, int c, int k, double* e, long long n) {
+  const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (i < n) e[i] = probe_entry(colour, fixed, c, k, static_cast<int>(i));
+}
+
+// Column-major A (n rows): entry (r, c) at A[c n + r].
+__global__ void k_scatter(const int* owner_c, int hub_frame_c, const std::uint8_t* fixed, int k, const double* out,
+                          double* A, long long n) {
+  const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (i >= n) return;
+  bool mirror = false;
+  const long long col = probe_column(owner_c, hub_frame_c, fixed, k, static_cast<int>(i), mirror);
+  if (col < 0) return;
+  A[col * n + i] = out[i];
+  if (mirror) A[i * n + col] = out[i];
+}
+
+// Keeps the diagonal, sets identity rows and columns at fixed DOFs (their entries are zero).
+__global__ void k_finish(const std::uint8_t* fixed, double* A, double* diag, long long n) {
+  const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (i >= n) return;
+  if (fixed[i]) A[i * n + i] = 1.0;
+  diag[i] = A[i * n + i];
+}
+
+// Restores the lower triangle from the strict upper one and shifts the diagonal:
+// A_ii = diag_i + tau max(|diag_i|, floor) on free DOFs. One thread per column.
+__global__ void k_restore_shifted(const std::uint8_t* fixed, const double* diag, double tau, double floor, double* A,
+                                  long long n) {
+  const long long j = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (j >= n) return;
+  for (long long i = j + 1; i < n; ++i) A[j * n + i] = A[i * n + j];
+  A[j * n + j] = fixed[j] ? 1.0 : diag[j] + tau * fmax(fabs(diag[j]), floor);
+}
+
+}  // namespace
+
+struct DeviceCholesky::Impl {
+  const VectorOps& ops;
+  const std::uint8_t* fixed;
+  long long n = 0;
+  int colours = 0;
+  std::uint64_t fingerprint = 14695981039346656037ull;
+  std::vector<int> hub_frame;
+  DeviceBuffer<int> colour, owner;
+  DeviceBuffer<double> A, diag, work, probe, product;
+  DeviceBuffer<int> info;
+  cusolverDnHandle_t handle = nullptr;
+  int lwork = 0;
+  bool factorised = false;
+
+  Impl(const Model& model, const VectorOps& o, const std::uint8_t* f) : ops(o), fixed(f), n(model.dof_count()) {
+    const std::string why = DeviceCholesky::refusal(n);
+    if (!why.empty()) throw std::invalid_argument(why);
+    const TangentProbing t = tangent_probing(model);
+    colours = t.colours;
+    hub_frame = t.hub_frame;
+    for (int c : t.colour) {
+      fingerprint ^= static_cast<std::uint64_t>(static_cast<std::uint32_t>(c));
+      fingerprint *= 1099511628211ull;
+    }
+    colour.upload(t.colour);
+    owner.upload(t.owner);
+    A.resize(static_cast<size_t>(n) * static_cast<size_t>(n));
+    diag.resize(static_cast<size_t>(n));
+    probe.resize(static_cast<size_t>(n));
+    product.resize(static_cast<size_t>(n));
+    info.resize(1);
+    FASCIA_CUSOLVER(cusolverDnCreate(&handle));
+    FASCIA_CUSOLVER(cusolverDnSetStream(handle, ops.stream()));
+    FASCIA_CUSOLVER(cusolverDnDpotrf_bufferSize(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(),
+                                                static_cast<int>(n), &lwork));
+    work.resize(static_cast<size_t>(std::max(lwork, 1)));
+  }
+  ~Impl() {
+    if (handle) cusolverDnDestroy(handle);
+  }
+
+  // potrf on A; true when positive definite.
+  bool potrf() {
+    FASCIA_CUSOLVER(cusolverDnDpotrf(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(), static_cast<int>(n),
+                                     work.data(), lwork, info.data()));
+    int status = 0;
+    FASCIA_CUDA(cudaMemcpyAsync(&status, info.data(), sizeof(int), cudaMemcpyDeviceToHost, ops.stream()));
+    FASCIA_CUDA(cudaStreamSynchronize(ops.stream()));
+    if (status < 0) throw std::runtime_error("cuSOLVER potrf: invalid argument " + std::to_string(-status));
+    return status == 0;
+  }
+};
+
+std::string DeviceCholesky::refusal(long long dofs) {
+  std::ostringstream why;
+  const double bytes = 8.0 * static_cast<double>(dofs) * static_cast<double>(dofs);
+  if (dofs > kMaxDenseDofs) {
+    why << "the dense device factor of " << dofs << " DOFs (" << bytes / (1 << 30) << " GiB) exceeds the "
+        << kMaxDenseDofs << " DOFs the device factorises";
+    return why.str();
+  }
+  size_t free = 0, total = 0;
+  FASCIA_CUDA(cudaMemGetInfo(&free, &total));
+  if (bytes > 0.5 * static_cast<double>(free)) {
+    why << "the dense device factor of " << dofs << " DOFs needs " << bytes / (1 << 30) << " GiB, more than half the "
+        << static_cast<double>(free) / (1 << 30) << " GiB free on the device";
+    return why.str();
+  }
+  return {};
+}
+
+DeviceCholesky::DeviceCholesky(const Model& model, const VectorOps& ops, const std::uint8_t* fixed)
+    : m_impl(std::make_unique<Impl>(model, ops, fixed)) {}
+
+DeviceCholesky::~DeviceCholesky() = default;
+
+bool DeviceCholesky::factorised() const { return m_impl->factorised; }
+
+int DeviceCholesky::products() const { return 6 * m_impl->colours; }
+
+std::uint64_t DeviceCholesky::fingerprint() const { return m_impl->fingerprint; }
+
+LinearResult DeviceCholesky::factorise(const std::function<void(const double*, double*)>& apply) {
+  Impl& m = *m_impl;
+  const cudaStream_t stream = m.ops.stream();
+  const long long n = m.n;
+  m.factorised = false;
+  FASCIA_CUDA(cudaMemsetAsync(m.A.data(), 0, sizeof(double) * static_cast<size_t>(n) * static_cast<size_t>(n), stream));
+  for (int c = 0; c < m.colours; ++c)
+    for (int k = 0; k < 6; ++k) {
+      k_probe<<<blocks_for(n), kThreads, 0, stream>>>(m.colour.data(), m.fixed, c, k, m.probe.data(), n);
+      apply(m.probe.data(), m.product.data());
+      k_scatter<<<blocks_for(n), kThreads, 0, stream>>>(m.owner.data() + static_cast<size_t>(c) * static_cast<size_t>(n / 6),
+                                                        m.hub_frame[static_cast<size_t>(c)], m.fixed, k, m.product.data(),
+                                                        m.A.data(), n);
+    }
+  k_finish<<<blocks_for(n), kThreads, 0, stream>>>(m.fixed, m.A.data(), m.diag.data(), n);
+  FASCIA_CUDA(cudaGetLastError());
+
+  LinearResult r;
+  r.factorised = true;
+  r.converged = true;
+  if (m.potrf()) {
+    m.factorised = true;
+    return r;
+  }
+  // Shifts as SparseCholesky: tau diag|H| with |H_ii| floored at 1e-12 of their mean.
+  std::vector<double> diag(static_cast<size_t>(n));
+  std::vector<std::uint8_t> fixed(static_cast<size_t>(n));
+  FASCIA_CUDA(cudaMemcpyAsync(diag.data(), m.diag.data(), sizeof(double) * diag.size(), cudaMemcpyDeviceToHost, stream));
+  FASCIA_CUDA(cudaMemcpyAsync(fixed.data(), m.fixed, fixed.size(), cudaMemcpyDeviceToHost, stream));
+  FASCIA_CUDA(cudaStreamSynchronize(stream));
+  double mean = 0;
+  int free = 0;
+  for (size_t k = 0; k < diag.size(); ++k)
+    if (!fixed[k]) {
+      mean += std::abs(diag[k]);
+      ++free;
+    }
+  mean = free > 0 ? mean / free : 1.0;
+  for (double tau = 1e-6; tau <= 1e3 * (1 + 1e-12); tau *= 10) {
+    k_restore_shifted<<<blocks_for(n), kThreads, 0, stream>>>(m.fixed, m.diag.data(), tau, 1e-12 * mean, m.A.data(), n);
+    FASCIA_CUDA(cudaGetLastError());
+    if (m.potrf()) {
+      m.factorised = true;
+      r.shifted = true;
+      std::ostringstream msg;
+      msg << "device Cholesky: tangent not positive definite, shifted by " << tau << " diag(H)";
+      r.message = msg.str();
+      return r;
+    }
+  }
+  r.converged = false;
+  r.message = "device Cholesky: tangent could not be factorised even with a diagonal shift";
+  return r;
+}
+
+void DeviceCholesky::solve(const double* r, double* z) const {
+  Impl& m = *m_impl;
+  m.ops.copy(r, z, m.n);
+  FASCIA_CUSOLVER(cusolverDnDpotrs(m.handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(m.n), 1, m.A.data(),
+                                   static_cast<int>(m.n), z, static_cast<int>(m.n), m.info.data()));
+}
+
+}  // namespace fascia::gpu

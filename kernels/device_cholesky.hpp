@@ -1,0 +1,59 @@
+// A Cholesky factorisation of the step tangent H on the device: the CUDA backend's counterpart of
+// the CPU's CHOLMOD factor (solve/sparse_cholesky.hpp), for the cholmod method and the pcg
+// preconditioner of that name (solve/factorised_solve.hpp).
+//
+// H is recovered from coloured products (integrate/tangent_probing.hpp: 6 per colour, a few tens
+// of colours) into a dense n x n matrix, factorised by cuSOLVER's potrf and applied by potrs
+// (two triangular solves). Dense, because the scenes' reduced tangents are small (2,208 DOFs for
+// the pelvis, 11,460 with its finest fasciae: 1 GB, about n^3/3 = 5e11 flops per factorisation)
+// while their sparse factors have deep elimination trees that triangular solves on a GPU walk
+// level by level. A model whose dense factor would not fit is refused (refusal()): the device then
+// preconditions by block Jacobi.
+//
+// Not positive definite: shifted like the CPU's, H + tau diag|H| for tau = 1e-6, 1e-5, ... 1e3
+// (the strict upper triangle, which potrf leaves untouched, restores the lower one between tries).
+// Fixed DOFs are identity rows and columns. All work is enqueued on the stream of `ops`; a
+// factorisation reads back one status word per try.
+#pragma once
+
+#include "device_vector.hpp"
+#include "model/model.hpp"
+#include "solve/linear_result.hpp"
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+namespace fascia::gpu {
+
+class DeviceCholesky {
+ public:
+  // The largest dense factor the device keeps: n <= 32,768 DOFs (8 GiB), within half the free
+  // device memory. Empty when a model of `dofs` DOFs fits now, else the reason.
+  static std::string refusal(long long dofs);
+
+  // @param fixed device mask [6N] of fixed DOFs (must outlive this object)
+  DeviceCholesky(const Model& model, const VectorOps& ops, const std::uint8_t* fixed);
+  ~DeviceCholesky();
+  DeviceCholesky(const DeviceCholesky&) = delete;
+  DeviceCholesky& operator=(const DeviceCholesky&) = delete;
+
+  // Recovers H from `apply` (out = H d, unprojected, device arrays of 6N) and factorises it.
+  // .factorised = true; .shifted and .message when shifted; .message alone when every shift failed.
+  LinearResult factorise(const std::function<void(const double*, double*)>& apply);
+  bool factorised() const;
+  // z = H^{-1} r (device arrays of 6N; z's fixed DOFs equal r's).
+  void solve(const double* r, double* z) const;
+  // Probe products per factorisation (6 per colour).
+  int products() const;
+  // A fingerprint of the colouring (FNV-1a): equal for one model and build.
+  std::uint64_t fingerprint() const;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> m_impl;
+};
+
+}  // namespace fascia::gpu
