@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <ios>
 #include <limits>
 
@@ -393,9 +394,26 @@ bool make_image_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& b
   image.index_to_world = edges;
   image.origin = to_vec3(o0);
   const double reference_volume = static_cast<double>(image.count(labels)) * image.voxel_volume();
+  const double smoothing = o.smoothing ? o.smoothing->value : 0;
+  if (smoothing > options.frame_spacing) {
+    diagnostics.error(o.smoothing->where, "smoothing " + metres(smoothing) + " is wider than frame_spacing " +
+                                              metres(options.frame_spacing) +
+                                              ": it would erase shapes the frames resolve; at most frame_spacing");
+    return false;
+  }
+  double smoothed = 0;  // the standard deviation realised on the lattice, m
   MeshlessBuild result;
   try {
-    const LevelSet level_set = LevelSet::from_labels(image, labels, options.sample_spacing / 2);
+    const double h = options.sample_spacing / 2;
+    LevelSet level_set = LevelSet::from_labels(image, labels, h, LevelSet::smoothing_band(smoothing, h));
+    if (smoothing > 0) {
+      smoothed = level_set.smooth(smoothing);
+      if (VoxelDomain(level_set).covered_count() == 0) {
+        diagnostics.error(o.smoothing->where, "smoothing " + metres(smoothing) + " leaves nothing of '" + o.name +
+                                                  "': its labels are thinner than that; use a smaller smoothing");
+        return false;
+      }
+    }
     part.surface = level_set.surface();
     const ObjectEstimate estimate = estimate_meshless(part.surface, options);
     if (!budget.admit(o, estimate,
@@ -417,7 +435,9 @@ bool make_image_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& b
   for (std::size_t k = 0; k < labels.size(); ++k) label_text += (k ? ", " : "") + std::to_string(labels[k]);
   part.discretisation = "meshless (" + ml.shape.value + ") from label " + label_text + " of a " +
                         std::to_string(image.size[0]) + " x " + std::to_string(image.size[1]) + " x " +
-                        std::to_string(image.size[2]) + " image, " + std::to_string(part.surface.triangle_count()) +
+                        std::to_string(image.size[2]) + " image, " +
+                        (smoothed > 0 ? "smoothed (standard deviation " + metres(smoothed) + "), " : std::string()) +
+                        std::to_string(part.surface.triangle_count()) +
                         " boundary triangles, " + std::to_string(result.statistics.added_frames) +
                         " frames added in thin parts";
   part.statistics = result.statistics;
@@ -463,7 +483,10 @@ bool make_between_tissue(const SceneSpec& scene, std::vector<ObjectPart>& parts,
   }
   MeshlessBuild result;
   try {
-    const LevelSet level_set = LevelSet::between(organs[0], organs[1], within);
+    std::function<double(const Vec3&)> region;
+    if (o.region)
+      region = [&o](const Vec3& x) { return o.region->signed_distance(Vec3d{x.x, x.y, x.z}); };
+    const LevelSet level_set = LevelSet::between(organs[0], organs[1], within, region);
     part.surface = level_set.surface();
     const ObjectEstimate estimate = estimate_meshless(part.surface, options);
     if (!budget.admit(o, estimate,
@@ -487,7 +510,7 @@ bool make_between_tissue(const SceneSpec& scene, std::vector<ObjectPart>& parts,
   part.meshless = true;
   part.shape = result.shape;
   part.discretisation = "meshless (" + ml.shape.value + ") between '" + o.between[0].value + "' and '" +
-                        o.between[1].value + "' within " + metres(within) + ", " +
+                        o.between[1].value + "' within " + metres(within) + (o.region ? " in its region" : "") + ", " +
                         std::to_string(part.surface.triangle_count()) + " boundary triangles";
   part.statistics = result.statistics;
   return true;

@@ -222,8 +222,14 @@ ParamSpec build_registry() {
                "own spacing, origin and orientation (RAS+ world axes, the file's millimetres read as metres x 1e-3)"),
           leaf("label", ParamType::integer_list,
                "with image: the label of the voxels that form the object, or a list of labels (their union)"),
+          above(quantity("smoothing", dim::length,
+                         "with image: standard deviation of the smoothing of the voxels' boundary (repeated mean "
+                         "filters of its level set); 0 keeps the voxels' faces"),
+                0, false),
           between,
           above(quantity("within", dim::length, "with between: the largest distance from each organ"), 0),
+          region("region", "with between: only the tissue's points in this region (box, sphere or half_space; rest "
+                           "positions, world axes)"),
           object("discretisation", "how the object is turned into frames and samples",
                  {with_default(below(above(leaf("quadrature", ParamType::integer,
                                                 "samples per element: tet 1 or 4, hex 1, 8 or 27 (0 = tet 4, hex 8)"),

@@ -2,8 +2,11 @@
 
 #include "dsl/source_tree.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
+#include <stdexcept>
 
 namespace fascia::dsl {
 
@@ -32,6 +35,38 @@ bool RegionSpec::contains(const Vec3d& p, double tolerance) const {
     case Kind::ids: return false;  // explicit ids select by index, not by position
   }
   return false;
+}
+
+double RegionSpec::signed_distance(const Vec3d& p) const {
+  switch (kind) {
+    case Kind::all: return -std::numeric_limits<double>::infinity();
+    case Kind::box: {
+      // Outside: the length of the excess beyond the faces; inside: minus the depth below the
+      // nearest face.
+      double outside2 = 0, inside = -std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 3; ++k) {
+        const double q = std::max(lo[k] - p[k], p[k] - hi[k]);
+        outside2 += q > 0 ? q * q : 0;
+        inside = std::max(inside, std::min(q, 0.0));
+      }
+      return outside2 > 0 ? std::sqrt(outside2) : inside;
+    }
+    case Kind::sphere: {
+      double d2 = 0;
+      for (int k = 0; k < 3; ++k) d2 += (p[k] - center[k]) * (p[k] - center[k]);
+      return std::sqrt(d2) - radius;
+    }
+    case Kind::half_space: {
+      double d = 0, n2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        d += (p[k] - point[k]) * normal[k];
+        n2 += normal[k] * normal[k];
+      }
+      return d / std::sqrt(n2);
+    }
+    case Kind::ids: break;
+  }
+  throw std::logic_error("RegionSpec::signed_distance: ids select frames, not points");
 }
 
 Vec3d TransformSpec::apply(const Vec3d& p) const {
@@ -189,6 +224,13 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
       if (const Value* between = o.find("between"))
         for (const Value& b : between->items) spec.between.push_back(located_str(b));
       if (o.has("within")) spec.within = located_num(o.at("within"));
+      if (o.has("smoothing")) spec.smoothing = located_num(o.at("smoothing"));
+      if (const Value* region = o.find("region"); region && !region->fields.empty()) {
+        spec.region = region_from(*region, diagnostics);
+        if (spec.region->kind == RegionSpec::Kind::ids)
+          diagnostics.error(spec.region->where, "the region of a tissue between organs selects points by position; "
+                                                "ids select frames: use box, sphere, half_space or all");
+      }
       if (const Value* label = o.find("label")) {
         Located<std::vector<int>> labels{{}, label->where};
         for (const Value& item : label->items) labels.value.push_back(static_cast<int>(item.integer));
@@ -276,6 +318,12 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
                                                   name + "' needs 'between' too");
       } else if (!spec.between.empty() && spec.kind.value != "tissue") {
         diagnostics.error(spec.between.front().where, "'between' makes a tissue; '" + name + "' is a " + spec.kind.value);
+      } else if (spec.region && spec.between.empty()) {
+        diagnostics.error(spec.region->where, "'region' restricts a tissue between two organs: object '" + name +
+                                                  "' needs 'between' too");
+      } else if (spec.smoothing && !spec.image) {
+        diagnostics.error(spec.smoothing->where, "'smoothing' smooths the voxels of a label image: object '" + name +
+                                                     "' needs 'image' too");
       } else if (spec.image && spec.kind.value != "tissue") {
         diagnostics.error(spec.image->where, "a label image gives the geometry of tissues only; '" + name + "' is a " +
                                                  spec.kind.value);

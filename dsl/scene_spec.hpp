@@ -53,6 +53,9 @@ struct RegionSpec {
 
   // Whether a point lies in the region; `tolerance` (m) widens it to catch points on its border.
   bool contains(const Vec3d& p, double tolerance) const;
+  // Signed distance from p to the region's boundary, m, negative inside: exact for box, sphere
+  // and half_space; -infinity for all. Not defined for ids (they select frames, not points).
+  double signed_distance(const Vec3d& p) const;
 };
 
 struct BoxSpec {
@@ -99,8 +102,10 @@ struct ObjectSpec {
   std::optional<Located<std::string>> surface;  // resolved path of a surface mesh
   std::optional<Located<std::string>> image;    // resolved path of a label image
   std::optional<Located<std::vector<int>>> label;  // labels of the image forming the object
+  std::optional<Located<double>> smoothing;        // with image: standard deviation, m
   std::vector<Located<std::string>> between;  // two organs bounding a connective tissue
   std::optional<Located<double>> within;        // with between, m
+  std::optional<RegionSpec> region;             // with between: the tissue restricted to it
   Located<int> quadrature;
   std::optional<MeshlessSpec> meshless;
   TransformSpec transform;

@@ -3,11 +3,13 @@
 #include "discretise/level_set_grid.hpp"
 
 #include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/LevelSetFilter.h>
 #include <openvdb/tools/LevelSetMeasure.h>
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/VolumeToMesh.h>
 
 #include <algorithm>
+#include <cmath>
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
@@ -101,12 +103,18 @@ LevelSet LevelSet::from_labels(const LabelImage& image, const std::vector<int>& 
     quads[q] = openvdb::Vec4I(v, v + 1, v + 2, v + 3);
   }
   // Exact distances to the faces on the world lattice; the sign comes from a flood fill, so face
-  // orientation and the edges where two voxels touch are harmless.
+  // orientation and the edges where two voxels touch are harmless. Renormalisation is off: it
+  // replaces each value by the smaller of itself and an Eikonal-corrected one, meant to smooth
+  // the bumps of overlapping triangles (faces of voxels never overlap). Along the staircase's
+  // edges and corners, where the exact distance has kinks, that minimum moves the zero level
+  // outward by a fraction of a lattice voxel and inflates every label: +5 % for a ball of radius 9
+  // voxels at h = one voxel edge, +0.4 % still at h = a quarter of it.
   const openvdb::math::Transform::Ptr xform = lattice_transform(voxel_size);
   openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec4I> mesh(points, quads);
   const float width = static_cast<float>(std::max(half_width, 2));
   auto impl = std::make_unique<Impl>();
-  impl->grid = openvdb::tools::meshToVolume<openvdb::FloatGrid>(mesh, *xform, width, width);
+  impl->grid = openvdb::tools::meshToVolume<openvdb::FloatGrid>(mesh, *xform, width, width,
+                                                                openvdb::tools::DISABLE_RENORMALIZATION);
   impl->h = voxel_size;
   return LevelSet(std::move(impl));
 }
@@ -132,7 +140,8 @@ LevelSet LevelSet::from_surface(const SurfaceMesh& surface, double voxel_size, i
   return LevelSet(std::move(impl));
 }
 
-LevelSet LevelSet::between(const LevelSet& a, const LevelSet& b, double within) {
+LevelSet LevelSet::between(const LevelSet& a, const LevelSet& b, double within,
+                           const std::function<double(const Vec3&)>& region) {
   const double h = a.voxel_size();
   if (std::abs(b.voxel_size() - h) > 1e-12 * h) throw std::invalid_argument("between: the organs' voxel sizes differ");
   if (!(within > 0)) throw std::invalid_argument("between: the distance must be positive");
@@ -159,14 +168,64 @@ LevelSet LevelSet::between(const LevelSet& a, const LevelSet& b, double within) 
         for (int z = box.min().z(); z <= box.max().z(); ++z) {
           const openvdb::Coord c(x, y, z);
           const float pa = acc_a.getValue(c), pb = acc_b.getValue(c);
-          const float phi = std::max({pa - d, pb - d, -pa, -pb});
+          float phi = std::max({pa - d, pb - d, -pa, -pb});
+          if (region && phi < background) phi = std::max(phi, static_cast<float>(region(Vec3{x * h, y * h, z * h})));
           if (phi >= background) continue;
           out.setValue(c, std::max(phi, -background));
           if (phi < 0) ++inside;
         }
   }
-  if (inside == 0) throw std::invalid_argument("between: no point lies within the distance of both organs outside them");
+  if (inside == 0)
+    throw std::invalid_argument(region ? "between: no point of the region lies within the distance of both organs outside them"
+                                       : "between: no point lies within the distance of both organs outside them");
   return LevelSet(std::move(impl));
+}
+
+namespace {
+
+// Passes and width of the box filters that smooth() applies: n passes of 2w + 1 voxels, variance
+// n w (w + 1) / 3 voxels^2 (each pass: a mean over 2w + 1 voxels along x, then y, then z).
+struct BoxPasses {
+  int passes = 0, width = 1;
+};
+
+BoxPasses box_passes(double standard_deviation, double voxel_size) {
+  const double variance = standard_deviation * standard_deviation / (voxel_size * voxel_size);  // voxels^2
+  BoxPasses best;
+  if (!(variance > 0)) return best;
+  // The (passes, width) pair with the variance nearest the one asked, at most 8 passes; of equal
+  // ones, the fewest voxel reads (passes x width).
+  double best_error = 1e300;
+  const int widest = 1 + static_cast<int>(std::ceil(std::sqrt(3 * variance)));
+  for (int passes = 1; passes <= 8; ++passes)
+    for (int width = 1; width <= widest; ++width) {
+      const double error = std::abs(passes * width * (width + 1) / 3.0 - variance);
+      if (error < best_error - 1e-12 ||
+          (error < best_error + 1e-12 && passes * width < best.passes * best.width)) {
+        best_error = error;
+        best = BoxPasses{passes, width};
+      }
+    }
+  return best;
+}
+
+}  // namespace
+
+int LevelSet::smoothing_band(double standard_deviation, double voxel_size) {
+  return std::max(3, box_passes(standard_deviation, voxel_size).width + 2);
+}
+
+double LevelSet::smooth(double standard_deviation) {
+  if (standard_deviation < 0) throw std::invalid_argument("smoothing: the standard deviation must not be negative");
+  const double h = m_impl->h;
+  const BoxPasses b = box_passes(standard_deviation, h);
+  if (b.passes == 0) return 0;
+  if (band() < (b.width + 2) * h * (1 - 1e-6))
+    throw std::invalid_argument("smoothing: the level set's band is narrower than the filter needs");
+  m_impl->grid->setGridClass(openvdb::GRID_LEVEL_SET);
+  openvdb::tools::LevelSetFilter<openvdb::FloatGrid> filter(*m_impl->grid);
+  for (int pass = 0; pass < b.passes; ++pass) filter.mean(b.width);
+  return h * std::sqrt(b.passes * b.width * (b.width + 1) / 3.0);
 }
 
 Vec3 LevelSet::gradient(const Vec3& x) const {

@@ -5,9 +5,10 @@
 // Built straight from a label image: the object is the union of the image's voxels that hold
 // one of its labels (oblique, anisotropic voxels placed by the image's affine map), and OpenVDB
 // computes exact distances to its boundary, the faces between a selected voxel and an unselected
-// one, on the world lattice (tools::meshToVolume with those faces as quads). No surface is
-// reconstructed or smoothed: the domain holds exactly the voxels' volume (count times voxel
-// volume), up to the sub-voxel rounding of the lattice of spacing h.
+// one, on the world lattice (tools::meshToVolume with those faces as quads, without its
+// renormalisation). No surface is reconstructed or smoothed: the domain holds the voxels' volume
+// (count times voxel volume) up to the coverage ramp's error at the staircase's edges, within
+// 1 % at h = the smallest voxel edge (docs/meshless.md, "Label images").
 //
 // OpenVDB stays behind this interface (pimpl); level_set_grid.hpp exposes the grid to the
 // discretisation's own sources.
@@ -17,6 +18,7 @@
 #include "discretise/label_image.hpp"
 #include "discretise/surface_mesh.hpp"
 
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -36,11 +38,24 @@ class LevelSet {
 
   // Connective tissue between two organs (paper §4.2): the points within `within` (m) of both a
   // and b and inside neither, phi = max(phi_a - d, phi_b - d, -phi_a, -phi_b) (level-set CSG:
-  // intersection of the dilated organs minus the organs). a and b share the voxel size and have
+  // intersection of the dilated organs minus the organs), and inside `region` when one is given:
+  // its signed distance (m, negative inside) joins the max. a and b share the voxel size and have
   // bands wider than within + 2 h. The result is a distance bound, exact away from its creases,
   // stored densely over its bounding box with a band of 3 voxels. Throws std::invalid_argument
-  // on mismatched inputs or when the region is empty.
-  static LevelSet between(const LevelSet& a, const LevelSet& b, double within);
+  // on mismatched inputs or when the tissue is empty.
+  static LevelSet between(const LevelSet& a, const LevelSet& b, double within,
+                          const std::function<double(const Vec3&)>& region = nullptr);
+
+  // Smooths the zero level set: repeated mean-value (box) filters of the distances, each followed
+  // by OpenVDB's renormalisation, with a combined variance as close to standard_deviation^2 (m^2)
+  // as the lattice allows: n passes of width 2w + 1 voxels have variance n w (w + 1) / 3 h^2
+  // (n <= 8 and w chosen for the nearest variance). Features thinner than
+  // about the standard deviation fade, and a convex part's boundary moves inward by about
+  // standard_deviation^2 times its mean curvature. Needs a band of at least w + 2 voxels (see
+  // smoothing_band). Returns the standard deviation realised, m (0 when standard_deviation = 0).
+  double smooth(double standard_deviation);
+  // The band half width, in voxels of size voxel_size, that smooth(standard_deviation) needs.
+  static int smoothing_band(double standard_deviation, double voxel_size);
 
   explicit LevelSet(std::unique_ptr<Impl> impl);
   ~LevelSet();

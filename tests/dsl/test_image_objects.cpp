@@ -67,12 +67,13 @@ TEST_CASE("an image object is the union of its labels' voxels, placed by the ima
   REQUIRE(built.objects.size() == 1);
   REQUIRE(built.objects[0].meshless);
   // Before scaling, the voxel coverage of the level set (lattice 0.75 mm, voxels 2 mm) is within
-  // 2 % of the boxes' volume: convex edges are rounded by about 0.13 h^2 per metre of edge.
+  // 2 % of the boxes' volume: the coverage ramp adds about 0.07 h^2 per metre of convex edge.
   REQUIRE(std::abs(built.objects[0].meshless->volume_error) < 0.02);
-  // Placement: every frame lies within the boxes' world extent, x from 10 + 2 (4 - 1/2) mm.
+  // Placement: every sample lies within the boxes' world extent, x from 10 + 2 (4 - 1/2) mm
+  // (frames added for thin parts may lie up to frame_spacing outside).
   const double x_lo = 1e-3 * (10 + 2 * 3.5), x_hi = 1e-3 * (10 + 2 * (label == "3" ? 13.5 : 19.5));
-  for (int i = 0; i < built.model.frame_count(); ++i) {
-    const double x = built.model.frame_rest_positions[3 * static_cast<std::size_t>(i)];
+  for (int s = 0; s < built.model.sample_count(); ++s) {
+    const double x = built.model.samples.rest_positions[3 * static_cast<std::size_t>(s)];
     REQUIRE(x > x_lo - 1e-9);
     REQUIRE(x < x_hi + 1e-9);
   }
@@ -115,5 +116,29 @@ TEST_CASE("bad images and absent labels stop the scene with the documented exit 
     const Diagnostic d = first_error(text);
     CHECK(static_cast<int>(d.code) == 78);
     CHECK_THAT(d.message, Catch::Contains("needs 'label'"));
+  }
+}
+
+TEST_CASE("smoothing an image object is reported, and refused beyond frame_spacing", "[dsl][label_image]") {
+  const std::string image = write_image("smoothed_boxes.nii.gz");
+  std::string text = scene_text(image, "3");
+  text.insert(text.find("    discretisation:"), "    smoothing: 1 mm\n");
+  const BuiltScene built = build_scene(parse_scene_text(text, "image.yaml"));
+  REQUIRE(built.objects.size() == 1);
+  // h = 0.75 mm: (1 mm / 0.75 mm)^2 = 1.78 voxels^2, nearest: 3 passes of width 3 (variance 2),
+  // a standard deviation of 1.06 mm.
+  CHECK_THAT(built.objects[0].discretisation, Catch::Contains("smoothed (standard deviation 1.06"));
+  // The sample volumes keep voxel count x voxel volume.
+  CHECK(built.model.total_volume() == Approx(480 * 8e-9).epsilon(1e-9));
+
+  text.replace(text.find("smoothing: 1 mm"), 15, "smoothing: 5 mm");
+  try {
+    build_scene(parse_scene_text(text, "image.yaml"));
+    FAIL("accepted");
+  } catch (const SceneError& e) {
+    const Diagnostic d = e.diagnostics().sorted().front();
+    CHECK(static_cast<int>(d.code) == 78);
+    CHECK_THAT(d.message, Catch::Contains("wider than frame_spacing"));
+    CHECK(d.where.line == 9);  // the smoothing key
   }
 }
