@@ -474,6 +474,11 @@ bool make_between_tissue(const SceneSpec& scene, std::vector<ObjectPart>& parts,
                                         "; 'between' takes tissues or rigid bodies");
       return false;
     }
+    if (!budget.admit(o, estimate_level_set(organ->surface, h, band),
+                      "the level set of '" + name.value + "' (a band of " + std::to_string(band) + " voxels of " +
+                          metres(h) + " each side of its surface) would",
+                      name.where, diagnostics))
+      return false;
     try {
       organs.push_back(LevelSet::from_surface(organ->surface, h, band));
     } catch (const std::exception& e) {

@@ -121,6 +121,19 @@ ObjectEstimate estimate_meshless(const SurfaceMesh& surface, const MeshlessOptio
   return e;
 }
 
+ObjectEstimate estimate_level_set(const SurfaceMesh& surface, double voxel_size, int half_width) {
+  ObjectEstimate e;
+  Vec3 lo, hi;
+  surface_bounds(surface, lo, hi);
+  const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  e.voxels = (2.0 * half_width + 1) * surface_area(surface) / (voxel_size * voxel_size);
+  e.bytes = kBandVoxelBytes * e.voxels;
+  if (extent > kLargestBody)
+    e.cause = "the surface is " + length_text(extent) +
+              " across: missing 'transform: {scale: 1e-3}' for a surface in millimetres?";
+  return e;
+}
+
 ObjectEstimate estimate_mesh_based(double cells, int nodes, double vertices, int samples_per_cell, double extent) {
   ObjectEstimate e;
   e.frames = vertices;

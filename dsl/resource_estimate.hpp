@@ -40,6 +40,11 @@ struct ObjectEstimate {
 // A meshless tissue from a closed surface (world axes, after its transform).
 ObjectEstimate estimate_meshless(const SurfaceMesh& surface, const MeshlessOptions& options);
 
+// The narrow-band level set of a closed surface (world axes) on the lattice of spacing
+// voxel_size (m) with a band of half_width voxels each side: an organ voxelised for a tissue
+// between organs.
+ObjectEstimate estimate_level_set(const SurfaceMesh& surface, double voxel_size, int half_width);
+
 // A mesh-based tissue of `cells` cells (`nodes` per cell, hexahedra 8, tetrahedra 4), `vertices`
 // vertices, `samples_per_cell` quadrature points, spanning `extent` metres.
 ObjectEstimate estimate_mesh_based(double cells, int nodes, double vertices, int samples_per_cell, double extent);
