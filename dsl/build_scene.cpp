@@ -405,7 +405,13 @@ bool make_image_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& b
   MeshlessBuild result;
   try {
     const double h = options.sample_spacing / 2;
-    LevelSet level_set = LevelSet::from_labels(image, labels, h, LevelSet::smoothing_band(smoothing, h));
+    const int band = LevelSet::smoothing_band(smoothing, h);
+    if (!budget.admit(o, estimate_label_level_set(image, labels, h, band),
+                      "the level set of its voxels (a band of " + std::to_string(band) + " voxels of " + metres(h) +
+                          " each side of their boundary) would",
+                      ml.sample_spacing.where, diagnostics))
+      return false;
+    LevelSet level_set = LevelSet::from_labels(image, labels, h, band);
     if (smoothing > 0) {
       smoothed = level_set.smooth(smoothing);
       if (VoxelDomain(level_set).covered_count() == 0) {

@@ -134,6 +134,38 @@ ObjectEstimate estimate_level_set(const SurfaceMesh& surface, double voxel_size,
   return e;
 }
 
+ObjectEstimate estimate_label_level_set(const LabelImage& image, const std::vector<int>& labels, double voxel_size,
+                                        int half_width) {
+  const long long nx = image.size[0], ny = image.size[1], nz = image.size[2];
+  const auto selected = [&](long long i, long long j, long long k) {
+    if (i < 0 || j < 0 || k < 0 || i >= nx || j >= ny || k >= nz) return false;
+    return std::find(labels.begin(), labels.end(), image.at(i, j, k)) != labels.end();
+  };
+  // Boundary faces normal to each image axis.
+  long long faces[3] = {0, 0, 0};
+  for (long long k = 0; k < nz; ++k)
+    for (long long j = 0; j < ny; ++j)
+      for (long long i = 0; i < nx; ++i) {
+        const bool in = selected(i, j, k);
+        // A face between (i - 1) and i is a boundary face when exactly one side is selected.
+        if (in != selected(i - 1, j, k)) ++faces[0];
+        if (in != selected(i, j - 1, k)) ++faces[1];
+        if (in != selected(i, j, k - 1)) ++faces[2];
+        if (in && i == nx - 1) ++faces[0];
+        if (in && j == ny - 1) ++faces[1];
+        if (in && k == nz - 1) ++faces[2];
+      }
+  const Mat3& m = image.index_to_world;
+  const Vec3 e[3] = {{m.m[0][0], m.m[1][0], m.m[2][0]}, {m.m[0][1], m.m[1][1], m.m[2][1]}, {m.m[0][2], m.m[1][2], m.m[2][2]}};
+  const double area = static_cast<double>(faces[0]) * norm(cross(e[1], e[2])) +
+                      static_cast<double>(faces[1]) * norm(cross(e[2], e[0])) +
+                      static_cast<double>(faces[2]) * norm(cross(e[0], e[1]));
+  ObjectEstimate est;
+  est.voxels = (2.0 * half_width + 1) * area / (voxel_size * voxel_size);
+  est.bytes = kBandVoxelBytes * est.voxels;
+  return est;
+}
+
 ObjectEstimate estimate_mesh_based(double cells, int nodes, double vertices, int samples_per_cell, double extent) {
   ObjectEstimate e;
   e.frames = vertices;

@@ -9,6 +9,7 @@
 // is never refused and one that asks for 100x the machine is refused in milliseconds.
 #pragma once
 
+#include "discretise/label_image.hpp"
 #include "discretise/meshless.hpp"
 #include "discretise/surface_mesh.hpp"
 #include "dsl/diagnostics.hpp"
@@ -44,6 +45,11 @@ ObjectEstimate estimate_meshless(const SurfaceMesh& surface, const MeshlessOptio
 // voxel_size (m) with a band of half_width voxels each side: an organ voxelised for a tissue
 // between organs.
 ObjectEstimate estimate_level_set(const SurfaceMesh& surface, double voxel_size, int half_width);
+
+// The narrow-band level set of the voxels of `image` holding one of `labels` (LevelSet::
+// from_labels), from the area of the faces between a selected voxel and an unselected one.
+ObjectEstimate estimate_label_level_set(const LabelImage& image, const std::vector<int>& labels, double voxel_size,
+                                        int half_width);
 
 // A mesh-based tissue of `cells` cells (`nodes` per cell, hexahedra 8, tetrahedra 4), `vertices`
 // vertices, `samples_per_cell` quadrature points, spanning `extent` metres.

@@ -106,6 +106,15 @@ TEST_CASE("bad images and absent labels stop the scene with the documented exit 
     CHECK_THAT(d.message, Catch::Contains(cut) && Catch::Contains("truncated"));
     CHECK(d.where.line == 7);  // the image key
   }
+  SECTION("a lattice too fine for the memory: too large, at sample_spacing, before voxelising") {
+    std::string text = scene_text(image, "3");
+    text.replace(text.find("sample_spacing: 1.5 mm"), 22, "sample_spacing: 1 um");
+    // The box's boundary, 1504 mm^2, in a band of 7 voxels of 0.5 um: about 4e10 voxels.
+    const Diagnostic d = first_error(text);
+    CHECK(static_cast<int>(d.code) == 71);
+    CHECK_THAT(d.message, Catch::Contains("the level set of its voxels"));
+    CHECK(d.where.line == 9);  // the sample_spacing key
+  }
   SECTION("missing image: missing input") {
     const Diagnostic d = first_error(scene_text(image + ".absent.nii", "3"));
     CHECK(static_cast<int>(d.code) == 66);
