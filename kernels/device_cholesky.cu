@@ -144,6 +144,10 @@ int DeviceCholesky::products() const { return 6 * m_impl->colours; }
 
 std::uint64_t DeviceCholesky::fingerprint() const { return m_impl->fingerprint; }
 
+int DeviceCholesky::refactorise_above(const LinearSettings& settings) const {
+  return std::max(settings.refactorise_above, products() / 8);
+}
+
 LinearResult DeviceCholesky::factorise(const std::function<void(const double*, double*)>& apply) {
   Impl& m = *m_impl;
   const cudaStream_t stream = m.ops.stream();

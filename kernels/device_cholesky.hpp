@@ -19,6 +19,7 @@
 #include "device_vector.hpp"
 #include "model/model.hpp"
 #include "solve/linear_result.hpp"
+#include "solve/linear_solver.hpp"
 
 #include <cstdint>
 #include <functional>
@@ -47,6 +48,13 @@ class DeviceCholesky {
   void solve(const double* r, double* z) const;
   // Probe products per factorisation (6 per colour).
   int products() const;
+  // The iterations of one PCG solve beyond which the kept factorisation is renewed
+  // (solve/factorised_solve.hpp): an eighth of its products, at least the CPU's setting. A
+  // factorisation costs products() tangent products (on the pelvis 432, 1,242 at 16k samples and
+  // 1,728 at 56k: 32, 150 and 485 ms on an H100), a CG iteration one product and two triangular
+  // solves; renewing pays when the iterations it saves over the solves that follow (about ten:
+  // a few steps' Newton iterations) exceed its products.
+  int refactorise_above(const LinearSettings& settings) const;
   // A fingerprint of the colouring (FNV-1a): equal for one model and build.
   std::uint64_t fingerprint() const;
 

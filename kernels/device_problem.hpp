@@ -72,6 +72,7 @@ class DeviceProblem {
         }
         bool factorised() const { return problem.m_factor->factorised(); }
         void solve(const Vector& r, Vector& z) const { problem.m_factor->solve(r.data(), z.data()); }
+        int refactorise_above(const LinearSettings& s) const { return problem.m_factor->refactorise_above(s); }
       } kept{*this, q};
       if (m_linear.method == LinearMethod::cholmod) return direct_solve(m_ops, apply, kept, rhs, d);
       return pcg_with_kept_factorisation(m_ops, apply, kept, m_stale, m_linear, rhs, d);

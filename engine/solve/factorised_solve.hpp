@@ -13,6 +13,9 @@
 //                                             .message alone when it failed
 //   bool factorised() const;                  a factor is held
 //   void solve(const Vector& r, Vector& z);   z = F^{-1} r
+//   int refactorise_above(const LinearSettings&) const;   the iterations of one solve beyond which
+//                                             a new factorisation pays (its cost against the
+//                                             iterations it saves)
 #pragma once
 
 #include "solve/linear_solver.hpp"
@@ -72,7 +75,7 @@ LinearResult pcg_with_kept_factorisation(const Ops& ops, Apply&& apply, Factoris
   }
   r.factorised = was_stale || fresh.factorised;
   r.shifted = fresh.shifted;
-  if (r.iterations > settings.refactorise_above) stale = true;
+  if (r.iterations > factor.refactorise_above(settings)) stale = true;
   return r;
 }
 

@@ -97,6 +97,7 @@ LinearResult LinearSolver::solve(const LinearSystem& system, const LinearSetting
     LinearResult factorise() { return solver.factorise(system); }
     bool factorised() const { return solver.m_cholesky->factorised(); }
     void solve(const std::vector<double>& r, std::vector<double>& z) const { solver.m_cholesky->solve(r, z); }
+    int refactorise_above(const LinearSettings& s) const { return s.refactorise_above; }
   } kept{*this, system};
   if (settings.method == LinearMethod::cholmod) return direct_solve(ops, apply, kept, b, x);
   return pcg_with_kept_factorisation(ops, apply, kept, m_stale, settings, b, x);
