@@ -19,7 +19,7 @@ class CudaStep final : public StepBackend {
     m_potential.set_dynamic(start, dt, rayleigh_mass);
     m_state.upload(trial);
     DeviceProblem problem(m_potential, settings.linear, m_factor.get(), m_stale, [&](const DeviceFrames& q) {
-      factorising(q, settings.linear, 1.0);
+      factorising(q, 1.0);
       m_origin.start = start;
       m_origin.dt = dt;
     });
@@ -37,7 +37,7 @@ class CudaStep final : public StepBackend {
     m_state.upload(state);
     double load_factor = 1.0;
     DeviceProblem problem(m_potential, settings.linear, m_factor.get(), m_stale, [&](const DeviceFrames& q) {
-      factorising(q, settings.linear, load_factor);
+      factorising(q, load_factor);
       m_origin.start = State{};
       m_origin.dt = 0;
     });
@@ -58,7 +58,7 @@ class CudaStep final : public StepBackend {
 
   ReusedTangent kept_tangent() const override {
     ReusedTangent t;
-    t.held = m_kept && m_factor && m_factor->factorised() && !m_stale;
+    t.held = m_factor && m_factor->factorised() && !m_stale;
     if (!t.held) return t;
     t.origin = m_origin;
     t.pattern = m_factor->fingerprint();
@@ -86,8 +86,7 @@ class CudaStep final : public StepBackend {
 
  private:
   // Records where the next factorisation is computed (a checkpoint keeps it: kept_tangent()).
-  void factorising(const DeviceFrames& q, const LinearSettings& linear, double load_factor) {
-    m_kept = linear.method == LinearMethod::pcg;
+  void factorising(const DeviceFrames& q, double load_factor) {
     m_origin.load_scale = load_factor;
     q.download(m_origin.state);
     m_origin.state.velocities.assign(6 * m_origin.state.positions.size() / 3, 0.0);
@@ -95,12 +94,11 @@ class CudaStep final : public StepBackend {
 
   DevicePotential m_potential;
   DeviceFrames m_state;
-  // The factorisation of the cholmod method and preconditioner: pcg keeps it across Newton
+  // The factorisation of the cholmod preconditioner: pcg keeps it across Newton
   // iterations and steps as the CPU does (solve/factorised_solve.hpp), and a checkpoint records
   // where it was computed, so that a resumed run computes it again (restore_tangent).
   std::unique_ptr<DeviceCholesky> m_factor;
   bool m_stale = true;
-  bool m_kept = false;  // the factorisation is pcg's kept one (not a direct solve's)
   TangentOrigin m_origin;
 };
 
@@ -112,14 +110,13 @@ StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
     why = device_potential_refusal(model, settings.integrator == Integrator::backward_euler ? settings.rayleigh_stiffness : 0.0);
     if (!why.empty()) return nullptr;
     const LinearSettings& linear = settings.newton.linear;
-    // Where the dense factor does not fit, pcg is preconditioned by block Jacobi and the direct
-    // cholmod solve runs on the CPU.
-    const bool factorises = DeviceProblem::factorises(linear);
-    const std::string dense = factorises ? DeviceCholesky::refusal(model.dof_count()) : std::string();
-    if (linear.method == LinearMethod::cholmod && !dense.empty()) {
-      why = "the direct cholmod solve runs on the CPU: " + dense;
+    if (linear.method == LinearMethod::cholmod) {
+      why = "the linear method is cholmod (a direct solve), which runs on the CPU";
       return nullptr;
     }
+    // Where the dense factor does not fit, pcg is preconditioned by block Jacobi.
+    const bool factorises = DeviceProblem::factorises(linear);
+    const std::string dense = factorises ? DeviceCholesky::refusal(model.dof_count()) : std::string();
     return std::make_unique<CudaStep>(model, loads, options, factorises && dense.empty());
   };
 }

@@ -1,6 +1,6 @@
 // A Cholesky factorisation of the step tangent H on the device: the CUDA backend's counterpart of
-// the CPU's CHOLMOD factor (solve/sparse_cholesky.hpp), for the cholmod method and the pcg
-// preconditioner of that name (solve/factorised_solve.hpp).
+// the CPU's CHOLMOD factor (solve/sparse_cholesky.hpp), for the pcg preconditioner of that name
+// (solve/factorised_solve.hpp).
 //
 // H is recovered from coloured products (integrate/tangent_probing.hpp: 6 per colour, a few tens
 // of colours) into a dense n x n matrix, factorised by cuSOLVER's potrf and applied by potrs

@@ -1,7 +1,8 @@
 // The device potential (device_potential.hpp) as a problem of the one Newton solver
 // (engine/solve/newton.hpp): device vectors and states, the linear solve by the one PCG
-// (engine/solve/pcg.hpp) with the device Hessian product, or by the factorised solves of
-// engine/solve/factorised_solve.hpp with the device Cholesky factor (device_cholesky.hpp). The
+// (engine/solve/pcg.hpp) with the device Hessian product, preconditioned by block Jacobi or by the
+// kept factorisation of engine/solve/factorised_solve.hpp, the device Cholesky factor
+// (device_cholesky.hpp). The
 // same algorithm, settings and stopping rules as the CPU engine (solve/newton.cpp,
 // HostPotentialProblem); the host reads only the scalars that steer the iterations.
 #pragma once
@@ -24,10 +25,10 @@ class DeviceProblem {
   using Vector = DeviceVector;
   using State = DeviceFrames;
 
-  // @param factor      the device factor for the cholmod method and preconditioner, kept by the
-  //                    caller between problems with its `stale` flag; null: pcg is preconditioned
-  //                    by block Jacobi whatever LinearSettings::preconditioner says, cholmod is
-  //                    refused.
+  // @param factor      the device factor for the cholmod preconditioner, kept by the caller
+  //                    between problems with its `stale` flag; null: pcg is preconditioned by
+  //                    block Jacobi whatever LinearSettings::preconditioner says. The direct
+  //                    cholmod method is refused (it runs on the CPU).
   // @param factorising called with the iterate before each factorisation (may be empty)
   DeviceProblem(DevicePotential& potential, const LinearSettings& linear, DeviceCholesky* factor, bool& stale,
                 std::function<void(const DeviceFrames&)> factorising = {})
@@ -37,14 +38,13 @@ class DeviceProblem {
         m_factor(factor),
         m_stale(stale),
         m_factorising(std::move(factorising)) {
-    if (!factor && linear.method == LinearMethod::cholmod)
-      throw std::invalid_argument("the direct cholmod solve needs the device factor");
+    if (linear.method == LinearMethod::cholmod)
+      throw std::invalid_argument("the device step solves with cg or pcg, not the direct cholmod");
   }
 
-  // Whether the settings want a factorisation of H.
+  // Whether the settings want the kept factorisation of H.
   static bool factorises(const LinearSettings& linear) {
-    return linear.method == LinearMethod::cholmod ||
-           (linear.method == LinearMethod::pcg && linear.preconditioner == Preconditioner::cholmod);
+    return linear.method == LinearMethod::pcg && linear.preconditioner == Preconditioner::cholmod;
   }
 
   const Ops& ops() const { return m_ops; }
@@ -74,7 +74,6 @@ class DeviceProblem {
         void solve(const Vector& r, Vector& z) const { problem.m_factor->solve(r.data(), z.data()); }
         int refactorise_above(const LinearSettings& s) const { return problem.m_factor->refactorise_above(s); }
       } kept{*this, q};
-      if (m_linear.method == LinearMethod::cholmod) return direct_solve(m_ops, apply, kept, rhs, d);
       return pcg_with_kept_factorisation(m_ops, apply, kept, m_stale, m_linear, rhs, d);
     }
     PcgSettings pcg_settings;
