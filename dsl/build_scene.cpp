@@ -19,6 +19,7 @@
 #include <functional>
 #include <ios>
 #include <limits>
+#include <sstream>
 
 namespace fascia::dsl {
 
@@ -393,7 +394,6 @@ bool make_image_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& b
   }
   image.index_to_world = edges;
   image.origin = to_vec3(o0);
-  const double reference_volume = static_cast<double>(image.count(labels)) * image.voxel_volume();
   const double smoothing = o.smoothing ? o.smoothing->value : 0;
   if (smoothing > options.frame_spacing) {
     diagnostics.error(o.smoothing->where, "smoothing " + metres(smoothing) + " is wider than frame_spacing " +
@@ -428,7 +428,7 @@ bool make_image_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& b
                           " frames (frame_spacing " + metres(options.frame_spacing) + ")",
                       ml.sample_spacing.where, diagnostics))
       return false;
-    result = build_meshless_model(VoxelDomain(level_set), reference_volume, scene_material(scene, o), options);
+    result = build_meshless_model(VoxelDomain(level_set), part.surface, scene_material(scene, o), options);
   } catch (const std::exception& e) {
     diagnostics.error(ml.frame_spacing.where, "cannot discretise '" + o.name + "': " + e.what());
     return false;
@@ -446,6 +446,15 @@ bool make_image_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& b
                         std::to_string(part.surface.triangle_count()) +
                         " boundary triangles, " + std::to_string(result.statistics.added_frames) +
                         " frames added in thin parts";
+  // The masses follow the zero surface's enclosed volume (consistent integration needs the
+  // volume its boundary rule encloses): say how far it is from the voxels'.
+  const double voxel_volume = static_cast<double>(image.count(labels)) * image.voxel_volume();
+  std::ostringstream volumes;
+  volumes.precision(4);
+  volumes << "; the labelled voxels hold " << voxel_volume << " m^3, the level set's zero surface encloses "
+          << result.statistics.surface_volume << " m^3 ("
+          << std::showpos << 100 * (result.statistics.surface_volume / voxel_volume - 1) << " %)";
+  part.discretisation += volumes.str();
   part.statistics = result.statistics;
   return true;
 }
@@ -507,7 +516,7 @@ bool make_between_tissue(const SceneSpec& scene, std::vector<ObjectPart>& parts,
                       ml.sample_spacing.where, diagnostics))
       return false;
     const VoxelDomain domain(level_set);
-    result = build_meshless_model(domain, domain.volume(), scene_material(scene, o), options);
+    result = build_meshless_model(domain, part.surface, scene_material(scene, o), options);
     const LevelSet* from = nullptr;
     if (o.fibres && o.fibres->from) from = &organs[o.fibres->from->value == o.between[0].value ? 0 : 1];
     place_fibres(o, result.model, from, diagnostics);

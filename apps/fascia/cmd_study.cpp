@@ -108,7 +108,8 @@ int run_beam(const StudyOptions& o) {
                             {"tip_displacement", {u.x, u.y, u.z}},
                             {"seconds", r.seconds},
                             {"converged", r.converged},
-                            {"newton_iterations", r.newton_iterations}};
+                            {"newton_iterations", r.newton_iterations},
+                            {"elastica_tip", {elastica.x, elastica.y, elastica.z}}};
         for (const auto& [key, value] : backend.provenance.items()) j[key] = value;  // backend, gpu, precision
         if (meshless) j["frame_spacing"] = c.frame_spacing, j["seed"] = settings.seed;
         std::cout << j.dump() << std::endl;

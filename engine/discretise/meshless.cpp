@@ -79,46 +79,26 @@ MeshlessBuild build_meshless_model(const SurfaceMesh& surface, const Material& m
     const SurfaceDefects defects = check_surface(surface);
     if (!defects.ok()) throw std::invalid_argument("meshless: the surface cannot bound a volume:\n" + defects.describe());
   }
-  auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = std::chrono::steady_clock::now();
   const VoxelDomain domain(surface, h);
   const double seconds_voxelise = seconds_since(t0);
-  MeshlessBuild build = build_meshless_model(domain, std::abs(surface_volume(surface)), material, options);
+  MeshlessBuild build = build_meshless_model(domain, surface, material, options);
   build.statistics.seconds_voxelise = seconds_voxelise;
-
-  // Consistent integration; it also tilts the volumes so that they integrate x exactly, hence
-  // the masses are computed again.
-  t0 = std::chrono::steady_clock::now();
-  Model& model = build.model;
-  MeshlessStatistics& st = build.statistics;
-  const SurfaceQuadrature boundary = surface_quadrature(surface, rs);
-  const MeshlessTable boundary_table = build_meshless_table(build.shape, boundary.points);
-  if (!boundary_table.failed.empty()) {
-    const Vec3 b = load3(&boundary.points[3 * boundary_table.failed.front()]);
-    throw std::runtime_error("meshless: " + std::to_string(boundary_table.failed.size()) +
-                             " surface points are not covered by enough frames, e.g. (" + std::to_string(b.x) + ", " +
-                             std::to_string(b.y) + ", " + std::to_string(b.z) + ") m; use a smaller frame_spacing");
-  }
-  const ConsistentIntegrationReport integration =
-      make_integration_consistent(model.neighbours, model.samples.volumes, model.samples.rest_positions, build.shape,
-                                  boundary_table.neighbours, boundary.points, boundary.normals);
-  compute_frame_inertia(model);
-  st.sample_volume = model.total_volume();
-  st.boundary_points = static_cast<long long>(boundary.points.size() / 3);
-  st.integration_defect_before = integration.initial_defect;
-  st.integration_defect = integration.defect;
-  st.integration_iterations = integration.iterations;
-  st.seconds_integration = seconds_since(t0);
   build.statistics.seconds_total = seconds_since(t_start);
   return build;
 }
 
-MeshlessBuild build_meshless_model(const VoxelDomain& domain, double reference_volume, const Material& material,
+MeshlessBuild build_meshless_model(const VoxelDomain& domain, const SurfaceMesh& boundary, const Material& material,
                                    const MeshlessOptions& options) {
   const auto t_start = std::chrono::steady_clock::now();
   const double rf = options.frame_spacing, rs = options.sample_spacing;
   if (!(rs > 0) || !(rf > rs))
     throw std::invalid_argument("meshless: need 0 < sample_spacing < frame_spacing");
-  if (!(reference_volume > 0)) throw std::invalid_argument("meshless: the reference volume must be positive");
+  // Enclosed volume by the divergence theorem, exact for the triangulation; negative when the
+  // triangles face inwards (then the boundary rule's normals are turned outwards below).
+  const double signed_volume = surface_volume(boundary);
+  const double reference_volume = std::abs(signed_volume);
+  if (!(reference_volume > 0)) throw std::invalid_argument("meshless: the boundary surface encloses no volume");
   MeshlessBuild build;
   MeshlessStatistics& st = build.statistics;
   st.voxel_size = domain.voxel_size();
@@ -217,10 +197,33 @@ MeshlessBuild build_meshless_model(const VoxelDomain& domain, double reference_v
   st.volume_scale = st.surface_volume / volumes.assigned;
   for (double& v : model.samples.volumes) v *= st.volume_scale;
 
-  compute_frame_inertia(model);
-  st.sample_volume = model.total_volume();
   st.support_min = *std::min_element(build.shape.supports.begin(), build.shape.supports.end());
   st.support_max = *std::max_element(build.shape.supports.begin(), build.shape.supports.end());
+
+  // Consistent integration; it also tilts the volumes so that they integrate x exactly, hence
+  // the masses are computed after it.
+  t0 = std::chrono::steady_clock::now();
+  SurfaceQuadrature rule = surface_quadrature(boundary, rs);
+  if (signed_volume < 0)
+    for (double& a : rule.normals) a = -a;
+  const MeshlessTable boundary_table = build_meshless_table(build.shape, rule.points);
+  if (!boundary_table.failed.empty()) {
+    const Vec3 b = load3(&rule.points[3 * boundary_table.failed.front()]);
+    throw std::runtime_error("meshless: " + std::to_string(boundary_table.failed.size()) +
+                             " surface points are not covered by enough frames, e.g. (" + std::to_string(b.x) + ", " +
+                             std::to_string(b.y) + ", " + std::to_string(b.z) + ") m; use a smaller frame_spacing");
+  }
+  const ConsistentIntegrationReport integration =
+      make_integration_consistent(model.neighbours, model.samples.volumes, model.samples.rest_positions, build.shape,
+                                  boundary_table.neighbours, rule.points, rule.normals);
+  st.boundary_points = static_cast<long long>(rule.points.size() / 3);
+  st.integration_defect_before = integration.initial_defect;
+  st.integration_defect = integration.defect;
+  st.integration_iterations = integration.iterations;
+  st.seconds_integration = seconds_since(t0);
+
+  compute_frame_inertia(model);
+  st.sample_volume = model.total_volume();
   st.seconds_total = seconds_since(t_start);
   return build;
 }

@@ -55,11 +55,11 @@ struct MeshlessStatistics {
   double min_spread = 0;   // smallest neighbour_spread over samples
   double voxel_size = 0;   // m
   long long voxels = 0;    // covered voxels
-  double surface_volume = 0;  // m^3, divergence theorem on the input mesh
+  double surface_volume = 0;  // m^3, divergence theorem on the boundary surface
   double voxel_volume = 0;    // m^3, sum of covered voxel fractions
   double unassigned_volume = 0;  // m^3, voxels with no sample in reach (thinner than a voxel)
   double volume_error = 0;    // (voxel_volume - surface_volume) / surface_volume, before scaling
-  // The sample volumes are scaled to the enclosed volume of the surface mesh (divergence
+  // The sample volumes are scaled to the enclosed volume of the boundary surface (divergence
   // theorem, exact for the triangulation), which consistent integration requires; the coverage
   // ramp of the voxelisation rounds convex edges (about +0.13 h^2 per metre of 90-degree edge).
   double volume_scale = 1;    // factor applied to the voxel shares
@@ -88,12 +88,12 @@ struct MeshlessBuild {
 MeshlessBuild build_meshless_model(const SurfaceMesh& surface, const Material& material, const MeshlessOptions& options);
 
 class VoxelDomain;
-// The same on a voxelised domain (a label image, a region derived from other objects): the
-// domain's voxel size replaces options.voxel_size, and reference_volume (m^3, > 0) the
-// surface's enclosed volume in volume_error and the volume scaling. Without a surface mesh there
-// is no boundary rule: the conforming MLS fields are used without the consistent-integration
-// correction (integration_defect stays 0, boundary_points 0).
-MeshlessBuild build_meshless_model(const VoxelDomain& domain, double reference_volume, const Material& material,
+// The same on a voxelised domain (a label image, a region derived from other objects) bounded by
+// `boundary`, a closed triangle surface of the same domain (for a level set, its zero surface,
+// LevelSet::surface): the domain's voxel size replaces options.voxel_size, the boundary carries
+// the surface rule of the consistent integration, and its enclosed volume is the one the sample
+// volumes are scaled to (surface_volume, volume_error). Either orientation of the triangles.
+MeshlessBuild build_meshless_model(const VoxelDomain& domain, const SurfaceMesh& boundary, const Material& material,
                                    const MeshlessOptions& options);
 
 }  // namespace fascia

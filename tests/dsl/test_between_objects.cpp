@@ -37,6 +37,8 @@ TEST_CASE("a tissue between two organs fills the gap and is shared with both", "
   // [10, 16] mm, and around its rim wherever both distances stay below 8 mm. The volume lies
   // between the slab over the faces, 6 x 10 x 10 mm^3, and that slab widened by 8 mm on every
   // side, 6 x 26 x 26 mm^3.
+  // Consistent integration on the level set's zero surface (shape/consistent_integration.hpp).
+  CHECK(ligament.meshless->integration_defect <= 1e-11);
   const double volume = ligament.meshless->voxel_volume;
   CHECK(volume > 600e-9);
   CHECK(volume < 6 * 26 * 26 * 1e-9);
