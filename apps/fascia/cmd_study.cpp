@@ -6,6 +6,7 @@
 #include "study/beam_study.hpp"
 
 #include <nlohmann/json.hpp>
+#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -72,6 +73,10 @@ std::vector<BeamCase> select_cases(const StudyOptions& o, const BeamSettings& se
 }
 
 int run_beam(const StudyOptions& o) {
+  // --threads bounds every OpenMP team of the process, CHOLMOD's BLAS and Eigen's products
+  // included: they size their teams from omp_get_max_threads(), and with more threads than
+  // the study's own loops use, their idle workers spin and take the cores from the work.
+  if (o.threads > 0) omp_set_num_threads(o.threads);
   Backend backend;
   if (const int code = resolve_backend("study", o.backend, backend); code != kOk) return code;
   BeamSettings settings;
@@ -173,7 +178,8 @@ void register_study(CLI::App& app, Action& action) {
                    "Meshless cases: Poisson-disk seeds (default 1); with several, each row is run for every seed "
                    "and followed by the mean, spread and largest lateral component of the tip")
       ->expected(1, -1);
-  beam->add_option("--threads", options->threads, "CPU threads (0 = all)")->check(CLI::NonNegativeNumber);
+  beam->add_option("--threads", options->threads,
+                   "CPU threads of the whole study, the sparse factorisation's BLAS included (0 = all)")->check(CLI::NonNegativeNumber);
   add_backend_options(*beam, options->backend);
   beam->callback([options, &action] { action = [options] { return run_beam(*options); }; });
 }

@@ -102,7 +102,10 @@ const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& 
         // laws).
         DB.noalias() = D.transpose() * B;
         Eigen::Map<Eigen::MatrixXd> H(m_chunk_values.data() + m_chunk_offsets[s - s0], 6 * k, 6 * k);
-        H.noalias() = model.samples.volumes[s] * (B.transpose() * DB);
+        // A coefficient-wise product (inner dimension 9): Eigen's blocked product would start its
+        // own OpenMP team here whenever this region runs on one thread, and that team's threads
+        // wait for each other by spinning.
+        H.noalias() = model.samples.volumes[s] * B.transpose().lazyProduct(DB);
       }  // implicit barrier
       for (int s = s0; s < s1; ++s) {
         const int begin = nb.offsets[s], k = nb.offsets[s + 1] - begin;
