@@ -149,8 +149,11 @@ TEST_CASE("smoothing an image object is reported, and refused beyond frame_spaci
   // h = 0.75 mm: (1 mm / 0.75 mm)^2 = 1.78 voxels^2, nearest: 3 passes of width 3 (variance 2),
   // a standard deviation of 1.06 mm.
   CHECK_THAT(built.objects[0].discretisation, Catch::Contains("smoothed (standard deviation 1.06"));
-  // The sample volumes keep voxel count x voxel volume.
-  CHECK(built.model.total_volume() == Approx(480 * 8e-9).epsilon(1e-9));
+  // The sample volumes are those the smoothed zero surface encloses (consistent integration),
+  // less than the voxels' 480 x 8e-9 m^3: smoothing moves the box's convex edges inward.
+  REQUIRE(built.objects[0].meshless);
+  CHECK(built.model.total_volume() == Approx(built.objects[0].meshless->surface_volume).epsilon(1e-9));
+  CHECK(built.model.total_volume() < 480 * 8e-9);
 
   text.replace(text.find("smoothing: 1 mm"), 15, "smoothing: 5 mm");
   try {
