@@ -1,5 +1,6 @@
 #include "io/checkpoint.hpp"
 
+#include "io/hdf5_format.hpp"
 #include "io/hdf5_handle.hpp"
 #include "io/hdf5_read.hpp"
 #include "io/hdf5_text.hpp"
@@ -117,7 +118,8 @@ const char* slot_name(long long sequence) { return sequence % 2 == 0 ? "slot_0" 
 CheckpointWriter CheckpointWriter::create(long long file_id, const std::string& path, int frames,
                                           const CheckpointIdentity& identity) {
   const hid_t f = static_cast<hid_t>(file_id);
-  Handle group(checked(H5Gcreate2(f, "checkpoint", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path, "create /checkpoint"),
+  const Handle gcpl = group_creation_properties(path);
+  Handle group(checked(H5Gcreate2(f, "checkpoint", H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), path, "create /checkpoint"),
                H5Gclose);
   int_attribute(group.get(), "format", kCheckpointFormat, path);
   int_attribute(group.get(), "frames", frames, path);
@@ -125,7 +127,7 @@ CheckpointWriter CheckpointWriter::create(long long file_id, const std::string& 
   write_text_dataset(group.get(), "build", identity.build, path);
   const hsize_t n = static_cast<hsize_t>(frames);
   for (const char* slot : {"slot_0", "slot_1"}) {
-    Handle g(checked(H5Gcreate2(group.get(), slot, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path,
+    Handle g(checked(H5Gcreate2(group.get(), slot, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), path,
                      std::string("create ") + slot),
              H5Gclose);
     fixed_dataset(g.get(), "counters", H5T_STD_I64LE, {4}, path);
@@ -190,6 +192,7 @@ void CheckpointWriter::write(const Checkpoint& c) {
 
 std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIdentity* identity) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  require_checksummed_format(path);
   Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!file.valid()) throw TrajectoryError(path + ": not a readable HDF5 file");
   if (H5Lexists(file.get(), "checkpoint", H5P_DEFAULT) <= 0) return std::nullopt;

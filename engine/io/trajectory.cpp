@@ -1,5 +1,6 @@
 #include "io/trajectory.hpp"
 
+#include "io/hdf5_format.hpp"
 #include "io/hdf5_handle.hpp"
 #include "io/hdf5_read.hpp"
 #include "io/hdf5_text.hpp"
@@ -55,7 +56,8 @@ void checked(herr_t status, const std::string& path, const std::string& what, in
 }
 
 Handle group(hid_t parent, const std::string& name, const std::string& path) {
-  return Handle(checked(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path,
+  const Handle gcpl = group_creation_properties(path);
+  return Handle(checked(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), path,
                         "create group " + name),
                 H5Gclose);
 }
@@ -203,6 +205,7 @@ Handle writer_access(const std::string& path) {
   cache.set_initial_size = true;
   cache.initial_size = std::min<std::size_t>(cache.max_size, 8u << 20);
   checked(H5Pset_mdc_config(fapl.get(), &cache), path, "set metadata cache configuration", 0);
+  set_checksummed_format(fapl.get(), path);
   return fapl;
 }
 
@@ -277,7 +280,8 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
     : m_path(path), m_layout(layout), m_impl(std::make_unique<Impl>()) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with our messages
   Handle fapl = writer_access(path);
-  m_impl->file = Handle(checked(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), path, "cannot create file"),
+  const Handle fcpl = file_creation_properties(path);
+  m_impl->file = Handle(checked(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, fcpl.get(), fapl.get()), path, "cannot create file"),
                         H5Fclose);
   const hid_t f = m_impl->file.get();
 
@@ -376,6 +380,7 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
 TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryLayout& layout, int keep_rows)
     : m_path(path), m_layout(layout), m_impl(std::make_unique<Impl>()) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  require_checksummed_format(path);
   Handle fapl = writer_access(path);
   m_impl->file = Handle(checked(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.get()), path, "cannot open file for writing"),
                         H5Fclose);
@@ -587,6 +592,7 @@ struct TrajectoryReader::Impl {
 TrajectoryReader::TrajectoryReader(const std::string& path) : m_impl(std::make_unique<Impl>()) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   m_impl->path = path;
+  require_checksummed_format(path);
   m_impl->file = Handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!m_impl->file.valid()) throw TrajectoryError(path + ": not a readable HDF5 file");
   const hid_t f = m_impl->file.get();

@@ -2,6 +2,8 @@
 files of each format, so that the fuzzers start from inputs the readers accept. The text seeds
 (scenes, VTK, OBJ, STL) are copies of shipped files. Run from the repository root:
     python3 tests/fuzz/make_seeds.py"""
+import ctypes
+import ctypes.util
 import struct
 from pathlib import Path
 
@@ -38,22 +40,48 @@ def text(value):
     return np.array(value.encode() + b"\0", dtype=f"S{len(value) + 1}")
 
 
+HDF5 = ctypes.CDLL(ctypes.util.find_library("hdf5_serial") or "libhdf5_serial.so.103")
+
+
+def compact_groups_file(path):
+    """An HDF5 file in fascia's format (engine/io/hdf5_format.hpp): HDF5 1.8, checksummed metadata,
+    links kept in their groups' object headers."""
+    fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
+    fapl.set_libver_bounds(h5py.h5f.LIBVER_V18, h5py.h5f.LIBVER_V18)
+    # The root group's 6 links stay compact under HDF5's defaults (up to 8); h5py cannot set its
+    # phase change.
+    return h5py.File(h5py.h5f.create(str(path).encode(), h5py.h5f.ACC_TRUNC, fapl=fapl))
+
+
+def group(parent, path):
+    """The group at path under parent, created with compact links where missing."""
+    for name in path.split("/"):
+        if name not in parent:
+            gcpl = h5py.h5p.create(h5py.h5p.GROUP_CREATE)
+            # h5py has no binding for it: HDF5's own, in the library h5py loaded.
+            if HDF5.H5Pset_link_phase_change(ctypes.c_int64(gcpl.id), 65535, 65535) < 0:
+                raise RuntimeError("H5Pset_link_phase_change failed")
+            h5py.h5g.create(parent.id, name.encode(), gcpl=gcpl)
+        parent = parent[name]
+    return parent
+
+
 def trajectory(path, frames=2, rows=2):
     """fascia's trajectory layout (io/trajectory.hpp), a few frames and rows, with a checkpoint."""
-    with h5py.File(path, "w") as f:
-        h5md = f.create_group("h5md")
+    with compact_groups_file(path) as f:
+        h5md = group(f, "h5md")
         h5md.attrs["version"] = np.array([1, 1], dtype="<i4")
-        creator = h5md.create_group("creator")
+        creator = group(h5md, "creator")
         creator.attrs["name"] = text("fascia")
         creator.attrs["version"] = text("0.1.0")
         for name, width, unit in (("position", 3, "m"), ("orientation", 4, "")):
-            g = f.create_group(f"particles/frames/{name}")
+            g = group(f, f"particles/frames/{name}")
             g["step"] = np.arange(rows, dtype="<i4")
             g["time"] = np.linspace(0, 0.01, rows)
             g["value"] = np.zeros((rows, frames, width))
             if unit:
                 g["value"].attrs["unit"] = text(unit)
-        g = f.create_group("observables/elastic_energy")
+        g = group(f, "observables/elastic_energy")
         g["step"] = np.arange(rows, dtype="<i4")
         g["time"] = np.linspace(0, 0.01, rows)
         g["value"] = np.zeros(rows)
@@ -61,18 +89,20 @@ def trajectory(path, frames=2, rows=2):
         for name, value in (("scene", "fascia: 1\n"), ("scene_file", "s.yaml"), ("command_line", "fascia run s.yaml"),
                             ("environment", "{}"), ("version", "0.1.0")):
             f["parameters/" + name] = text(value)
-        c = f.create_group("checkpoint")
-        c.attrs["format"] = np.int32(2)  # kCheckpointFormat
+        c = group(f, "checkpoint")
+        c.attrs["format"] = np.int32(3)  # kCheckpointFormat
         c.attrs["frames"] = np.int32(frames)
         c["scene"] = text("scene")
         c["build"] = text("build")
         c["commit"] = np.array([1, 1], dtype="<i8")
         for slot in ("slot_0", "slot_1"):
-            s = c.create_group(slot)
+            s = group(c, slot)
             s["counters"] = np.array([1, 1, rows, 1], dtype="<i8")
             s["clock"] = np.array([0.01, 0.01])
             s["tangent"] = np.array([1, 0], dtype="<i8")  # a kept tangent: its two states follow
             s["tangent_clock"] = np.array([0.01, 1.0])
+            s["controller"] = np.array([0.01, 0.0])  # step size, after a rejection
+            s["controller_counts"] = np.array([1, 0, 0, 0, 0, 0], dtype="<i8")
             for prefix in ("", "tangent_start_", "tangent_"):
                 s[prefix + "positions"] = np.zeros((frames, 3))
                 s[prefix + "orientations"] = np.tile([1.0, 0, 0, 0], (frames, 1))

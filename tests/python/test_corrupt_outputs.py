@@ -91,3 +91,33 @@ def test_corrupt_outputs_are_refused_with_documented_codes(fascia_bin, root, tmp
         path.unlink()
     # The corruptions reach the readers: some copies are refused.
     assert any(65 in c for c in codes.values()), codes
+
+
+def test_files_without_metadata_checksums_are_refused_clearly(fascia_bin, root, tmp_path):
+    """A run's file copied into HDF5's default format (superblock version 0, no checksums), as
+    older fascia versions wrote it: refused with exit 65 by every reader, naming the file and the
+    format, before HDF5 decodes it; h5py still reads it."""
+    good = tmp_path / "good.h5"
+    r = subprocess.run([fascia_bin, "run", *SCENE, "-o", str(good)], cwd=root, capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert good.read_bytes()[8] == 2  # superblock version 2: the HDF5 1.8 format
+    old = tmp_path / "old.h5"
+    with h5py.File(good, "r") as src, h5py.File(old, "w", libver="earliest") as dst:
+        for name in src:
+            src.copy(src[name], dst, name=name)
+        for key, value in src.attrs.items():
+            dst.attrs[key] = value
+    assert old.read_bytes()[8] == 0
+    post = [sys.executable, str(root / "tools" / "post" / "fascia_post.py")]
+    for what, args in (("info", [fascia_bin, "info", str(old)]),
+                       ("fascia_post --summary", [*post, str(old), "--summary"]),
+                       ("run --resume", [fascia_bin, "run", *SCENE, "-o", str(old), "--resume"])):
+        r = subprocess.run(args, cwd=root, capture_output=True, text=True, timeout=120)
+        context = f"{what}: exit {r.returncode}\nstderr:\n{r.stderr[-2000:]}"
+        assert r.returncode == 65, context
+        assert f"{old}: HDF5 superblock version 0, a format without metadata checksums" in r.stderr, context
+        if what == "run --resume":
+            assert "cannot resume" in r.stderr, context
+    with h5py.File(old, "r") as f:
+        assert f["particles/frames/position/value"].shape[0] == 4

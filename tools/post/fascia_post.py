@@ -56,6 +56,36 @@ class Run:
         return len(self.steps)
 
 
+class FormatError(ValueError):
+    """A file that is not in fascia's format: not HDF5, or HDF5 without metadata checksums."""
+
+
+_HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+def require_checksummed_format(path: Union[str, Path]) -> None:
+    """Refuses, before HDF5 reads it, a file that is not HDF5 or whose superblock is version 0 or 1
+    (no metadata checksums): files of an older fascia, whose variable-length strings HDF5 1.10
+    follows into the global heap unchecked (a damaged file crashes the interpreter), as fascia's own
+    readers do (engine/io/hdf5_format.hpp). fascia writes superblock version 3 and fixed-length text."""
+    with open(path, "rb") as f:
+        head = f.read(len(_HDF5_SIGNATURE) + 1)
+    if len(head) < len(_HDF5_SIGNATURE) + 1 or not head.startswith(_HDF5_SIGNATURE):
+        raise FormatError(f"{path}: not an HDF5 file (no HDF5 signature at its start)")
+    if head[-1] < 2:
+        raise FormatError(f"{path}: HDF5 superblock version {head[-1]}, a format without metadata checksums "
+                          "(written by an older fascia, or by another program in HDF5's default format); "
+                          "run the scene again with this fascia")
+
+
+def _text_dataset(d: h5py.Dataset) -> str:
+    """Fixed-length text: variable-length strings (none in fascia's files) are refused unread."""
+    kind = h5py.check_string_dtype(d.dtype)
+    if kind is None or kind.length is None:
+        raise FormatError(f"{d.file.filename}: {d.name} is not fixed-length text")
+    return _text(d[()])
+
+
 def _text(value) -> str:
     if isinstance(value, bytes):
         return value.decode("utf-8")
@@ -88,6 +118,7 @@ def complete_steps(f: h5py.File) -> int:
 
 def load(path: Union[str, Path]) -> Run:
     """Reads a fascia trajectory: frames, samples, surfaces, observables and parameters."""
+    require_checksummed_format(path)
     with h5py.File(path, "r") as f:
         t = complete_steps(f)
         particles = f["particles"]
@@ -103,7 +134,7 @@ def load(path: Union[str, Path]) -> Run:
                 frames=group["frames"][()] if "frames" in group else np.arange(group["position"]["value"].shape[1]),
             )
         observables = {name: g["value"][:t] for name, g in f.get("observables", {}).items()}
-        parameters = {name: _text(d[()]) for name, d in f.get("parameters", {}).items()}
+        parameters = {name: _text_dataset(d) for name, d in f.get("parameters", {}).items()}
         return Run(
             path=str(path),
             steps=frames["position"]["step"][:t],
@@ -160,6 +191,7 @@ def field(run: Union[Run, str, Path], group: str, name: str) -> np.ndarray:
     """A per-particle field of the complete steps, (T, n[, 3[, 3]]), e.g. field(run, "samples",
     "cauchy_stress"); units in field_unit."""
     path = run.path if isinstance(run, Run) else run
+    require_checksummed_format(path)
     with h5py.File(path, "r") as f:
         t = complete_steps(f)
         return f["particles"][group][name]["value"][:t]
@@ -167,9 +199,15 @@ def field(run: Union[Run, str, Path], group: str, name: str) -> np.ndarray:
 
 def field_unit(run: Union[Run, str, Path], group: str, name: str) -> str:
     path = run.path if isinstance(run, Run) else run
+    require_checksummed_format(path)
     with h5py.File(path, "r") as f:
         value = f["particles"][group][name]["value"]
-        return _text(value.attrs["unit"]) if "unit" in value.attrs else ""
+        if "unit" not in value.attrs:
+            return ""
+        kind = h5py.check_string_dtype(value.attrs.get_id("unit").dtype)
+        if kind is None or kind.length is None:
+            raise FormatError(f"{path}: the unit of {value.name} is not fixed-length text")
+        return _text(value.attrs["unit"])
 
 
 def _pyplot():
@@ -441,6 +479,8 @@ def main(argv=None) -> int:
     if args.file is not None:
         try:
             run = load(args.file)
+        except FormatError as e:
+            return error(e, 65)
         # Unreadable, not HDF5, not a fascia trajectory, or corrupt: h5py reports HDF5's errors as
         # OSError, KeyError, ValueError or RuntimeError, and a corrupt layout surfaces as objects of
         # the wrong kind or shape (TypeError, IndexError, AttributeError).
