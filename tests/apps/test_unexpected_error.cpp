@@ -3,7 +3,6 @@
 #include "unexpected_error.hpp"
 
 #include <catch2/catch.hpp>
-#include <omp.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -86,16 +85,6 @@ TEST_CASE("an exception leaving a worker thread ends the process with its exit c
   const Ended memory = run_child([] { std::thread([] { throw std::bad_alloc(); }).join(); });
   CHECK(memory.exit_code == kTooLarge);
   CHECK_THAT(memory.stderr_text, Catch::Contains("out of memory"));
-
-  // An exception escaping an OpenMP parallel region reaches std::terminate the same way.
-  const Ended parallel = run_child([] {
-#pragma omp parallel num_threads(2)
-    {
-      if (omp_get_thread_num() == 1) throw std::out_of_range("neighbour index 7 of 4");
-    }
-  });
-  CHECK(parallel.exit_code == kSoftware);
-  CHECK_THAT(parallel.stderr_text, Catch::Contains("internal error: std::out_of_range: neighbour index 7 of 4"));
 
   const Ended none = run_child([] { std::terminate(); });
   CHECK(none.exit_code == kSoftware);
