@@ -224,6 +224,9 @@ struct Memory {
 };
 
 std::string flag_name(int flag) {
+  // SUNDIALS 6.4's KINGetReturnFlagName() answers "NONE" for these two.
+  if (flag == KIN_REPTD_SYSFUNC_ERR) return "KIN_REPTD_SYSFUNC_ERR";
+  if (flag == KIN_SYSFUNC_FAIL) return "KIN_SYSFUNC_FAIL";
   char* name = KINGetReturnFlagName(flag);
   std::string s = name ? name : "?";
   std::free(name);
