@@ -4,18 +4,60 @@
 #include "integrate/tangent_probing.hpp"
 
 #include <cusolverDn.h>
+#include <dlfcn.h>
 
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <string>
+#include <type_traits>
 #include <vector>
+
+#define FASCIA_STRINGIFY_(x) #x
+#define FASCIA_STRINGIFY(x) FASCIA_STRINGIFY_(x)
 
 namespace fascia::gpu {
 namespace {
 
 constexpr long long kMaxDenseDofs = 32768;  // 8 GiB of doubles; a factorisation of ~1e13 flops
 constexpr int kThreads = 256;
+
+// cuSOLVER is loaded when a factorisation is first asked for, not at program start: the library
+// and what it loads (cuBLAS, cuSPARSE, nvJitLink) are 1 GB, which every run would otherwise map.
+struct Cusolver {
+  decltype(&cusolverDnCreate) create = nullptr;
+  decltype(&cusolverDnDestroy) destroy = nullptr;
+  decltype(&cusolverDnSetStream) set_stream = nullptr;
+  decltype(&cusolverDnDpotrf_bufferSize) potrf_buffer_size = nullptr;
+  decltype(&cusolverDnDpotrf) potrf = nullptr;
+  decltype(&cusolverDnDpotrs) potrs = nullptr;
+  std::string error;  // why it could not be loaded; empty when loaded
+};
+
+const Cusolver& cusolver() {
+  static const Cusolver api = [] {
+    Cusolver c;
+    void* lib = dlopen("libcusolver.so." FASCIA_STRINGIFY(CUSOLVER_VER_MAJOR), RTLD_NOW | RTLD_LOCAL);
+    if (!lib) {
+      const char* e = dlerror();
+      c.error = std::string("the CUDA toolkit's cuSOLVER could not be loaded (") + (e ? e : "dlopen failed") + ")";
+      return c;
+    }
+    auto load = [&](auto& f, const char* name) {
+      f = reinterpret_cast<std::remove_reference_t<decltype(f)>>(dlsym(lib, name));
+      if (!f && c.error.empty()) c.error = std::string("cuSOLVER lacks ") + name;
+    };
+    load(c.create, "cusolverDnCreate");
+    load(c.destroy, "cusolverDnDestroy");
+    load(c.set_stream, "cusolverDnSetStream");
+    load(c.potrf_buffer_size, "cusolverDnDpotrf_bufferSize");
+    load(c.potrf, "cusolverDnDpotrf");
+    load(c.potrs, "cusolverDnDpotrs");
+    return c;
+  }();
+  return api;
+}
 
 void cusolver_check(cusolverStatus_t s, const char* what) {
   if (s != CUSOLVER_STATUS_SUCCESS)
@@ -93,19 +135,19 @@ struct DeviceCholesky::Impl {
     probe.resize(static_cast<size_t>(n));
     product.resize(static_cast<size_t>(n));
     info.resize(1);
-    FASCIA_CUSOLVER(cusolverDnCreate(&handle));
-    FASCIA_CUSOLVER(cusolverDnSetStream(handle, ops.stream()));
-    FASCIA_CUSOLVER(cusolverDnDpotrf_bufferSize(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(),
+    FASCIA_CUSOLVER(cusolver().create(&handle));
+    FASCIA_CUSOLVER(cusolver().set_stream(handle, ops.stream()));
+    FASCIA_CUSOLVER(cusolver().potrf_buffer_size(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(),
                                                 static_cast<int>(n), &lwork));
     work.resize(static_cast<size_t>(std::max(lwork, 1)));
   }
   ~Impl() {
-    if (handle) cusolverDnDestroy(handle);
+    if (handle) cusolver().destroy(handle);
   }
 
   // potrf on A; true when positive definite.
   bool potrf() {
-    FASCIA_CUSOLVER(cusolverDnDpotrf(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(), static_cast<int>(n),
+    FASCIA_CUSOLVER(cusolver().potrf(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(), static_cast<int>(n),
                                      work.data(), lwork, info.data()));
     int status = 0;
     FASCIA_CUDA(cudaMemcpyAsync(&status, info.data(), sizeof(int), cudaMemcpyDeviceToHost, ops.stream()));
@@ -116,6 +158,7 @@ struct DeviceCholesky::Impl {
 };
 
 std::string DeviceCholesky::refusal(long long dofs) {
+  if (!cusolver().error.empty()) return cusolver().error;
   std::ostringstream why;
   const double bytes = 8.0 * static_cast<double>(dofs) * static_cast<double>(dofs);
   if (dofs > kMaxDenseDofs) {
@@ -206,7 +249,7 @@ LinearResult DeviceCholesky::factorise(const std::function<void(const double*, d
 void DeviceCholesky::solve(const double* r, double* z) const {
   Impl& m = *m_impl;
   m.ops.copy(r, z, m.n);
-  FASCIA_CUSOLVER(cusolverDnDpotrs(m.handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(m.n), 1, m.A.data(),
+  FASCIA_CUSOLVER(cusolver().potrs(m.handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(m.n), 1, m.A.data(),
                                    static_cast<int>(m.n), z, static_cast<int>(m.n), m.info.data()));
 }
 

@@ -31,7 +31,8 @@ namespace fascia::gpu {
 class DeviceCholesky {
  public:
   // The largest dense factor the device keeps: n <= 32,768 DOFs (8 GiB), within half the free
-  // device memory. Empty when a model of `dofs` DOFs fits now, else the reason.
+  // device memory; cuSOLVER (the CUDA toolkit's libcusolver) must load. Empty when a model of
+  // `dofs` DOFs can be factorised now, else the reason.
   static std::string refusal(long long dofs);
 
   // @param fixed device mask [6N] of fixed DOFs (must outlive this object)
