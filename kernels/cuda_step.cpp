@@ -2,6 +2,7 @@
 
 #include "device_problem.hpp"
 #include "integrate/simulation.hpp"
+#include "mechanics/rotation_stabilisation.hpp"
 
 #include <iostream>
 
@@ -111,6 +112,10 @@ StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
                    std::string& why) -> std::unique_ptr<StepBackend> {
     why = device_potential_refusal(model, settings.integrator == Integrator::backward_euler ? settings.rayleigh_stiffness : 0.0);
     if (!why.empty()) return nullptr;
+    if (settings.integrator == Integrator::static_equilibrium && RotationStabilisation::applies(model)) {
+      why = "static equilibria of frame hexahedra carry the rotation stabilisation (mechanics/rotation_stabilisation.hpp), which runs on the CPU";
+      return nullptr;
+    }
     const LinearSettings& linear = settings.newton.linear;
     if (linear.method == LinearMethod::cholmod) {
       why = "the linear method is cholmod (a direct solve), which runs on the CPU";

@@ -23,6 +23,8 @@ void add_samples(Model& model, const std::array<Vec3, K>& X, const std::array<in
     model.samples.rest_positions.insert(model.samples.rest_positions.end(), {p.x, p.y, p.z});
     model.samples.volumes.push_back(sh.jacobian_determinant * q.weight);
     model.samples.materials.push_back(0);
+    // Trilinear frames have zero-energy rotation modes (rotation_stabilisation.hpp).
+    model.samples.rotation_stabilised.push_back(K == 8 ? 1 : 0);
     for (int a = 0; a < K; ++a) {
       nb.frames.push_back(nodes[a]);
       nb.weights.push_back(sh.weights[a]);

@@ -135,7 +135,7 @@ bool Simulation::restore_tangent(const ReusedTangent& tangent) {
     system = m_impl->variational->iteration_matrix(o.start, o.state);
   } else {
     if (m_settings.integrator == Integrator::static_equilibrium)
-      potential.set_static();
+      potential.set_equilibrium();
     else
       potential.set_dynamic(o.start, o.dt, m_settings.rayleigh_mass, m_settings.rayleigh_stiffness);
     m_loads.scale = o.load_scale;
@@ -261,7 +261,7 @@ StepReport Simulation::step() {
     m_state = std::move(trial);
   } else {
     // Static equilibrium with load stepping (solve/newton.hpp).
-    potential.set_static();
+    potential.set_equilibrium();
     State trial = m_state;
     apply_motions(m_model, m_motions, t_next, trial);
     potential.rigid_mapping().sync(trial);

@@ -3,6 +3,7 @@
 #include "core/rotation.hpp"
 #include "mechanics/assembled_tangent.hpp"
 #include "mechanics/frame_inertia.hpp"
+#include "mechanics/rotation_stabilisation.hpp"
 #include "mechanics/shell.hpp"
 
 #include <cmath>
@@ -20,6 +21,7 @@ StepPotential::StepPotential(const Model& model, const ExternalLoads& loads, int
       m_mapping(model) {
   m_load_blocks.assign(9 * model.frame_count(), 0.0);
   for (const Shell& shell : model.shells) m_fields.push_back(std::make_unique<ShellForceField>(model, shell, threads));
+  if (RotationStabilisation::applies(model)) m_stabilisation = std::make_unique<RotationStabilisation>(model, threads);
   m_fixed = m_mapping.reduced_fixed(model);
 }
 
@@ -34,10 +36,19 @@ void StepPotential::retract(State& state, const double* d, double scale) const {
   m_mapping.sync(state);
 }
 
-void StepPotential::set_static() { m_dynamic = false; }
+void StepPotential::set_static() {
+  m_dynamic = false;
+  m_equilibrium = false;
+}
+
+void StepPotential::set_equilibrium() {
+  set_static();
+  m_equilibrium = true;
+}
 
 void StepPotential::set_dynamic(const State& start, double dt, double rayleigh_mass, double rayleigh_stiffness) {
   m_dynamic = true;
+  m_equilibrium = false;
   m_start = start;
   m_dt = dt;
   m_alpha = rayleigh_mass;
@@ -95,6 +106,7 @@ double StepPotential::inertia_value(const State& state, std::vector<double>* gra
 
 double StepPotential::value(const State& state) {
   double phi = elastic_energy(state) + load_potential(m_model, m_loads, state);
+  if (stabilised()) phi += m_stabilisation->energy(state);
   if (m_dynamic) phi += inertia_value(state, nullptr);
   return phi;
 }
@@ -103,6 +115,7 @@ double StepPotential::full_gradient(const State& state, std::vector<double>& g) 
   g.assign(m_model.dof_count(), 0.0);
   double phi = m_elasticity->gradient(state, g.data());
   for (auto& field : m_fields) phi += field->add_gradient(state, g.data());
+  if (stabilised()) phi += m_stabilisation->add_gradient(state, g.data());
   add_load_gradient(m_model, m_loads, state, g.data());
   phi += load_potential(m_model, m_loads, state);
   if (m_dynamic) phi += inertia_value(state, &g);
@@ -127,6 +140,8 @@ void StepPotential::prepare_hessian(const State& state) {
   }
   m_elasticity->prepare(state);
   for (auto& field : m_fields) field->prepare(state);
+  m_stabilised = stabilised();
+  if (m_stabilised) m_stabilisation->prepare(state);
   std::fill(m_load_blocks.begin(), m_load_blocks.end(), 0.0);
   add_load_rotational_blocks(m_model, m_loads, state, m_load_blocks.data());
 }
@@ -163,6 +178,7 @@ LinearSystem StepPotential::system() {
     }
     m_elasticity->apply_tangent(d, out, m_frame_diagonal.data());
     for (const auto& field : m_fields) field->add_tangent(d, out);
+    if (m_stabilised) m_stabilisation->add_tangent(d, out);
     if (m_dynamic && m_beta > 0) {
       m_scratch.resize(6 * n);
       m_start_elasticity->apply_tangent(d, m_scratch.data());
@@ -191,6 +207,7 @@ LinearSystem StepPotential::system() {
       }
     }
     for (const auto& field : m_fields) field->add_diagonal_blocks(blocks);
+    if (m_stabilised) m_stabilisation->add_diagonal_blocks(blocks);
     if (!m_mapping.empty()) m_mapping.reduce_diagonal_blocks(blocks);
   };
   sys.assemble = [this, n, inertia_block]() {
@@ -211,6 +228,7 @@ LinearSystem StepPotential::system() {
           if (block[6 * a + b] != 0) t.emplace_back(6 * i + a, 6 * i + b, block[6 * a + b]);
     }
     for (const auto& field : m_fields) field->add_triplets(t);
+    if (m_stabilised) m_stabilisation->add_triplets(t);
     Eigen::SparseMatrix<double> extra(H.rows(), H.cols());
     extra.setFromTriplets(t.begin(), t.end());
     H += extra;

@@ -21,6 +21,11 @@
 // SO(3), J_l^{-T}(phi), since d log(exp(theta) exp(phi)) / d theta = J_l^{-1}(phi)); the Hessian
 // uses J_l ~ I for the inertia and damping terms (exact for translations and at phi = 0), which
 // only changes Newton's convergence rate, not the solution.
+//
+// Static equilibrium solves (set_equilibrium()) minimise W + S + V, S the stabilisation of the
+// zero-energy rotation modes of frame hexahedra (mechanics/rotation_stabilisation.hpp; none
+// without them). Dynamic steps and the variational step's V (set_static()) do not carry S: there
+// the modes carry the frames' rotational inertia (docs/solvers.md).
 #pragma once
 
 #include "integrate/tangent_origin.hpp"
@@ -30,6 +35,7 @@
 #include "mechanics/force_field.hpp"
 #include "mechanics/frame_inertia.hpp"
 #include "mechanics/rigid_mapping.hpp"
+#include "mechanics/rotation_stabilisation.hpp"
 #include "mechanics/volumetric_elasticity.hpp"
 #include "solve/newton.hpp"
 
@@ -43,8 +49,11 @@ class StepPotential : public Potential {
   StepPotential(const Model& model, const ExternalLoads& loads, int threads = 0,
                 const ElasticityFactory& elasticity = {});
 
-  // Static equilibrium: no inertia, no damping.
+  // Static potential W + V: no inertia, no damping (also the potential of the variational step).
   void set_static();
+  // Static equilibrium solve: set_static() plus S, the stabilisation of the zero-energy rotation
+  // modes of frame hexahedra (mechanics/rotation_stabilisation.hpp): Phi = W + S + V.
+  void set_equilibrium();
   // Backward Euler step of size dt from start (positions, orientations, velocities).
   void set_dynamic(const State& start, double dt, double rayleigh_mass, double rayleigh_stiffness);
 
@@ -63,7 +72,7 @@ class StepPotential : public Potential {
   VolumetricElasticity& elasticity() { return *m_elasticity; }
   int threads() const { return m_threads; }  // OpenMP threads of the CPU work (0 resolved)
   const ExternalLoads& loads() const { return m_loads; }
-  // Volumetric elastic energy plus every force field's energy (J).
+  // Volumetric elastic energy plus every force field's energy (J); without S.
   double elastic_energy(const State& state);
 
   // Delta = [x - x_n, log(R R_n^T)] of every frame w.r.t. the step start, [N][6].
@@ -91,6 +100,10 @@ class StepPotential : public Potential {
   std::vector<double> m_world_inertia;  // [N][9] R_n I_0 R_n^T
   std::vector<double> m_scratch;
   std::vector<std::unique_ptr<ForceField>> m_fields;
+  std::unique_ptr<RotationStabilisation> m_stabilisation;  // null: no frame hexahedra
+  bool m_equilibrium = false;  // set_equilibrium(): Phi carries m_stabilisation
+  bool m_stabilised = false;   // the prepared tangent carries it
+  bool stabilised() const { return m_equilibrium && m_stabilisation; }
   RigidMapping m_mapping;
   std::vector<std::uint8_t> m_fixed;  // model.fixed_dofs plus the rigidly mapped frames
   std::vector<double> m_expanded;     // d with mapped frames filled in

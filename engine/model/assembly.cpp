@@ -68,6 +68,8 @@ int ModelBuilder::add_tissue(const std::string& name, const Model& part, const S
   Part p;
   p.sample_positions = part.samples.rest_positions;
   p.volumes = part.samples.volumes;
+  p.rotation_stabilised = part.samples.rotation_stabilised;
+  p.rotation_stabilised.resize(p.volumes.size(), 0);
   const int material_base = static_cast<int>(m_materials.size());
   m_materials.insert(m_materials.end(), part.materials.begin(), part.materials.end());
   for (int m : part.samples.materials) p.materials.push_back(material_base + m);
@@ -195,6 +197,7 @@ Model ModelBuilder::build() const {
                                           &part.sample_positions[3 * s + 3]);
       model.samples.volumes.push_back(part.volumes[s]);
       model.samples.materials.push_back(part.materials[s]);
+      model.samples.rotation_stabilised.push_back(part.rotation_stabilised[s]);
       const int begin = static_cast<int>(nb.frames.size());
       for (int p = part.offsets[s]; p < part.offsets[s + 1]; ++p) {
         const int f = part.frames[p], g = global(f);

@@ -69,6 +69,7 @@ class ModelBuilder {
   struct Part {
     std::vector<double> sample_positions, volumes;
     std::vector<int> materials, offsets, frames;
+    std::vector<std::uint8_t> rotation_stabilised;
     std::vector<double> weights, gradients;
   };
   int add_frames(const double* positions, int count);

@@ -73,6 +73,7 @@ const char* to_string(ObjectKind kind) {
 
 void lock_rotations(Model& model) {
   model.rotations_locked = true;
+  model.samples.rotation_stabilised.clear();  // R_i = I: no frame rotation to stabilise
   model.fixed_dofs.resize(model.dof_count(), 0);
   for (int i = 0; i < model.frame_count(); ++i)
     for (int k = 3; k < 6; ++k) model.fixed_dofs[kFrameDofs * i + k] = 1;
@@ -86,6 +87,8 @@ void validate(const Model& model) {
   auto fail = [](const std::string& what) { throw std::invalid_argument("model: " + what); };
   if (model.samples.rest_positions.size() != 3u * s_count) fail("sample positions size");
   if (model.samples.materials.size() != static_cast<size_t>(s_count)) fail("sample materials size");
+  if (!model.samples.rotation_stabilised.empty() && model.samples.rotation_stabilised.size() != static_cast<size_t>(s_count))
+    fail("sample rotation_stabilised size");
   if (nb.offsets.size() != static_cast<size_t>(s_count) + 1 || nb.offsets.front() != 0 ||
       nb.offsets.back() != p_count)
     fail("neighbour offsets");

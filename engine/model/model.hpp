@@ -35,6 +35,9 @@ struct Samples {
   std::vector<double> rest_positions;  // [S][3] m
   std::vector<double> volumes;         // [S]    m^3, sum = object volume
   std::vector<int> materials;          // [S]    index into Model::materials
+  // [S] 1 where the sample ties its frames' rotations to the rotation of F
+  // (mechanics/rotation_stabilisation.hpp: trilinear hexahedra); empty = none.
+  std::vector<std::uint8_t> rotation_stabilised;
 };
 
 // A shell (paper §4.2, after Comas, Duriez & Cotin 2010): a triangle surface whose vertices are
