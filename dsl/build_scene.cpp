@@ -953,7 +953,6 @@ void finish_scene(const SceneSpec& scene, std::vector<ObjectPart>& parts, BuiltS
   settings.adaptive.tolerance = s.adaptive_tolerance;
   settings.adaptive.min_dt = s.adaptive_min_dt;
   settings.adaptive.max_dt = s.adaptive_max_dt;
-  settings.newton.nonlinear = parse_nonlinear_solver(s.nonlinear.value);
   settings.newton.tolerance = s.newton_tolerance;
   settings.newton.max_iterations = s.newton_max_iterations;
   settings.newton.max_backtracks = s.newton_max_backtracks;

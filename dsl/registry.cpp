@@ -331,11 +331,6 @@ ParamSpec build_registry() {
                                    "static equilibrium (Newton on W - f.x), backward Euler (dissipative), or "
                                    "variational (midpoint discrete Lagrangian: conserves momenta, no damping)"),
                        "backward_euler"),
-          with_default(enumeration("nonlinear", {"newton", "kinsol"},
-                                   "nonlinear solver of each step: the engine's Newton (Armijo line search on the "
-                                   "step's potential) or SUNDIALS KINSOL (line search on the residual; CPU "
-                                   "engine only; docs/solvers.md)"),
-                       "newton"),
           with_default(above(quantity("dt", dim::time, "time step (static: pseudo-time per step)"), 0), "10 ms"),
           with_default(above(quantity("rayleigh_mass", dim::frequency,
                                       "Rayleigh damping alpha (D = alpha M + beta K; backward_euler only)"),

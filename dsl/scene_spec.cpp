@@ -476,7 +476,6 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   const Value& solver = root.at("solver");
   SolverSpec& s = scene.solver;
   s.integrator = located_str(solver.at("integrator"));
-  s.nonlinear = located_str(solver.at("nonlinear"));
   s.dt = located_num(solver.at("dt"));
   s.rayleigh_mass = solver.num("rayleigh_mass");
   s.rayleigh_stiffness = solver.num("rayleigh_stiffness");
@@ -508,10 +507,6 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   s.newton_max_iterations = static_cast<int>(newton.integer_at("max_iterations"));
   s.newton_max_backtracks = static_cast<int>(newton.integer_at("max_backtracks"));
   s.newton_fixed_iterations = static_cast<int>(newton.integer_at("fixed_iterations"));
-  if (s.nonlinear.value == "kinsol" && s.newton_fixed_iterations > 0)
-    diagnostics.error(newton.at("fixed_iterations").where,
-                      "solver.newton.fixed_iterations runs the engine's Newton without line search; remove it or "
-                      "use 'nonlinear: newton'");
   const Value& linear = solver.at("linear");
   s.linear_method = located_str(linear.at("method"));
   s.linear_preconditioner = located_str(linear.at("preconditioner"));

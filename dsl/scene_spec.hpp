@@ -144,7 +144,6 @@ struct CouplingSpec {
 
 struct SolverSpec {
   Located<std::string> integrator;  // "static" | "backward_euler" | "variational"
-  Located<std::string> nonlinear;   // "newton" | "kinsol"
   Located<double> dt;               // s
   double rayleigh_mass = 0, rayleigh_stiffness = 0;
   int load_steps = 1, max_load_halvings = 10, threads = 0;

@@ -51,10 +51,6 @@ struct Simulation::Impl {
       why = "the variational integrator runs on the CPU engine";
       return nullptr;
     }
-    if (settings.newton.nonlinear == NonlinearSolver::kinsol) {
-      why = "solver.nonlinear: kinsol runs on the CPU engine";
-      return nullptr;
-    }
     return settings.step_backend(model, loads, settings, why);
   }
   std::string refusal;                   // why the step backend does not run the steps

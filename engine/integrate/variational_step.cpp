@@ -1,7 +1,6 @@
 #include "integrate/variational_step.hpp"
 
 #include "core/rotation.hpp"
-#include "solve/kinsol_solver.hpp"
 #include "solve/vector_ops.hpp"
 
 #include <Eigen/Dense>
@@ -342,31 +341,6 @@ class VariationalProblem {
   Vector m_rhs;
 };
 
-// kinsol_solve()'s problem for (4): f = r / h (N), c H = 4 H, the iteration matrix.
-class VariationalKinsolProblem : public KinsolProblem {
- public:
-  VariationalKinsolProblem(const Model& model, VariationalStep& step, StepPotential& potential, const State& start,
-                           const std::vector<double>& p_start, double dt)
-      : m_model(model), m_step(step), m_potential(potential), m_start(start), m_p_start(p_start), m_dt(dt) {}
-  const Model& model() const override { return m_model; }
-  bool residual(const State& end, std::vector<double>& f) override {
-    const double norm_r = m_step.residual(m_start, end, m_p_start, f);
-    for (double& x : f) x /= m_dt;
-    return std::isfinite(norm_r);
-  }
-  LinearSystem jacobian(const State& end) override { return m_step.iteration_matrix(m_start, end); }
-  double jacobian_scale() const override { return 4.0; }
-  void retract(State& q, const double* d, double scale) const override { m_potential.retract(q, d, scale); }
-
- private:
-  const Model& m_model;
-  VariationalStep& m_step;
-  StepPotential& m_potential;
-  const State& m_start;
-  const std::vector<double>& m_p_start;
-  double m_dt;
-};
-
 }  // namespace
 
 NewtonResult VariationalStep::advance(const State& start, State& end, const NewtonSettings& settings,
@@ -389,14 +363,8 @@ NewtonResult VariationalStep::advance(const State& start, State& end, const Newt
   if (std::isfinite(norm_r0)) m_scale = std::max(m_scale, norm_r0 / h);
   std::unique_ptr<LinearSolver> local;
   if (!solver) solver = (local = std::make_unique<LinearSolver>()).get();
-  NewtonResult result;
-  if (settings.nonlinear == NonlinearSolver::kinsol) {
-    VariationalKinsolProblem problem(m_model, *this, m_potential, start, p_start, h);
-    result = kinsol_solve(problem, end, settings, m_scale, *solver);
-  } else {
-    VariationalProblem problem(*this, m_potential, start, p_start, m_fixed, h, *solver, settings.linear);
-    result = newton(problem, end, settings, m_scale);
-  }
+  VariationalProblem problem(*this, m_potential, start, p_start, m_fixed, h, *solver, settings.linear);
+  NewtonResult result = newton(problem, end, settings, m_scale);
   m_residual_norm = residual(start, end, p_start, r);
   if (!result.converged) {
     result.message = "variational step: " + result.message;

@@ -53,9 +53,7 @@
 // K: the reduced tangent of V at the midpoint), solved by the configured CG/PCG/CHOLMOD. The
 // omitted parts are O(|psi|) and O(h^2 |tau|) relative to H, so the iterations converge linearly
 // at that rate (a few iterations for rotations of a few degrees per step); a step that does not
-// reduce |r| is halved. The converged q_{k+1} does not depend on the approximation. With
-// solver.nonlinear: kinsol, KINSOL solves (4) with the same residual and matrix
-// (solve/kinsol_solver.hpp).
+// reduce |r| is halved. The converged q_{k+1} does not depend on the approximation.
 //
 // No damping: a variational step conserves momenta and keeps the energy oscillating about its
 // initial value (backward Euler dissipates); Rayleigh damping is refused by Simulation.

@@ -1,27 +1,11 @@
 #include "solve/newton.hpp"
 
-#include "solve/kinsol_solver.hpp"
 #include "solve/vector_ops.hpp"
 
 #include <cmath>
 #include <memory>
-#include <stdexcept>
 
 namespace fascia {
-
-const char* to_string(NonlinearSolver solver) {
-  switch (solver) {
-    case NonlinearSolver::newton: return "newton";
-    case NonlinearSolver::kinsol: return "kinsol";
-  }
-  return "?";
-}
-
-NonlinearSolver parse_nonlinear_solver(const std::string& name) {
-  if (name == "newton") return NonlinearSolver::newton;
-  if (name == "kinsol") return NonlinearSolver::kinsol;
-  throw std::invalid_argument("unknown nonlinear solver '" + name + "' (expected newton or kinsol)");
-}
 
 double free_norm(const Model& model, const std::vector<double>& g) {
   double s = 0;
@@ -73,8 +57,6 @@ NewtonResult minimise(Potential& potential, State& state, const NewtonSettings& 
                       LinearSolver* solver) {
   std::unique_ptr<LinearSolver> local;
   if (!solver) solver = (local = std::make_unique<LinearSolver>()).get();
-  if (settings.nonlinear == NonlinearSolver::kinsol)
-    return kinsol_minimise(potential, state, settings, reference_force, *solver);
   HostPotentialProblem problem(potential, *solver, settings.linear);
   return newton(problem, state, settings, reference_force);
 }
@@ -84,10 +66,6 @@ NewtonResult minimise_load_stepping(Potential& potential, State& state, const Ne
                                     LinearSolver* solver) {
   std::unique_ptr<LinearSolver> local;
   if (!solver) solver = (local = std::make_unique<LinearSolver>()).get();
-  if (settings.nonlinear == NonlinearSolver::kinsol)
-    return load_stepping(state, stepping, set_load_factor, [&](State& attempt, double reference) {
-      return kinsol_minimise(potential, attempt, settings, reference, *solver);
-    });
   HostPotentialProblem problem(potential, *solver, settings.linear);
   return newton_load_stepping(problem, state, settings, stepping, set_load_factor);
 }

@@ -39,15 +39,7 @@
 
 namespace fascia {
 
-// The nonlinear solver of each step (solver.nonlinear): newton() below, or KINSOL
-// (solve/kinsol_solver.hpp; CPU engine only).
-enum class NonlinearSolver { newton, kinsol };
-const char* to_string(NonlinearSolver solver);
-// "newton" | "kinsol"; throws std::invalid_argument otherwise.
-NonlinearSolver parse_nonlinear_solver(const std::string& name);
-
 struct NewtonSettings {
-  NonlinearSolver nonlinear = NonlinearSolver::newton;
   double tolerance = 1e-6;   // converged when |g_free| <= tolerance * reference force
   int max_iterations = 50;
   int max_backtracks = 30;   // halvings of the step in the line search
@@ -176,22 +168,20 @@ struct LoadStepping {
   int max_halvings = 10;
 };
 
-// load_stepping() runs `solve(state, reference_force)` (a NewtonResult) at each factor;
-// newton_load_stepping() is it with newton().
-template <class StateType, class SetLoadFactor, class Solve>
-NewtonResult load_stepping(StateType& state, const LoadStepping& stepping, SetLoadFactor&& set_load_factor,
-                           Solve&& solve) {
+template <class Problem, class SetLoadFactor>
+NewtonResult newton_load_stepping(Problem& problem, typename Problem::State& state, const NewtonSettings& settings,
+                                  const LoadStepping& stepping, SetLoadFactor&& set_load_factor) {
   double done = 0, increment = 1.0 / std::max(1, stepping.initial_steps);
   NewtonResult total, last;
   int halvings = 0;
-  StateType attempt = state;
+  typename Problem::State attempt = state;
   while (done < 1.0) {
     const double target = std::min(1.0, done + increment);
     const double reference = set_load_factor(target);
     attempt = state;
     NewtonResult r;
     try {
-      r = solve(attempt, reference);
+      r = newton(problem, attempt, settings, reference);
     } catch (const StopRequested&) {
       set_load_factor(1.0);  // an abandoned step leaves the loads at full scale
       throw;
@@ -222,14 +212,6 @@ NewtonResult load_stepping(StateType& state, const LoadStepping& stepping, SetLo
   return total;
 }
 
-template <class Problem, class SetLoadFactor>
-NewtonResult newton_load_stepping(Problem& problem, typename Problem::State& state, const NewtonSettings& settings,
-                                  const LoadStepping& stepping, SetLoadFactor&& set_load_factor) {
-  return load_stepping(state, stepping, set_load_factor, [&](typename Problem::State& attempt, double reference) {
-    return newton(problem, attempt, settings, reference);
-  });
-}
-
 // A potential on frame configurations with gradient and Hessian w.r.t. increments
 // theta (DESIGN.md): Phi(q (+) theta), theta in [N][6]. The CPU's problems (StepPotential).
 class Potential {
@@ -249,9 +231,8 @@ class Potential {
   }
 };
 
-// newton() on a CPU Potential with HostVectorOps, or KINSOL where settings.nonlinear says so
-// (kinsol_minimise()), solving with `solver` (which keeps its factorisation from one call to the
-// next; null: a solver for this call only).
+// newton() on a CPU Potential with HostVectorOps, solving with `solver` (which keeps its
+// factorisation from one call to the next; null: a solver for this call only).
 NewtonResult minimise(Potential& potential, State& state, const NewtonSettings& settings, double reference_force,
                       LinearSolver* solver = nullptr);
 
