@@ -159,7 +159,9 @@ TEST_CASE("a CUDA run restored from its checkpoint continues bit for bit", "[gpu
   const Integrator integrator = GENERATE(Integrator::backward_euler, Integrator::static_equilibrium);
   const Preconditioner preconditioner = GENERATE(Preconditioner::cholmod, Preconditioner::block_jacobi);
   INFO(to_string(integrator) << ", pcg + " << to_string(preconditioner));
-  Model model = small_box_model(CellType::hexahedron, MaterialLaw::neo_hookean, 4, 3, 2);
+  // Tetrahedra: static solves of frame hexahedra carry the rotation stabilisation, which runs on
+  // the CPU engine.
+  Model model = small_box_model(CellType::tetrahedron, MaterialLaw::neo_hookean, 4, 3, 2);
   fix_frames(model, [](double x, double, double) { return x < 1e-9; });
   SimulationSettings settings;
   settings.integrator = integrator;

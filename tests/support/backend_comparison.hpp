@@ -46,7 +46,7 @@ inline double check_backends_agree(const char* label, const Model& model, const 
     if (dynamic)
       probe.set_dynamic(start, settings.dt, settings.rayleigh_mass, settings.rayleigh_stiffness);
     else
-      probe.set_static();
+      probe.set_equilibrium();  // the static solve's potential (with the frame-hex stabilisation)
     const MinimiserBound b = minimiser_bound(probe, cpu.state(), other.state());
     const StateDifference d = max_difference(other.state(), cpu.state());
     const double floor = state_round_off(max_abs(cpu.state().positions));

@@ -43,7 +43,7 @@ inline double free_gradient_norm(StepPotential& potential, const State& state) {
   return std::sqrt(s);
 }
 
-// The potential must be set up (set_static / set_dynamic) as in the runs that produced a and b.
+// The potential must be set up (set_equilibrium / set_dynamic) as in the runs that produced a and b.
 inline MinimiserBound minimiser_bound(StepPotential& potential, const State& a, const State& b) {
   MinimiserBound r;
   r.gradient_a = free_gradient_norm(potential, a);
