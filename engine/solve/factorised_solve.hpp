@@ -1,9 +1,10 @@
 // Solves of H x = b with a factorisation of H (solve/linear_solver.hpp), written once over a
-// backend's vector operations (solve/vector_ops.hpp): the CPU factorises with CHOLMOD, the CUDA
-// backend densely on the device (kernels/device_cholesky.hpp).
+// backend's vector operations (solve/vector_ops.hpp).
 //
-// direct_solve: the cholmod method, a factorisation per solve. pcg_with_kept_factorisation: pcg
-// with the cholmod preconditioner, a factorisation kept from one solve to the next. The factorisation is computed when stale, reused by later solves (Newton iterations and steps),
+// direct_solve: the cholmod method, a factorisation per solve (the CPU's CHOLMOD).
+// pcg_with_kept_factorisation: pcg with the cholmod preconditioner, a factorisation kept from one
+// solve to the next (the CPU's CHOLMOD; on the CUDA backend the dense device factor of
+// kernels/device_cholesky.hpp). The factorisation is computed when stale, reused by later solves (Newton iterations and steps),
 // marked stale after a solve that took more than `refactorise_above` iterations, and computed
 // again at once when the reused one could not reach the tolerance within the cap.
 //
