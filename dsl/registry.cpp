@@ -346,12 +346,12 @@ ParamSpec build_registry() {
                        "10"),
           with_default(above(leaf("threads", ParamType::integer, "CPU threads (0 = all)"), 0, false), "0"),
           object("adaptive",
-                 "backward_euler: adaptive time steps, dt the first; a step whose Newton fails or whose local "
+                 "backward_euler, static: adaptive time steps, dt the first; a step whose Newton fails or whose "
                  "error exceeds the tolerance is retried smaller, easy steps grow; output rows stay at the "
                  "multiples of output.every x dt (docs/solvers.md)",
                  {required(above(quantity("tolerance", dim::length,
-                                          "local error per step: (h/2)|v_{n+1} - v_n| on the free frames, rotations "
-                                          "times the model's extent"),
+                                          "error per step: backward_euler (h/2)|v_{n+1} - v_n|, static the increment "
+                                          "|x_{n+1} - x_n|, on the free frames, rotations times the model's extent"),
                                  0)),
                   with_default(above(quantity("min_dt", dim::time,
                                               "smallest step; a step whose Newton fails at min_dt stops the run"),

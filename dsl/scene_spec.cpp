@@ -493,10 +493,9 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
     s.adaptive_tolerance = adaptive->num("tolerance");
     s.adaptive_min_dt = adaptive->num("min_dt");
     if (adaptive->has("max_dt")) s.adaptive_max_dt = adaptive->num("max_dt");
-    if (s.integrator.value != "backward_euler")
-      diagnostics.error(adaptive->where, "solver.adaptive: adaptive time steps need 'integrator: backward_euler' "
-                                         "(static solves adapt their load increments: load_steps, "
-                                         "max_load_halvings; the variational integrator keeps a fixed dt)");
+    if (s.integrator.value == "variational")
+      diagnostics.error(adaptive->where, "solver.adaptive: adaptive time steps need 'integrator: backward_euler' or "
+                                         "'static' (the variational integrator keeps a fixed dt)");
     if (s.adaptive_max_dt > 0 && s.adaptive_max_dt < s.adaptive_min_dt)
       diagnostics.error(adaptive->at("max_dt").where, "solver.adaptive: max_dt must be >= min_dt");
     if (s.dt.value < s.adaptive_min_dt)

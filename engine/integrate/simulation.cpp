@@ -78,12 +78,13 @@ Simulation::Simulation(Model model, ExternalLoads loads, SimulationSettings sett
   if (m_settings.integrator == Integrator::variational)
     m_impl->variational = std::make_unique<VariationalStep>(m_model, m_impl->potential, m_settings.dt);
   if (m_settings.adaptive.enabled) {
-    if (m_settings.integrator != Integrator::backward_euler)
-      throw std::invalid_argument("adaptive time steps need the backward_euler integrator");
+    if (m_settings.integrator == Integrator::variational)
+      throw std::invalid_argument("adaptive time steps need the backward_euler or static integrator");
     const AdaptiveSettings& a = m_settings.adaptive;
     if (!(a.tolerance > 0) || !(a.min_dt > 0) || (a.max_dt > 0 && a.max_dt < a.min_dt))
       throw std::invalid_argument("adaptive steps need tolerance > 0, min_dt > 0 and max_dt >= min_dt");
-    m_controller = std::make_unique<StepController>(a, m_settings.dt);
+    m_controller = std::make_unique<StepController>(
+        a, m_settings.dt, m_settings.integrator == Integrator::static_equilibrium ? 1 : 2);
     m_extent = model_extent(m_model);
   }
 }
@@ -206,6 +207,36 @@ Simulation::Attempt Simulation::attempt(double h, State& trial) {
   return a;
 }
 
+Simulation::Attempt Simulation::static_attempt(double t_next, State& trial) {
+  // Static equilibrium at t_next with load stepping (solve/newton.hpp), from the current state.
+  StepPotential& potential = m_impl->potential;
+  potential.set_equilibrium();
+  trial = m_state;
+  apply_motions(m_model, m_motions, t_next, trial);
+  potential.rigid_mapping().sync(trial);
+  ExternalLoads& loads = m_loads;
+  // Adaptive steps after the first hold the loads at full scale already (m_state is their
+  // equilibrium): one Newton solve, whose failure the step controller answers with a shorter step
+  // (the motions' increment is what shortens; scaling the loads down would not).
+  const bool loaded = m_controller && m_step > 0;
+  LoadStepping stepping;
+  stepping.initial_steps = loaded ? 1 : m_settings.load_steps;
+  stepping.max_halvings = loaded ? 0 : m_settings.max_load_halvings;
+  const std::function<double(double)> set_load_factor = [&](double factor) {
+    loads.scale = factor;
+    return load_force_norm(m_model, loads);
+  };
+  Attempt a;
+  a.newton = m_impl->backend
+                 ? m_impl->backend->equilibrium(trial, m_settings.newton, stepping, set_load_factor)
+                 : minimise_load_stepping(potential, trial, m_settings.newton, stepping, set_load_factor, &m_impl->linear);
+  loads.scale = 1.0;
+  keep_tangent();
+  a.finite = finite_state(trial);
+  std::fill(trial.velocities.begin(), trial.velocities.end(), 0.0);
+  return a;
+}
+
 bool Simulation::finish(StepReport& report, int step, double time, std::chrono::steady_clock::time_point t0) {
   report.step = step;
   report.time = time;
@@ -234,54 +265,25 @@ bool Simulation::finish(StepReport& report, int step, double time, std::chrono::
 
 StepReport Simulation::step() {
   const auto t0 = std::chrono::steady_clock::now();
-  StepPotential& potential = m_impl->potential;
   StepReport report;
   report.accepted_steps = 1;
   report.dt = m_settings.dt;
   const double t_next = m_time + m_settings.dt;
   State start = m_state;
-
-  if (m_settings.integrator != Integrator::static_equilibrium) {
-    State trial;
-    const Attempt a = attempt(m_settings.dt, trial);
-    report.newton_iterations = a.newton.iterations;
-    report.cg_iterations = a.newton.cg_iterations;
-    report.residual = a.newton.residual;
-    if (!a.ok()) {
-      std::ostringstream msg;
-      msg << "step " << m_step + 1 << " (t = " << t_next << " s, dt = " << m_settings.dt
-          << " s) failed: " << (a.finite ? a.newton.message : "non-finite state") << "; relative residual "
-          << a.newton.residual << "; likely cause: " << likely_cause(a.newton, a.finite, false);
-      throw SolverError(msg.str());
-    }
-    m_state = std::move(trial);
-  } else {
-    // Static equilibrium with load stepping (solve/newton.hpp).
-    potential.set_equilibrium();
-    State trial = m_state;
-    apply_motions(m_model, m_motions, t_next, trial);
-    potential.rigid_mapping().sync(trial);
-    ExternalLoads& loads = m_loads;
-    LoadStepping stepping;
-    stepping.initial_steps = m_settings.load_steps;
-    stepping.max_halvings = m_settings.max_load_halvings;
-    const std::function<double(double)> set_load_factor = [&](double factor) {
-      loads.scale = factor;
-      return load_force_norm(m_model, loads);
-    };
-    const NewtonResult r =
-        m_impl->backend
-            ? m_impl->backend->equilibrium(trial, m_settings.newton, stepping, set_load_factor)
-            : minimise_load_stepping(potential, trial, m_settings.newton, stepping, set_load_factor, &m_impl->linear);
-    loads.scale = 1.0;
-    keep_tangent();
-    report.newton_iterations = r.iterations;
-    report.cg_iterations = r.cg_iterations;
-    if (!r.converged || !finite_state(trial)) throw SolverError(r.converged ? "the state became non-finite (diverged)" : r.message);
-    report.residual = r.residual;
-    std::fill(trial.velocities.begin(), trial.velocities.end(), 0.0);
-    m_state = std::move(trial);
+  State trial;
+  const Attempt a = m_settings.integrator == Integrator::static_equilibrium ? static_attempt(t_next, trial)
+                                                                            : attempt(m_settings.dt, trial);
+  report.newton_iterations = a.newton.iterations;
+  report.cg_iterations = a.newton.cg_iterations;
+  report.residual = a.newton.residual;
+  if (!a.ok()) {
+    std::ostringstream msg;
+    msg << "step " << m_step + 1 << " (t = " << t_next << " s, dt = " << m_settings.dt
+        << " s) failed: " << (a.finite ? a.newton.message : "non-finite state") << "; relative residual "
+        << a.newton.residual << "; likely cause: " << likely_cause(a.newton, a.finite, false);
+    throw SolverError(msg.str());
   }
+  m_state = std::move(trial);
   if (!finish(report, m_step + 1, t_next, t0)) {
     m_state = std::move(start);
     throw SolverError(report.message);
@@ -295,6 +297,7 @@ StepReport Simulation::advance_to(double t_target) {
   if (!m_controller) throw std::logic_error("Simulation::advance_to: adaptive steps are off");
   const auto t0 = std::chrono::steady_clock::now();
   StepController& controller = *m_controller;
+  const bool is_static = m_settings.integrator == Integrator::static_equilibrium;
   StepReport report;
   State trial, previous;
   double previous_time = m_time;
@@ -302,7 +305,7 @@ StepReport Simulation::advance_to(double t_target) {
   // and keeps them for a checkpoint); the report gives them when the target is reached.
   while (m_time < t_target) {
     const double h = controller.next_step(m_time, t_target);
-    const Attempt a = attempt(h, trial);
+    const Attempt a = is_static ? static_attempt(m_time + h, trial) : attempt(h, trial);
     m_progress.newton_iterations += a.newton.iterations;
     m_progress.cg_iterations += a.newton.cg_iterations;
     report.residual = a.newton.residual;
@@ -317,7 +320,9 @@ StepReport Simulation::advance_to(double t_target) {
           << a.newton.residual << "; likely cause: " << likely_cause(a.newton, a.finite, true);
       throw SolverError(msg.str());
     }
-    if (!controller.update(h, local_error(m_model, m_state, trial, h, m_extent))) {
+    const double error = is_static ? static_increment(m_model, m_state, trial, m_extent)
+                                   : local_error(m_model, m_state, trial, h, m_extent);
+    if (!controller.update(h, error)) {
       ++m_progress.rejected;
       continue;
     }

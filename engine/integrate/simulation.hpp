@@ -35,7 +35,7 @@ struct SimulationSettings {
   int load_steps = 1;               // static: initial number of load increments
   int max_load_halvings = 10;       // static: halvings of a failed increment before giving up
   int threads = 0;                  // 0 = all
-  AdaptiveSettings adaptive;        // backward Euler: adaptive steps (advance_to()), dt the first
+  AdaptiveSettings adaptive;        // backward Euler, static: adaptive steps (advance_to()), dt the first
   NewtonSettings newton;
   // Backend of the volumetric elasticity (mechanics/volumetric_elasticity.hpp); empty: the CPU
   // Elasticity. kernels/cuda_elasticity.hpp makes the CUDA one.
@@ -77,7 +77,7 @@ class Simulation {
   // StopRequested, leaving the state at the last completed step likewise.
   StepReport step();
 
-  // Adaptive backward Euler (settings().adaptive.enabled): steps from time() to exactly t_target
+  // Adaptive backward Euler or statics (settings().adaptive.enabled): steps from time() to exactly t_target
   // (s), each accepted or rejected and retried by the step controller (step_controller.hpp). The
   // report sums the Newton and CG iterations of all attempts and counts the accepted and
   // rejected steps. Throws SolverError when a step fails at min_dt; the state is then left at
@@ -121,6 +121,9 @@ class Simulation {
   struct Attempt;
   // One backward-Euler or variational step of size h from m_state into `trial`, not accepted yet.
   Attempt attempt(double h, State& trial);
+  // The static equilibrium at time t_next (motions at t_next, full loads) from m_state into
+  // `trial`, with load stepping; velocities zero.
+  Attempt static_attempt(double t_next, State& trial);
   // The report's step, time and energies after an accepted step; false (and report.message) when
   // the state or an energy is not finite.
   bool finish(StepReport& report, int step, double time, std::chrono::steady_clock::time_point t0);

@@ -1,11 +1,14 @@
 #include "integrate/step_controller.hpp"
 
+#include "core/rotation.hpp"
+
 #include <algorithm>
 #include <cmath>
 
 namespace fascia {
 
-StepController::StepController(const AdaptiveSettings& settings, double first_dt) : m_settings(settings) {
+StepController::StepController(const AdaptiveSettings& settings, double first_dt, int error_order)
+    : m_settings(settings), m_error_order(error_order) {
   m_state.dt = clamp_dt(first_dt);
 }
 
@@ -23,8 +26,10 @@ double StepController::next_step(double t, double t_target) const {
 }
 
 bool StepController::update(double h, double error) {
-  const double ratio = error > 0 ? m_settings.tolerance / error : 4.0;
-  const double factor = std::clamp(0.9 * std::sqrt(ratio), 0.2, 2.0);
+  // An error of zero grows the step as an error of tol / 4 (order 2) or tol / 2 (order 1) does:
+  // by 0.9 x 2 = 1.8.
+  const double ratio = error > 0 ? m_settings.tolerance / error : (m_error_order == 2 ? 4.0 : 2.0);
+  const double factor = std::clamp(0.9 * (m_error_order == 2 ? std::sqrt(ratio) : ratio), 0.2, 2.0);
   if (error <= m_settings.tolerance) {
     ++m_state.accepted;
     // A step shortened to land on an output time does not shrink the size the controller has
@@ -84,6 +89,23 @@ double local_error(const Model& model, const State& start, const State& end, dou
     error = std::max(error, 0.5 * h * (std::sqrt(dv) + extent * std::sqrt(dw)));
   }
   return error;
+}
+
+double static_increment(const Model& model, const State& start, const State& end, double extent) {
+  double increment = 0;
+  for (int i = 0; i < model.frame_count(); ++i) {
+    double dx = 0;
+    for (int k = 0; k < 3; ++k)
+      if (!model.fixed_dofs[6 * static_cast<std::size_t>(i) + k])
+        dx += std::pow(end.positions[3 * i + k] - start.positions[3 * i + k], 2);
+    double dr = 0;
+    if (!model.fixed_dofs[6 * static_cast<std::size_t>(i) + 3]) {
+      const Quat rel = load_quat(&end.orientations[4 * i]) * conjugate(load_quat(&start.orientations[4 * i]));
+      dr = norm(quat_log(rel));
+    }
+    increment = std::max(increment, std::sqrt(dx) + extent * dr);
+  }
+  return increment;
 }
 
 }  // namespace fascia

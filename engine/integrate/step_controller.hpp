@@ -1,5 +1,5 @@
-// Adaptive time steps for backward Euler: a step size controller around the step (not SUNDIALS'
-// ARKODE/CVODE; docs/solvers.md says why).
+// Adaptive steps for backward Euler and for static load paths: a step size controller around the
+// step (not SUNDIALS' ARKODE/CVODE; docs/solvers.md says why).
 //
 // A step of size h is accepted when its nonlinear solve converges and its local error estimate
 // is within the tolerance. Backward Euler's local truncation error is (h^2/2) a + O(h^3); with
@@ -12,6 +12,14 @@
 // The next step is h * clamp(0.9 sqrt(tol / e), 0.2, 2) (the error is O(h^2); Hairer, Norsett &
 // Wanner, Solving ODEs I, §II.4, eq. 4.13 with q = 1), at most h just after a rejection; a step
 // whose nonlinear solve fails is retried with h / 2. Steps stay in [min_dt, max_dt].
+//
+// Static steps follow the equilibrium path q*(t) of time-dependent motions; each step is an
+// equilibrium (no truncation error), so what the tolerance bounds is the increment itself,
+// e = max_i (|x_{n+1,i} - x_n,i| + L |log(R_{n+1,i} R_n,i^T)|) (m, free frames), O(h): the next
+// step is h * clamp(0.9 tol / e, 0.2, 2). An increment within the tolerance is accepted and the
+// next grows (by 1.8 where nothing moved: a hold), a larger one is rejected and retried shorter,
+// and a failed solve (inverted elements, no convergence) halves the step; a tolerance larger
+// than any increment leaves the failures alone to shorten the steps.
 #pragma once
 
 #include "model/model.hpp"
@@ -46,7 +54,9 @@ struct AdvanceProgress {
 
 class StepController {
  public:
-  StepController(const AdaptiveSettings& settings, double first_dt);
+  // @param error_order the power of h in the error estimate: 2 for backward Euler's local error,
+  // 1 for the increments of static steps.
+  StepController(const AdaptiveSettings& settings, double first_dt, int error_order = 2);
 
   // Size of the next attempt from time t, ending exactly on t_target when the remaining time
   // is within the step (the remaining time split into equal steps otherwise).
@@ -65,6 +75,7 @@ class StepController {
  private:
   double clamp_dt(double dt) const;
   AdaptiveSettings m_settings;
+  int m_error_order;
   StepControllerState m_state;
 };
 
@@ -75,5 +86,8 @@ double model_extent(const Model& model);
 // The local error estimate e above, from the states at the start and the end of a step of size
 // h (velocities in both), over the model's free DOFs.
 double local_error(const Model& model, const State& start, const State& end, double h, double extent);
+
+// The increment estimate e of a static step above, from its start and end states (m).
+double static_increment(const Model& model, const State& start, const State& end, double extent);
 
 }  // namespace fascia

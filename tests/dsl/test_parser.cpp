@@ -224,3 +224,20 @@ TEST_CASE("meshless settings reach the discretisation; check's statistics come w
   CHECK(repaired.objects[0].meshless->added_frames > 0);
   CHECK_THROWS_AS(sheet("frame_spacing: 10 mm, sample_spacing: 2 mm, thin_parts: stop"), SceneError);
 }
+
+TEST_CASE("solver.adaptive takes backward_euler and static, and names the variational integrator as refused",
+          "[dsl][adaptive]") {
+  const std::string adaptive = "solver.adaptive={tolerance: 1 mm, min_dt: 1 ms}";
+  for (const char* integrator : {"backward_euler", "static"}) {
+    const SceneSpec s = parse_scene_text(kSlab, "slab.yaml", {std::string("solver.integrator=") + integrator, adaptive});
+    CHECK(s.solver.adaptive);
+    CHECK(s.solver.adaptive_tolerance == Approx(1e-3).epsilon(1e-15));
+  }
+  try {
+    parse_scene_text(kSlab, "slab.yaml", {"solver.integrator=variational", adaptive});
+    FAIL("no error");
+  } catch (const SceneError& e) {
+    CHECK_THAT(e.diagnostics().str(), Catch::Contains("'integrator: backward_euler' or 'static'"));
+    CHECK(e.exit_code() == ExitCode::bad_scene);
+  }
+}
