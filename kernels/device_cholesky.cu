@@ -31,7 +31,8 @@ struct Cusolver {
   decltype(&cusolverDnSetStream) set_stream = nullptr;
   decltype(&cusolverDnDpotrf_bufferSize) potrf_buffer_size = nullptr;
   decltype(&cusolverDnDpotrf) potrf = nullptr;
-  decltype(&cusolverDnDpotrs) potrs = nullptr;
+  decltype(&cusolverDnDpotri_bufferSize) potri_buffer_size = nullptr;
+  decltype(&cusolverDnDpotri) potri = nullptr;
   std::string error;  // why it could not be loaded; empty when loaded
 };
 
@@ -53,7 +54,8 @@ const Cusolver& cusolver() {
     load(c.set_stream, "cusolverDnSetStream");
     load(c.potrf_buffer_size, "cusolverDnDpotrf_bufferSize");
     load(c.potrf, "cusolverDnDpotrf");
-    load(c.potrs, "cusolverDnDpotrs");
+    load(c.potri_buffer_size, "cusolverDnDpotri_bufferSize");
+    load(c.potri, "cusolverDnDpotri");
     return c;
   }();
   return api;
@@ -102,6 +104,36 @@ __global__ void k_restore_shifted(const std::uint8_t* fixed, const double* diag,
   A[j * n + j] = fixed[j] ? 1.0 : diag[j] + tau * fmax(fabs(diag[j]), floor);
 }
 
+__global__ void k_unit_diagonal(double* A, long long n) {
+  const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (i < n) A[i * n + i] = 1.0;
+}
+
+// Copies the lower triangle onto the strict upper one: the full symmetric matrix, for k_symmetric_apply.
+// One thread per column.
+__global__ void k_mirror_lower(double* A, long long n) {
+  const long long j = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (j >= n) return;
+  for (long long i = j + 1; i < n; ++i) A[i * n + j] = A[j * n + i];
+}
+
+// z = A r for a full symmetric A (column-major): z_j is column j's dot product with r, so each
+// block reads one contiguous column. One block of kThreads per column, a shared-memory sum.
+__global__ void k_symmetric_apply(const double* A, const double* r, double* z, long long n) {
+  __shared__ double partial[kThreads];
+  const long long j = blockIdx.x;
+  const double* column = A + j * n;
+  double sum = 0;
+  for (long long i = threadIdx.x; i < n; i += kThreads) sum += column[i] * r[i];
+  partial[threadIdx.x] = sum;
+  __syncthreads();
+  for (int half = kThreads / 2; half > 0; half /= 2) {
+    if (static_cast<int>(threadIdx.x) < half) partial[threadIdx.x] += partial[threadIdx.x + half];
+    __syncthreads();
+  }
+  if (threadIdx.x == 0) z[j] = partial[0];
+}
+
 }  // namespace
 
 struct DeviceCholesky::Impl {
@@ -137,23 +169,43 @@ struct DeviceCholesky::Impl {
     info.resize(1);
     FASCIA_CUSOLVER(cusolver().create(&handle));
     FASCIA_CUSOLVER(cusolver().set_stream(handle, ops.stream()));
+    int potrf_work = 0, potri_work = 0;
     FASCIA_CUSOLVER(cusolver().potrf_buffer_size(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(),
-                                                static_cast<int>(n), &lwork));
+                                                static_cast<int>(n), &potrf_work));
+    FASCIA_CUSOLVER(cusolver().potri_buffer_size(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(),
+                                                static_cast<int>(n), &potri_work));
+    lwork = std::max(potrf_work, potri_work);
     work.resize(static_cast<size_t>(std::max(lwork, 1)));
+    // cuSOLVER loads its kernels when they are first launched (CUDA's lazy module loading), tens
+    // of milliseconds each: inverting the identity of order n here loads those of this order
+    // with the model's setup rather than in its first step.
+    FASCIA_CUDA(cudaMemsetAsync(A.data(), 0, sizeof(double) * static_cast<size_t>(n) * static_cast<size_t>(n), ops.stream()));
+    k_unit_diagonal<<<blocks_for(n), kThreads, 0, ops.stream()>>>(A.data(), n);
+    FASCIA_CUDA(cudaGetLastError());
+    if (!invert()) throw std::runtime_error("cuSOLVER potrf failed on the identity");
   }
   ~Impl() {
     if (handle) cusolver().destroy(handle);
   }
 
-  // potrf on A; true when positive definite.
-  bool potrf() {
+  // potrf on A; true when positive definite, and then A becomes H^{-1} (potri), both triangles.
+  bool invert() {
     FASCIA_CUSOLVER(cusolver().potrf(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(), static_cast<int>(n),
                                      work.data(), lwork, info.data()));
+    if (const int status = read_info("potrf"); status != 0) return false;
+    FASCIA_CUSOLVER(cusolver().potri(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(), static_cast<int>(n),
+                                     work.data(), lwork, info.data()));
+    if (read_info("potri") != 0) throw std::runtime_error("cuSOLVER potri: a factor with a zero diagonal entry");
+    k_mirror_lower<<<blocks_for(n), kThreads, 0, ops.stream()>>>(A.data(), n);
+    FASCIA_CUDA(cudaGetLastError());
+    return true;
+  }
+  int read_info(const char* what) {
     int status = 0;
     FASCIA_CUDA(cudaMemcpyAsync(&status, info.data(), sizeof(int), cudaMemcpyDeviceToHost, ops.stream()));
     FASCIA_CUDA(cudaStreamSynchronize(ops.stream()));
-    if (status < 0) throw std::runtime_error("cuSOLVER potrf: invalid argument " + std::to_string(-status));
-    return status == 0;
+    if (status < 0) throw std::runtime_error(std::string("cuSOLVER ") + what + ": invalid argument " + std::to_string(-status));
+    return status;
   }
 };
 
@@ -211,7 +263,7 @@ LinearResult DeviceCholesky::factorise(const std::function<void(const double*, d
   LinearResult r;
   r.factorised = true;
   r.converged = true;
-  if (m.potrf()) {
+  if (m.invert()) {
     m.factorised = true;
     return r;
   }
@@ -232,7 +284,7 @@ LinearResult DeviceCholesky::factorise(const std::function<void(const double*, d
   for (double tau = 1e-6; tau <= 1e3 * (1 + 1e-12); tau *= 10) {
     k_restore_shifted<<<blocks_for(n), kThreads, 0, stream>>>(m.fixed, m.diag.data(), tau, 1e-12 * mean, m.A.data(), n);
     FASCIA_CUDA(cudaGetLastError());
-    if (m.potrf()) {
+    if (m.invert()) {
       m.factorised = true;
       r.shifted = true;
       std::ostringstream msg;
@@ -248,9 +300,8 @@ LinearResult DeviceCholesky::factorise(const std::function<void(const double*, d
 
 void DeviceCholesky::solve(const double* r, double* z) const {
   Impl& m = *m_impl;
-  m.ops.copy(r, z, m.n);
-  FASCIA_CUSOLVER(cusolver().potrs(m.handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(m.n), 1, m.A.data(),
-                                   static_cast<int>(m.n), z, static_cast<int>(m.n), m.info.data()));
+  k_symmetric_apply<<<static_cast<unsigned>(m.n), kThreads, 0, m.ops.stream()>>>(m.A.data(), r, z, m.n);
+  FASCIA_CUDA(cudaGetLastError());
 }
 
 }  // namespace fascia::gpu

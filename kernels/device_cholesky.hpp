@@ -3,15 +3,21 @@
 // (solve/factorised_solve.hpp).
 //
 // H is recovered from coloured products (integrate/tangent_probing.hpp: 6 per colour, a few tens
-// of colours) into a dense n x n matrix, factorised by cuSOLVER's potrf and applied by potrs
-// (two triangular solves). Dense, because the scenes' reduced tangents are small (2,208 DOFs for
-// the pelvis, 11,460 with its finest fasciae: 1 GB, about n^3/3 = 5e11 flops per factorisation)
-// while their sparse factors have deep elimination trees that triangular solves on a GPU walk
-// level by level. A model whose dense factor would not fit is refused (refusal()): the device then
-// preconditions by block Jacobi.
+// of colours) into a dense n x n matrix, factorised by cuSOLVER's potrf and inverted from the
+// factor by potri; the preconditioner is then the product with H^{-1}, one pass over n^2 numbers
+// at the device's memory bandwidth (0.37 ms at 11,460 DOFs on an H100, where potrs's two
+// triangular solves, sequential by blocks, took 1.7 ms). The inverse costs about 2n^3/3 flops
+// more per factorisation (0.1 s at 11,460 DOFs), which the tens to hundreds of CG iterations
+// each factorisation serves repay. Dense, because the scenes' reduced tangents are small (2,208
+// DOFs for the pelvis, 11,460 with its finest fasciae: 1 GB, about n^3/3 = 5e11 flops per
+// factorisation) while their sparse factors have deep elimination trees that triangular solves
+// on a GPU walk level by level. A model whose dense factor would not fit is refused (refusal()):
+// the device then preconditions by block Jacobi.
 //
 // Not positive definite: shifted like the CPU's, H + tau diag|H| for tau = 1e-6, 1e-5, ... 1e3
 // (the strict upper triangle, which potrf leaves untouched, restores the lower one between tries).
+// cuSOLVER's kernels for the model's order are loaded when the object is made (a factorisation of
+// the identity), not in the first step.
 // Fixed DOFs are identity rows and columns. All work is enqueued on the stream of `ops`; a
 // factorisation reads back one status word per try.
 #pragma once
@@ -45,15 +51,15 @@ class DeviceCholesky {
   // .factorised = true; .shifted and .message when shifted; .message alone when every shift failed.
   LinearResult factorise(const std::function<void(const double*, double*)>& apply);
   bool factorised() const;
-  // z = H^{-1} r (device arrays of 6N; z's fixed DOFs equal r's).
+  // z = H^{-1} r (device arrays of 6N; z's fixed DOFs equal r's). Enqueued only: no read back.
   void solve(const double* r, double* z) const;
   // Probe products per factorisation (6 per colour).
   int products() const;
   // The iterations of one PCG solve beyond which the kept factorisation is renewed
   // (solve/factorised_solve.hpp): an eighth of its products, at least the CPU's setting. A
   // factorisation costs products() tangent products (on the pelvis 432, 1,242 at 16k samples and
-  // 1,728 at 56k: 32, 150 and 485 ms on an H100), a CG iteration one product and two triangular
-  // solves; renewing pays when the iterations it saves over the solves that follow (about ten:
+  // 1,728 at 56k: 45, 150 and 470 ms on an H100), a CG iteration one product and one product
+  // with H^{-1}; renewing pays when the iterations it saves over the solves that follow (about ten:
   // a few steps' Newton iterations) exceed its products.
   int refactorise_above(const LinearSettings& settings) const;
   // A fingerprint of the colouring (FNV-1a): equal for one model and build.

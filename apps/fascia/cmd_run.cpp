@@ -11,6 +11,7 @@
 #include "backend.hpp"
 #include "commands.hpp"
 #include "output_check.hpp"
+#include "process_threads.hpp"
 #include "progress.hpp"
 #include "run_files.hpp"
 #include "run_identity.hpp"
@@ -323,6 +324,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   built.settings.elasticity = backend.elasticity;
   built.settings.step_backend = backend.step;
   if (options.threads >= 0) built.settings.threads = options.threads;
+  bound_process_threads(built.settings.threads);
 
   // The steps of this run: the scene's, or fewer under a benchmark's cap.
   const int steps = options.max_steps > 0 ? std::min(options.max_steps, built.steps) : built.steps;

@@ -2,11 +2,11 @@
 // with the volumetric elasticity on the CUDA backend (--backend cuda; backend.hpp).
 #include "backend.hpp"
 #include "commands.hpp"
+#include "process_threads.hpp"
 
 #include "study/beam_study.hpp"
 
 #include <nlohmann/json.hpp>
-#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -73,10 +73,7 @@ std::vector<BeamCase> select_cases(const StudyOptions& o, const BeamSettings& se
 }
 
 int run_beam(const StudyOptions& o) {
-  // --threads bounds every OpenMP team of the process, CHOLMOD's BLAS and Eigen's products
-  // included: they size their teams from omp_get_max_threads(), and with more threads than
-  // the study's own loops use, their idle workers spin and take the cores from the work.
-  if (o.threads > 0) omp_set_num_threads(o.threads);
+  bound_process_threads(o.threads);
   Backend backend;
   if (const int code = resolve_backend("study", o.backend, backend); code != kOk) return code;
   BeamSettings settings;
