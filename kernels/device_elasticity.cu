@@ -54,6 +54,13 @@ constexpr int kMaxBlockSlots = 256;
 // Lanes that sum one slot of a block's pair outputs in the launched tangent kernels (a power of
 // two <= 32): two halve the chain of dependent adds of one lane and keep the stores coalesced.
 constexpr int kSlotLanes = 2;
+// Threads per sample of the launched coalesced tangent kernel (ell_tangent_block's Lanes) for
+// models whose samples have more than kLanedPairs neighbour frames on average: a sample's pairs
+// are a chain of dependent loads, which four lanes shorten fourfold (meshless samples have 12 or
+// more; mesh samples 4 or 8, which one thread takes). Such models' blocks hold
+// kBlockSamples / kSampleLanes samples, one pass of the block's threads.
+constexpr int kLanedPairs = 8;
+constexpr int kSampleLanes = 4;
 // Frames per chunk of the launched PCG update (k_update_rows, 6 threads per frame): 252-thread
 // blocks, large enough that few blocks share the grid reduction, small enough to fill the device.
 constexpr int kRowFrames = 42;
@@ -171,7 +178,8 @@ class System final : public DeviceElasticity::Impl {
     m_inertias.upload(inertias);
     m_fixed.upload(model.fixed_dofs);
 
-    BlockLayout L = build_block_layout(model, kBlockSamples, kMaxBlockPairs, kMaxBlockSlots);
+    m_lanes = model.pair_count() > static_cast<long long>(kLanedPairs) * model.sample_count() ? kSampleLanes : 1;
+    BlockLayout L = build_block_layout(model, kBlockSamples / m_lanes, kMaxBlockPairs, kMaxBlockSlots);
     m_blocks = L.block_count();
     m_slots = L.slot_count();
     m_shared_bytes = static_cast<size_t>(L.max_block_pairs) * 6 * sizeof(R);
@@ -420,8 +428,9 @@ class System final : public DeviceElasticity::Impl {
                                sizeof(int) * static_cast<size_t>(max_slots);
     m_resident_frames_bytes = lever_bytes <= static_cast<size_t>(shared_limit) ? lever_bytes : 0;
     for (int keep : {2, 4, 8}) {
-      FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep)),
-                                       cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
+      for (int lanes : {1, kSampleLanes})
+        FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep, lanes)),
+                                         cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
       FASCIA_CUDA(cudaFuncSetAttribute(two_barrier_kernel(keep), cudaFuncAttributeMaxDynamicSharedMemorySize,
                                        static_cast<int>(m_ell_bytes)));
     }
@@ -678,7 +687,7 @@ class System final : public DeviceElasticity::Impl {
   // The launched tangent product's sample kernel in use (enqueue_tangent's choice).
   const void* tangent_sample_kernel() const {
     if (grouped) return reinterpret_cast<const void*>(&k_group_tangent<R>);
-    return reinterpret_cast<const void*>(ell_tangent_kernel(m_keep));
+    return reinterpret_cast<const void*>(ell_tangent_kernel(m_keep, m_lanes));
   }
 
   // out = (K + M/h^2) d with the given flags; in the PCG (`pcg`) also alpha = rz / d.out, with d
@@ -696,7 +705,7 @@ class System final : public DeviceElasticity::Impl {
                          pcg, z);
       return;
     }
-    ell_tangent_kernel(m_keep)<<<m_blocks, kDenseThreads, m_ell_bytes, m_stream>>>(
+    ell_tangent_kernel(m_keep, m_lanes)<<<m_blocks, kDenseThreads, m_ell_bytes, m_stream>>>(
         m_view, m_frame_view, pd, pold, m_partials.data(), sc, kSlotLanes);
     check_launch();
     enqueue_frame_rows(m_view, m_partials.data(), frame_block(pcg), frame_inertia(pcg), flags, d, out, pcg, z);
@@ -759,10 +768,14 @@ class System final : public DeviceElasticity::Impl {
     return m_resident && resident_staged() ? m_resident_frames_bytes : m_ell_bytes;
   }
 
-  // The launched coalesced tangent kernel for `keep` held ELL entries per sample (2, 4, else 8).
+  // The launched coalesced tangent kernel for `keep` held ELL entries per lane (2, 4, else 8) and
+  // `lanes` threads per sample (1, else kSampleLanes).
   using EllTangentKernel = void (*)(ModelView<R>, FrameView<R>, const R*, const R*, R*, const Scalars*, int);
-  static EllTangentKernel ell_tangent_kernel(int keep) {
-    return keep == 2 ? &k_ell_tangent<R, 2> : keep == 4 ? &k_ell_tangent<R, 4> : &k_ell_tangent<R, 8>;
+  static EllTangentKernel ell_tangent_kernel(int keep, int lanes) {
+    if (lanes == 1) return keep == 2 ? &k_ell_tangent<R, 2, 1> : keep == 4 ? &k_ell_tangent<R, 4, 1> : &k_ell_tangent<R, 8, 1>;
+    return keep == 2   ? &k_ell_tangent<R, 2, kSampleLanes>
+           : keep == 4 ? &k_ell_tangent<R, 4, kSampleLanes>
+                       : &k_ell_tangent<R, 8, kSampleLanes>;
   }
   // k_pcg_two_barrier for `keep` held entries.
   static const void* two_barrier_kernel(int keep) {
@@ -895,6 +908,7 @@ class System final : public DeviceElasticity::Impl {
   int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0;
   bool m_locked = false;
   int m_ell_entries = 0, m_keep = 2, m_max_neighbours = 0;
+  int m_lanes = 1;  // threads per sample of the launched coalesced tangent kernel
   bool m_resident = false;  // the persistent PCG is k_pcg_resident
   bool m_fibres = false;    // some material is hgo: k_pcg_resident does not serve the model
   size_t m_shared_bytes = 0, m_ell_bytes = 0;

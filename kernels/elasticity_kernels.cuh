@@ -258,25 +258,33 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
   }
 }
 
-// Coalesced tangent pass of block b (elasticity_phases.hpp, "coalesced tangent pass"), one thread
-// per sample: block-local sample t has its pairs j at ELL entries e0 + j ns + t. The first Keep of
-// them have their ELL entries loaded at once (independent loads in flight together) and kept in
-// registers for the output half; further ones are read again. The frames' lever records are
-// gathered in each half (the second read hits the cache). Outputs [6][P_b] in slot-major order in
-// `local`, then `slot_lanes` lanes per slot sum it (warp_slot_sums). All arithmetic in R. Every
-// thread of the block must call it. Returns this thread's v dF : dP, the sample terms of p . K p
-// for the persistent PCG.
-template <class R, int Keep>
+// Coalesced tangent pass of block b (elasticity_phases.hpp, "coalesced tangent pass"), `Lanes`
+// threads per sample (1, or a power of two <= 32 for samples with many neighbour frames: the
+// pairs of a sample are a chain of dependent loads, and its lanes share them): block-local sample
+// t has its pairs j at ELL entries e0 + j ns + t, lane l takes j = l, l + Lanes, ...; the first
+// Keep of a lane's pairs have their ELL entries loaded at once (independent loads in flight
+// together) and kept in registers for the output half; further ones are read again. The lanes'
+// dF are summed by an xor butterfly, and each lane forms dP and its pairs' outputs. The frames'
+// lever records are gathered in each half (the second read hits the cache). Outputs [6][P_b] in
+// slot-major order in `local`, then `slot_lanes` lanes per slot sum it (warp_slot_sums). All
+// arithmetic in R. Every thread of the block must call it. Returns this thread's v dF : dP (lane
+// 0 of each sample), the sample terms of p . K p for the persistent PCG.
+template <class R, int Keep, int Lanes = 1>
 __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
                                     double beta, int b, int slot_lanes, R* local, R* slot_partials) {
+  static_assert(Lanes >= 1 && Lanes <= 32 && (Lanes & (Lanes - 1)) == 0, "Lanes: a power of two <= 32");
   const int s0 = m.block_samples[b], ns = m.block_samples[b + 1] - s0;
   const int e0 = m.ell_offsets[b];
   const int stride = m.offsets[s0 + ns] - m.offsets[s0];  // the block's pairs
-  const int groups = static_cast<int>(blockDim.x);
+  const int groups = static_cast<int>(blockDim.x) / Lanes;
+  const int lane = static_cast<int>(threadIdx.x) & (Lanes - 1);
+  // The sample's lanes within the warp, for the butterfly.
+  const unsigned lanes_mask =
+      Lanes == 32 ? 0xffffffffu : ((1u << Lanes) - 1u) << (static_cast<int>(threadIdx.x) & 31 & ~(Lanes - 1));
   double work = 0;
   for (int base = 0; base < ns; base += groups) {  // the same trip count in every thread
-    const int t = base + static_cast<int>(threadIdx.x), s = s0 + t;
-    if (t >= ns) continue;
+    const int t = base + static_cast<int>(threadIdx.x) / Lanes, s = s0 + t;
+    if (t >= ns) continue;  // all lanes of a sample alike
     const int count = m.offsets[s + 1] - m.offsets[s];
     const Vec3T<R> ps{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
                       sample_value(f.sample_state, m.samples, 2, s)};
@@ -284,20 +292,27 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
     EllEntry<R> kept[Keep] = {};
 #pragma unroll
     for (int k = 0; k < Keep; ++k)
-      if (k < count) kept[k] = ell_entry(m, e0 + k * ns + t);
+      if (lane + k * Lanes < count) kept[k] = ell_entry(m, e0 + (lane + k * Lanes) * ns + t);
 #pragma unroll
     for (int k = 0; k < Keep; ++k)
-      if (k < count) ell_pair_dF(ell_pair_of(kept[k], f.levers, ps), d, p_old, beta, dF);
-    for (int j = Keep; j < count; ++j)
+      if (lane + k * Lanes < count) ell_pair_dF(ell_pair_of(kept[k], f.levers, ps), d, p_old, beta, dF);
+    for (int j = lane + Keep * Lanes; j < count; j += Lanes)
       ell_pair_dF(ell_pair_of(ell_entry(m, e0 + j * ns + t), f.levers, ps), d, p_old, beta, dF);
+    if constexpr (Lanes > 1) {
+#pragma unroll
+      for (int r = 0; r < 3; ++r)
+#pragma unroll
+        for (int c = 0; c < 3; ++c)
+          for (int o = Lanes / 2; o > 0; o >>= 1) dF.m[r][c] += __shfl_xor_sync(lanes_mask, dF.m[r][c], o);
+    }
     if (count > 0) {
       const Mat3T<R> dP = ell_sample_dP(m, f.sample_state, s, dF);
       const R v = sample_value(f.sample_state, m.samples, 3, s);
-      work += static_cast<double>(v) * static_cast<double>(ddot(dF, dP));
+      if (lane == 0) work += static_cast<double>(v) * static_cast<double>(ddot(dF, dP));
 #pragma unroll
       for (int k = 0; k < Keep; ++k)
-        if (k < count) ell_pair_output(ell_pair_of(kept[k], f.levers, ps), dP, v, kept[k].pos, stride, local);
-      for (int j = Keep; j < count; ++j) {
+        if (lane + k * Lanes < count) ell_pair_output(ell_pair_of(kept[k], f.levers, ps), dP, v, kept[k].pos, stride, local);
+      for (int j = lane + Keep * Lanes; j < count; j += Lanes) {
         const EllEntry<R> en = ell_entry(m, e0 + j * ns + t);
         ell_pair_output(ell_pair_of(en, f.levers, ps), dP, v, en.pos, stride, local);
       }
@@ -326,7 +341,7 @@ constexpr int dense_blocks_per_sm(int keep) {
 // Coalesced tangent pass, one block of kDenseThreads threads per sample block. In the PCG (p_old
 // set) the direction is p = z + beta p_old with z = d and beta from the scalars; k_frame_sums
 // stores it.
-template <class R, int Keep>
+template <class R, int Keep, int Lanes>
 __global__ void __launch_bounds__(kDenseThreads, dense_blocks_per_sm<R>(Keep))
     k_ell_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
                   int slot_lanes) {
@@ -334,7 +349,8 @@ __global__ void __launch_bounds__(kDenseThreads, dense_blocks_per_sm<R>(Keep))
   R* local = reinterpret_cast<R*>(shared_raw);
   if (finished(sc)) return;
   const double beta = p_old ? sc->beta : 0.0;
-  ell_tangent_block<R, Keep>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), slot_lanes, local, slot_partials);
+  ell_tangent_block<R, Keep, Lanes>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), slot_lanes, local,
+                                    slot_partials);
 }
 
 // The end of a chunk's PCG row update (update_rows_chunk, frame_update_chunk): row j = 6 i + k
