@@ -341,7 +341,7 @@ ParamSpec build_registry() {
                              false),
                        "1"),
           with_default(above(leaf("max_load_halvings", ParamType::integer,
-                                  "static: halvings of a failed load increment before giving up"),
+                                  "static: the smallest load increment is the first halved this many times"),
                              0, false),
                        "10"),
           with_default(above(leaf("threads", ParamType::integer, "CPU threads (0 = all)"), 0, false), "0"),

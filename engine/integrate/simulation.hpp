@@ -4,7 +4,7 @@
 
 #include "integrate/prescribed_motion.hpp"
 #include "integrate/step_backend.hpp"
-#include "integrate/step_controller.hpp"
+#include "integrate/step_error.hpp"
 #include "integrate/tangent_origin.hpp"
 #include "mechanics/external_loads.hpp"
 #include "mechanics/volumetric_elasticity.hpp"
@@ -33,7 +33,7 @@ struct SimulationSettings {
   double rayleigh_mass = 0;         // alpha, 1/s:   damping D = alpha M + beta K (backward Euler only)
   double rayleigh_stiffness = 0;    // beta,  s
   int load_steps = 1;               // static: initial number of load increments
-  int max_load_halvings = 10;       // static: halvings of a failed increment before giving up
+  int max_load_halvings = 10;       // static: smallest load increment = the first / 2^this
   int threads = 0;                  // 0 = all
   AdaptiveSettings adaptive;        // backward Euler, static: adaptive steps (advance_to()), dt the first
   NewtonSettings newton;

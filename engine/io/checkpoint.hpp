@@ -13,7 +13,7 @@
 //                                 controller float64 [2]: dt (s), after_rejection (0 or 1);
 //                                 controller_counts int64 [6]: accepted, rejected, and the
 //                                 advance in progress: Newton and CG iterations, accepted,
-//                                 rejected (integrate/step_controller.hpp; zeros unless adaptive)
+//                                 rejected (solve/step_controller.hpp; zeros unless adaptive)
 //   /checkpoint/commit            int64 [2]: the committed sequence number (0: none yet) and its step
 //
 // Atomicity: every dataset is contiguous and allocated when the file is created, so writing a
@@ -29,7 +29,7 @@
 // a reader reads its own format only (a checkpoint is resumed by the build that wrote it).
 #pragma once
 
-#include "integrate/step_controller.hpp"
+#include "integrate/step_error.hpp"
 #include "integrate/tangent_origin.hpp"
 #include "model/state.hpp"
 

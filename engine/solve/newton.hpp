@@ -29,6 +29,7 @@
 #include "core/stop_request.hpp"
 #include "model/state.hpp"
 #include "solve/linear_solver.hpp"
+#include "solve/step_controller.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -158,25 +159,34 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
   return result;
 }
 
-// Static load stepping around newton(): the load factor goes to 1 in increments, halved on
-// failure (at most max_halvings times in a row) and doubled again after a success.
-// set_load_factor(f) applies factor f to the problem's loads and returns the reference force of
-// the residual at that factor (N). On failure the state is left at the last converged factor and
-// the result's message says where it stopped.
+// Static load stepping around newton(): the load factor goes from 0 to 1 in increments sized by
+// the step controller (solve/step_controller.hpp) on the Newton iterations each took: the first
+// is 1 / initial_steps, a failed one is halved (down to the first halved max_halvings times),
+// the next after a converged one of I iterations is h * clamp(0.9 sqrt(max_iterations / I), 0.2,
+// 2), not larger than h right after a failure. set_load_factor(f) applies factor f to the
+// problem's loads and returns the reference force of the residual at that factor (N). On failure
+// the state is left at the last converged factor and the result's message says where it stopped.
 struct LoadStepping {
   int initial_steps = 1;   // first increment = 1 / initial_steps
-  int max_halvings = 10;
+  int max_halvings = 10;   // smallest increment = the first / 2^max_halvings
 };
 
 template <class Problem, class SetLoadFactor>
 NewtonResult newton_load_stepping(Problem& problem, typename Problem::State& state, const NewtonSettings& settings,
                                   const LoadStepping& stepping, SetLoadFactor&& set_load_factor) {
-  double done = 0, increment = 1.0 / std::max(1, stepping.initial_steps);
+  const double first = 1.0 / std::max(1, stepping.initial_steps);
+  AdaptiveSettings control;
+  control.tolerance = 1.0;  // the error is the share of the Newton budget an increment used
+  control.min_dt = std::ldexp(first, -std::max(0, stepping.max_halvings));  // exact: halving is
+  StepController controller(control, first, 2);
+  // With fixed_iterations every increment takes the same count: no difficulty to measure.
+  const double budget = settings.fixed_iterations > 0 ? 0.0 : static_cast<double>(settings.max_iterations);
+  double done = 0;
   NewtonResult total, last;
-  int halvings = 0;
   typename Problem::State attempt = state;
   while (done < 1.0) {
-    const double target = std::min(1.0, done + increment);
+    const double increment = controller.next_step(done, 1.0);
+    const double target = increment >= 1.0 - done ? 1.0 : done + increment;
     const double reference = set_load_factor(target);
     attempt = state;
     NewtonResult r;
@@ -192,12 +202,10 @@ NewtonResult newton_load_stepping(Problem& problem, typename Problem::State& sta
       std::swap(state, attempt);
       done = target;
       last = r;
-      increment = std::min(1.0 - done, 2 * increment);
-      halvings = 0;
+      controller.update(increment, budget > 0 ? r.iterations / budget : 0.0);
       continue;
     }
-    increment *= 0.5;
-    if (++halvings > stepping.max_halvings) {
+    if (!controller.failed(increment)) {
       set_load_factor(1.0);
       std::ostringstream msg;
       msg << "static solve failed at load factor " << target << ": " << r.message;

@@ -1,10 +1,12 @@
-// The adaptive step controller: its rules on their own, the error estimate on free fall (where
-// backward Euler's local error is exactly g h^2 / 2), a sudden prescribed motion resolved by
-// rejected and smaller steps, and a step that cannot converge at min_dt reported with its time.
+// Adaptive time steps (error estimates of integrate/step_error.hpp, sizes from
+// solve/step_controller.hpp): the estimate on free fall (where backward Euler's local error is
+// exactly g h^2 / 2), a sudden prescribed motion resolved by rejected and smaller steps, a step
+// that cannot converge at min_dt reported with its time, and quasi-static loading of a shipped
+// scene against fixed steps, dynamic and static.
 #include "dsl/build_scene.hpp"
 #include "dsl/scene_spec.hpp"
 #include "integrate/simulation.hpp"
-#include "integrate/step_controller.hpp"
+#include "integrate/step_error.hpp"
 #include "support/fixtures.hpp"
 
 #include <catch2/catch.hpp>
@@ -14,41 +16,6 @@
 #include <vector>
 
 using namespace fascia;
-
-TEST_CASE("the step controller lands on the target, grows easy steps and shrinks rejected ones", "[integrate][adaptive]") {
-  AdaptiveSettings a;
-  a.enabled = true;
-  a.tolerance = 1e-3;
-  a.min_dt = 1e-4;
-  a.max_dt = 0.6;
-  StepController c(a, 0.3);
-  // 1 s in steps of at most 0.3 s: four equal steps of 0.25 s, no sliver at the end.
-  REQUIRE(c.next_step(0.0, 1.0) == Approx(0.25).epsilon(1e-14));
-  REQUIRE(c.next_step(0.9, 1.0) == Approx(0.1).epsilon(1e-12));
-  // error = tol / 4: factor 0.9 sqrt(4) = 1.8.
-  REQUIRE(c.update(0.3, 0.25e-3));
-  REQUIRE(c.state().dt == Approx(0.54).epsilon(1e-14));
-  // Capped at max_dt.
-  REQUIRE(c.update(0.54, 1e-9));
-  REQUIRE(c.state().dt == 0.6);
-  // error = 4 tol: rejected, factor 0.9 sqrt(1/4) = 0.45.
-  REQUIRE_FALSE(c.update(0.5, 4e-3));
-  REQUIRE(c.state().dt == Approx(0.225).epsilon(1e-14));
-  REQUIRE(c.state().rejected == 1);
-  // The first accepted step after a rejection does not grow, the next one does.
-  REQUIRE(c.update(0.225, 1e-9));
-  REQUIRE(c.state().dt == Approx(0.225).epsilon(1e-14));
-  REQUIRE(c.update(0.225, 1e-9));
-  REQUIRE(c.state().dt == Approx(0.45).epsilon(1e-14));
-  // A failed solve halves the step, down to min_dt; at min_dt there is nothing left to try.
-  REQUIRE(c.failed(0.45));
-  REQUIRE(c.state().dt == Approx(0.225).epsilon(1e-14));
-  REQUIRE(c.failed(2e-4));
-  REQUIRE(c.state().dt == a.min_dt);
-  REQUIRE_FALSE(c.failed(a.min_dt));
-  REQUIRE(c.state().accepted == 4);
-  REQUIRE(c.state().rejected == 4);
-}
 
 TEST_CASE("adaptive backward Euler on free fall settles at the step whose error is the tolerance", "[integrate][adaptive]") {
   // A free body under gravity with frames as 3-DOF nodes (lumped masses m_i = sum_s w_is rho v_s
@@ -171,21 +138,6 @@ TEST_CASE("a step that cannot converge at min_dt stops with its time, step and r
   REQUIRE(sim.state().positions == before.positions);
   // 1e-3 s halved seven times, then min_dt: eight attempts, all rejected.
   REQUIRE(sim.controller()->state().rejected == 8);
-}
-
-TEST_CASE("the static step controller grows by the increment's first-order rule", "[integrate][adaptive]") {
-  // Static steps: e = the increment, O(h): factor 0.9 tol / e in [0.2, 2]; e = 0 grows by 1.8.
-  AdaptiveSettings a;
-  a.enabled = true;
-  a.tolerance = 1e-2;
-  a.min_dt = 1e-4;
-  StepController c(a, 0.1, 1);
-  REQUIRE(c.update(0.1, 0.0));
-  REQUIRE(c.state().dt == Approx(0.18).epsilon(1e-14));
-  REQUIRE(c.update(0.18, 0.5e-2));  // 0.9 * 2
-  REQUIRE(c.state().dt == Approx(0.324).epsilon(1e-14));
-  REQUIRE_FALSE(c.update(0.324, 3e-2));  // 0.9 / 3 = 0.3
-  REQUIRE(c.state().dt == Approx(0.0972).epsilon(1e-12));
 }
 
 namespace {
