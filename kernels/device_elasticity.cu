@@ -61,6 +61,12 @@ constexpr int kSlotLanes = 2;
 // kBlockSamples / kSampleLanes samples, one pass of the block's threads.
 constexpr int kLanedPairs = 8;
 constexpr int kSampleLanes = 4;
+// Threads per frame of the frame pass (k_frame_sums' Lanes) for models whose frames have more than
+// kLanedSlots slot partials on average (meshless: tens, a frame in the blocks of every sample
+// around it), where one thread per frame leaves the device nearly idle on a chain of dependent
+// loads; mesh models keep one thread per frame.
+constexpr int kLanedSlots = 8;
+constexpr int kFrameLanes = 8;
 // Frames per chunk of the launched PCG update (k_update_rows, 6 threads per frame): 252-thread
 // blocks, large enough that few blocks share the grid reduction, small enough to fill the device.
 constexpr int kRowFrames = 42;
@@ -270,16 +276,17 @@ class System final : public DeviceElasticity::Impl {
     m_prepare_sums.resize(kPrepareSums * static_cast<size_t>(m_n));
     for (auto* v : {&m_grad, &m_d, &m_out, &m_cx, &m_cr, &m_cz, &m_cp, &m_cAp}) v->resize(dofs);
     // The partials and counters of every kernel that reduces (reduce_and_finish).
-    const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(m_n, kThreads), grid_for(m_n, kRowFrames),
-                                   m_blocks, m_group_blocks, 1});
+    const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(static_cast<long long>(kFrameLanes) * m_n, kThreads),
+                                   grid_for(m_n, kRowFrames), m_blocks, m_group_blocks, 1});
     m_red_partials.resize(reduce_partial_count(max_grid));
     m_counter.resize(reduce_counter_count(max_grid));
     m_counter.zero();
     m_scalars.resize(1);
     m_scalars.zero();
     // The launched row passes loop over their frames (or chunks) in the blocks that fit at once.
-    m_rows_grid = resident_blocks(reinterpret_cast<const void*>(&k_frame_sums<R>), kFrameThreads,
-                                  grid_for(m_n, kFrameThreads));
+    m_frame_lanes = !grouped && m_slots > static_cast<long long>(kLanedSlots) * m_n ? kFrameLanes : 1;
+    m_rows_grid = resident_blocks(frame_sums_kernel(m_frame_lanes), kFrameThreads,
+                                  grid_for(static_cast<long long>(m_frame_lanes) * m_n, kFrameThreads));
     m_update_grid =
         resident_blocks(reinterpret_cast<const void*>(&k_update_rows<R>), 6 * kRowFrames, grid_for(m_n, kRowFrames));
     m_frame_view.rotations = m_rot.data();
@@ -679,8 +686,8 @@ class System final : public DeviceElasticity::Impl {
   // z is set.
   void enqueue_frame_rows(const ModelView<R>& view, const R* partials, const R* geo, const R* inertia,
                           FrameTermsFlags flags, R* d, R* out, bool pcg, const R* z) {
-    k_frame_sums<R><<<m_rows_grid, kFrameThreads, 0, m_stream>>>(view, partials, geo, inertia, flags, d, out,
-                                                                 reduction(), pcg, z);
+    const auto kernel = m_frame_lanes == 1 ? &k_frame_sums<R, 1> : &k_frame_sums<R, kFrameLanes>;
+    kernel<<<m_rows_grid, kFrameThreads, 0, m_stream>>>(view, partials, geo, inertia, flags, d, out, reduction(), pcg, z);
     check_launch();
   }
 
@@ -771,6 +778,10 @@ class System final : public DeviceElasticity::Impl {
   // The launched coalesced tangent kernel for `keep` held ELL entries per lane (2, 4, else 8) and
   // `lanes` threads per sample (1, else kSampleLanes).
   using EllTangentKernel = void (*)(ModelView<R>, FrameView<R>, const R*, const R*, R*, const Scalars*, int);
+  static const void* frame_sums_kernel(int lanes) {
+    return lanes == 1 ? reinterpret_cast<const void*>(&k_frame_sums<R, 1>)
+                      : reinterpret_cast<const void*>(&k_frame_sums<R, kFrameLanes>);
+  }
   static EllTangentKernel ell_tangent_kernel(int keep, int lanes) {
     if (lanes == 1) return keep == 2 ? &k_ell_tangent<R, 2, 1> : keep == 4 ? &k_ell_tangent<R, 4, 1> : &k_ell_tangent<R, 8, 1>;
     return keep == 2   ? &k_ell_tangent<R, 2, kSampleLanes>
@@ -908,7 +919,8 @@ class System final : public DeviceElasticity::Impl {
   int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0;
   bool m_locked = false;
   int m_ell_entries = 0, m_keep = 2, m_max_neighbours = 0;
-  int m_lanes = 1;  // threads per sample of the launched coalesced tangent kernel
+  int m_lanes = 1;        // threads per sample of the launched coalesced tangent kernel
+  int m_frame_lanes = 1;  // threads per frame of its frame pass
   bool m_resident = false;  // the persistent PCG is k_pcg_resident
   bool m_fibres = false;    // some material is hgo: k_pcg_resident does not serve the model
   size_t m_shared_bytes = 0, m_ell_bytes = 0;

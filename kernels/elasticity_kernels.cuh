@@ -416,24 +416,50 @@ __global__ void k_update_rows(int n, const R* minv, const R* p, const R* Ap, R* 
   reduce_and_finish(dot, red, Finish::beta, tolerance);
 }
 
-// The frame pass of the launched tangent product, one thread per frame: frames
-// blockIdx.x blockDim.x + threadIdx.x, + gridDim.x blockDim.x, ... (a grid of the blocks that fit
-// on the device at once). Each thread reads its frame's directions and each of its slots' 6
-// partials in vector loads, with no block barrier, and sums the slots in slot order; out = H d
-// (frame_row_of). With z set (PCG) the direction p = z + beta p is formed and stored, and p . A p
-// (a frame's six rows added first) reduced into alpha. With d null (the force pass's gather: no
-// frame terms) d is taken as 0. The update keeps one thread per row (k_update_rows): its M^-1
-// block read per row is the cheaper.
+// The frame pass of the launched tangent product, `Lanes` threads per frame (1, or a power of two
+// <= 32 for frames with many slots: their slots are a chain of dependent loads, which the lanes
+// share): frames (blockIdx.x blockDim.x + threadIdx.x) / Lanes, + gridDim.x blockDim.x / Lanes, ...
+// (a grid of the blocks that fit on the device at once). Lane l of a frame reads the 6 partials of
+// its slots l, l + Lanes, ... in vector loads, two slots per round, with no block barrier, and
+// sums them in slot order; an xor butterfly adds the lanes' sums, and lane 0 forms
+// out = H d (frame_row_of). With z set (PCG) the direction p = z + beta p is formed and stored,
+// and p . A p (a frame's six rows added first) reduced into alpha. With d null (the force pass's
+// gather: no frame terms) d is taken as 0. The update keeps one thread per row (k_update_rows):
+// its M^-1 block read per row is the cheaper.
 constexpr int kFrameThreads = 128;  // threads per block of k_frame_sums
 
-template <class R>
+template <class R, int Lanes = 1>
 __global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* geo, const R* inertia_world,
                              FrameTermsFlags flags, R* d, R* out, Reduction red, bool pcg, const R* z) {
+  static_assert(Lanes >= 1 && Lanes <= 32 && (Lanes & (Lanes - 1)) == 0, "Lanes: a power of two <= 32");
   if (pcg && finished(red.scalars)) return;
   const double beta = z ? red.scalars->beta : 0.0;
   double dot = 0;
-  const int stride = static_cast<int>(gridDim.x * blockDim.x);
-  for (int i = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x); i < m.frames; i += stride) {
+  const int lane = static_cast<int>(threadIdx.x) & (Lanes - 1);
+  const unsigned lanes_mask =
+      Lanes == 32 ? 0xffffffffu : ((1u << Lanes) - 1u) << (static_cast<int>(threadIdx.x) & 31 & ~(Lanes - 1));
+  const int stride = static_cast<int>(gridDim.x * blockDim.x) / Lanes;
+  for (int i = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x) / Lanes; i < m.frames; i += stride) {
+    // The frame's slot partials, two of the lane's slots' 6 values per round, added in slot order.
+    double acc[6] = {0, 0, 0, 0, 0, 0};
+    const int q1 = m.frame_slot_offsets[i + 1];
+    for (int q = m.frame_slot_offsets[i] + lane; q < q1; q += 2 * Lanes) {
+      R part[2][6];
+#pragma unroll
+      for (int u = 0; u < 2; ++u)
+        if (q + u * Lanes < q1) load_six(slot_partials, m.frame_slots ? m.frame_slots[q + u * Lanes] : q + u * Lanes, part[u]);
+#pragma unroll
+      for (int u = 0; u < 2; ++u)
+        if (q + u * Lanes < q1)
+#pragma unroll
+          for (int k = 0; k < 6; ++k) acc[k] += static_cast<double>(part[u][k]);
+    }
+    if constexpr (Lanes > 1) {
+#pragma unroll
+      for (int k = 0; k < 6; ++k)
+        for (int o = Lanes / 2; o > 0; o >>= 1) acc[k] += __shfl_xor_sync(lanes_mask, acc[k], o);
+    }
+    if (lane != 0) continue;
     double dir[6] = {0, 0, 0, 0, 0, 0};
     if (z) {
       R zi[6], pi[6];
@@ -443,20 +469,6 @@ __global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* ge
       for (int k = 0; k < 6; ++k) dir[k] = static_cast<double>(direction_value(zi[k], pi[k], beta));
     } else if (d) {
       load_six(d, i, dir);
-    }
-    // The frame's slot partials, two slots' 6 values per round, added in slot order.
-    double acc[6] = {0, 0, 0, 0, 0, 0};
-    const int q1 = m.frame_slot_offsets[i + 1];
-    for (int q = m.frame_slot_offsets[i]; q < q1; q += 2) {
-      R part[2][6];
-#pragma unroll
-      for (int u = 0; u < 2; ++u)
-        if (q + u < q1) load_six(slot_partials, m.frame_slots ? m.frame_slots[q + u] : q + u, part[u]);
-#pragma unroll
-      for (int u = 0; u < 2; ++u)
-        if (q + u < q1)
-#pragma unroll
-          for (int k = 0; k < 6; ++k) acc[k] += static_cast<double>(part[u][k]);
     }
     R outs[6];
 #pragma unroll
