@@ -238,7 +238,7 @@ ParamSpec build_registry() {
                                "0"),
                   object("meshless", "meshless discretisation of a closed surface",
                          {required(above(quantity("frame_spacing", dim::length, "Poisson-disk radius of frames"), 0)),
-                          required(above(quantity("sample_spacing", dim::length, "Poisson-disk radius of samples"), 0)),
+                          required(above(quantity("sample_spacing", dim::length, "Poisson-disk radius of samples (the quadrature: the frames do not depend on it)"), 0)),
                           with_default(enumeration("shape", {"mls"}, "meshless shape functions: moving least squares with a linear basis (conforming, one field per frame)"), "mls"),
                           with_default(above(leaf("neighbours", ParamType::integer,
                                                   "each frame's support radius is 1.6 times the distance to its k-th nearest frame: k"),

@@ -97,8 +97,10 @@ ObjectEstimate estimate_meshless(const SurfaceMesh& surface, const MeshlessOptio
   const auto points = [&](double r) { return std::sqrt(2.0) * (volume + 0.5 * area * r) / (r * r * r); };
   e.frames = points(rf);
   e.samples = points(rs);
-  // Narrow band of half width 3 voxels each side of the surface.
-  e.voxels = 7 * area / (h * h);
+  // Narrow band of half width 3 voxels each side of the surface, on the samples' lattice and,
+  // where it differs, on the frames' (meshless.hpp, frame lattice).
+  const double h_frames = frame_lattice_spacing(rf);
+  e.voxels = 7 * area / (h * h) + (h_frames != h ? 7 * area / (h_frames * h_frames) : 0);
   // Dense point grids of cell r / sqrt(3) over the bounding box plus two cells each side.
   const auto grid = [&](double r) {
     double cells = 1;

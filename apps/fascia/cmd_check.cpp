@@ -33,6 +33,7 @@ int check(const CheckOptions& options) {
             {"neighbours_per_sample", {{"min", m.neighbours_min}, {"mean", m.neighbours_mean}, {"max", m.neighbours_max}}},
             {"min_spread", m.min_spread},
             {"voxel_size_m", m.voxel_size},
+            {"frame_voxel_size_m", m.frame_voxel_size},
             {"surface_volume_m3", m.surface_volume},
             {"volume_error", m.volume_error},
             {"sample_volume_m3", m.sample_volume}};

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -61,7 +62,8 @@ std::string MeshlessStatistics::describe() const {
       << " m\n"
       << "consistent integration: " << boundary_points << " surface points, defect " << integration_defect_before
       << " -> " << integration_defect << " (" << integration_iterations << " CG iterations)\n"
-      << "voxel size " << voxel_size << " m, " << voxels << " voxels\n"
+      << "voxel size " << voxel_size << " m, " << voxels << " voxels; frames drawn on a lattice of " << frame_voxel_size
+      << " m\n"
       << "volume: surface " << surface_volume << " m^3, voxels " << voxel_volume << " m^3 (error "
       << 100 * volume_error << " %";
   if (unassigned_volume > 0) out << ", " << unassigned_volume << " m^3 without a sample in reach";
@@ -69,20 +71,37 @@ std::string MeshlessStatistics::describe() const {
   return out.str();
 }
 
+double frame_lattice_spacing(double frame_spacing) { return frame_spacing / std::cbrt(10.0) / 2; }
+
+namespace {
+
+// Frames on frame_domain, samples and volumes on domain (meshless.hpp, frame lattice).
+MeshlessBuild build_on(const VoxelDomain& domain, const VoxelDomain& frame_domain, const SurfaceMesh& boundary,
+                       const Material& material, const MeshlessOptions& options);
+
+void check_spacings(const MeshlessOptions& options) {
+  if (!(options.sample_spacing > 0) || !(options.frame_spacing > options.sample_spacing))
+    throw std::invalid_argument("meshless: need 0 < sample_spacing < frame_spacing");
+}
+
+}  // namespace
+
 MeshlessBuild build_meshless_model(const SurfaceMesh& surface, const Material& material, const MeshlessOptions& options) {
   const auto t_start = std::chrono::steady_clock::now();
-  const double rf = options.frame_spacing, rs = options.sample_spacing;
-  if (!(rs > 0) || !(rf > rs))
-    throw std::invalid_argument("meshless: need 0 < sample_spacing < frame_spacing");
-  const double h = options.voxel_size > 0 ? options.voxel_size : rs / 2;
+  check_spacings(options);
+  const double h = options.voxel_size > 0 ? options.voxel_size : options.sample_spacing / 2;
+  const double h_frames = frame_lattice_spacing(options.frame_spacing);
   if (options.require_closed_surface) {
     const SurfaceDefects defects = check_surface(surface);
     if (!defects.ok()) throw std::invalid_argument("meshless: the surface cannot bound a volume:\n" + defects.describe());
   }
   const auto t0 = std::chrono::steady_clock::now();
   const VoxelDomain domain(surface, h);
+  // The same surface and voxel size give the same lattice: one voxelisation serves both.
+  std::optional<VoxelDomain> frame_lattice;
+  if (h != h_frames) frame_lattice.emplace(surface, h_frames);
   const double seconds_voxelise = seconds_since(t0);
-  MeshlessBuild build = build_meshless_model(domain, surface, material, options);
+  MeshlessBuild build = build_on(domain, frame_lattice ? *frame_lattice : domain, surface, material, options);
   build.statistics.seconds_voxelise = seconds_voxelise;
   build.statistics.seconds_total = seconds_since(t_start);
   return build;
@@ -91,9 +110,21 @@ MeshlessBuild build_meshless_model(const SurfaceMesh& surface, const Material& m
 MeshlessBuild build_meshless_model(const VoxelDomain& domain, const SurfaceMesh& boundary, const Material& material,
                                    const MeshlessOptions& options) {
   const auto t_start = std::chrono::steady_clock::now();
+  check_spacings(options);
+  const VoxelDomain frame_domain(boundary, frame_lattice_spacing(options.frame_spacing));
+  const double seconds_voxelise = seconds_since(t_start);
+  MeshlessBuild build = build_on(domain, frame_domain, boundary, material, options);
+  build.statistics.seconds_voxelise = seconds_voxelise;
+  build.statistics.seconds_total = seconds_since(t_start);
+  return build;
+}
+
+namespace {
+
+MeshlessBuild build_on(const VoxelDomain& domain, const VoxelDomain& frame_domain, const SurfaceMesh& boundary,
+                       const Material& material, const MeshlessOptions& options) {
+  const auto t_start = std::chrono::steady_clock::now();
   const double rf = options.frame_spacing, rs = options.sample_spacing;
-  if (!(rs > 0) || !(rf > rs))
-    throw std::invalid_argument("meshless: need 0 < sample_spacing < frame_spacing");
   // Enclosed volume by the divergence theorem, exact for the triangulation; negative when the
   // triangles face inwards (then the boundary rule's normals are turned outwards below).
   const double signed_volume = surface_volume(boundary);
@@ -102,18 +133,27 @@ MeshlessBuild build_meshless_model(const VoxelDomain& domain, const SurfaceMesh&
   MeshlessBuild build;
   MeshlessStatistics& st = build.statistics;
   st.voxel_size = domain.voxel_size();
+  st.frame_voxel_size = frame_domain.voxel_size();
   st.surface_volume = reference_volume;
 
   auto t0 = std::chrono::steady_clock::now();
   // Caller-placed frames count as already placed: Poisson-disk frames keep r_f from them.
-  std::vector<double> frames = poisson_disk_sample(domain, PoissonDiskOptions{rf, options.seed, 30, options.extra_frames});
+  std::vector<double> frames =
+      poisson_disk_sample(frame_domain, PoissonDiskOptions{rf, options.seed, 30, options.extra_frames});
   frames.insert(frames.end(), options.extra_frames.begin(), options.extra_frames.end());
   st.seconds_frames = seconds_since(t0);
   t0 = std::chrono::steady_clock::now();
   const std::vector<double> samples =
       poisson_disk_sample(domain, PoissonDiskOptions{rs, options.seed ^ 0x5bd1e9955bd1e995ull, 30, {}});
   st.seconds_samples = seconds_since(t0);
-  if (frames.empty() || samples.empty())
+  if (frames.empty()) {
+    std::ostringstream out;
+    out << "meshless: no point of the frames' lattice (spacing " << frame_domain.voxel_size()
+        << " m, frame_spacing / 4.3) lies inside the surface; the object is thinner than that: use a smaller "
+           "frame_spacing";
+    throw std::runtime_error(out.str());
+  }
+  if (samples.empty())
     throw std::runtime_error("meshless: no voxel centre lies inside the surface; use a smaller voxel_size");
 
   t0 = std::chrono::steady_clock::now();
@@ -228,4 +268,5 @@ MeshlessBuild build_meshless_model(const VoxelDomain& domain, const SurfaceMesh&
   return build;
 }
 
+}  // namespace
 }  // namespace fascia

@@ -15,6 +15,13 @@
 // frame method allows (frames are control points; their mass comes from the samples' weights).
 // With ThinParts::stop, or when repair does not succeed, the build throws a message naming the
 // region, the local thickness and the frame spacing that would resolve it.
+//
+// Frame lattice. The frames are the degrees of freedom, the samples a quadrature: refining
+// sample_spacing must not move the frames. The frames' Poisson-disk set is drawn on the boundary
+// surface voxelised at frame_lattice_spacing(r_f), which depends on r_f only, so a given surface,
+// r_f, seed and extra_frames give bitwise the same Poisson frames whatever r_s and voxel_size
+// (thin-part repair frames, which follow the samples, and frames no sample uses excepted). The
+// samples and their volumes use the lattice h = voxel_size (default r_s / 2).
 #pragma once
 
 #include "discretise/surface_mesh.hpp"
@@ -31,7 +38,7 @@ enum class ThinParts { repair, stop };
 struct MeshlessOptions {
   double frame_spacing = 0;   // r_f, m: minimum distance between frames
   double sample_spacing = 0;  // r_s, m: minimum distance between samples, 0 < r_s < r_f
-  double voxel_size = 0;      // h, m; 0: r_s / 2
+  double voxel_size = 0;      // h, m, of the samples' lattice; 0: r_s / 2 (frames: see above)
   MeshlessShapeOptions shape;
   std::uint64_t seed = 1;     // frames use seed, samples a stream derived from it
   ThinParts thin_parts = ThinParts::repair;
@@ -53,7 +60,8 @@ struct MeshlessStatistics {
   double neighbours_mean = 0;
   int neighbours_max = 0;
   double min_spread = 0;   // smallest neighbour_spread over samples
-  double voxel_size = 0;   // m
+  double voxel_size = 0;   // m, the samples' lattice
+  double frame_voxel_size = 0;  // m, the frames' lattice, frame_lattice_spacing(r_f)
   long long voxels = 0;    // covered voxels
   double surface_volume = 0;  // m^3, divergence theorem on the boundary surface
   double voxel_volume = 0;    // m^3, sum of covered voxel fractions
@@ -82,6 +90,12 @@ struct MeshlessBuild {
   MeshlessStatistics statistics;
 };
 
+// The voxel size of the lattice the frames are drawn on, m: r_f / (2 cbrt 10), half the sample
+// spacing at ten samples per frame (the beam study's default), where the two lattices coincide
+// and one voxelisation serves both. About r_f / 4.3: interior lattice points seed frames in
+// sheets down to about a quarter of r_f thick; thinner ones get thin-part repair frames.
+double frame_lattice_spacing(double frame_spacing);
+
 // Builds frames, samples (one material), neighbour and reverse tables, frame masses; all frames
 // free. Throws std::invalid_argument on bad options or surface, std::runtime_error on thin parts
 // that cannot be resolved.
@@ -90,7 +104,9 @@ MeshlessBuild build_meshless_model(const SurfaceMesh& surface, const Material& m
 class VoxelDomain;
 // The same on a voxelised domain (a label image, a region derived from other objects) bounded by
 // `boundary`, a closed triangle surface of the same domain (for a level set, its zero surface,
-// LevelSet::surface): the domain's voxel size replaces options.voxel_size, the boundary carries
+// LevelSet::surface): the domain's voxel size replaces options.voxel_size, the frames are drawn
+// on the boundary voxelised at frame_lattice_spacing(r_f) (so they follow the resolved geometry
+// of the domain, not its lattice), the boundary carries
 // the surface rule of the consistent integration, and its enclosed volume is the one the sample
 // volumes are scaled to (surface_volume, volume_error). Either orientation of the triangles.
 MeshlessBuild build_meshless_model(const VoxelDomain& domain, const SurfaceMesh& boundary, const Material& material,

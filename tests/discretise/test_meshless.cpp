@@ -229,6 +229,47 @@ TEST_CASE("the same seed builds the same model", "[discretise][meshless]") {
   REQUIRE(a.frame_rest_positions != c.frame_rest_positions);
 }
 
+TEST_CASE("refining the samples keeps the frames", "[discretise][meshless]") {
+  // The frames are drawn on a lattice set by r_f alone (frame_lattice_spacing): two sample
+  // spacings, and an explicit voxel size of the samples' lattice, give bitwise the same frames for
+  // one surface, r_f, seed and caller-placed frames (a clamp grid on x = 0, as the beam study
+  // places). Ten samples per frame puts both sets on one lattice, twenty and 0.01 m do not.
+  const SurfaceMesh box = box_surface({0, 0, 0}, {0.2, 0.1, 0.05});
+  const Material mat = make_material(MaterialLaw::stvk, 1e4, 0.3, 1000);
+  const std::uint64_t seed = GENERATE(1, 2, 3);
+  MeshlessOptions options;
+  options.frame_spacing = 0.04;
+  options.seed = seed;
+  for (double y : {0.0, 0.05, 0.1})
+    for (double z : {0.0, 0.05}) options.extra_frames.insert(options.extra_frames.end(), {0.0, y, z});
+  options.sample_spacing = 0.04 / std::cbrt(10.0);
+  const MeshlessBuild a = build_meshless_model(box, mat, options);
+  options.sample_spacing = 0.04 / std::cbrt(20.0);
+  const MeshlessBuild b = build_meshless_model(box, mat, options);
+  options.sample_spacing = 0.01;
+  options.voxel_size = 0.004;
+  const MeshlessBuild c = build_meshless_model(box, mat, options);
+  INFO(a.statistics.describe() << b.statistics.describe() << c.statistics.describe());
+  REQUIRE(a.statistics.voxel_size == a.statistics.frame_voxel_size);
+  REQUIRE(b.statistics.voxel_size != b.statistics.frame_voxel_size);
+  REQUIRE(a.statistics.added_frames == 0);
+  REQUIRE(b.statistics.added_frames == 0);
+  REQUIRE(c.statistics.added_frames == 0);
+  REQUIRE(a.model.frame_count() >= 20);  // about 20 Poisson frames and the 6 of the grid
+  REQUIRE(b.model.sample_count() > a.model.sample_count() + a.model.sample_count() / 2);
+  REQUIRE(c.model.sample_count() > 2 * b.model.sample_count());
+  REQUIRE(a.model.frame_rest_positions == b.model.frame_rest_positions);
+  REQUIRE(a.model.frame_rest_positions == c.model.frame_rest_positions);
+
+  // A voxelised domain (an image's or a region's) draws its frames on its boundary surface at the
+  // same lattice: for a box, the frames of the surface route, whatever the domain's voxel size.
+  options.sample_spacing = 0.04 / std::cbrt(20.0);
+  options.voxel_size = 0;
+  const MeshlessBuild d = build_meshless_model(VoxelDomain(box, 0.007), box, mat, options);
+  REQUIRE(d.statistics.voxel_size == 0.007);
+  REQUIRE(a.model.frame_rest_positions == d.model.frame_rest_positions);
+}
+
 TEST_CASE("thin sheets: stop names the region and radius, repair adds frames", "[discretise][meshless][thin]") {
   // A 0.6 x 0.6 m sheet 0.03 m thick, meshed with frames 0.12 m apart: one layer of frames.
   const SurfaceMesh sheet = box_surface({0, 0, 0}, {0.6, 0.6, 0.03});

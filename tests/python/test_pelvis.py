@@ -8,8 +8,8 @@ import numpy as np
 
 STEPS_DURATION = "50ms"  # 5 steps of 10 ms
 # References measured with `fascia run scenes/pelvis.yaml --set run.duration=50ms` (CPU backend).
-BLADDER_SAG_REF = 1.22731e-2  # m, downward motion of the bladder surface's vertex centroid after 5 steps
-ELASTIC_ENERGY_REF = 1.39470e-3  # J, after 5 steps
+BLADDER_SAG_REF = 1.21261e-2  # m, downward motion of the bladder surface's vertex centroid after 5 steps
+ELASTIC_ENERGY_REF = 1.45949e-3  # J, after 5 steps
 MARGIN = 0.05  # relative; the run is deterministic up to threads' summation order and solver tolerances
 
 
