@@ -177,7 +177,8 @@ NewtonResult newton_load_stepping(Problem& problem, typename Problem::State& sta
   const double first = 1.0 / std::max(1, stepping.initial_steps);
   AdaptiveSettings control;
   control.tolerance = 1.0;  // the error is the share of the Newton budget an increment used
-  control.min_dt = std::ldexp(first, -std::max(0, stepping.max_halvings));  // exact: halving is
+  // Exact, as halving is: the smallest increment is tried once, then the solve gives up.
+  control.min_dt = std::ldexp(first, -std::max(0, stepping.max_halvings));
   StepController controller(control, first, 2);
   // With fixed_iterations every increment takes the same count: no difficulty to measure.
   const double budget = settings.fixed_iterations > 0 ? 0.0 : static_cast<double>(settings.max_iterations);
