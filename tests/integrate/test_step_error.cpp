@@ -198,8 +198,11 @@ constexpr double kEquilibriumTolerance = 1e-9;  // m
 
 }  // namespace
 
+// The two quasi-static press cases are tagged [long]: whole runs of scenes/quasi_static_press.yaml,
+// most of the suite's time under the sanitizers, which leave them out (tools/test-all,
+// docs/fuzzing.md); the step controller's paths run there in the lighter [adaptive] cases.
 TEST_CASE("quasi-static press: adaptive backward Euler reaches the fixed steps' equilibrium in 5x fewer steps",
-          "[integrate][adaptive]") {
+          "[integrate][adaptive][long]") {
   // The platen moves 4 mm per 40 ms step, 5 mm per 50 ms step: at 50 ms the cells next to it
   // invert at the first step, 40 ms is the fixed dt that converges.
   {
@@ -223,7 +226,7 @@ TEST_CASE("quasi-static press: adaptive backward Euler reaches the fixed steps' 
   REQUIRE(4 * adaptive.attempts <= fixed.accepted);
 }
 
-TEST_CASE("quasi-static press as static steps: failed increments are halved, easy ones grow", "[integrate][adaptive]") {
+TEST_CASE("quasi-static press as static steps: failed increments are halved, easy ones grow", "[integrate][adaptive][long]") {
   // The same load path as a sequence of equilibria (no inertia): a static step also inverts the
   // cells next to the platen when it moves 5 mm at once, and its equilibria are those of the
   // dynamic runs' end.
