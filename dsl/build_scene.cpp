@@ -20,6 +20,7 @@
 #include <ios>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 
 namespace fascia::dsl {
 
@@ -28,6 +29,13 @@ namespace {
 namespace fs = std::filesystem;
 
 Vec3 to_vec3(const Vec3d& v) { return Vec3{v[0], v[1], v[2]}; }
+
+// A nonzero vector orthogonal to the nonzero v: v x the axis along its smallest component.
+Vec3 orthogonal_to(const Vec3& v) {
+  const double ax = std::abs(v.x), ay = std::abs(v.y), az = std::abs(v.z);
+  const Vec3 axis = ax <= ay && ax <= az ? Vec3{1, 0, 0} : ay <= az ? Vec3{0, 1, 0} : Vec3{0, 0, 1};
+  return cross(v, axis);
+}
 
 Vec3d frame_position(const Model& model, int i) {
   const double* x = &model.frame_rest_positions[3 * static_cast<std::size_t>(i)];
@@ -206,7 +214,16 @@ Material scene_material(const SceneSpec& scene, const ObjectSpec& o) {
     // Without a material direction the object gives every sample its own (place_fibres; the
     // scene checks ensure it).
     if (f.direction) fibres.direction = Vec3{f.direction->value[0], f.direction->value[1], f.direction->value[2]};
-    return make_hgo_material(m->young.value, m->poisson.value, m->density.value, fibres);
+    fibres.families = f.families.value;
+    if (f.angle) fibres.angle = f.angle->value;
+    if (f.plane) fibres.plane = to_vec3(f.plane->value);
+    // With two families and no material direction, the placeholder e1 must not be parallel to
+    // the plane: any vector orthogonal to the plane's does (place_fibres sets the real ones).
+    if (!f.direction && f.plane) fibres.direction = orthogonal_to(fibres.plane);
+    const HgoFormulation formulation = m->formulation && m->formulation->value == "uncoupled"
+                                           ? HgoFormulation::uncoupled
+                                           : HgoFormulation::coupled;
+    return make_hgo_material(m->young.value, m->poisson.value, m->density.value, fibres, formulation);
   }
   const MaterialLaw law = m->law.value == "neo_hookean" ? MaterialLaw::neo_hookean : MaterialLaw::stvk;
   return make_material(law, m->young.value, m->poisson.value, m->density.value);
@@ -218,8 +235,20 @@ Material scene_material(const SceneSpec& scene, const ObjectSpec& o) {
 void place_fibres(const ObjectSpec& o, Model& model, const LevelSet* from, Diagnostics& diagnostics) {
   if (!o.fibres) return;
   const ObjectFibresSpec& f = *o.fibres;
+  // with_fibre_direction refuses, for two families, a direction along their plane vector.
+  const auto set_direction = [&](Material& m, const Vec3& d, const Location& where, const std::string& what) {
+    try {
+      m = with_fibre_direction(m, d);
+      return true;
+    } catch (const std::invalid_argument& e) {
+      diagnostics.error(where, what + ": " + e.what() + " (fibres.plane of material '" + o.material->value +
+                                   "' must span the two families' plane with it)");
+      return false;
+    }
+  };
   if (f.direction) {
-    for (Material& m : model.materials) m = with_fibre_direction(m, to_vec3(f.direction->value));
+    for (Material& m : model.materials)
+      if (!set_direction(m, to_vec3(f.direction->value), f.direction->where, "fibres.direction")) return;
     return;
   }
   const std::vector<Material> shared = model.materials;
@@ -228,20 +257,20 @@ void place_fibres(const ObjectSpec& o, Model& model, const LevelSet* from, Diagn
   for (int s = 0; s < S; ++s) {
     const std::size_t si = static_cast<std::size_t>(s);
     const Vec3 p = load3(&model.samples.rest_positions[3 * si]);
+    const std::string at = " at the sample at (" + metres(p.x) + ", " + metres(p.y) + ", " + metres(p.z) + ")";
     Material m = shared[static_cast<std::size_t>(model.samples.materials[si])];
     if (from) {
       const Vec3 g = from->gradient(p);
       if (!(norm(g) > 1e-6)) {
-        diagnostics.error(f.from->where, "fibres.from: the distance to '" + f.from->value +
-                                                "' has no gradient at the sample at (" + metres(p.x) + ", " +
-                                                metres(p.y) + ", " + metres(p.z) + ")");
+        diagnostics.error(f.from->where, "fibres.from: the distance to '" + f.from->value + "' has no gradient" + at);
         return;
       }
-      m = with_fibre_direction(m, g);
+      if (!set_direction(m, g, f.from->where, "fibres.from" + at)) return;
     } else {
       for (const ObjectFibresSpec::Region& r : f.regions)
         if (r.region.contains({p.x, p.y, p.z}, 0)) {
-          m = with_fibre_direction(m, to_vec3(r.direction.value));
+          if (!set_direction(m, to_vec3(r.direction.value), r.direction.where, "fibres.regions[].direction"))
+            return;
           break;
         }
     }

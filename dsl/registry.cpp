@@ -68,6 +68,9 @@ std::string ParamSpec::expected() const {
 
 namespace {
 
+// pi / 2: the largest angle between two fibre families and their mean direction.
+constexpr double kRightAngle = 1.57079632679489661923;
+
 // Small builders so that the registry below reads like a table.
 ParamSpec object(std::string name, std::string doc, std::vector<ParamSpec> fields) {
   ParamSpec p;
@@ -171,9 +174,14 @@ ParamSpec build_registry() {
       {
           with_default(enumeration("law", {"stvk", "neo_hookean", "hgo"},
                                    "constitutive law: Saint Venant-Kirchhoff (paper eq. 19), compressible neo-Hookean, "
-                                   "or hgo: that neo-Hookean reinforced by a family of fibres (Holzapfel-Gasser-Ogden, "
-                                   "needs fibres)"),
+                                   "or hgo: a ground substance reinforced by one or two fibre families "
+                                   "(Holzapfel-Gasser-Ogden, needs fibres)"),
                        "stvk"),
+          enumeration("formulation", {"coupled", "uncoupled"},
+                      "hgo only: coupled (the compressible neo-Hookean plus fibres on I1, I4; FEBio's 'HGO "
+                      "unconstrained'; when absent) or uncoupled (mu/2 (I1bar - 3) + K/2 (ln J)^2 plus fibres on "
+                      "I1bar, I4bar, K = E / (3 (1 - 2 nu)); FEBio's 'Holzapfel-Gasser-Ogden'), for nearly "
+                      "incompressible tissue"),
           required(above(quantity("young", dim::pressure, "Young's modulus E (of the ground substance for hgo)"), 0)),
           with_default(below(above(quantity("poisson", dim::none, "Poisson ratio nu"), -1), 0.5), "0.3"),
           with_default(above(quantity("density", dim::density, "mass density rho"), 0), "1000 kg/m^3"),
@@ -188,7 +196,22 @@ ParamSpec build_registry() {
                                      1.0 / 3, false),
                                "0"),
                   vec3("direction", dim::none,
-                       "fibre direction at rest, world axes (normalised); objects may give their own (object fibres)")}),
+                       "fibre direction at rest, world axes (normalised); objects may give their own (object fibres); "
+                       "with two families their mean direction"),
+                  with_default(below(above(leaf("families", ParamType::integer,
+                                                "fibre families: 1 along the direction, or 2 at +-angle about it "
+                                                "in the plane of direction and plane"),
+                                           1, false),
+                                     2, false),
+                               "1"),
+                  below(above(quantity("angle", dim::none,
+                                       "two families: their angle gamma to the direction, e.g. '30 deg' (SI: rad)"),
+                              0, false),
+                        kRightAngle, false),
+                  vec3("plane", dim::none,
+                       "two families: a vector of their plane, not parallel to the direction (as FEBio's mat_axis "
+                       "d): the families run at cos(angle) e1 +- sin(angle) e2, e2 its unit part orthogonal to the "
+                       "direction e1")}),
       });
   ParamSpec fibre_region = object("fibre_region", "fibres of the samples in a region",
                                   {required(region("region", "which samples (rest positions, world axes)")),

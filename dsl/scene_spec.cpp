@@ -149,6 +149,40 @@ Located<Vec3d> fibre_direction(const Value& v, Diagnostics& diagnostics) {
   return d;
 }
 
+// Two fibre families need their angle and plane (not parallel to a material direction), one
+// family neither.
+void check_fibre_families(const FibresSpec& f, Diagnostics& diagnostics) {
+  if (f.families.value == 1) {
+    if (f.angle) diagnostics.error(f.angle->where, "fibres.angle places two families: give families: 2, or drop it");
+    if (f.plane) diagnostics.error(f.plane->where, "fibres.plane places two families: give families: 2, or drop it");
+    return;
+  }
+  if (!f.angle || !f.plane) {
+    diagnostics.error(f.families.where, std::string("two fibre families need their ") +
+                                            (!f.angle && !f.plane ? "angle and plane"
+                                             : !f.angle          ? "angle"
+                                                                 : "plane") +
+                                            " (fibres.angle: their angle to the direction, fibres.plane: a vector "
+                                            "of their plane)");
+    return;
+  }
+  const Vec3d& p = f.plane->value;
+  const double pn = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+  if (!(pn > 0)) {
+    diagnostics.error(f.plane->where, "fibres.plane must not be zero");
+    return;
+  }
+  if (!f.direction) return;  // the objects' directions are checked when built
+  const Vec3d& d = f.direction->value;
+  const double dn = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  if (!(dn > 0)) return;  // reported as a zero direction
+  // |d x p| / (|d| |p|): the sine of their angle (as with_fibre_direction, material.cpp).
+  const double cx = d[1] * p[2] - d[2] * p[1], cy = d[2] * p[0] - d[0] * p[2], cz = d[0] * p[1] - d[1] * p[0];
+  if (!(std::sqrt(cx * cx + cy * cy + cz * cz) > 1e-6 * dn * pn))
+    diagnostics.error(f.plane->where, "fibres.plane is parallel to fibres.direction: it must span the families' "
+                                      "plane with it");
+}
+
 std::vector<std::string> names_of(const std::vector<MaterialSpec>& m) {
   std::vector<std::string> out;
   for (const MaterialSpec& x : m) out.push_back(x.name);
@@ -191,7 +225,17 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
         fibres.k2 = located_num(f->at("k2"));
         fibres.dispersion = located_num(f->at("dispersion"));
         if (const Value* d = f->find("direction")) fibres.direction = fibre_direction(*d, diagnostics);
+        fibres.families = {static_cast<int>(f->integer_at("families")), f->at("families").where};
+        if (const Value* a = f->find("angle")) fibres.angle = located_num(*a);
+        if (const Value* p = f->find("plane")) fibres.plane = located(p->vec3(), *p);
+        if (!partial) check_fibre_families(fibres, diagnostics);
         spec.fibres = fibres;
+      }
+      if (const Value* form = m.find("formulation")) {
+        spec.formulation = located_str(*form);
+        if (spec.law.value != "hgo")
+          diagnostics.error(form->where, "'formulation' belongs to law hgo; material '" + name + "' is " +
+                                             spec.law.value);
       }
       if (spec.law.value == "hgo" && !spec.fibres)
         diagnostics.error(spec.law.where, "law hgo needs 'fibres' in material '" + name + "': k1, k2 and optionally "

@@ -26,7 +26,10 @@ struct FibresSpec {
   Located<double> k1;          // Pa
   Located<double> k2;          // dimensionless
   Located<double> dispersion;  // kappa in [0, 1/3]
-  std::optional<Located<Vec3d>> direction;  // nonzero, normalised when built
+  std::optional<Located<Vec3d>> direction;  // nonzero, normalised when built; two families: their mean
+  Located<int> families;                    // 1 or 2
+  std::optional<Located<double>> angle;     // two families: gamma in [0, pi/2], rad
+  std::optional<Located<Vec3d>> plane;      // two families: not parallel to the direction
 };
 
 struct MaterialSpec {
@@ -37,6 +40,7 @@ struct MaterialSpec {
   Located<double> poisson;
   Located<double> density;  // kg/m^3
   std::optional<FibresSpec> fibres;  // hgo
+  std::optional<Located<std::string>> formulation;  // hgo: "coupled" (when absent) | "uncoupled"
 };
 
 // A selection of frames (constraints, loads) or boundary faces (surface forces), tested on rest

@@ -777,8 +777,8 @@ constexpr int kResidentSlots = 8;      // slots per frame held in registers (mor
 // reading its material through its index (every grid barrier invalidates the L1, so those loads
 // go to the L2, one after another). The same arithmetic as k_pcg_two_barrier, except that each slot
 // is summed by one thread. Requires at most MaxPairs pairs per sample and grid = max(sample
-// blocks, frame chunks). Models without fibres only (no hgo material): the fibre term would
-// spill the double kernel's registers and slow the single one (those models run
+// blocks, frame chunks). Models without an hgo material only: its fibre terms and uncoupled
+// form would spill the double kernel's registers and slow the single one (those models run
 // k_pcg_two_barrier).
 constexpr int kResidentRowTerms = 13;  // [minv row (6), frame block row (3), inertia row (3), mass]
 

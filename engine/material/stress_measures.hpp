@@ -6,7 +6,8 @@
 //   psi                                  strain energy density per rest volume, J/m^3
 // von Mises: sqrt(3/2 s : s), s = A - tr(A)/3 I (the deviator), for any symmetric A; principal
 // values: the eigenvalues of a symmetric A, largest first.
-//   lambda_f = |F a|                     fibre stretch of a law with fibres (hgo.hpp), 0 without
+//   lambda_f = |F a|                     fibre stretch of a law with fibres along its (mean)
+//                                        direction a (hgo.hpp), 0 without
 #pragma once
 
 #include "material/material.hpp"

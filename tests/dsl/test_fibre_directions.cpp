@@ -6,6 +6,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <cmath>
+
 using namespace fascia::dsl;
 
 namespace {
@@ -67,4 +69,38 @@ TEST_CASE("fibre regions select samples by position, not frames by index", "[dsl
     CHECK_THAT(e.diagnostics().sorted().front().message, Catch::Contains("ids select frames"));
     CHECK(static_cast<int>(e.exit_code()) == 78);
   }
+}
+
+TEST_CASE("two fibre families and the uncoupled formulation reach the materials", "[dsl][hgo]") {
+  // Families at +-30 deg about the mean direction in its plane with (0, 1, 0); the object turns
+  // the mean direction to x, and the axes follow: cos 30 e1 +- sin 30 e2 with e2 = y.
+  const std::string text =
+      "fascia: 1\n"
+      "materials:\n  lig: {law: hgo, formulation: uncoupled, young: 3 kPa, poisson: 0.49,\n"
+      "        fibres: {k1: 20 kPa, k2: 5, dispersion: 0.1, direction: [0, 0, 1], families: 2, angle: 30 deg,\n"
+      "                 plane: [0, 1, 0]}}\n"
+      "objects:\n"
+      "  band:\n    material: lig\n    box: {min: [0, 0, 0], max: [40 mm, 10 mm, 10 mm], cells: [4, 1, 1]}\n"
+      "    fibres: {direction: [3, 0, 0]}\n"
+      "run: {steps: 1}\n";
+  const fascia::Model model = build_scene(parse_scene_text(text, "families.yaml")).model;
+  REQUIRE(!model.materials.empty());
+  for (const fascia::Material& m : model.materials) {
+    CHECK(m.law == fascia::MaterialLaw::hgo);
+    CHECK(m.formulation == fascia::HgoFormulation::uncoupled);
+    CHECK(m.fibres.families == 2);
+    CHECK(m.fibres.angle == Approx(0.5235987755982988).epsilon(1e-15));
+    CHECK(m.fibres.direction.x == 1.0);
+    for (int k = 0; k < 2; ++k) {
+      const fascia::Vec3 a = m.fibres.axes[k];
+      CHECK(a.x == Approx(std::sqrt(3.0) / 2).epsilon(1e-15));
+      CHECK(a.y == Approx(k == 0 ? 0.5 : -0.5).epsilon(1e-15));
+      CHECK(a.z == 0.0);
+    }
+  }
+  // Without the key the formulation is coupled, with one family along the direction.
+  const fascia::Model plain = built("");
+  CHECK(plain.materials.front().formulation == fascia::HgoFormulation::coupled);
+  CHECK(plain.materials.front().fibres.families == 1);
+  CHECK(plain.materials.front().fibres.axes[0].z == Approx(0.8).epsilon(1e-15));
 }

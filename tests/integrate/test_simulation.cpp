@@ -7,6 +7,7 @@
 #include "integrate/step_potential.hpp"
 #include "support/coupling_fixtures.hpp"
 #include "support/fixtures.hpp"
+#include "support/hgo_uniaxial.hpp"
 #include "support/minimiser_bound.hpp"
 #include "support/resume_check.hpp"
 
@@ -155,6 +156,52 @@ TEST_CASE("hgo bar under end tractions reaches the closed-form stretch along and
   // Fibres along the load stiffen it: a smaller stretch than across (the ground substance alone).
   if (along) REQUIRE(s < 1.1);
   else REQUIRE(s > 1.15);
+}
+
+TEST_CASE("uncoupled hgo bar with two fibre families reaches the closed-form stretches", "[integrate][analytic][hgo]") {
+  // The traction P11 = 8000 Pa of make_bar along x; two fibre families at +-30 deg about x in the
+  // x-y plane (k1 = 5e4 Pa, k2 = 5, dispersion 0.1), the uncoupled form with E = 4e4 Pa, nu = 0.45.
+  // The homogeneous F = diag(s, t2, t3) is an equilibrium (P diagonal: the families' shear terms
+  // cancel); its closed form is tests/support/hgo_uniaxial.hpp: t2, t3 from free lateral faces,
+  // s by bisection on P11(s) = tau_1 / s = 8000 Pa.
+  const CellType type = GENERATE(CellType::hexahedron, CellType::tetrahedron);
+  INFO("tetrahedra " << (type == CellType::tetrahedron));
+  const double gamma = 30 * 3.14159265358979323846 / 180;
+  Fibres fibres{5e4, 5, 0.1, Vec3{1, 0, 0}};
+  fibres.families = 2;
+  fibres.angle = gamma;
+  fibres.plane = Vec3{0, 1, 0};
+  const Material m = make_hgo_material(4e4, 0.45, 1, fibres, HgoFormulation::uncoupled);
+  Bar bar = make_bar(type, true, &m);
+  double l[3];
+  const auto p11 = [&](double s) {
+    test::solve_lateral(m, gamma, 0, s, l);
+    return test::principal_stresses(m, gamma, l).tau[0] / s;
+  };
+  double lo = 1.0, hi = 2.0;
+  for (int it = 0; it < 200; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    if (mid <= lo || mid >= hi) break;
+    (p11(mid) < 2000.0 / 0.25 ? lo : hi) = mid;
+  }
+  p11(0.5 * (lo + hi));
+  SimulationSettings settings;
+  settings.integrator = Integrator::static_equilibrium;
+  settings.newton.tolerance = 1e-11;
+  settings.newton.linear.method = LinearMethod::cholmod;
+  Simulation sim(bar.model, bar.loads, settings);
+  sim.step();
+  for (int i = 0; i < bar.model.frame_count(); ++i) {
+    const Vec3 X = load3(&bar.model.frame_rest_positions[3 * i]);
+    const Vec3 x = load3(&sim.state().positions[3 * i]);
+    // Homogeneous, reproduced exactly by the elements (as the StVK case): the Newton tolerance.
+    REQUIRE(x.x == Approx(l[0] * X.x).margin(1e-9));
+    REQUIRE(x.y == Approx(l[1] * X.y).margin(1e-9));
+    REQUIRE(x.z == Approx(l[2] * X.z).margin(1e-9));
+  }
+  // The families pull the bar in along y (in their plane) more than along z: t2 < t3.
+  REQUIRE(l[1] < l[2]);
+  REQUIRE(l[0] > 1.01);
 }
 
 TEST_CASE("with 6-DOF frames the analytic uniaxial state is an equilibrium", "[integrate][analytic]") {

@@ -29,14 +29,29 @@ inline double relative_difference(const std::vector<double>& a, const std::vecto
 // With MaterialLaw::hgo each sample has its own material (fibres k1 = 3 E, k2 = 5, dispersion
 // 0.1 along a direction that turns from sample to sample), as a fibre field makes them: the
 // device reads each sample's fibres through its material index, and the random states stretch
-// some samples' fibres and shorten others'.
-inline Model kernels_test_model(CellType type, MaterialLaw law, int nx = 4, int ny = 3, int nz = 2) {
+// some samples' fibres and shorten others'. `hgo` picks the law's variant: one family in the
+// coupled form, or two at +-0.6 rad about that direction (in its plane with z) in the uncoupled
+// form.
+enum class HgoVariant { one_family_coupled, two_families_uncoupled };
+inline const char* to_string(HgoVariant v) {
+  return v == HgoVariant::one_family_coupled ? "one family, coupled" : "two families, uncoupled";
+}
+inline Model kernels_test_model(CellType type, MaterialLaw law, int nx = 4, int ny = 3, int nz = 2,
+                                HgoVariant hgo = HgoVariant::one_family_coupled) {
   Model model = small_box_model(type, law == MaterialLaw::hgo ? MaterialLaw::neo_hookean : law, nx, ny, nz);
   if (law == MaterialLaw::hgo) {
     model.materials.clear();
+    const bool two = hgo == HgoVariant::two_families_uncoupled;
     for (int s = 0; s < model.sample_count(); ++s) {
       const Vec3 a{std::cos(0.7 * s), std::sin(0.7 * s), 0.5 * std::cos(1.3 * s)};
-      model.materials.push_back(make_hgo_material(1.0e4, 0.3, 1000.0, Fibres{3.0e4, 5.0, 0.1, a}));
+      Fibres f{3.0e4, 5.0, 0.1, a};
+      if (two) {
+        f.families = 2;
+        f.angle = 0.6;
+        f.plane = Vec3{0, 0, 1};  // never along a: its x, y part has unit length
+      }
+      model.materials.push_back(make_hgo_material(1.0e4, 0.3, 1000.0, f,
+                                                  two ? HgoFormulation::uncoupled : HgoFormulation::coupled));
       model.samples.materials[static_cast<size_t>(s)] = s;
     }
   }

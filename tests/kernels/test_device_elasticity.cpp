@@ -1,6 +1,6 @@
 // The CUDA backend against the CPU reference (fascia::Elasticity and the host PCG of
 // reference_step.hpp): energy, forces, tangent products, diagonal blocks and a full Newton step,
-// for the three laws (hgo with a fibre direction per sample), both storage precisions, the grouped and the coalesced tangent pass, and the
+// for the three laws (hgo with a fibre direction per sample: one family coupled, two uncoupled), both storage precisions, the grouped and the coalesced tangent pass, and the
 // resident, two-barrier and launched PCG; and bitwise-identical repeated runs.
 //
 // Bounds. Double: 1e-12 relative (norm-wise); the device sums in other orders than the CPU, so
@@ -21,6 +21,7 @@
 #include <cmath>
 #include <cstring>
 #include <numeric>
+#include <string>
 
 using namespace fascia;
 using namespace fascia::gpu;
@@ -37,7 +38,12 @@ struct Case {
   Precision precision;
   Shape shape;
   MaterialLaw law;
+  HgoVariant hgo = HgoVariant::one_family_coupled;  // law hgo only
 };
+
+std::string law_name(const Case& c) {
+  return c.law == MaterialLaw::hgo ? std::string("hgo (") + to_string(c.hgo) + ")" : std::string(to_string(c.law));
+}
 
 double bound(Precision p, bool step) {
   if (p == Precision::double_precision) return 1e-12;
@@ -64,9 +70,10 @@ Model single_samples(const Model& model) {
   return reorder_samples(model, order);
 }
 
-Model test_model(Shape shape, MaterialLaw law, int nx = 4, int ny = 3, int nz = 2) {
+Model test_model(Shape shape, MaterialLaw law, int nx = 4, int ny = 3, int nz = 2,
+                 HgoVariant hgo = HgoVariant::one_family_coupled) {
   const Model box = kernels_test_model(shape == Shape::hexahedra ? CellType::hexahedron : CellType::tetrahedron, law,
-                                       nx, ny, nz);
+                                       nx, ny, nz, hgo);
   return shape == Shape::single_samples ? single_samples(box) : box;
 }
 
@@ -91,8 +98,16 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
                           Case{Precision::single_precision, Shape::tetrahedra, MaterialLaw::stvk},
                           Case{Precision::single_precision, Shape::hexahedra, MaterialLaw::neo_hookean},
                           Case{Precision::single_precision, Shape::hexahedra, MaterialLaw::hgo},
+                          Case{Precision::double_precision, Shape::tetrahedra, MaterialLaw::hgo,
+                               HgoVariant::two_families_uncoupled},
+                          Case{Precision::double_precision, Shape::hexahedra, MaterialLaw::hgo,
+                               HgoVariant::two_families_uncoupled},
+                          Case{Precision::double_precision, Shape::single_samples, MaterialLaw::hgo,
+                               HgoVariant::two_families_uncoupled},
+                          Case{Precision::single_precision, Shape::hexahedra, MaterialLaw::hgo,
+                               HgoVariant::two_families_uncoupled},
                           Case{Precision::single_precision, Shape::single_samples, MaterialLaw::stvk});
-  const Model model = test_model(c.shape, c.law);
+  const Model model = test_model(c.shape, c.law, 4, 3, 2, c.hgo);
   const State state = kernels_test_state(model, 21);
   const int dofs = model.dof_count(), n = model.frame_count();
 
@@ -119,7 +134,7 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
   const double e_energy = std::abs(dw - w) / std::abs(w), e_grad = relative_difference(dg, g),
                e_tangent = relative_difference(dKd, Kd), e_blocks = relative_difference(dblocks, blocks);
   std::printf("[gpu] %s %s %s (%s pass): energy %.2e gradient %.2e tangent %.2e blocks %.2e\n", to_string(c.precision),
-              name(c.shape), to_string(c.law), dev.group_samples() ? "grouped" : "coalesced", e_energy, e_grad,
+              name(c.shape), law_name(c).c_str(), dev.group_samples() ? "grouped" : "coalesced", e_energy, e_grad,
               e_tangent, e_blocks);
   const double tol = bound(c.precision, false);
   CHECK(e_energy < tol);
@@ -141,9 +156,13 @@ TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]")
                           Case{Precision::single_precision, Shape::tetrahedra, MaterialLaw::stvk},
                           Case{Precision::single_precision, Shape::hexahedra, MaterialLaw::neo_hookean},
                           Case{Precision::single_precision, Shape::tetrahedra, MaterialLaw::hgo},
+                          Case{Precision::double_precision, Shape::tetrahedra, MaterialLaw::hgo,
+                               HgoVariant::two_families_uncoupled},
+                          Case{Precision::single_precision, Shape::hexahedra, MaterialLaw::hgo,
+                               HgoVariant::two_families_uncoupled},
                           Case{Precision::single_precision, Shape::single_samples, MaterialLaw::neo_hookean});
   const bool persistent = GENERATE(true, false);
-  const Model model = test_model(c.shape, c.law);
+  const Model model = test_model(c.shape, c.law, 4, 3, 2, c.hgo);
   const State state = kernels_test_state(model, 33);
   const double h = 0.01;
   const std::vector<double> loads = kernels_test_loads(model);
@@ -178,7 +197,7 @@ TEST_CASE("device backward-Euler Newton step equals the CPU reference", "[gpu]")
   const double e_pos = relative_difference(after.positions, expected.positions);
   const double e_vel = relative_difference(after.velocities, v_expected);
   std::printf("[gpu] step %s %s %s, %s: cg %d (cpu %d) delta %.2e positions %.2e velocities %.2e\n",
-              to_string(c.precision), name(c.shape), to_string(c.law),
+              to_string(c.precision), name(c.shape), law_name(c).c_str(),
               report.resident ? "resident" : report.persistent ? "two-barrier" : "launched", report.cg_iterations,
               ref.iterations, e_delta, e_pos, e_vel);
   CHECK(report.cg_iterations == ref.iterations);
