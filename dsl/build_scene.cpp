@@ -217,8 +217,8 @@ Material scene_material(const SceneSpec& scene, const ObjectSpec& o) {
     fibres.families = f.families.value;
     if (f.angle) fibres.angle = f.angle->value;
     if (f.plane) fibres.plane = to_vec3(f.plane->value);
-    // With two families and no material direction, the placeholder e1 must not be parallel to
-    // the plane: any vector orthogonal to the plane's does (place_fibres sets the real ones).
+    // Without a material direction place_fibres sets each sample's; the material's own direction
+    // must still form a valid pair with the plane, so it is taken orthogonal to the plane.
     if (!f.direction && f.plane) fibres.direction = orthogonal_to(fibres.plane);
     const HgoFormulation formulation = m->formulation && m->formulation->value == "uncoupled"
                                            ? HgoFormulation::uncoupled
