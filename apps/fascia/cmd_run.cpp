@@ -462,6 +462,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     c.tangent = simulation.reused_tangent();
     if (const StepController* controller = simulation.controller()) c.controller = controller->state();
     c.progress = simulation.advance_progress();
+    c.history = simulation.path_history();
     checkpoints->write(c);
     checkpointed_step = c.step;
     last_checkpoint_wall = std::chrono::steady_clock::now();
@@ -472,6 +473,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     if (resume.checkpoint) {
       const Checkpoint& c = *resume.checkpoint;
       simulation.restore(c.state, c.step, c.time);
+      simulation.restore_path_history(c.history);
       if (!simulation.restore_tangent(c.tangent))
         std::cerr << "fascia: warning: the preconditioner's factorisation could not be repeated exactly (its "
                      "sparsity analysis differs); the run continues correctly, to the solver's tolerances, "

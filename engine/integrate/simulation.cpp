@@ -99,6 +99,21 @@ void Simulation::restore(const State& state, int step, double time) {
   m_state = state;
   m_step = step;
   m_time = time;
+  m_history = PathHistory{};
+}
+
+void Simulation::restore_path_history(const PathHistory& history) {
+  if (history.held() && (history.previous.positions.size() != m_state.positions.size() ||
+                         history.previous.orientations.size() != m_state.orientations.size()))
+    throw std::invalid_argument("restored path history has " + std::to_string(history.previous.frame_count()) +
+                                " frames, the model " + std::to_string(m_state.frame_count()));
+  m_history = history.held() ? history : PathHistory{};
+}
+
+void Simulation::record_history(State start, double h) {
+  if (m_settings.integrator != Integrator::static_equilibrium) return;
+  m_history.previous = std::move(start);
+  m_history.dt = h;
 }
 
 void Simulation::keep_tangent() {
@@ -190,6 +205,7 @@ Simulation::Attempt Simulation::attempt(double h, State& trial) {
     potential.set_dynamic(m_state, h, m_settings.rayleigh_mass, m_settings.rayleigh_stiffness);
   trial = m_state;
   apply_motions(m_model, m_motions, m_time + h, trial);
+  if (!variational) predict_dynamic_step(m_model, m_state, h, m_settings.rayleigh_mass, trial);
   potential.rigid_mapping().sync(trial);
   Attempt a;
   StepBackend* backend = m_impl->backend.get();
@@ -213,6 +229,7 @@ Simulation::Attempt Simulation::static_attempt(double t_next, State& trial) {
   potential.set_equilibrium();
   trial = m_state;
   apply_motions(m_model, m_motions, t_next, trial);
+  predict_static_step(m_model, m_history, m_state, t_next - m_time, trial);
   potential.rigid_mapping().sync(trial);
   ExternalLoads& loads = m_loads;
   // Adaptive steps after the first hold the loads at full scale already (m_state is their
@@ -288,6 +305,7 @@ StepReport Simulation::step() {
     m_state = std::move(start);
     throw SolverError(report.message);
   }
+  record_history(std::move(start), m_settings.dt);
   ++m_step;
   m_time = t_next;
   return report;
@@ -328,6 +346,7 @@ StepReport Simulation::advance_to(double t_target) {
     }
     std::swap(previous, m_state);
     std::swap(m_state, trial);
+    record_history(previous, h);
     previous_time = m_time;
     ++m_step;
     ++m_progress.accepted;
@@ -344,6 +363,7 @@ StepReport Simulation::advance_to(double t_target) {
     // Back to the step before when this call took it (not a step before a restore).
     if (previous.positions.empty()) throw SolverError(report.message);
     m_state = std::move(previous);  // back to the step before, whose energies were finite
+    m_history = PathHistory{};
     m_time = previous_time;
     --m_step;
     throw SolverError(report.message);

@@ -5,6 +5,7 @@
 #include "integrate/prescribed_motion.hpp"
 #include "integrate/step_backend.hpp"
 #include "integrate/step_error.hpp"
+#include "integrate/step_predictor.hpp"
 #include "integrate/tangent_origin.hpp"
 #include "mechanics/external_loads.hpp"
 #include "mechanics/volumetric_elasticity.hpp"
@@ -95,6 +96,11 @@ class Simulation {
   // exactly as an uninterrupted simulation would (the state, step count and time are all a step
   // depends on; io/checkpoint.hpp saves them).
   void restore(const State& state, int step, double time);
+  // Static steps: the equilibrium before the current one, from which the next step's starting
+  // guess is extrapolated (step_predictor.hpp); empty for the other integrators and before the
+  // second static step. restore() clears it; restore_path_history() sets it after restore().
+  const PathHistory& path_history() const { return m_history; }
+  void restore_path_history(const PathHistory& history);
   // PCG's reused CHOLMOD factorisation (solver.linear: pcg + cholmod on the CPU engine) as it
   // stands after the last completed step or attempt: a step abandoned on a stop does not change
   // it. A checkpoint keeps it with the state.
@@ -141,6 +147,9 @@ class Simulation {
   double m_extent = 1;  // m, the error estimate's length (model_extent())
   ReusedTangent m_reused;
   AdvanceProgress m_progress;
+  PathHistory m_history;
+  // After an accepted step of size h from `start` (m_state is its end).
+  void record_history(State start, double h);
 };
 
 // Newton failure or divergence: what() is a one-line message for the user.

@@ -139,6 +139,8 @@ CheckpointWriter CheckpointWriter::create(long long file_id, const std::string& 
     create_state(g.get(), "tangent_", n, path);
     fixed_dataset(g.get(), "controller", H5T_IEEE_F64LE, {2}, path);
     fixed_dataset(g.get(), "controller_counts", H5T_STD_I64LE, {6}, path);
+    fixed_dataset(g.get(), "history", H5T_IEEE_F64LE, {1}, path);
+    create_state(g.get(), "history_", n, path);
   }
   fixed_dataset(group.get(), "commit", H5T_STD_I64LE, {2}, path);
   return CheckpointWriter(file_id, path, frames, 0);
@@ -182,6 +184,10 @@ void CheckpointWriter::write(const Checkpoint& c) {
                                  c.progress.accepted,          c.progress.rejected};
     write_data(slot.get(), "controller", H5T_NATIVE_DOUBLE, controller, m_path);
     write_data(slot.get(), "controller_counts", H5T_NATIVE_LLONG, counts, m_path);
+    const bool history_held = c.history.held();
+    const double history_dt = history_held ? c.history.dt : 0.0;
+    write_data(slot.get(), "history", H5T_NATIVE_DOUBLE, &history_dt, m_path);
+    write_state(slot.get(), "history_", history_held ? c.history.previous : State{}, n, m_path);
   }
   flush_and_sync(f, m_path);
   const long long commit[2] = {sequence, c.step};
@@ -245,6 +251,14 @@ std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIde
   c.controller.rejected = static_cast<long>(counts[1]);
   c.progress = AdvanceProgress{static_cast<long>(counts[2]), static_cast<long>(counts[3]), static_cast<long>(counts[4]),
                                static_cast<long>(counts[5])};
+  double history_dt = 0;
+  read_data(slot.get(), "history", H5T_NATIVE_DOUBLE, {1}, &history_dt, path);
+  if (!std::isfinite(history_dt) || history_dt < 0)
+    fail(path, "path history step " + std::to_string(history_dt) + " (corrupt)");
+  if (history_dt > 0) {
+    c.history.dt = history_dt;
+    c.history.previous = read_state(slot.get(), "history_", n, path);
+  }
   c.tangent.held = tangent[0] != 0;
   if (c.tangent.held) {
     std::memcpy(&c.tangent.pattern, &tangent[1], sizeof c.tangent.pattern);

@@ -13,7 +13,12 @@
 //                                 controller float64 [2]: dt (s), after_rejection (0 or 1);
 //                                 controller_counts int64 [6]: accepted, rejected, and the
 //                                 advance in progress: Newton and CG iterations, accepted,
-//                                 rejected (solve/step_controller.hpp; zeros unless adaptive)
+//                                 rejected (solve/step_controller.hpp; zeros unless adaptive);
+//                                 history float64 [1]: the step h_old (s) from the previous
+//                                 equilibrium to the state, 0 when none is held;
+//                                 history_{positions,orientations,velocities}: the previous
+//                                 equilibrium as the state (integrate/step_predictor.hpp; zeros
+//                                 where not held)
 //   /checkpoint/commit            int64 [2]: the committed sequence number (0: none yet) and its step
 //
 // Atomicity: every dataset is contiguous and allocated when the file is created, so writing a
@@ -22,14 +27,16 @@
 // 16-byte commit record written, flushed and synced. A process killed at any instant leaves the
 // commit record pointing at a complete slot: the new checkpoint or the one before.
 //
-// format 3 holds what the integrators carry from step to step: the frames' state, the step count
+// format 4 holds what the integrators carry from step to step: the frames' state, the step count
 // and the time (Simulation::restore), the step size dt, the origin of the factorisation PCG
-// reuses (Simulation::restore_tangent) and an adaptive run's step controller and the attempts
-// since its last output time (StepController::restore, Simulation::restore_progress). A format that adds datasets to the slots raises `format`;
+// reuses (Simulation::restore_tangent), an adaptive run's step controller and the attempts
+// since its last output time (StepController::restore, Simulation::restore_progress), and the
+// previous equilibrium static steps extrapolate from (Simulation::restore_path_history). A format that adds datasets to the slots raises `format`;
 // a reader reads its own format only (a checkpoint is resumed by the build that wrote it).
 #pragma once
 
 #include "integrate/step_error.hpp"
+#include "integrate/step_predictor.hpp"
 #include "integrate/tangent_origin.hpp"
 #include "model/state.hpp"
 
@@ -38,7 +45,7 @@
 
 namespace fascia {
 
-constexpr int kCheckpointFormat = 3;
+constexpr int kCheckpointFormat = 4;
 
 struct Checkpoint {
   long long sequence = 0;  // 1, 2, ... in the order written
@@ -51,6 +58,7 @@ struct Checkpoint {
   ReusedTangent tangent;    // PCG's reused factorisation (Simulation::reused_tangent())
   StepControllerState controller;  // adaptive steps: the controller (Simulation::controller())
   AdvanceProgress progress;        // adaptive steps: since the last output time
+  PathHistory history;             // static steps: the previous equilibrium (Simulation::path_history())
 };
 
 // What a checkpoint may be resumed by: the resolved scene and the build that wrote it.

@@ -90,7 +90,7 @@ def trajectory(path, frames=2, rows=2):
                             ("environment", "{}"), ("version", "0.1.0")):
             f["parameters/" + name] = text(value)
         c = group(f, "checkpoint")
-        c.attrs["format"] = np.int32(3)  # kCheckpointFormat
+        c.attrs["format"] = np.int32(4)  # kCheckpointFormat
         c.attrs["frames"] = np.int32(frames)
         c["scene"] = text("scene")
         c["build"] = text("build")
@@ -103,7 +103,8 @@ def trajectory(path, frames=2, rows=2):
             s["tangent_clock"] = np.array([0.01, 1.0])
             s["controller"] = np.array([0.01, 0.0])  # step size, after a rejection
             s["controller_counts"] = np.array([1, 0, 0, 0, 0, 0], dtype="<i8")
-            for prefix in ("", "tangent_start_", "tangent_"):
+            s["history"] = np.array([0.01])  # a held path history: its state follows
+            for prefix in ("", "tangent_start_", "tangent_", "history_"):
                 s[prefix + "positions"] = np.zeros((frames, 3))
                 s[prefix + "orientations"] = np.tile([1.0, 0, 0, 0], (frames, 1))
                 s[prefix + "velocities"] = np.zeros((frames, 6))

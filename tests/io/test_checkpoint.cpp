@@ -56,6 +56,12 @@ Checkpoint checkpoint_for(long long sequence) {
     for (double& x : c.tangent.origin.start.positions) x += 0.25;
     for (double& v : c.tangent.origin.state.velocities) v *= 3;
   }
+  // Every third holds a static path history (the previous equilibrium and the step from it).
+  if (sequence % 3 == 1) {
+    c.history.dt = 0.0025 * static_cast<double>(sequence);
+    c.history.previous = c.state;
+    for (double& x : c.history.previous.positions) x -= 0.125;
+  }
   return c;
 }
 
@@ -78,6 +84,11 @@ void check_is(const Checkpoint& read, long long sequence) {
   CHECK(read.progress.cg_iterations == expected.progress.cg_iterations);
   CHECK(read.progress.accepted == expected.progress.accepted);
   CHECK(read.progress.rejected == expected.progress.rejected);
+  CHECK(read.history.held() == expected.history.held());
+  CHECK(read.history.dt == expected.history.dt);
+  CHECK(read.history.previous.positions == expected.history.previous.positions);
+  CHECK(read.history.previous.orientations == expected.history.previous.orientations);
+  CHECK(read.history.previous.velocities == expected.history.previous.velocities);
   CHECK(read.tangent.held == expected.tangent.held);
   CHECK(read.tangent.pattern == expected.tangent.pattern);
   CHECK(read.tangent.origin.dt == expected.tangent.origin.dt);

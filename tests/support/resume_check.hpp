@@ -1,6 +1,6 @@
 // Continuation from what a checkpoint keeps (io/checkpoint.hpp): a simulation restored at step
 // `split` of another one (state, step, time, PCG's reused factorisation, an adaptive run's step
-// controller) continues to step `total` exactly as the uninterrupted one does. The same check runs
+// controller, static steps' path history) continues to step `total` exactly as the uninterrupted one does. The same check runs
 // on the CPU engine (tests/integrate/test_simulation.cpp) and on the CUDA step backend
 // (tests/kernels/test_cuda_simulation.cpp), with the backend the settings' factories give.
 #pragma once
@@ -30,11 +30,14 @@ struct ResumeComparison {
   bool held = false;                     // a factorisation was held at the split
   std::vector<int> cg_full, cg_resumed;  // PCG iterations of steps split+1..total (rows, adaptive)
   std::vector<int> cg_fresh;             // the same, restored without the factorisation
+  bool history = false;                  // a path history was held at the split (static steps)
   State full, resumed, fresh;            // the final states
+  State forgetful;                       // restored with the factorisation, without the path history
 };
 
 // Runs `total` steps (adaptive: advances to k dt, k = 1..total) uninterrupted, and from step
-// `split` again in new simulations restored with and without the reused factorisation.
+// `split` again in new simulations restored with and without the reused factorisation, and
+// (static steps) with the factorisation but without the path history.
 inline ResumeComparison compare_resume(const Model& model, const ExternalLoads& loads,
                                        const std::vector<PrescribedMotion>& motions, const SimulationSettings& settings,
                                        int split, int total) {
@@ -47,6 +50,7 @@ inline ResumeComparison compare_resume(const Model& model, const ExternalLoads& 
   double time_at_split = 0;
   ReusedTangent tangent;
   StepControllerState controller;
+  PathHistory history;
   for (int k = 1; k <= total; ++k) {
     const StepReport r = advance(full, k);
     if (k > split) c.cg_full.push_back(r.cg_iterations);
@@ -55,19 +59,25 @@ inline ResumeComparison compare_resume(const Model& model, const ExternalLoads& 
       step_at_split = full.steps_taken();
       time_at_split = full.time();
       tangent = full.reused_tangent();
+      history = full.path_history();
       if (adaptive) controller = full.controller()->state();
     }
   }
   c.full = full.state();
   c.held = tangent.held;
-  for (const bool with_tangent : {true, false}) {
+  c.history = history.held();
+  enum class Restored { everything, no_tangent, no_history };
+  for (const Restored what : {Restored::everything, Restored::no_tangent, Restored::no_history}) {
+    if (what == Restored::no_history && !c.history) break;
     Simulation s(model, loads, settings, motions);
     s.restore(at_split, step_at_split, time_at_split);
+    if (what != Restored::no_history) s.restore_path_history(history);
     if (adaptive) s.controller()->restore(controller);
-    if (with_tangent && !s.restore_tangent(tangent)) return c;  // resumed stays empty: the check fails
-    std::vector<int>& cg = with_tangent ? c.cg_resumed : c.cg_fresh;
+    if (what != Restored::no_tangent && !s.restore_tangent(tangent)) return c;  // resumed stays empty: the check fails
+    std::vector<int> ignored;
+    std::vector<int>& cg = what == Restored::everything ? c.cg_resumed : what == Restored::no_tangent ? c.cg_fresh : ignored;
     for (int k = split + 1; k <= total; ++k) cg.push_back(advance(s, k).cg_iterations);
-    (with_tangent ? c.resumed : c.fresh) = s.state();
+    (what == Restored::everything ? c.resumed : what == Restored::no_tangent ? c.fresh : c.forgetful) = s.state();
   }
   return c;
 }
