@@ -111,7 +111,9 @@ void Simulation::restore_path_history(const PathHistory& history) {
 }
 
 void Simulation::record_history(State start, double h) {
-  if (m_settings.integrator != Integrator::static_equilibrium) return;
+  // Only a step between two equilibria lies on the path: the first starts from the rest state,
+  // not an equilibrium of the loads.
+  if (m_settings.integrator != Integrator::static_equilibrium || m_step == 0) return;
   m_history.previous = std::move(start);
   m_history.dt = h;
 }
@@ -189,6 +191,7 @@ std::string likely_cause(const NewtonResult& r, bool finite, bool adaptive) {
 
 struct Simulation::Attempt {
   NewtonResult newton;
+  State predicted;  // adaptive static steps with a path history: the predicted start
   bool finite = true;
   bool ok() const { return newton.converged && finite; }
 };
@@ -231,6 +234,8 @@ Simulation::Attempt Simulation::static_attempt(double t_next, State& trial) {
   apply_motions(m_model, m_motions, t_next, trial);
   predict_static_step(m_model, m_history, m_state, t_next - m_time, trial);
   potential.rigid_mapping().sync(trial);
+  Attempt a;
+  if (m_controller && m_history.held()) a.predicted = trial;  // the error estimate's reference
   ExternalLoads& loads = m_loads;
   // Adaptive steps after the first hold the loads at full scale already (m_state is their
   // equilibrium): one Newton solve, whose failure the step controller answers with a shorter step
@@ -243,7 +248,6 @@ Simulation::Attempt Simulation::static_attempt(double t_next, State& trial) {
     loads.scale = factor;
     return load_force_norm(m_model, loads);
   };
-  Attempt a;
   a.newton = m_impl->backend
                  ? m_impl->backend->equilibrium(trial, m_settings.newton, stepping, set_load_factor)
                  : minimise_load_stepping(potential, trial, m_settings.newton, stepping, set_load_factor, &m_impl->linear);
@@ -338,9 +342,13 @@ StepReport Simulation::advance_to(double t_target) {
           << a.newton.residual << "; likely cause: " << likely_cause(a.newton, a.finite, true);
       throw SolverError(msg.str());
     }
-    const double error = is_static ? static_increment(m_model, m_state, trial, m_extent)
-                                   : local_error(m_model, m_state, trial, h, m_extent);
-    if (!controller.update(h, error)) {
+    // Static steps: the distance from the predicted start (O(h^2)) where there is one, the
+    // increment (O(h)) on the first step (step_error.hpp).
+    const bool predicted = is_static && !a.predicted.positions.empty();
+    const double error = !is_static  ? local_error(m_model, m_state, trial, h, m_extent)
+                         : predicted ? static_increment(m_model, a.predicted, trial, m_extent)
+                                     : static_increment(m_model, m_state, trial, m_extent);
+    if (!controller.update(h, error, is_static && !predicted ? 1 : 2)) {
       ++m_progress.rejected;
       continue;
     }

@@ -97,8 +97,8 @@ class Simulation {
   // depends on; io/checkpoint.hpp saves them).
   void restore(const State& state, int step, double time);
   // Static steps: the equilibrium before the current one, from which the next step's starting
-  // guess is extrapolated (step_predictor.hpp); empty for the other integrators and before the
-  // second static step. restore() clears it; restore_path_history() sets it after restore().
+  // guess is extrapolated (step_predictor.hpp); empty for the other integrators and until two
+  // static steps have been solved. restore() clears it; restore_path_history() sets it after restore().
   const PathHistory& path_history() const { return m_history; }
   void restore_path_history(const PathHistory& history);
   // PCG's reused CHOLMOD factorisation (solver.linear: pcg + cholmod on the CPU engine) as it
@@ -148,7 +148,7 @@ class Simulation {
   ReusedTangent m_reused;
   AdvanceProgress m_progress;
   PathHistory m_history;
-  // After an accepted step of size h from `start` (m_state is its end).
+  // After an accepted step of size h from `start` (m_state is its end), before m_step counts it.
   void record_history(State start, double h);
 };
 

@@ -9,9 +9,13 @@
 // on the free DOFs only (prescribed frames follow their motion exactly), L the model's extent
 // (the rotation error as the displacement it makes at that distance); e = max_i e_i, O(h^2).
 //
-// Static steps follow the equilibrium path q*(t) of time-dependent motions; their estimate is
-// the increment, e = max_i (|x_{n+1,i} - x_n,i| + L |log(R_{n+1,i} R_n,i^T)|) (m, free frames),
-// O(h).
+// Static steps follow the equilibrium path q*(t) of time-dependent motions. Their estimate is the
+// distance of the equilibrium q_{n+1} from the step's predicted start p_{n+1}, the secant through
+// the last two equilibria (step_predictor.hpp),
+//   e = max_i (|x_{n+1,i} - p_i| + L |log(R_{n+1,i} R_{p,i}^T)|)      (m, free frames),
+// O(h (h + h_old)) on a smooth path: how far the path bends away from its piecewise-linear
+// interpolation. The first step has no secant; its estimate is the increment, the same distance
+// from q_n, O(h).
 #pragma once
 
 #include "model/model.hpp"
@@ -38,7 +42,8 @@ double model_extent(const Model& model);
 // h (velocities in both), over the model's free DOFs.
 double local_error(const Model& model, const State& start, const State& end, double h, double extent);
 
-// The increment estimate e of a static step above, from its start and end states (m).
+// The distance e above between two states of a static step (m, free frames): from the predicted
+// start, or from the step's start for the increment.
 double static_increment(const Model& model, const State& start, const State& end, double extent);
 
 }  // namespace fascia

@@ -23,11 +23,12 @@ double StepController::next_step(double t, double t_target) const {
   return remaining / n;
 }
 
-bool StepController::update(double h, double error) {
+bool StepController::update(double h, double error, int error_order) {
+  const int p = error_order > 0 ? error_order : m_error_order;
   // An error of zero grows the step as an error of tol / 4 (order 2) or tol / 2 (order 1) does:
   // by 0.9 x 2 = 1.8.
-  const double ratio = error > 0 ? m_settings.tolerance / error : (m_error_order == 2 ? 4.0 : 2.0);
-  const double factor = std::clamp(0.9 * (m_error_order == 2 ? std::sqrt(ratio) : ratio), 0.2, 2.0);
+  const double ratio = error > 0 ? m_settings.tolerance / error : (p == 2 ? 4.0 : 2.0);
+  const double factor = std::clamp(0.9 * (p == 2 ? std::sqrt(ratio) : ratio), 0.2, 2.0);
   if (error <= m_settings.tolerance) {
     ++m_state.accepted;
     // A step shortened to land on an output time does not shrink the size the controller has

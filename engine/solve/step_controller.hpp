@@ -14,9 +14,11 @@
 // [min_dt, max_dt].
 //
 // - Backward Euler: e = the local error, O(h^2) (p = 2).
-// - Static steps along the prescribed motions: e = the increment, O(h) (p = 1); each step is an
-//   equilibrium, so what the tolerance bounds is how far a step moves the path. A hold (e = 0)
-//   grows the step by 1.8, a failed solve (inverted elements, no convergence) halves it.
+// - Static steps along the prescribed motions: each step is an equilibrium, so what the
+//   tolerance bounds is how far the path departs from its extrapolation: e = the distance from
+//   the predicted start (integrate/step_predictor.hpp), O(h^2) (p = 2); on the first step, with
+//   no history to extrapolate, e = the increment, O(h) (p = 1). A hold (e = 0) grows the step by
+//   1.8, a failed solve (inverted elements, no convergence) halves it.
 // - Load increments of a static solve: e = the Newton iterations the increment took, the
 //   tolerance the iteration budget, p = 2: h * clamp(0.9 sqrt(budget / iterations), 0.2, 2), the
 //   rule of Crisfield (Non-linear Finite Element Analysis of Solids and Structures, vol. 1,
@@ -51,8 +53,9 @@ class StepController {
   // step (the remainder split into equal steps otherwise).
   double next_step(double t, double t_target) const;
   // After an attempt of size h: converged solve with error estimate `error` (the tolerance's
-  // unit). Returns whether the step is accepted; updates the next step's size.
-  bool update(double h, double error);
+  // unit) of order error_order in h (0: the constructor's). Returns whether the step is accepted;
+  // updates the next step's size.
+  bool update(double h, double error, int error_order = 0);
   // After an attempt of size h whose nonlinear solve failed: halves the step. Returns false when
   // h was already min_dt (no smaller retry is possible).
   bool failed(double h);

@@ -11,6 +11,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -56,6 +57,50 @@ TEST_CASE("adaptive backward Euler on free fall settles at the step whose error 
     REQUIRE(drop - 0.5 * g * T * T <= r.accepted_steps * settings.adaptive.tolerance);
     REQUIRE(sim.state().velocities[6 * i + 2] == Approx(-g * T).epsilon(1e-9));
   }
+}
+
+TEST_CASE("adaptive static steps along a straight equilibrium path grow without rejections", "[integrate][adaptive]") {
+  // A slab sagging under gravity whose x = 0 face is carried along x at 0.1 m/s (translations
+  // prescribed, rotations free) and nothing else holds it: every equilibrium is the first one
+  // translated, q*(t) = q*(0) + t v, a straight path. The first two steps have no secant through
+  // two equilibria (the first starts from the rest state) and their estimate is the increment:
+  // the sag (about 0.2 mm) plus 0.1 m/s x 5 ms, accepted at 1 mm. From the third on it is the
+  // distance from the secant, zero up to the Newton tolerance, so the steps grow by 1.8 each
+  // (about 6 ms x (1.8^k - 1) / 0.8 reaches 1 s at k = 9) with no rejection, where the increment
+  // (<= 1 mm per step) would need at least 100 steps.
+  Model model = fascia::test::small_box_model(CellType::hexahedron, MaterialLaw::neo_hookean, 3, 2, 1);
+  PrescribedMotion carry;
+  for (int i = 0; i < model.frame_count(); ++i)
+    if (model.frame_rest_positions[3 * i] <= 1e-12) carry.frames.push_back(i);
+  const Vec3 v{0.1, 0, 0};  // m/s
+  carry.velocity = v;
+  ExternalLoads loads;
+  loads.gravity = Vec3{0, 0, -0.002};  // m/s^2: a sag of about 0.2 mm (q L^4 / 8EI) of the 10 kPa slab
+  SimulationSettings settings;
+  settings.integrator = Integrator::static_equilibrium;
+  settings.dt = 0.005;
+  settings.threads = 1;
+  settings.newton.tolerance = 1e-10;
+  settings.adaptive.enabled = true;
+  settings.adaptive.tolerance = 1e-3;  // m
+  settings.adaptive.min_dt = 1e-6;
+  Simulation sim(model, loads, settings, {carry});
+  const StepReport first = sim.advance_to(0.005);
+  REQUIRE(first.accepted_steps == 1);
+  REQUIRE(first.rejected_steps == 0);
+  const State q0 = sim.state();
+  const StepReport r = sim.advance_to(1.0);
+  INFO(r.accepted_steps << " accepted, " << r.rejected_steps << " rejected");
+  REQUIRE(r.rejected_steps == 0);
+  REQUIRE(r.accepted_steps <= 13);  // 1 + 9 growing steps, the last ones evened out to end on 1 s
+  // The end is the first equilibrium carried by (1 s - 0.005 s) v. Each
+  // equilibrium meets the relative residual 1e-10 of forces of order the slab's weight (2e-3 N),
+  // about 2e-13 N against a bending stiffness 3EI/L^3 of about 4 N/m: 1e-13 m, so 1e-8 m bounds
+  // the gap with a wide margin.
+  double gap = 0;
+  for (int i = 0; i < model.frame_count(); ++i)
+    gap = std::max(gap, norm(load3(&sim.state().positions[3 * i]) - load3(&q0.positions[3 * i]) - 0.995 * v));
+  REQUIRE(gap <= 1e-8);
 }
 
 namespace {

@@ -65,7 +65,7 @@ def test_quasi_static_press_as_adaptive_static_steps(fascia_bin, root, tmp_path)
     assert r.returncode == 0, r.stderr
     summary = json.loads(r.stdout)
     assert summary["status"] == "ok"
-    assert summary["rejected_steps"] >= 1  # increments beyond 1 mm on the ramp
+    assert summary["rejected_steps"] >= 1  # estimates beyond 1 mm on the ramp (the first steps, the stroke's end)
     assert check_file(out, expect_steps=7) == 7
     with h5py.File(out, "r") as f:
         times = f["observables/dt/time"][:]
