@@ -80,7 +80,7 @@ class CudaStep final : public StepBackend {
     m_potential.set_load_scale(o.load_scale);
     m_state.upload(o.state);
     m_potential.prepare_hessian(m_state);
-    m_factor->factorise([this](const double* p, double* out) { m_potential.apply(p, out); });
+    m_factor->factorise(m_potential);
     m_potential.set_load_scale(1.0);
     m_origin = o;
     m_stale = !m_factor->factorised();

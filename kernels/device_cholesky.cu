@@ -74,16 +74,31 @@ __global__ void k_probe(const int* colour, const std::uint8_t* fixed, int c, int
   if (i < n) e[i] = probe_entry(colour, fixed, c, k, static_cast<int>(i));
 }
 
-// Column-major A (n rows): entry (r, c) at A[c n + r].
-__global__ void k_scatter(const int* owner_c, int hub_frame_c, const std::uint8_t* fixed, int k, const double* out,
-                          double* A, long long n) {
+// The entries of the product of colour c, component k, less the assembled blocks' share
+// (probe_value), into column-major A (n rows): entry (r, c) at A[c n + r].
+__global__ void k_scatter(const int* colour, const int* owner_c, int hub_frame_c, const std::uint8_t* fixed,
+                          const int* block_offsets, const int* block_frames, const double* blocks, int c, int k,
+                          const double* out, double* A, long long n) {
   const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
   if (i >= n) return;
   bool mirror = false;
   const long long col = probe_column(owner_c, hub_frame_c, fixed, k, static_cast<int>(i), mirror);
   if (col < 0) return;
-  A[col * n + i] = out[i];
-  if (mirror) A[i * n + col] = out[i];
+  const double v = probe_value(out[i], colour, fixed, block_offsets, block_frames, blocks, c, k, static_cast<int>(i));
+  A[col * n + i] = v;
+  if (mirror) A[i * n + col] = v;
+}
+
+// A += the assembled blocks [B][36] (rows of block p: frame block_rows[p]) between free DOFs.
+// One thread per entry.
+__global__ void k_add_blocks(const int* block_rows, const int* block_frames, const double* blocks,
+                             const std::uint8_t* fixed, long long entries, double* A, long long n) {
+  const long long t = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (t >= entries) return;
+  const long long p = t / 36;
+  const int e = static_cast<int>(t - 36 * p);
+  const long long i = 6LL * block_rows[p] + e / 6, j = 6LL * block_frames[p] + e % 6;
+  if (!fixed[i] && !fixed[j]) A[j * n + i] += blocks[t];
 }
 
 // Keeps the diagonal, sets identity rows and columns at fixed DOFs (their entries are zero).
@@ -143,8 +158,9 @@ struct DeviceCholesky::Impl {
   int colours = 0;
   std::uint64_t fingerprint = 14695981039346656037ull;
   std::vector<int> hub_frame;
-  DeviceBuffer<int> colour, owner;
-  DeviceBuffer<double> A, diag, work, probe, product;
+  std::vector<int> block_offsets_host, block_frames_host;
+  DeviceBuffer<int> colour, owner, block_offsets, block_rows, block_frames;
+  DeviceBuffer<double> A, diag, work, probe, product, blocks;
   DeviceBuffer<int> info;
   cusolverDnHandle_t handle = nullptr;
   int lwork = 0;
@@ -162,6 +178,15 @@ struct DeviceCholesky::Impl {
     }
     colour.upload(t.colour);
     owner.upload(t.owner);
+    block_offsets_host = t.block_offsets;
+    block_frames_host = t.block_frames;
+    std::vector<int> rows;
+    for (int a = 0; a + 1 < static_cast<int>(t.block_offsets.size()); ++a)
+      rows.insert(rows.end(), static_cast<size_t>(t.block_offsets[static_cast<size_t>(a) + 1] - t.block_offsets[static_cast<size_t>(a)]), a);
+    block_offsets.upload(t.block_offsets);
+    block_rows.upload(rows);
+    block_frames.upload(t.block_frames);
+    blocks.resize(36 * t.block_frames.size());
     A.resize(static_cast<size_t>(n) * static_cast<size_t>(n));
     diag.resize(static_cast<size_t>(n));
     probe.resize(static_cast<size_t>(n));
@@ -240,23 +265,29 @@ int DeviceCholesky::products() const { return 6 * m_impl->colours; }
 std::uint64_t DeviceCholesky::fingerprint() const { return m_impl->fingerprint; }
 
 int DeviceCholesky::refactorise_above(const LinearSettings& settings) const {
-  return std::max(settings.refactorise_above, products() / 8);
+  return std::max(settings.refactorise_above, static_cast<int>((products() + m_impl->n / 20) / 8));
 }
 
-LinearResult DeviceCholesky::factorise(const std::function<void(const double*, double*)>& apply) {
+LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
   Impl& m = *m_impl;
   const cudaStream_t stream = m.ops.stream();
   const long long n = m.n;
   m.factorised = false;
   FASCIA_CUDA(cudaMemsetAsync(m.A.data(), 0, sizeof(double) * static_cast<size_t>(n) * static_cast<size_t>(n), stream));
+  const long long entries = static_cast<long long>(m.blocks.size());
+  if (entries > 0) potential.tangent_blocks(m.block_offsets_host, m.block_frames_host, m.blocks.data());
   for (int c = 0; c < m.colours; ++c)
     for (int k = 0; k < 6; ++k) {
       k_probe<<<blocks_for(n), kThreads, 0, stream>>>(m.colour.data(), m.fixed, c, k, m.probe.data(), n);
-      apply(m.probe.data(), m.product.data());
-      k_scatter<<<blocks_for(n), kThreads, 0, stream>>>(m.owner.data() + static_cast<size_t>(c) * static_cast<size_t>(n / 6),
-                                                        m.hub_frame[static_cast<size_t>(c)], m.fixed, k, m.product.data(),
-                                                        m.A.data(), n);
+      potential.apply(m.probe.data(), m.product.data());
+      k_scatter<<<blocks_for(n), kThreads, 0, stream>>>(
+          m.colour.data(), m.owner.data() + static_cast<size_t>(c) * static_cast<size_t>(n / 6),
+          m.hub_frame[static_cast<size_t>(c)], m.fixed, m.block_offsets.data(), m.block_frames.data(), m.blocks.data(), c, k,
+          m.product.data(), m.A.data(), n);
     }
+  if (entries > 0)
+    k_add_blocks<<<blocks_for(entries), kThreads, 0, stream>>>(m.block_rows.data(), m.block_frames.data(), m.blocks.data(),
+                                                              m.fixed, entries, m.A.data(), n);
   k_finish<<<blocks_for(n), kThreads, 0, stream>>>(m.fixed, m.A.data(), m.diag.data(), n);
   FASCIA_CUDA(cudaGetLastError());
 

@@ -2,8 +2,9 @@
 // the CPU's CHOLMOD factor (solve/sparse_cholesky.hpp), for the pcg preconditioner of that name
 // (solve/factorised_solve.hpp).
 //
-// H is recovered from coloured products (integrate/tangent_probing.hpp: 6 per colour, a few tens
-// of colours) into a dense n x n matrix, factorised by cuSOLVER's potrf and inverted from the
+// H is recovered into a dense n x n matrix from its elastic blocks, formed sample by sample on the
+// device, and coloured products for the rest (integrate/tangent_probing.hpp: 6 per colour; one
+// colour for a tissue alone, a few tens with shells and rigid bodies), factorised by cuSOLVER's potrf and inverted from the
 // factor by potri; the preconditioner is then the product with H^{-1}, one pass over n^2 numbers
 // at the device's memory bandwidth (0.37 ms at 11,460 DOFs on an H100, where potrs's two
 // triangular solves, sequential by blocks, took 1.7 ms). The inverse costs about 2n^3/3 flops
@@ -22,13 +23,13 @@
 // factorisation reads back one status word per try.
 #pragma once
 
+#include "device_potential.hpp"
 #include "device_vector.hpp"
 #include "model/model.hpp"
 #include "solve/linear_result.hpp"
 #include "solve/linear_solver.hpp"
 
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <string>
 
@@ -47,20 +48,23 @@ class DeviceCholesky {
   DeviceCholesky(const DeviceCholesky&) = delete;
   DeviceCholesky& operator=(const DeviceCholesky&) = delete;
 
-  // Recovers H from `apply` (out = H d, unprojected, device arrays of 6N) and factorises it.
-  // .factorised = true; .shifted and .message when shifted; .message alone when every shift failed.
-  LinearResult factorise(const std::function<void(const double*, double*)>& apply);
+  // Recovers the Hessian H that potential.prepare_hessian prepared from its elastic blocks
+  // (DevicePotential::tangent_blocks) and its products (DevicePotential::apply), and factorises
+  // it. .factorised = true; .shifted and .message when shifted; .message alone when every shift
+  // failed.
+  LinearResult factorise(DevicePotential& potential);
   bool factorised() const;
   // z = H^{-1} r (device arrays of 6N; z's fixed DOFs equal r's). Enqueued only: no read back.
   void solve(const double* r, double* z) const;
   // Probe products per factorisation (6 per colour).
   int products() const;
   // The iterations of one PCG solve beyond which the kept factorisation is renewed
-  // (solve/factorised_solve.hpp): an eighth of its products, at least the CPU's setting. A
-  // factorisation costs products() tangent products (on the pelvis 432, 1,242 at 16k samples and
-  // 1,728 at 56k: 45, 150 and 470 ms on an H100), a CG iteration one product and one product
-  // with H^{-1}; renewing pays when the iterations it saves over the solves that follow (about ten:
-  // a few steps' Newton iterations) exceed its products.
+  // (solve/factorised_solve.hpp): an eighth of its cost in tangent products, at least the CPU's
+  // setting. A factorisation costs products() tangent products, the blocks (one pass over the
+  // pairs of each sample) and potrf and potri, about n/20 products (an H100: 6 ms at 2,208 DOFs,
+  // 125 ms at 11,460, against a product of 50 and 200 us); a CG iteration one product and one
+  // product with H^{-1}. Renewing pays when the iterations it saves over the solves that follow
+  // (about ten: a few steps' Newton iterations) exceed its cost.
   int refactorise_above(const LinearSettings& settings) const;
   // A fingerprint of the colouring (FNV-1a): equal for one model and build.
   std::uint64_t fingerprint() const;

@@ -421,6 +421,15 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
   }
 }
 
+void DevicePotential::tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
+                                     double* blocks) {
+  Impl& m = *m_impl;
+  if (m.elasticity)
+    m.elasticity->tangent_blocks_on_device(block_offsets, block_frames, blocks);
+  else
+    m.ops.fill(blocks, 0.0, 36LL * static_cast<long long>(block_frames.size()));
+}
+
 const double* DevicePotential::preconditioner() const { return m_impl->prepared ? m_impl->minv.data() : nullptr; }
 
 void DevicePotential::retract(DeviceFrames& q, const double* d, double scale) {

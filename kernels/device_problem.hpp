@@ -68,7 +68,7 @@ class DeviceProblem {
         const State& q;
         LinearResult factorise() {
           if (problem.m_factorising) problem.m_factorising(q);
-          return problem.m_factor->factorise([this](const double* p, double* out) { problem.m_potential.apply(p, out); });
+          return problem.m_factor->factorise(problem.m_potential);
         }
         bool factorised() const { return problem.m_factor->factorised(); }
         void solve(const Vector& r, Vector& z) const { problem.m_factor->solve(r.data(), z.data()); }

@@ -208,6 +208,44 @@ __global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, R* F_out, R* cac
   reduce_and_finish(e, red, Finish::energy, 0);
 }
 
+// ---- assembled tangent blocks ----
+
+// The elastic tangent's blocks between frames that share a sample, sum_s v B_a^T C[B_b] (eq. 11,
+// 21-26, without the rotational geometric blocks), written into blocks [B][36] (H entry
+// (6a + r, 6b + c) of block p at 36 p + 6 r + c). One thread per block p and column c sums the
+// block's terms in the fixed order of its list (contributions [C][2]: the pairs (p_a, p_b) of one
+// sample with frames a and b, over [contribution_offsets[p], contribution_offsets[p + 1])),
+// forming C[B_b e_c] from the sample's state for each: no atomics, the same bits on every run.
+template <class R>
+__global__ void k_tangent_blocks(ModelView<R> m, FrameView<R> f, int block_count, const int* contribution_offsets,
+                                 const int* contributions, double* blocks) {
+  const long long t = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (t >= 6LL * block_count) return;
+  const long long p = t / 6;
+  const int c = static_cast<int>(t - 6 * p);
+  const Vec3T<R> zero{R(0), R(0), R(0)};
+  const Vec3T<R> e{R(c % 3 == 0), R(c % 3 == 1), R(c % 3 == 2)};
+  double acc[6] = {0, 0, 0, 0, 0, 0};
+  for (int k = contribution_offsets[p]; k < contribution_offsets[p + 1]; ++k) {
+    const int pa = contributions[2LL * k], pb = contributions[2LL * k + 1], s = m.pair_samples[pa];
+    const Vec3T<R> ps{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
+                      sample_value(f.sample_state, m.samples, 2, s)};
+    auto pair = [&](int q) {
+      const EllEntry<R> en{m.frame_of[q], 0, m.weights[q],
+                           Vec3T<R>{m.gradients[3LL * q], m.gradients[3LL * q + 1], m.gradients[3LL * q + 2]}};
+      return ell_pair_of(en, f.levers, ps);
+    };
+    const EllPair<R> qa = pair(pa), qb = pair(pb);
+    const Mat3T<R> dF = pair_lever_differential(c < 3 ? e : zero, c < 3 ? zero : e, qb.g, qb.M);
+    const Mat3T<R> dP = ell_sample_dP(m, f.sample_state, s, dF);
+    R out[6];
+    pair_lever_virtual_work(dP, qa.g, qa.M, out);
+    const double v = static_cast<double>(sample_value(f.sample_state, m.samples, 3, s));
+    for (int r = 0; r < 6; ++r) acc[r] += v * static_cast<double>(out[r]);
+  }
+  for (int r = 0; r < 6; ++r) blocks[36 * p + 6 * r + c] = acc[r];
+}
+
 // ---- tangent product ----
 
 // The slot sums of block b's outputs [6][stride] in slot-major order (the coalesced pass):

@@ -1,8 +1,11 @@
-// The step tangent recovered from coloured products (integrate/tangent_probing.hpp) equals the
-// assembled one: every coupling of the model is in the colouring's graph, no two columns of a
-// colour meet in a row that is not a hub's, and hub rows are their columns transposed.
+// The step tangent recovered from its assembled elastic blocks and coloured products
+// (integrate/tangent_probing.hpp) equals the assembled one: every coupling outside the blocks is in
+// the colouring's graph, no two columns of a colour meet there in a row that is not a hub's, and
+// hub rows are their columns transposed.
 #include "integrate/step_potential.hpp"
 #include "integrate/tangent_probing.hpp"
+#include "mechanics/assembled_tangent.hpp"
+#include "mechanics/elasticity.hpp"
 #include "support/coupling_fixtures.hpp"
 #include "support/fixtures.hpp"
 
@@ -18,9 +21,23 @@ using namespace fascia::test;
 
 namespace {
 
-// H recovered by the per-entry rule of tangent_probing.hpp from the products of `system`, dense,
-// with identity rows and columns at fixed DOFs.
-Eigen::MatrixXd probe(const TangentProbing& t, const LinearSystem& system) {
+// The assembled blocks of t from the elastic tangent K (6N x 6N) at the state: K's blocks (a, b)
+// (their rotational geometric part included: the rest of H is read from the products whatever the
+// blocks hold on the diagonal).
+std::vector<double> assembled_blocks(const TangentProbing& t, const Eigen::MatrixXd& K) {
+  std::vector<double> blocks(36 * t.block_frames.size());
+  for (int a = 0; a < t.frames; ++a)
+    for (int p = t.block_offsets[static_cast<size_t>(a)]; p < t.block_offsets[static_cast<size_t>(a) + 1]; ++p)
+      for (int r = 0; r < 6; ++r)
+        for (int c = 0; c < 6; ++c)
+          blocks[36 * static_cast<size_t>(p) + 6 * static_cast<size_t>(r) + static_cast<size_t>(c)] =
+              K(6 * a + r, 6 * t.block_frames[static_cast<size_t>(p)] + c);
+  return blocks;
+}
+
+// H recovered by the per-entry rules of tangent_probing.hpp from the assembled blocks and the
+// products of `system`, dense, with identity rows and columns at fixed DOFs.
+Eigen::MatrixXd probe(const TangentProbing& t, const std::vector<double>& blocks, const LinearSystem& system) {
   const int n = system.size;
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
   std::vector<double> e(static_cast<size_t>(n)), out(static_cast<size_t>(n));
@@ -33,10 +50,20 @@ Eigen::MatrixXd probe(const TangentProbing& t, const LinearSystem& system) {
         const long long col = probe_column(&t.owner[static_cast<size_t>(c) * static_cast<size_t>(t.frames)],
                                            t.hub_frame[static_cast<size_t>(c)], system.fixed, k, i, mirror);
         if (col < 0) continue;
-        A(i, col) = out[static_cast<size_t>(i)];
-        if (mirror) A(col, i) = out[static_cast<size_t>(i)];
+        const double v = probe_value(out[static_cast<size_t>(i)], t.colour.data(), system.fixed, t.block_offsets.data(),
+                                     t.block_frames.data(), blocks.data(), c, k, i);
+        A(i, col) = v;
+        if (mirror) A(col, i) = v;
       }
     }
+  for (int a = 0; a < t.frames; ++a)
+    for (int p = t.block_offsets[static_cast<size_t>(a)]; p < t.block_offsets[static_cast<size_t>(a) + 1]; ++p)
+      for (int r = 0; r < 6; ++r)
+        for (int c = 0; c < 6; ++c) {
+          const int i = 6 * a + r, j = 6 * t.block_frames[static_cast<size_t>(p)] + c;
+          if (!system.fixed[i] && !system.fixed[j])
+            A(i, j) += blocks[36 * static_cast<size_t>(p) + 6 * static_cast<size_t>(r) + static_cast<size_t>(c)];
+        }
   for (int i = 0; i < n; ++i)
     if (system.fixed[i]) A(i, i) = 1;
   return A;
@@ -56,8 +83,23 @@ void check_recovery(const Model& model, int hub_degree, int expect_hubs_at_least
   REQUIRE(hubs >= expect_hubs_at_least);
   CAPTURE(t.colours, hubs);
   REQUIRE(t.colours < model.frame_count());  // probing costs fewer products than unit vectors
+  // Every sample's unknown frames are coupled in the assembled blocks, and the rest's colouring is
+  // no larger than the whole tangent's would be.
+  REQUIRE(t.block_offsets.size() == static_cast<size_t>(model.frame_count()) + 1);
+  for (int s = 0; s < model.sample_count(); ++s)
+    for (int p = model.neighbours.offsets[static_cast<size_t>(s)]; p < model.neighbours.offsets[static_cast<size_t>(s) + 1]; ++p)
+      for (int q = model.neighbours.offsets[static_cast<size_t>(s)]; q < model.neighbours.offsets[static_cast<size_t>(s) + 1]; ++q) {
+        const int a = model.neighbours.frames[static_cast<size_t>(p)], b = model.neighbours.frames[static_cast<size_t>(q)];
+        const bool mapped = !model.rigid_parents.empty() && (model.rigid_parents[static_cast<size_t>(a)] >= 0 ||
+                                                             model.rigid_parents[static_cast<size_t>(b)] >= 0);
+        CAPTURE(s, a, b);
+        REQUIRE((assembled_block(t.block_offsets.data(), t.block_frames.data(), a, b) >= 0) == !mapped);
+      }
 
-  const Eigen::MatrixXd A = probe(t, system);
+  Elasticity elasticity(model, 1);
+  elasticity.prepare(state);
+  const std::vector<double> blocks = assembled_blocks(t, Eigen::MatrixXd(assemble_tangent(elasticity)));
+  const Eigen::MatrixXd A = probe(t, blocks, system);
   const Eigen::MatrixXd H(system.assemble());
   const int n = system.size;
   // Each recovered entry is one product's entry, and the assembled matrix sums the same terms in
@@ -84,5 +126,8 @@ TEST_CASE("tangent probing recovers the assembled step tangent of tissue, shell 
 
 TEST_CASE("tangent probing recovers the tangent of tetrahedra with a fixed face", "[integrate]") {
   const Model model = small_box_model(CellType::tetrahedron, MaterialLaw::neo_hookean, 3, 2, 2);
+  // A tissue alone couples its frames through its samples only: all in the assembled blocks, so
+  // one colour (6 products) reads the diagonal frame terms.
+  REQUIRE(tangent_probing(model).colours == 1);
   check_recovery(model, 0, 0);
 }
