@@ -13,7 +13,7 @@ class CudaStep final : public StepBackend {
  public:
   CudaStep(const Model& model, const ExternalLoads& loads, const DeviceOptions& options, bool factorise)
       : m_potential(model, loads, options), m_state(m_potential.make_state()) {
-    if (factorise) m_factor = std::make_unique<DeviceCholesky>(model, m_potential.ops(), m_potential.fixed());
+    if (factorise) m_factor = std::make_unique<DeviceCholesky>(m_potential);
   }
 
   NewtonResult backward_euler(const State& start, State& trial, double dt, double rayleigh_mass,

@@ -158,7 +158,6 @@ struct DeviceCholesky::Impl {
   int colours = 0;
   std::uint64_t fingerprint = 14695981039346656037ull;
   std::vector<int> hub_frame;
-  std::vector<int> block_offsets_host, block_frames_host;
   DeviceBuffer<int> colour, owner, block_offsets, block_rows, block_frames;
   DeviceBuffer<double> A, diag, work, probe, product, blocks;
   DeviceBuffer<int> info;
@@ -166,10 +165,12 @@ struct DeviceCholesky::Impl {
   int lwork = 0;
   bool factorised = false;
 
-  Impl(const Model& model, const VectorOps& o, const std::uint8_t* f) : ops(o), fixed(f), n(model.dof_count()) {
+  explicit Impl(DevicePotential& potential)
+      : ops(potential.ops()), fixed(potential.fixed()), n(potential.model().dof_count()) {
     const std::string why = DeviceCholesky::refusal(n);
     if (!why.empty()) throw std::invalid_argument(why);
-    const TangentProbing t = tangent_probing(model);
+    const TangentProbing t = tangent_probing(potential.model());
+    potential.set_tangent_blocks(t.block_offsets, t.block_frames);
     colours = t.colours;
     hub_frame = t.hub_frame;
     for (int c : t.colour) {
@@ -178,8 +179,6 @@ struct DeviceCholesky::Impl {
     }
     colour.upload(t.colour);
     owner.upload(t.owner);
-    block_offsets_host = t.block_offsets;
-    block_frames_host = t.block_frames;
     std::vector<int> rows;
     for (int a = 0; a + 1 < static_cast<int>(t.block_offsets.size()); ++a)
       rows.insert(rows.end(), static_cast<size_t>(t.block_offsets[static_cast<size_t>(a) + 1] - t.block_offsets[static_cast<size_t>(a)]), a);
@@ -253,8 +252,7 @@ std::string DeviceCholesky::refusal(long long dofs) {
   return {};
 }
 
-DeviceCholesky::DeviceCholesky(const Model& model, const VectorOps& ops, const std::uint8_t* fixed)
-    : m_impl(std::make_unique<Impl>(model, ops, fixed)) {}
+DeviceCholesky::DeviceCholesky(DevicePotential& potential) : m_impl(std::make_unique<Impl>(potential)) {}
 
 DeviceCholesky::~DeviceCholesky() = default;
 
@@ -275,7 +273,7 @@ LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
   m.factorised = false;
   FASCIA_CUDA(cudaMemsetAsync(m.A.data(), 0, sizeof(double) * static_cast<size_t>(n) * static_cast<size_t>(n), stream));
   const long long entries = static_cast<long long>(m.blocks.size());
-  if (entries > 0) potential.tangent_blocks(m.block_offsets_host, m.block_frames_host, m.blocks.data());
+  if (entries > 0) potential.tangent_blocks(m.blocks.data());
   for (int c = 0; c < m.colours; ++c)
     for (int k = 0; k < 6; ++k) {
       k_probe<<<blocks_for(n), kThreads, 0, stream>>>(m.colour.data(), m.fixed, c, k, m.probe.data(), n);

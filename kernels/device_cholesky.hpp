@@ -42,8 +42,9 @@ class DeviceCholesky {
   // `dofs` DOFs can be factorised now, else the reason.
   static std::string refusal(long long dofs);
 
-  // @param fixed device mask [6N] of fixed DOFs (must outlive this object)
-  DeviceCholesky(const Model& model, const VectorOps& ops, const std::uint8_t* fixed);
+  // The factor of potential's Hessian (the potential must outlive this object); sets its tangent
+  // block pattern (DevicePotential::set_tangent_blocks).
+  explicit DeviceCholesky(DevicePotential& potential);
   ~DeviceCholesky();
   DeviceCholesky(const DeviceCholesky&) = delete;
   DeviceCholesky& operator=(const DeviceCholesky&) = delete;

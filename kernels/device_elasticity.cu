@@ -92,8 +92,8 @@ struct DeviceElasticity::Impl {
   virtual void set_state_on_device(const double* positions, const double* orientations) = 0;
   virtual double gradient_on_device(double* g) = 0;
   virtual void apply_tangent_on_device(const double* d, double* out) = 0;
-  virtual void tangent_blocks_on_device(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
-                                        double* blocks) = 0;
+  virtual void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) = 0;
+  virtual void tangent_blocks_on_device(double* blocks) = 0;
   virtual const double* diagonal_blocks_on_device() const = 0;
   virtual double time_tangent_ms(int repeats) = 0;
   virtual double tangent_bytes() const = 0;
@@ -373,50 +373,51 @@ class System final : public DeviceElasticity::Impl {
 
   const double* diagonal_blocks_on_device() const override { return m_diag.data(); }
 
-  void tangent_blocks_on_device(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
-                                double* blocks) override {
-    if (block_offsets != m_block_offsets || block_frames != m_block_frames) set_block_pattern(block_offsets, block_frames);
-    const int count = static_cast<int>(block_frames.size());
-    if (count == 0) return;
-    k_tangent_blocks<R><<<grid_for(6LL * count, kThreads), kThreads, 0, m_stream>>>(
-        m_view, m_frame_view, count, m_contribution_offsets.data(), m_contributions.data(), blocks);
+  void tangent_blocks_on_device(double* blocks) override {
+    if (m_block_count == 0) return;
+    k_tangent_blocks<R><<<grid_for(m_block_count, kThreads), kThreads, 0, m_stream>>>(
+        m_view, m_frame_view, m_block_count, m_contribution_offsets.data(), m_contributions.data(), blocks);
     check_launch();
   }
 
-  // Each block's terms, the pairs (p_a, p_b) of the samples of frames a and b, in sample order.
-  void set_block_pattern(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) {
-    m_block_offsets = block_offsets;
-    m_block_frames = block_frames;
-    std::vector<int> offsets(m_offsets.size()), frames(m_frames.size());
+  // Each block's terms, the pairs (p_a, p_b) of the samples of frames a and b, in the order of
+  // frame a's pairs (the reverse table: increasing sample).
+  void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) override {
+    std::vector<int> offsets(m_offsets.size()), frames(m_frames.size()), rev_offsets(m_rev_offsets.size()),
+        rev_pairs(m_rev_pairs.size()), pair_samples(m_pair_samples.size());
     m_offsets.download(offsets.data());
     m_frames.download(frames.data());
-    std::vector<int> counts(block_frames.size() + 1, 0), found;
-    auto block_of = [&](int a, int b) {
-      if (a >= static_cast<int>(block_offsets.size()) - 1) return -1;
-      const auto first = block_frames.begin() + block_offsets[static_cast<size_t>(a)];
-      const auto last = block_frames.begin() + block_offsets[static_cast<size_t>(a) + 1];
-      const auto it = std::lower_bound(first, last, b);
-      return it != last && *it == b ? static_cast<int>(it - block_frames.begin()) : -1;
+    m_rev_offsets.download(rev_offsets.data());
+    m_rev_pairs.download(rev_pairs.data());
+    m_pair_samples.download(pair_samples.data());
+    m_block_count = static_cast<int>(block_frames.size());
+    std::vector<int> position(static_cast<size_t>(m_n), -1), counts(block_frames.size() + 1, 0), contributions;
+    contributions.reserve(2 * static_cast<size_t>(m_p));
+    // Row a's blocks by column frame (position), then frame a's pairs against their samples' pairs.
+    auto each_term = [&](int a, auto&& term) {
+      for (int r = rev_offsets[static_cast<size_t>(a)]; r < rev_offsets[static_cast<size_t>(a) + 1]; ++r) {
+        const int pa = rev_pairs[static_cast<size_t>(r)], s = pair_samples[static_cast<size_t>(pa)];
+        for (int pb = offsets[static_cast<size_t>(s)]; pb < offsets[static_cast<size_t>(s) + 1]; ++pb) {
+          const int p = position[static_cast<size_t>(frames[static_cast<size_t>(pb)])];
+          if (p >= 0) term(p, pa, pb);
+        }
+      }
     };
-    for (int s = 0; s < m_s; ++s)
-      for (int pa = offsets[static_cast<size_t>(s)]; pa < offsets[static_cast<size_t>(s) + 1]; ++pa)
-        for (int pb = offsets[static_cast<size_t>(s)]; pb < offsets[static_cast<size_t>(s) + 1]; ++pb) {
-          const int p = block_of(frames[static_cast<size_t>(pa)], frames[static_cast<size_t>(pb)]);
-          found.push_back(p);
-          if (p >= 0) ++counts[static_cast<size_t>(p) + 1];
-        }
-    for (size_t p = 0; p + 1 < counts.size(); ++p) counts[p + 1] += counts[p];
-    std::vector<int> contributions(2 * static_cast<size_t>(counts.back())), next(counts.begin(), counts.end() - 1);
-    size_t k = 0;
-    for (int s = 0; s < m_s; ++s)
-      for (int pa = offsets[static_cast<size_t>(s)]; pa < offsets[static_cast<size_t>(s) + 1]; ++pa)
-        for (int pb = offsets[static_cast<size_t>(s)]; pb < offsets[static_cast<size_t>(s) + 1]; ++pb) {
-          const int p = found[k++];
-          if (p < 0) continue;
-          const size_t at = static_cast<size_t>(next[static_cast<size_t>(p)]++);
-          contributions[2 * at] = pa;
-          contributions[2 * at + 1] = pb;
-        }
+    for (int a = 0; a < m_n; ++a) {
+      const int first = block_offsets[static_cast<size_t>(a)], last = block_offsets[static_cast<size_t>(a) + 1];
+      if (first == last) continue;
+      for (int p = first; p < last; ++p) position[static_cast<size_t>(block_frames[static_cast<size_t>(p)])] = p;
+      each_term(a, [&](int p, int, int) { ++counts[static_cast<size_t>(p) + 1]; });
+      for (int p = first; p < last; ++p) counts[static_cast<size_t>(p) + 1] += counts[static_cast<size_t>(p)];
+      contributions.resize(2 * static_cast<size_t>(counts[static_cast<size_t>(last)]));
+      std::vector<int> next(counts.begin() + first, counts.begin() + last);
+      each_term(a, [&](int p, int pa, int pb) {
+        const size_t at = static_cast<size_t>(next[static_cast<size_t>(p - first)]++);
+        contributions[2 * at] = pa;
+        contributions[2 * at + 1] = pb;
+      });
+      for (int p = first; p < last; ++p) position[static_cast<size_t>(block_frames[static_cast<size_t>(p)])] = -1;
+    }
     m_contribution_offsets.upload(counts);
     m_contributions.upload(contributions);
   }
@@ -989,7 +990,7 @@ class System final : public DeviceElasticity::Impl {
   // Model.
   DeviceBuffer<int> m_offsets, m_frames, m_rev_offsets, m_rev_pairs, m_pair_samples, m_sample_materials;
   // The tangent blocks' pattern and each block's pairs (tangent_blocks_on_device).
-  std::vector<int> m_block_offsets, m_block_frames;
+  int m_block_count = 0;
   DeviceBuffer<int> m_contribution_offsets, m_contributions;
   DeviceBuffer<R> m_weights, m_gradients, m_volumes, m_sample_rest, m_frame_rest, m_masses, m_inertias;
   DeviceBuffer<Material> m_materials;
@@ -1042,10 +1043,10 @@ void DeviceElasticity::set_state_on_device(const double* positions, const double
 double DeviceElasticity::gradient_on_device(double* gradient) { return m_impl->gradient_on_device(gradient); }
 void DeviceElasticity::apply_tangent_on_device(const double* d, double* out) { m_impl->apply_tangent_on_device(d, out); }
 const double* DeviceElasticity::diagonal_blocks_on_device() const { return m_impl->diagonal_blocks_on_device(); }
-void DeviceElasticity::tangent_blocks_on_device(const std::vector<int>& block_offsets,
-                                                const std::vector<int>& block_frames, double* blocks) {
-  m_impl->tangent_blocks_on_device(block_offsets, block_frames, blocks);
+void DeviceElasticity::set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) {
+  m_impl->set_tangent_blocks(block_offsets, block_frames);
 }
+void DeviceElasticity::tangent_blocks_on_device(double* blocks) { m_impl->tangent_blocks_on_device(blocks); }
 bool DeviceElasticity::group_samples() const { return m_impl->grouped; }
 const std::string& DeviceElasticity::group_samples_refusal() const { return m_impl->grouped_refusal; }
 Precision DeviceElasticity::precision() const { return m_impl->options.precision; }

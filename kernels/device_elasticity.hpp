@@ -90,12 +90,12 @@ class DeviceElasticity {
   void apply_tangent_on_device(const double* d, double* out);
   const double* diagonal_blocks_on_device() const;
   // The elastic tangent's blocks between frames that share a sample, sum_s v B_a^T C[B_b]
-  // (without the rotational geometric blocks), of the last prepare(), for the blocks (a, b) of a
-  // pattern in CSR over rows a (block_offsets [N+1], block_frames [B], host memory; the pattern of
-  // integrate/tangent_probing.hpp) into blocks [B][36] (device memory, written, row-major). A
-  // block's samples are summed in a fixed order. The first call with a pattern builds its lists.
-  void tangent_blocks_on_device(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
-                                double* blocks);
+  // (without the rotational geometric blocks), of the last prepare(), for the blocks (a, b) of the
+  // pattern set by set_tangent_blocks (host CSR over rows a: block_offsets [N+1], block_frames
+  // [B]; the pattern of integrate/tangent_probing.hpp), into blocks [B][36] (device memory,
+  // written, row-major). A block's samples are summed in a fixed order.
+  void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames);
+  void tangent_blocks_on_device(double* blocks);
 
   // Whether the launched tangent product runs the grouped pass (mesh-based models whose samples
   // share their frames in groups: group_layout.hpp), and why not where it does not.

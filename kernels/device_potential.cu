@@ -286,6 +286,7 @@ struct DevicePotential::Impl {
 
   PotentialStream device;
   DeviceElasticity* elasticity;  // null without samples
+  long long block_count = 0;     // blocks of the tangent block pattern (set_tangent_blocks)
   VectorOps ops;
   DeviceRigidMapping mapping;
   DeviceShells shells;
@@ -421,13 +422,17 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
   }
 }
 
-void DevicePotential::tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
-                                     double* blocks) {
+void DevicePotential::set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) {
+  m_impl->block_count = static_cast<long long>(block_frames.size());
+  if (m_impl->elasticity) m_impl->elasticity->set_tangent_blocks(block_offsets, block_frames);
+}
+
+void DevicePotential::tangent_blocks(double* blocks) {
   Impl& m = *m_impl;
   if (m.elasticity)
-    m.elasticity->tangent_blocks_on_device(block_offsets, block_frames, blocks);
+    m.elasticity->tangent_blocks_on_device(blocks);
   else
-    m.ops.fill(blocks, 0.0, 36LL * static_cast<long long>(block_frames.size()));
+    m.ops.fill(blocks, 0.0, 36 * m.block_count);
 }
 
 const double* DevicePotential::preconditioner() const { return m_impl->prepared ? m_impl->minv.data() : nullptr; }

@@ -60,10 +60,12 @@ class DevicePotential {
   void prepare_hessian(const DeviceFrames& q);
   // out = H d (unprojected), with H prepared by prepare_hessian.
   void apply(const double* d, double* out);
-  // The elastic blocks of the Hessian prepared by prepare_hessian for a block pattern (host CSR:
-  // block_offsets [N+1], block_frames [B]; DeviceElasticity::tangent_blocks_on_device) into
-  // blocks [B][36], a device array (zero without samples).
-  void tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames, double* blocks);
+  // The elastic blocks of the Hessian prepared by prepare_hessian for the block pattern set by
+  // set_tangent_blocks (host CSR: block_offsets [N+1], block_frames [B];
+  // DeviceElasticity::tangent_blocks_on_device) into blocks [B][36], a device array (zero
+  // without samples).
+  void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames);
+  void tangent_blocks(double* blocks);
   // Inverse 6x6 diagonal blocks of H [N][36] (block Jacobi; fixed DOFs identity rows), or null
   // before prepare_hessian.
   const double* preconditioner() const;

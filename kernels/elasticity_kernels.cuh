@@ -212,20 +212,17 @@ __global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, R* F_out, R* cac
 
 // The elastic tangent's blocks between frames that share a sample, sum_s v B_a^T C[B_b] (eq. 11,
 // 21-26, without the rotational geometric blocks), written into blocks [B][36] (H entry
-// (6a + r, 6b + c) of block p at 36 p + 6 r + c). One thread per block p and column c sums the
-// block's terms in the fixed order of its list (contributions [C][2]: the pairs (p_a, p_b) of one
-// sample with frames a and b, over [contribution_offsets[p], contribution_offsets[p + 1])),
-// forming C[B_b e_c] from the sample's state for each: no atomics, the same bits on every run.
+// (6a + r, 6b + c) of block p at 36 p + 6 r + c). One thread per block sums the block's terms in
+// the fixed order of its list (contributions [C][2]: the pairs (p_a, p_b) of one sample with
+// frames a and b, over [contribution_offsets[p], contribution_offsets[p + 1])), forming
+// C[B_b e_c] for the 6 components c from the sample's state for each: no atomics, the same bits on
+// every run.
 template <class R>
 __global__ void k_tangent_blocks(ModelView<R> m, FrameView<R> f, int block_count, const int* contribution_offsets,
                                  const int* contributions, double* blocks) {
-  const long long t = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
-  if (t >= 6LL * block_count) return;
-  const long long p = t / 6;
-  const int c = static_cast<int>(t - 6 * p);
-  const Vec3T<R> zero{R(0), R(0), R(0)};
-  const Vec3T<R> e{R(c % 3 == 0), R(c % 3 == 1), R(c % 3 == 2)};
-  double acc[6] = {0, 0, 0, 0, 0, 0};
+  const int p = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x);
+  if (p >= block_count) return;
+  double acc[36] = {};
   for (int k = contribution_offsets[p]; k < contribution_offsets[p + 1]; ++k) {
     const int pa = contributions[2LL * k], pb = contributions[2LL * k + 1], s = m.pair_samples[pa];
     const Vec3T<R> ps{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
@@ -236,14 +233,24 @@ __global__ void k_tangent_blocks(ModelView<R> m, FrameView<R> f, int block_count
       return ell_pair_of(en, f.levers, ps);
     };
     const EllPair<R> qa = pair(pa), qb = pair(pb);
-    const Mat3T<R> dF = pair_lever_differential(c < 3 ? e : zero, c < 3 ? zero : e, qb.g, qb.M);
-    const Mat3T<R> dP = ell_sample_dP(m, f.sample_state, s, dF);
-    R out[6];
-    pair_lever_virtual_work(dP, qa.g, qa.M, out);
+    Mat3T<R> F;
+    MaterialCacheT<R> cache;
+    const Material& mat = m.materials[m.sample_materials[s]];
+    ell_sample_material(m, f.sample_state, s, mat, F, cache);
     const double v = static_cast<double>(sample_value(f.sample_state, m.samples, 3, s));
-    for (int r = 0; r < 6; ++r) acc[r] += v * static_cast<double>(out[r]);
+    const Vec3T<R> zero{R(0), R(0), R(0)};
+#pragma unroll
+    for (int c = 0; c < 6; ++c) {
+      const Vec3T<R> e{R(c % 3 == 0), R(c % 3 == 1), R(c % 3 == 2)};
+      const Mat3T<R> dP =
+          pk1_differential(mat, F, cache, pair_lever_differential(c < 3 ? e : zero, c < 3 ? zero : e, qb.g, qb.M));
+      R out[6];
+      pair_lever_virtual_work(dP, qa.g, qa.M, out);
+#pragma unroll
+      for (int r = 0; r < 6; ++r) acc[6 * r + c] += v * static_cast<double>(out[r]);
+    }
   }
-  for (int r = 0; r < 6; ++r) blocks[36 * p + 6 * r + c] = acc[r];
+  for (int e = 0; e < 36; ++e) blocks[36LL * p + e] = acc[e];
 }
 
 // ---- tangent product ----

@@ -5,16 +5,11 @@
 namespace fascia {
 namespace {
 
-void sort_unique(std::vector<int>& a) {
-  std::sort(a.begin(), a.end());
-  a.erase(std::unique(a.begin(), a.end()), a.end());
-}
-
 // The frame coupling graphs of the reduced tangent: adjacency lists, sorted, each unknown frame its
-// own neighbour in `full` and `rest`; mapped frames have empty lists.
+// own neighbour in `rest`; mapped frames have empty lists.
 struct Couplings {
-  std::vector<std::vector<int>> full;    // every coupling of H (mapped frames replaced by their bodies)
-  std::vector<std::vector<int>> rest;    // the couplings outside the assembled blocks
+  std::vector<std::vector<int>> rest;    // the couplings outside the assembled blocks (mapped frames
+                                         // replaced by their bodies)
   std::vector<std::vector<int>> blocks;  // the assembled blocks: unknowns that share a sample
 };
 
@@ -25,50 +20,63 @@ Couplings couplings(const Model& model) {
     const bool mapped = !model.rigid_parents.empty() && model.rigid_parents[i] >= 0;
     unknown[i] = mapped ? model.rigid_parents[i] : static_cast<int>(i);
   }
-  Couplings g{std::vector<std::vector<int>>(n), std::vector<std::vector<int>>(n), std::vector<std::vector<int>>(n)};
-  for (size_t i = 0; i < n; ++i)
-    if (unknown[i] == static_cast<int>(i)) {
-      g.full[i].push_back(static_cast<int>(i));
-      g.rest[i].push_back(static_cast<int>(i));
-    }
-  auto couple = [](std::vector<std::vector<int>>& adjacent, const std::vector<int>& frames) {
-    for (int a : frames) adjacent[static_cast<size_t>(a)].insert(adjacent[static_cast<size_t>(a)].end(), frames.begin(), frames.end());
-  };
-  // A sample couples its frames' unknowns (full); the unknowns among its own frames are the
-  // assembled blocks; a body that carries one of its frames couples to all its unknowns (rest).
+  // The coupling groups: each sample's frames, then each shell triangle's; and the groups of each
+  // frame as it is (a mapped frame's groups are its body's).
   const auto& nb = model.neighbours;
-  std::vector<int> unknowns, free, bodies;
-  for (int s = 0; s < model.sample_count(); ++s) {
-    unknowns.clear();
-    free.clear();
-    bodies.clear();
-    for (int p = nb.offsets[static_cast<size_t>(s)]; p < nb.offsets[static_cast<size_t>(s) + 1]; ++p) {
-      const int f = nb.frames[static_cast<size_t>(p)], u = unknown[static_cast<size_t>(f)];
-      unknowns.push_back(u);
-      (u == f ? free : bodies).push_back(u);
-    }
-    couple(g.full, unknowns);
-    couple(g.blocks, free);
-    for (int b : bodies)
-      for (int u : unknowns) {
-        g.rest[static_cast<size_t>(b)].push_back(u);
-        g.rest[static_cast<size_t>(u)].push_back(b);
-      }
-  }
+  const int samples = model.sample_count();
+  std::vector<std::vector<int>> groups;
+  for (int s = 0; s < samples; ++s)
+    groups.emplace_back(nb.frames.begin() + nb.offsets[static_cast<size_t>(s)],
+                        nb.frames.begin() + nb.offsets[static_cast<size_t>(s) + 1]);
   for (const Shell& shell : model.shells)
-    for (size_t t = 0; t + 2 < shell.triangles.size(); t += 3) {
-      const std::vector<int> frames{unknown[static_cast<size_t>(shell.triangles[t])],
-                                    unknown[static_cast<size_t>(shell.triangles[t + 1])],
-                                    unknown[static_cast<size_t>(shell.triangles[t + 2])]};
-      couple(g.full, frames);
-      couple(g.rest, frames);
+    for (size_t t = 0; t + 2 < shell.triangles.size(); t += 3)
+      groups.push_back({shell.triangles[t], shell.triangles[t + 1], shell.triangles[t + 2]});
+  std::vector<std::vector<int>> member(n);
+  for (size_t g = 0; g < groups.size(); ++g)
+    for (int f : groups[g]) {
+      auto& m = member[static_cast<size_t>(unknown[static_cast<size_t>(f)])];
+      if (m.empty() || m.back() != static_cast<int>(g)) m.push_back(static_cast<int>(g));
     }
+  // A sample with a frame carried by a rigid body couples the body to all its frames' unknowns
+  // outside the blocks; a sample of unknowns only couples them in the blocks.
+  std::vector<char> carried(static_cast<size_t>(samples), 0);
+  for (int s = 0; s < samples; ++s)
+    for (int f : groups[static_cast<size_t>(s)]) carried[static_cast<size_t>(s)] |= unknown[static_cast<size_t>(f)] != f;
+
+  Couplings c{std::vector<std::vector<int>>(n), std::vector<std::vector<int>>(n)};
+  // Unions of each frame's groups, deduplicated with a stamp per frame and graph.
+  std::vector<size_t> stamp_rest(n, n), stamp_block(n, n);
+  auto add = [](std::vector<int>& row, std::vector<size_t>& stamp, size_t i, int f) {
+    if (stamp[static_cast<size_t>(f)] == i) return;
+    stamp[static_cast<size_t>(f)] = i;
+    row.push_back(f);
+  };
   for (size_t i = 0; i < n; ++i) {
-    sort_unique(g.full[i]);
-    sort_unique(g.rest[i]);
-    sort_unique(g.blocks[i]);
+    if (unknown[i] != static_cast<int>(i)) continue;
+    add(c.rest[i], stamp_rest, i, static_cast<int>(i));
+    for (int g : member[i]) {
+      const std::vector<int>& frames = groups[static_cast<size_t>(g)];
+      const bool sample = g < samples;
+      // own: i is one of the group's frames; body: i carries one of them.
+      bool own = false, body = false;
+      for (int f : frames) {
+        own |= f == static_cast<int>(i);
+        body |= f != static_cast<int>(i) && unknown[static_cast<size_t>(f)] == static_cast<int>(i);
+      }
+      for (int f : frames) {
+        const int u = unknown[static_cast<size_t>(f)];
+        if (!sample) {
+          add(c.rest[i], stamp_rest, i, u);
+          continue;
+        }
+        if (own && u == f) add(c.blocks[i], stamp_block, i, f);
+        if (carried[static_cast<size_t>(g)] && (body || u != f)) add(c.rest[i], stamp_rest, i, u);
+      }
+    }
+    std::sort(c.rest[i].begin(), c.rest[i].end());
+    std::sort(c.blocks[i].begin(), c.blocks[i].end());
   }
-  return g;
+  return c;
 }
 
 }  // namespace
@@ -82,8 +90,8 @@ TangentProbing tangent_probing(const Model& model, int hub_degree) {
   t.colour.assign(static_cast<size_t>(n), -1);
   if (hub_degree <= 0) {
     std::vector<size_t> degrees;
-    for (const auto& a : g.full)
-      if (!a.empty()) degrees.push_back(a.size());
+    for (const auto& a : adjacent)
+      if (a.size() > 1) degrees.push_back(a.size());
     if (!degrees.empty()) {
       std::nth_element(degrees.begin(), degrees.begin() + static_cast<long>(degrees.size() / 2), degrees.end());
       hub_degree = kProbeHubFactor * static_cast<int>(degrees[degrees.size() / 2]);
@@ -91,7 +99,7 @@ TangentProbing tangent_probing(const Model& model, int hub_degree) {
   }
   std::vector<char> hub(static_cast<size_t>(n), 0);
   for (int i = 0; i < n; ++i)
-    hub[static_cast<size_t>(i)] = hub_degree > 0 && g.full[static_cast<size_t>(i)].size() > static_cast<size_t>(hub_degree);
+    hub[static_cast<size_t>(i)] = hub_degree > 0 && adjacent[static_cast<size_t>(i)].size() > static_cast<size_t>(hub_degree);
 
   // Greedy distance-2 colouring of the rest's frames that are not hubs: frames j and j' conflict
   // when a row r that is not a hub couples to both outside the assembled blocks. mark[c] == j:

@@ -29,9 +29,10 @@
 
 namespace fascia {
 
-// A frame coupled to more than this many times the median frame's number of coupled frames is
-// probed alone (a hub): the colour count of the other frames then follows the tissues'
-// neighbourhoods, not the bodies' attachments.
+// A frame coupled outside the assembled blocks to more than this many times the median number of
+// frames that such a frame couples to (of the frames coupled to any other) is probed alone (a
+// hub): the colour count of the other frames then follows the shells' neighbourhoods, not the
+// bodies' attachments.
 inline constexpr int kProbeHubFactor = 4;
 
 struct TangentProbing {
@@ -51,8 +52,8 @@ struct TangentProbing {
 };
 
 // The colouring and the block pattern of model's step tangent (frames mapped to rigid bodies are
-// not unknowns); frames coupled to more than hub_degree frames are hubs (0: kProbeHubFactor times
-// the median).
+// not unknowns); frames coupled to more than hub_degree frames outside the blocks are hubs (0:
+// kProbeHubFactor times the median).
 TangentProbing tangent_probing(const Model& model, int hub_degree = 0);
 
 // The probe vector of colour c and component k (0..5) at DOF i: 1 on DOF k of the colour's

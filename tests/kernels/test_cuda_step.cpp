@@ -191,8 +191,9 @@ TEST_CASE("device tangent blocks equal the CPU's assembled elastic tangent", "[g
   q.upload(state);
   dev.prepare_hessian(q);
   const TangentProbing t = tangent_probing(model);
+  dev.set_tangent_blocks(t.block_offsets, t.block_frames);
   DeviceArray blocks(36 * t.block_frames.size());
-  dev.tangent_blocks(t.block_offsets, t.block_frames, blocks.data);
+  dev.tangent_blocks(blocks.data);
   const std::vector<double> got = blocks.download();
   Elasticity cpu(model, 1);
   cpu.prepare(state);
@@ -231,7 +232,7 @@ TEST_CASE("device Cholesky factor solves the step tangent as CHOLMOD does", "[gp
     cpu.set_static();
     dev.set_static();
   }
-  DeviceCholesky factor(model, dev.ops(), dev.fixed());
+  DeviceCholesky factor(dev);
   DeviceFrames q = dev.make_state();
   // Two states: the kept factor, refactorised at the second, must solve with that state's tangent.
   for (const int seed : {11, 13}) {
