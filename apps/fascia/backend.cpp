@@ -12,7 +12,7 @@ namespace fascia::app {
 void add_backend_options(CLI::App& command, BackendOptions& options) {
   command
       .add_option("--backend", options.backend,
-                  "cpu | cuda (run: the whole step on the GPU, pcg preconditioned by block_jacobi, except with "
+                  "cpu | cuda (run: the whole step on the GPU, the scene's pcg and preconditioner included, except with "
                   "rayleigh_stiffness or linear method cholmod; there, and in study, the volumetric elasticity on "
                   "the GPU behind the CPU solver; exit 69 without a usable device)")
       ->check(CLI::IsMember({"cpu", "cuda"}));

@@ -381,14 +381,8 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
 
   Simulation simulation(built.model, built.loads, built.settings, built.motions);
   if (log && backend.step) {
-    if (simulation.on_step_backend()) {
-      const LinearSettings& linear = built.settings.newton.linear;
-      std::cerr << "fascia: the whole step runs on the device"
-                << (linear.method == LinearMethod::pcg && linear.preconditioner != Preconditioner::block_jacobi
-                        ? " (pcg preconditioned by block_jacobi: a cholmod preconditioner runs on the CPU only)"
-                        : "")
-                << "\n";
-    }
+    if (simulation.on_step_backend())
+      std::cerr << "fascia: the whole step runs on the device\n";
     else
       std::cerr << "fascia: the step runs on the CPU with the volumetric elasticity on the device: "
                 << simulation.step_backend_refusal() << "\n";
