@@ -37,37 +37,45 @@ StressMeasures shell_membrane_measures(const Model& model, const Shell& shell, i
 }
 
 std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& samples) {
-  const std::size_t n = static_cast<std::size_t>(model.frame_count()), S = static_cast<std::size_t>(model.sample_count());
-  // The fibre stretch averages the samples that have fibres only (weight_fibred): a frame that a
-  // ligament shares with an isotropic organ shows the ligament's stretch, not a blend with 0.
-  std::vector<char> fibred(S);
-  for (std::size_t s = 0; s < S; ++s)
-    fibred[s] = model.materials[static_cast<std::size_t>(model.samples.materials[s])].law == MaterialLaw::hgo;
-  std::vector<double> weight(n, 0.0), weight_fibred(n, 0.0);
+  const long n = static_cast<long>(model.frame_count());
+  std::vector<Field> out = measure_fields(static_cast<std::size_t>(n), has_fibres(model));
+  std::vector<const Field*> sources(out.size(), nullptr);
+  for (std::size_t f = 0; f < out.size(); ++f)
+    for (const Field& field : samples)
+      if (field.name == out[f].name) sources[f] = &field;
   const NeighbourTable& t = model.neighbours;
-  for (std::size_t s = 0; s < S; ++s)
-    for (int q = t.offsets[s]; q < t.offsets[s + 1]; ++q) {
-      const std::size_t i = static_cast<std::size_t>(t.frames[static_cast<std::size_t>(q)]);
-      const double w = std::abs(t.weights[static_cast<std::size_t>(q)]) * model.samples.volumes[s];
-      weight[i] += w;
-      if (fibred[s]) weight_fibred[i] += w;
+  const ReverseTable& rev = model.reverse;
+  // Each frame gathers its pairs (the reverse table) in their fixed order: frames in parallel.
+  // The fibre stretch averages the samples that have fibres only: a frame that a ligament shares
+  // with an isotropic organ shows the ligament's stretch, not a blend with 0.
+#pragma omp parallel for schedule(dynamic, 64)
+  for (long il = 0; il < n; ++il) {
+    const std::size_t i = static_cast<std::size_t>(il);
+    auto fibred = [&](std::size_t s) {
+      return model.materials[static_cast<std::size_t>(model.samples.materials[s])].law == MaterialLaw::hgo;
+    };
+    double weight = 0, weight_fibred = 0;
+    for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
+      const std::size_t q = static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)]);
+      const std::size_t s = static_cast<std::size_t>(rev.pair_samples[q]);
+      const double w = std::abs(t.weights[q]) * model.samples.volumes[s];
+      weight += w;
+      if (fibred(s)) weight_fibred += w;
     }
-  std::vector<Field> out = measure_fields(n, has_fibres(model));
-  for (Field& field : out) {
-    const Field* source = nullptr;
-    for (const Field& f : samples)
-      if (f.name == field.name) source = &f;
-    if (!source) continue;
-    const bool fibres_only = field.name == "fibre_stretch";
-    const std::vector<double>& total = fibres_only ? weight_fibred : weight;
-    const std::size_t c = static_cast<std::size_t>(field.components);
-    for (std::size_t s = 0; s < S; ++s)
-      for (int q = t.offsets[s]; q < t.offsets[s + 1]; ++q) {
-        const std::size_t i = static_cast<std::size_t>(t.frames[static_cast<std::size_t>(q)]);
-        if (!(total[i] > 0) || (fibres_only && !fibred[s])) continue;
-        const double w = std::abs(t.weights[static_cast<std::size_t>(q)]) * model.samples.volumes[s] / total[i];
-        for (std::size_t k = 0; k < c; ++k) field.values[c * i + k] += w * source->values[c * s + k];
+    for (std::size_t f = 0; f < out.size(); ++f) {
+      if (!sources[f]) continue;
+      const bool fibres_only = out[f].name == "fibre_stretch";
+      const double total = fibres_only ? weight_fibred : weight;
+      if (!(total > 0)) continue;
+      const std::size_t c = static_cast<std::size_t>(out[f].components);
+      for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
+        const std::size_t q = static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)]);
+        const std::size_t s = static_cast<std::size_t>(rev.pair_samples[q]);
+        if (fibres_only && !fibred(s)) continue;
+        const double w = std::abs(t.weights[q]) * model.samples.volumes[s] / total;
+        for (std::size_t j = 0; j < c; ++j) out[f].values[c * i + j] += w * sources[f]->values[c * s + j];
       }
+    }
   }
   return out;
 }
