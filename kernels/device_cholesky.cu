@@ -3,6 +3,7 @@
 #include "device_buffers.cuh"
 #include "integrate/tangent_probing.hpp"
 
+#include <cublas_v2.h>
 #include <cusolverDn.h>
 #include <dlfcn.h>
 
@@ -23,8 +24,9 @@ namespace {
 constexpr long long kMaxDenseDofs = 32768;  // 8 GiB of doubles; a factorisation of ~1e13 flops
 constexpr int kThreads = 256;
 
-// cuSOLVER is loaded when a factorisation is first asked for, not at program start: the library
-// and what it loads (cuBLAS, cuSPARSE, nvJitLink) are 1 GB, which every run would otherwise map.
+// cuSOLVER and cuBLAS are loaded when a factorisation is first asked for, not at program start:
+// the libraries and what they load (cuSPARSE, nvJitLink) are 1 GB, which every run would otherwise
+// map.
 struct Cusolver {
   decltype(&cusolverDnCreate) create = nullptr;
   decltype(&cusolverDnDestroy) destroy = nullptr;
@@ -33,7 +35,11 @@ struct Cusolver {
   decltype(&cusolverDnDpotrf) potrf = nullptr;
   decltype(&cusolverDnDpotri_bufferSize) potri_buffer_size = nullptr;
   decltype(&cusolverDnDpotri) potri = nullptr;
-  std::string error;  // why it could not be loaded; empty when loaded
+  decltype(&cublasCreate_v2) blas_create = nullptr;
+  decltype(&cublasDestroy_v2) blas_destroy = nullptr;
+  decltype(&cublasSetStream_v2) blas_set_stream = nullptr;
+  decltype(&cublasDsymv_v2) symv = nullptr;
+  std::string error;  // why they could not be loaded; empty when loaded
 };
 
 const Cusolver& cusolver() {
@@ -56,6 +62,17 @@ const Cusolver& cusolver() {
     load(c.potrf, "cusolverDnDpotrf");
     load(c.potri_buffer_size, "cusolverDnDpotri_bufferSize");
     load(c.potri, "cusolverDnDpotri");
+    void* blas = dlopen("libcublas.so." FASCIA_STRINGIFY(CUBLAS_VER_MAJOR), RTLD_NOW | RTLD_LOCAL);
+    if (!blas) {
+      const char* e = dlerror();
+      c.error = std::string("the CUDA toolkit's cuBLAS could not be loaded (") + (e ? e : "dlopen failed") + ")";
+      return c;
+    }
+    lib = blas;
+    load(c.blas_create, "cublasCreate_v2");
+    load(c.blas_destroy, "cublasDestroy_v2");
+    load(c.blas_set_stream, "cublasSetStream_v2");
+    load(c.symv, "cublasDsymv_v2");
     return c;
   }();
   return api;
@@ -66,6 +83,12 @@ void cusolver_check(cusolverStatus_t s, const char* what) {
     throw std::runtime_error(std::string("cuSOLVER error ") + std::to_string(static_cast<int>(s)) + " in " + what);
 }
 #define FASCIA_CUSOLVER(call) cusolver_check((call), #call)
+
+void cublas_check(cublasStatus_t s, const char* what) {
+  if (s != CUBLAS_STATUS_SUCCESS)
+    throw std::runtime_error(std::string("cuBLAS error ") + std::to_string(static_cast<int>(s)) + " in " + what);
+}
+#define FASCIA_CUBLAS(call) cublas_check((call), #call)
 
 unsigned blocks_for(long long n) { return static_cast<unsigned>((n + kThreads - 1) / kThreads); }
 
@@ -124,31 +147,6 @@ __global__ void k_unit_diagonal(double* A, long long n) {
   if (i < n) A[i * n + i] = 1.0;
 }
 
-// Copies the lower triangle onto the strict upper one: the full symmetric matrix, for k_symmetric_apply.
-// One thread per column.
-__global__ void k_mirror_lower(double* A, long long n) {
-  const long long j = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
-  if (j >= n) return;
-  for (long long i = j + 1; i < n; ++i) A[i * n + j] = A[j * n + i];
-}
-
-// z = A r for a full symmetric A (column-major): z_j is column j's dot product with r, so each
-// block reads one contiguous column. One block of kThreads per column, a shared-memory sum.
-__global__ void k_symmetric_apply(const double* A, const double* r, double* z, long long n) {
-  __shared__ double partial[kThreads];
-  const long long j = blockIdx.x;
-  const double* column = A + j * n;
-  double sum = 0;
-  for (long long i = threadIdx.x; i < n; i += kThreads) sum += column[i] * r[i];
-  partial[threadIdx.x] = sum;
-  __syncthreads();
-  for (int half = kThreads / 2; half > 0; half /= 2) {
-    if (static_cast<int>(threadIdx.x) < half) partial[threadIdx.x] += partial[threadIdx.x + half];
-    __syncthreads();
-  }
-  if (threadIdx.x == 0) z[j] = partial[0];
-}
-
 }  // namespace
 
 struct DeviceCholesky::Impl {
@@ -162,6 +160,7 @@ struct DeviceCholesky::Impl {
   DeviceBuffer<double> A, diag, work, probe, product, blocks;
   DeviceBuffer<int> info;
   cusolverDnHandle_t handle = nullptr;
+  cublasHandle_t blas = nullptr;
   int lwork = 0;
   bool factorised = false;
 
@@ -193,6 +192,8 @@ struct DeviceCholesky::Impl {
     info.resize(1);
     FASCIA_CUSOLVER(cusolver().create(&handle));
     FASCIA_CUSOLVER(cusolver().set_stream(handle, ops.stream()));
+    FASCIA_CUBLAS(cusolver().blas_create(&blas));
+    FASCIA_CUBLAS(cusolver().blas_set_stream(blas, ops.stream()));
     int potrf_work = 0, potri_work = 0;
     FASCIA_CUSOLVER(cusolver().potrf_buffer_size(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(),
                                                 static_cast<int>(n), &potrf_work));
@@ -210,9 +211,11 @@ struct DeviceCholesky::Impl {
   }
   ~Impl() {
     if (handle) cusolver().destroy(handle);
+    if (blas) cusolver().blas_destroy(blas);
   }
 
-  // potrf on A; true when positive definite, and then A becomes H^{-1} (potri), both triangles.
+  // potrf on A; true when positive definite, and then A's lower triangle becomes that of H^{-1}
+  // (potri; the strict upper triangle keeps H's).
   bool invert() {
     FASCIA_CUSOLVER(cusolver().potrf(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(), static_cast<int>(n),
                                      work.data(), lwork, info.data()));
@@ -220,8 +223,6 @@ struct DeviceCholesky::Impl {
     FASCIA_CUSOLVER(cusolver().potri(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(), static_cast<int>(n),
                                      work.data(), lwork, info.data()));
     if (read_info("potri") != 0) throw std::runtime_error("cuSOLVER potri: a factor with a zero diagonal entry");
-    k_mirror_lower<<<blocks_for(n), kThreads, 0, ops.stream()>>>(A.data(), n);
-    FASCIA_CUDA(cudaGetLastError());
     return true;
   }
   int read_info(const char* what) {
@@ -329,8 +330,9 @@ LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
 
 void DeviceCholesky::solve(const double* r, double* z) const {
   Impl& m = *m_impl;
-  k_symmetric_apply<<<static_cast<unsigned>(m.n), kThreads, 0, m.ops.stream()>>>(m.A.data(), r, z, m.n);
-  FASCIA_CUDA(cudaGetLastError());
+  const double one = 1.0, zero = 0.0;
+  FASCIA_CUBLAS(cusolver().symv(m.blas, CUBLAS_FILL_MODE_LOWER, static_cast<int>(m.n), &one, m.A.data(),
+                                static_cast<int>(m.n), r, 1, &zero, z, 1));
 }
 
 }  // namespace fascia::gpu

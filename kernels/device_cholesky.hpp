@@ -4,10 +4,11 @@
 //
 // H is recovered into a dense n x n matrix from its elastic blocks, formed sample by sample on the
 // device, and coloured products for the rest (integrate/tangent_probing.hpp: 6 per colour; one
-// colour for a tissue alone, a few tens with shells and rigid bodies), factorised by cuSOLVER's potrf and inverted from the
-// factor by potri; the preconditioner is then the product with H^{-1}, one pass over n^2 numbers
-// at the device's memory bandwidth (0.37 ms at 11,460 DOFs on an H100, where potrs's two
-// triangular solves, sequential by blocks, took 1.7 ms). The inverse costs about 2n^3/3 flops
+// colour for a tissue alone, a few tens with shells and rigid bodies), factorised by cuSOLVER's
+// potrf and inverted from the factor by potri; the preconditioner is then cuBLAS's symmetric
+// product (symv) with the lower triangle of H^{-1}, one pass over n^2/2 numbers at the device's
+// memory bandwidth (where potrs's two triangular solves, sequential by blocks, took 1.7 ms at
+// 11,460 DOFs on an H100, and a product with both triangles 0.37 ms). The inverse costs about 2n^3/3 flops
 // more per factorisation (0.1 s at 11,460 DOFs), which the tens to hundreds of CG iterations
 // each factorisation serves repay. Dense, because the scenes' reduced tangents are small (2,208
 // DOFs for the pelvis, 11,460 with its finest fasciae: 1 GB, about n^3/3 = 5e11 flops per
@@ -16,7 +17,8 @@
 // the device then preconditions by block Jacobi.
 //
 // Not positive definite: shifted like the CPU's, H + tau diag|H| for tau = 1e-6, 1e-5, ... 1e3
-// (the strict upper triangle, which potrf leaves untouched, restores the lower one between tries).
+// (the strict upper triangle, which potrf and potri leave untouched, restores the lower one
+// between tries).
 // cuSOLVER's kernels for the model's order are loaded when the object is made (a factorisation of
 // the identity), not in the first step.
 // Fixed DOFs are identity rows and columns. All work is enqueued on the stream of `ops`; a
