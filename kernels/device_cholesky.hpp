@@ -40,7 +40,7 @@ namespace fascia::gpu {
 class DeviceCholesky {
  public:
   // The largest dense factor the device keeps: n <= 32,768 DOFs (8 GiB), within half the free
-  // device memory; cuSOLVER (the CUDA toolkit's libcusolver) must load. Empty when a model of
+  // device memory; cuSOLVER and cuBLAS (libcusolver, libcublas) must load. Empty when a model of
   // `dofs` DOFs can be factorised now, else the reason.
   static std::string refusal(long long dofs);
 
