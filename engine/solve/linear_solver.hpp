@@ -42,9 +42,12 @@ struct LinearSettings {
   double tolerance = 1e-8;    // CG/PCG: stop when |r| <= tolerance |b|
   int max_iterations = 2000;  // CG/PCG cap
   bool fixed_iterations = false;  // run exactly max_iterations (the paper's benchmarks: 60)
-  // pcg + cholmod: refresh the factorisation after a solve that took more iterations. 10: on the
-  // pelvis 5 to 20 cost the same time per step (docs/solvers.md), 10 takes fewer iterations.
-  int refactorise_above = 10;
+  // pcg + cholmod: refresh the factorisation after a solve that took more iterations. 30: with
+  // scenes/*.yaml on one CPU thread, 20 to 40 ran the pelvis fastest (1.33 s against 1.88 s with
+  // 10 and 1.55 s with 80 for its 30 steps); coupling, tool_pull, meshless_slab and liver took 16
+  // to 29 % less time than with 10, bone 12 % more, block_mesh the same. An assembled tangent of
+  // meshless tissues (about 20 frames per sample) costs hundreds of CG iterations' products.
+  int refactorise_above = 30;
 };
 
 // The system's operator H (size n = 6N), its 6x6 diagonal blocks and assembled form on demand.
