@@ -4,7 +4,7 @@
 // GOMP_SPINCOUNT = 300,000 iterations) before it sleeps. fascia's loops are short (a Newton
 // iteration is tens of them), so on a machine whose cores are busy with other work the spinning
 // threads take the timeslices the working ones need: `fascia study beam --method frame-hex
-// --resolution 64x4x4` took 60 s wall and 65 s CPU on the 2-core development machine at a load
+// --resolution 64x4x4` took 60 s wall and 65 s CPU on a 2-core machine at a load
 // of about 1, 22 s and 11 s with OMP_WAIT_POLICY=passive; at 32x2x2 and a load of 11, 20-27 s
 // against 1.3-1.8 s (docs/solvers.md). On the same machine without other work, `fascia bench cpu`
 // moved by less between the two policies than between repeated runs.
