@@ -12,6 +12,7 @@
 // real mistake (a missing term is O(1) relative).
 #pragma once
 
+#include "core/small_math.hpp"
 #include "model/state.hpp"
 
 #include <functional>
@@ -21,6 +22,21 @@
 namespace fascia::test {
 
 using Energy = std::function<double(const State&)>;
+
+// Central differences of a scalar function of a 3x3 matrix, entry by entry:
+// (f(F + h E_rc) - f(F - h E_rc)) / (2h).
+template <class Function>
+Mat3 central_difference(const Function& f, const Mat3& F, double h) {
+  Mat3 D;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      Mat3 Fp = F, Fm = F;
+      Fp.m[r][c] += h;
+      Fm.m[r][c] -= h;
+      D.m[r][c] = (f(Fp) - f(Fm)) / (2 * h);
+    }
+  return D;
+}
 
 inline State perturbed(const Model& model, const State& s, const std::vector<double>& d, double h) {
   State t = s;
