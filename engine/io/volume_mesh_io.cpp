@@ -103,6 +103,7 @@ VolumeMesh read_vtk(std::istream& in, const std::string& path, std::uintmax_t by
       }
     } else if (t == "CELLS") {
       const int n = r.number<int>("cell count");
+      if (n < 0) r.fail("cell count " + std::to_string(n) + " (a count of at least 0 is expected)");
       r.number<long>("cell list size");
       for (int c = 0; c < n; ++c) {
         const int k = r.number<int>("the vertex count of a cell");
@@ -112,6 +113,7 @@ VolumeMesh read_vtk(std::istream& in, const std::string& path, std::uintmax_t by
       }
     } else if (t == "CELL_TYPES") {
       const int n = r.number<int>("cell type count");
+      if (n < 0) r.fail("cell type count " + std::to_string(n) + " (a count of at least 0 is expected)");
       for (int c = 0; c < n; ++c) cell_types.push_back(r.number<int>("a cell type"));
     } else if (t == "POINT_DATA" || t == "CELL_DATA") {
       break;  // attributes are not needed
@@ -150,13 +152,15 @@ VolumeMesh read_gmsh(std::istream& in, const std::string& path, std::uintmax_t b
   std::vector<long> cells;
   while (r.next_line(line)) {
     if (line == "$Nodes") {
+      if (!mesh.vertices.empty()) r.fail("a second $Nodes section (one is expected)");
       r.reset_tokens();
       const int n = r.number<int>("node count");
+      if (n <= 0) r.fail("node count " + std::to_string(n) + " (a positive count is expected)");
       r.check_count(n, 8, "$Nodes count");  // "id x y z" with one-digit numbers and separators
       mesh.vertices.reserve(3 * static_cast<std::size_t>(n));
       for (int i = 0; i < n; ++i) {
         const long id = r.number<long>("a node id");
-        node_index[id] = i;
+        if (!node_index.emplace(id, i).second) r.fail("node id " + std::to_string(id) + " appears twice");
         for (int k = 0; k < 3; ++k) {
           mesh.vertices.push_back(r.number<double>("a coordinate"));
           if (!std::isfinite(mesh.vertices.back())) r.fail("non-finite coordinate");
@@ -166,6 +170,7 @@ VolumeMesh read_gmsh(std::istream& in, const std::string& path, std::uintmax_t b
     } else if (line == "$Elements") {
       r.reset_tokens();
       const int n = r.number<int>("element count");
+      if (n < 0) r.fail("element count " + std::to_string(n) + " (a count of at least 0 is expected)");
       for (int e = 0; e < n; ++e) {
         std::string element;
         if (!r.next_line(element)) r.fail("unexpected end of file in $Elements");

@@ -32,6 +32,22 @@ TEST_CASE("Gmsh 2.2 ASCII tetrahedra are read, surface elements skipped", "[io]"
   fs::remove(path);
 }
 
+TEST_CASE("Gmsh files with a bad node section are refused naming the line", "[io]") {
+  const fs::path path = fs::temp_directory_path() / "fascia_test_bad_nodes.msh";
+  const std::string head = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n";
+  const std::string nodes = "4\n10 0 0 0\n11 1 0 0\n12 0 1 0\n13 0 0 1\n$EndNodes\n";
+  const std::string elements = "$Elements\n1\n1 4 2 0 1 10 11 12 13\n$EndElements\n";
+  std::ofstream(path) << head << "-2\n" << elements;
+  CHECK_THROWS_WITH(read_volume_mesh(path.string()), Catch::Contains("fascia_test_bad_nodes.msh:5: node count -2"));
+  std::ofstream(path, std::ios::trunc) << head << nodes << "$Nodes\n" << nodes << elements;
+  CHECK_THROWS_WITH(read_volume_mesh(path.string()), Catch::Contains(":11: a second $Nodes section"));
+  std::ofstream(path, std::ios::trunc) << head << "2\n10 0 0 0\n10 1 0 0\n$EndNodes\n" << elements;
+  CHECK_THROWS_WITH(read_volume_mesh(path.string()), Catch::Contains(":7: node id 10 appears twice"));
+  std::ofstream(path, std::ios::trunc) << head << nodes << "$Elements\n-1\n$EndElements\n";
+  CHECK_THROWS_WITH(read_volume_mesh(path.string()), Catch::Contains(":12: element count -1"));
+  fs::remove(path);
+}
+
 TEST_CASE("broken meshes name the file and line", "[io]") {
   const fs::path path = fs::temp_directory_path() / "fascia_test_broken.vtk";
   std::ofstream(path) << "# vtk DataFile Version 3.0\nx\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 2 double\n0 0 0\n1 q 0\n";
