@@ -45,21 +45,34 @@ void compute_frame_inertia(Model& model) {
   const int n = model.frame_count();
   model.frame_masses.assign(n, 0.0);
   model.frame_inertias.assign(9 * n, 0.0);
+  std::vector<double> positive_masses(n, 0.0);
   const NeighbourTable& nb = model.neighbours;
   for (int s = 0; s < model.sample_count(); ++s) {
     const double rho = model.materials[model.samples.materials[s]].density;
     const double m_s = rho * model.samples.volumes[s];
+    // The shares' normaliser: 1 (the weights themselves) unless a weight is negative.
+    double positive = 0;
+    bool negative = false;
+    for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+      positive += std::max(nb.weights[p], 0.0);
+      negative = negative || nb.weights[p] < 0;
+    }
+    if (!negative) positive = 1;
     for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
       const int i = nb.frames[p];
-      const double m = nb.weights[p] * m_s;
-      model.frame_masses[i] += m;
+      model.frame_masses[i] += nb.weights[p] * m_s;
+      if (!(nb.weights[p] > 0)) continue;
       // Point mass m at offset l from the frame origin: I = m (|l|^2 I - l l^T).
+      const double m = nb.weights[p] / positive * m_s;
+      positive_masses[i] += m;
       const Vec3 l = load3(&nb.rest_offsets[3 * p]);
       const Mat3 inertia = m * (dot(l, l) * identity3() - outer(l, l));
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) model.frame_inertias[9 * i + 3 * r + c] += inertia.m[r][c];
     }
   }
+  for (int i = 0; i < n; ++i)
+    if (!(model.frame_masses[i] > 0)) model.frame_masses[i] = positive_masses[i];
 }
 
 const char* to_string(ObjectKind kind) {

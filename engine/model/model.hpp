@@ -111,7 +111,15 @@ struct Model {
 // Builds the reverse table (and the pair -> sample map) from the neighbour table.
 void build_reverse_table(Model& model);
 
-// Lumped frame masses and inertias from the sample densities (eq. 3 weights).
+// Lumped frame masses and inertias from the sample densities (m_s = rho_s v_s; eq. 3 weights w_p,
+// rest offsets l_p). Mass: m_i = sum_p w_p m_s, the row sums of the consistent mass matrix, which
+// make a uniform translation exact under gravity (the same sums weigh the frames,
+// mechanics/external_loads.cpp). Inertia: I_i = sum_p m_p (|l_p|^2 I - l_p l_p^T) with the shares
+// m_p = m_s w+_p / sum w+ (w+ = max(w, 0)): moving least squares weights of linear precision are
+// negative in places, and with them a frame's inertia can be indefinite, and the step's Hessian
+// with it once I / h^2 outweighs the elastic stiffness (small steps). The shares are the weights
+// where those are non-negative (finite elements). A frame whose row sum is not positive takes the
+// sum of its shares as its mass.
 void compute_frame_inertia(Model& model);
 
 // Fixes all six DOFs (or only the translations) of the frames whose rest position satisfies the
