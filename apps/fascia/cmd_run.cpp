@@ -416,16 +416,16 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   std::vector<double> written_times = resume.times;
   auto last_xdmf = std::chrono::steady_clock::now();
   double xdmf_seconds = 0;  // how long the last rewrite took
-  // The sidecars are rewritten after each flushed step while the run is short, then at most once
-  // every max(1 s, 20 x the last rewrite's duration), and at the end: they always describe
-  // complete steps only. Their text grows with the steps (about 15 kB per step for the main job's
-  // objects and fields), so the interval grows with it and rewriting stays below 5 % of the run.
+  // The sidecars are written with the first row, then after a flushed row at most once every
+  // max(0.5 s, 20 x the last rewrite's duration), and at the end of the run (completed, stopped or
+  // failed): they always describe complete steps only. Their text grows with the steps (about
+  // 15 kB per step for the main job's objects and fields), so the interval grows with it and
+  // rewriting stays below 5 % of the run. A run killed outright has every row in its .h5 file,
+  // the last half second's possibly not yet in the sidecars; --resume rewrites them.
   auto update_xdmf = [&](bool force) {
     if (!out_spec.xdmf) return;
     const auto now = std::chrono::steady_clock::now();
-    if (!force && written_times.size() > 100 &&
-        std::chrono::duration<double>(now - last_xdmf).count() < std::max(1.0, 20 * xdmf_seconds))
-      return;
+    if (!force && std::chrono::duration<double>(now - last_xdmf).count() < std::max(0.5, 20 * xdmf_seconds)) return;
     write_xdmf(xmf, h5_name, layout, written_times,
                writer ? static_cast<std::size_t>(writer->rows_allocated()) : written_times.size());
     last_xdmf = std::chrono::steady_clock::now();
@@ -517,6 +517,9 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     if (run_figures) run_figures->setup_seconds = std::chrono::duration<double>(steps_start - setup_start).count();
     // A row sums the iterations and counts the steps since the previous one.
     StepReport row;  // the steps since the last row (fixed steps)
+    // Fixed steps resumed between two rows: the steps taken since the last row (each accepted
+    // once) count towards the next, as in an uninterrupted run.
+    if (resume.checkpoint && !adaptive) row.accepted_steps = resume.checkpoint->step % out_spec.every;
     bool completed = steps == 0;
     for (int k = first_k; k <= steps && !stop_requested(); k = next_k(k)) {
       try {
@@ -544,7 +547,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
         writer->append(recorder.record(simulation.state(), last));
         ++regular_rows;
         written_times.push_back(last.time);
-        update_xdmf(k == steps);
+        update_xdmf(false);
         row = StepReport{};
       }
       const double since_checkpoint =

@@ -138,7 +138,7 @@ def test_sigterm_finishes_the_step_and_exits_75(fascia_bin, root, tmp_path):
 
 
 def wait_for_steps(xmf, steps, process, timeout=300):
-    """The sidecar is rewritten after each flushed step: count its time values."""
+    """The sidecar lists the flushed steps (rewritten about twice a second): count its time values."""
     start = time.time()
     while time.time() - start < timeout:
         assert process.poll() is None, "fascia ended early"
