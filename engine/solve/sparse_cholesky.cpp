@@ -1,11 +1,31 @@
 #include "solve/sparse_cholesky.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 
 namespace fascia {
 
 namespace {
+
+// A factor of fewer nonzeros (8 MB) is computed in a few milliseconds and solved in well under
+// one on one core. Its factorisations and solves run with one thread: CHOLMOD's and OpenBLAS's
+// OpenMP regions (one per small supernode's BLAS call, about six per solve) would otherwise wake
+// and park a team each time, which costs more than it saves.
+constexpr double kSerialNonzeros = 1e6;
+
+// Sets the calling thread's OpenMP team size for the scope and restores it after.
+class TeamSize {
+ public:
+  explicit TeamSize(int threads) : m_previous(omp_get_max_threads()) { omp_set_num_threads(threads); }
+  ~TeamSize() { omp_set_num_threads(m_previous); }
+  TeamSize(const TeamSize&) = delete;
+  TeamSize& operator=(const TeamSize&) = delete;
+
+ private:
+  int m_previous;
+};
 
 std::uint64_t fnv1a(std::uint64_t h, const void* data, std::size_t bytes) {
   const auto* p = static_cast<const unsigned char*>(data);
@@ -78,6 +98,7 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
   }
   ++m_factorisations;
   m_shift = 0;
+  const TeamSize team(m_factor->cholmod().lnz < kSerialNonzeros ? 1 : omp_get_max_threads());
   m_factor->factorize(reduced);
   if (m_factor->info() != Eigen::Success) {
     std::vector<double> diag(free);
@@ -106,6 +127,7 @@ void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x)
   Eigen::VectorXd rhs(free);
   for (int k = 0; k < n; ++k)
     if (m_index[k] >= 0) rhs[m_index[k]] = b[k];
+  const TeamSize team(m_factor->cholmod().lnz < kSerialNonzeros ? 1 : omp_get_max_threads());
   const Eigen::VectorXd sol = m_factor->solve(rhs);
   x.assign(n, 0.0);
   for (int k = 0; k < n; ++k)

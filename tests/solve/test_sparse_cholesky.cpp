@@ -1,9 +1,11 @@
 // The sparse Cholesky factorisation of the free-free block: solves against a dense reference,
-// keeps its symbolic analysis for patterns inside the analysed one, shifts indefinite matrices.
+// keeps its symbolic analysis for patterns inside the analysed one, shifts indefinite matrices,
+// and leaves the caller's OpenMP team size unchanged.
 #include "solve/sparse_cholesky.hpp"
 
 #include <Eigen/Dense>
 #include <catch2/catch.hpp>
+#include <omp.h>
 
 #include <cmath>
 #include <vector>
@@ -81,4 +83,21 @@ TEST_CASE("an indefinite matrix is factorised with a diagonal shift", "[solve]")
   SparseCholesky chol;
   REQUIRE(chol.factorise(H, nullptr));
   REQUIRE(chol.shift() > 0);
+}
+
+TEST_CASE("a solve leaves the caller's OpenMP team size as it found it", "[solve]") {
+  // Small factors are solved with a team of one (the solve's own setting); the caller's next
+  // parallel regions keep the size it chose.
+  const int n = 40;
+  const std::vector<std::uint8_t> fixed(n, 0);
+  SparseCholesky chol;
+  const Eigen::SparseMatrix<double> H = tridiagonal(n);
+  REQUIRE(chol.factorise(H, fixed.data()));
+  const int before = omp_get_max_threads();
+  omp_set_num_threads(3);
+  const double error = solve_error(chol, H, fixed);
+  const int after = omp_get_max_threads();
+  omp_set_num_threads(before);
+  REQUIRE(after == 3);
+  REQUIRE(error <= 1e-13);  // cond <= 3 as above
 }
