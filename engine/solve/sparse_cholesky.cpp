@@ -98,7 +98,7 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
   }
   ++m_factorisations;
   m_shift = 0;
-  const TeamSize team(m_factor->cholmod().lnz < kSerialNonzeros ? 1 : omp_get_max_threads());
+  const TeamSize team(team_size());
   m_factor->factorize(reduced);
   if (m_factor->info() != Eigen::Success) {
     std::vector<double> diag(free);
@@ -120,6 +120,10 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
   return m_factorised;
 }
 
+int SparseCholesky::team_size() const {
+  return m_factor->cholmod().lnz < kSerialNonzeros ? 1 : omp_get_max_threads();
+}
+
 void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x) const {
   const int n = static_cast<int>(m_index.size());
   int free = 0;
@@ -127,7 +131,7 @@ void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x)
   Eigen::VectorXd rhs(free);
   for (int k = 0; k < n; ++k)
     if (m_index[k] >= 0) rhs[m_index[k]] = b[k];
-  const TeamSize team(m_factor->cholmod().lnz < kSerialNonzeros ? 1 : omp_get_max_threads());
+  const TeamSize team(team_size());
   const Eigen::VectorXd sol = m_factor->solve(rhs);
   x.assign(n, 0.0);
   for (int k = 0; k < n; ++k)

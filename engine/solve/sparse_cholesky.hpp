@@ -42,6 +42,8 @@ class SparseCholesky {
 
  private:
   using Factor = Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower>;
+  // OpenMP team for CHOLMOD and OpenBLAS on the analysed factor: one below kSerialNonzeros.
+  int team_size() const;
   std::unique_ptr<Factor> m_factor;
   std::vector<int> m_index;                        // [n] free index of each DOF, -1 if fixed
   std::vector<std::uint8_t> m_fixed;               // the mask m_index was built from
