@@ -1,17 +1,14 @@
 #include "mechanics/assembled_tangent.hpp"
 
-#include <Eigen/Dense>
-
 #include <omp.h>
 
 #include <algorithm>
-#include <set>
+#include <vector>
 
 namespace fascia {
 namespace {
 
 constexpr int kParallelMin = 256;               // fewer samples: one thread
-constexpr long long kChunkValues = 1LL << 22;   // sample-matrix values formed per chunk (32 MiB)
 
 }  // namespace
 
@@ -63,69 +60,82 @@ const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& 
   const int* outer = m_matrix.outerIndexPtr();
   std::fill(values, values + m_matrix.nonZeros(), 0.0);
   const int samples = model.sample_count(), frames = model.frame_count();
-  // Samples in chunks: the sample matrices H_s = v_s B_s^T D_s B_s [6k x 6k] of a chunk are formed
-  // in parallel into m_chunk_values (kept from one assembly to the next), then scattered with each
-  // thread owning a contiguous range of column frames and visiting the chunk's samples in order,
-  // so every entry sums its samples in sample order: the same bits for any thread count.
+  // Each thread owns a contiguous range of column frames and visits every sample in order, so
+  // each entry sums its samples in sample order: the same bits for any thread count. A sample's
+  // block (a, b) = v B_a^T D B_b is formed for a <= b only and stored in column frame j_b and,
+  // transposed, in column frame j_a (D is symmetric for a hyperelastic law): by the owner of
+  // each, with the same arithmetic, so a block whose two frames have different owners is formed
+  // twice.
 #pragma omp parallel num_threads(elasticity.threads()) if (samples > kParallelMin)
   {
-    Eigen::Matrix<double, 9, 9, Eigen::RowMajor> D;
-    Eigen::Matrix<double, 9, Eigen::Dynamic> B, DB;
-    Eigen::Matrix<double, 9, 6, Eigen::RowMajor> Bp;
     const int thread = omp_get_thread_num(), threads = omp_get_num_threads();
     const int own_begin = static_cast<int>(static_cast<long long>(frames) * thread / threads);
     const int own_end = static_cast<int>(static_cast<long long>(frames) * (thread + 1) / threads);
-    for (int s0 = 0; s0 < samples;) {
-      int s1 = s0;
-#pragma omp single
-      {
-        m_chunk_offsets.assign(1, 0);
-        while (s1 < samples && m_chunk_offsets.back() < kChunkValues) {
-          const long long k = nb.offsets[s1 + 1] - nb.offsets[s1];
-          m_chunk_offsets.push_back(m_chunk_offsets.back() + 36 * k * k);
-          ++s1;
-        }
-        if (m_chunk_values.size() < static_cast<size_t>(m_chunk_offsets.back()))
-          m_chunk_values.resize(static_cast<size_t>(m_chunk_offsets.back()));
-      }  // implicit barrier: every thread sees the chunk
-      s1 = s0 + static_cast<int>(m_chunk_offsets.size()) - 1;
-#pragma omp for schedule(dynamic, 16)
-      for (int s = s0; s < s1; ++s) {
-        const int begin = nb.offsets[s], k = nb.offsets[s + 1] - begin;
-        elasticity.material_matrix(s, D.data());
-        B.resize(9, 6 * k);
-        for (int a = 0; a < k; ++a) {
-          elasticity.pair_jacobian(begin + a, Bp.data());
-          B.middleCols(6 * a, 6) = Bp;
-        }
-        // Rows of D are vec(dP[E_k]): the operator acting on vec(dF) is D^T (= D for hyperelastic
-        // laws).
-        DB.noalias() = D.transpose() * B;
-        Eigen::Map<Eigen::MatrixXd> H(m_chunk_values.data() + m_chunk_offsets[s - s0], 6 * k, 6 * k);
-        // A coefficient-wise product (inner dimension 9): Eigen's blocked product would start its
-        // own OpenMP team here whenever this region runs on one thread, and that team's threads
-        // wait for each other by spinning.
-        H.noalias() = model.samples.volumes[s] * B.transpose().lazyProduct(DB);
-      }  // implicit barrier
-      for (int s = s0; s < s1; ++s) {
-        const int begin = nb.offsets[s], k = nb.offsets[s + 1] - begin;
-        const Eigen::Map<const Eigen::MatrixXd> H(m_chunk_values.data() + m_chunk_offsets[s - s0], 6 * k,
-                                                  6 * k);
-        const int* slot = &m_pair_slots[m_pair_offsets[s]];
-        for (int b = 0; b < k; ++b) {
-          const int j = nb.frames[begin + b];
-          if (j < own_begin || j >= own_end) continue;
-          for (int a = 0; a < k; ++a) {
-            const int row_block = slot[a * k + b];
-            for (int c = 0; c < 6; ++c) {
-              double* column = values + outer[6 * j + c] + 6 * row_block;
-              for (int r = 0; r < 6; ++r) column[r] += H(6 * a + r, 6 * b + c);
-            }
+    double D[81];
+    std::vector<Mat3> levers;
+    std::vector<Vec3> gradients;
+    std::vector<double> dP;  // [k][6][9]: vec(dP) of the pair's 6 unit increments, v folded in
+    std::vector<char> owned;
+    for (int s = 0; s < samples; ++s) {
+      const int begin = nb.offsets[s], k = nb.offsets[s + 1] - begin;
+      owned.assign(k, 0);
+      bool any = false;
+      for (int a = 0; a < k; ++a) {
+        const int j = nb.frames[begin + a];
+        owned[a] = j >= own_begin && j < own_end;
+        any = any || owned[a];
+      }
+      if (!any) continue;
+      elasticity.material_matrix(s, D);
+      const double v = model.samples.volumes[s];
+      levers.resize(k);
+      gradients.resize(k);
+      dP.resize(54 * static_cast<size_t>(k));
+      for (int b = 0; b < k; ++b) {
+        levers[b] = elasticity.lever(begin + b);
+        gradients[b] = load3(&nb.weight_gradients[3 * (begin + b)]);
+        for (int c = 0; c < 6; ++c) {
+          // dF of the unit increment c (eq. 11), then dP = D^T vec(dF): rows of D are vec(dP[E_k]).
+          Vec3 dx{0, 0, 0}, dr{0, 0, 0};
+          (c < 3 ? dx : dr) = Vec3{c % 3 == 0 ? 1.0 : 0.0, c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0};
+          const Mat3 dF = pair_lever_differential(dx, dr, gradients[b], levers[b]);
+          double* out = &dP[54 * b + 9 * c];
+          for (int r = 0; r < 9; ++r) out[r] = 0;
+          for (int e = 0; e < 9; ++e) {
+            const double f = v * dF.m[e / 3][e % 3];
+            if (f == 0) continue;
+            for (int r = 0; r < 9; ++r) out[r] += f * D[9 * e + r];
           }
         }
       }
-      s0 = s1;
-#pragma omp barrier
+      const int* slot = &m_pair_slots[m_pair_offsets[s]];
+      for (int b = 0; b < k; ++b)
+        for (int a = 0; a <= b; ++a) {
+          if (!owned[a] && !owned[b]) continue;
+          double block[6][6];  // block[c][r]: row r of frame a, column c of frame b
+          for (int c = 0; c < 6; ++c) {
+            Mat3 P;
+            for (int e = 0; e < 9; ++e) P.m[e / 3][e % 3] = dP[54 * b + 9 * c + e];
+            pair_lever_virtual_work(P, gradients[a], levers[a], block[c]);
+          }
+          if (a == b)  // a diagonal block: its lower triangle mirrored, so that K = K^T bitwise
+            for (int c = 0; c < 6; ++c)
+              for (int r = 0; r < c; ++r) block[c][r] = block[r][c];
+          if (owned[b]) {
+            const int j = nb.frames[begin + b], row_block = slot[a * k + b];
+            for (int c = 0; c < 6; ++c) {
+              double* column = values + outer[6 * j + c] + 6 * row_block;
+              for (int r = 0; r < 6; ++r) column[r] += block[c][r];
+            }
+          }
+          if (owned[a] && a != b) {
+            const int i = nb.frames[begin + a], row_block = slot[b * k + a];
+            for (int r = 0; r < 6; ++r) {
+              double* column = values + outer[6 * i + r] + 6 * row_block;
+              for (int c = 0; c < 6; ++c) column[c] += block[c][r];
+            }
+          }
+        }
     }
   }
   const std::vector<double>& blocks = elasticity.rotational_blocks();

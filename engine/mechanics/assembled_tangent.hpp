@@ -24,8 +24,6 @@ class TangentAssembler {
   Eigen::SparseMatrix<double> m_matrix;
   std::vector<int> m_pair_slots;  // per sample, per (a, b) neighbour pair: block row position k
   std::vector<int> m_pair_offsets;  // [S+1] into m_pair_slots
-  std::vector<long long> m_chunk_offsets;  // [samples in chunk + 1] into m_chunk_values
-  std::vector<double> m_chunk_values;      // the sample matrices of one chunk (assemble)
 };
 
 // One-off assembly (builds a TangentAssembler).

@@ -229,6 +229,12 @@ void Elasticity::pair_jacobian(int p, double* B) const {
   }
 }
 
+Mat3 Elasticity::lever(int p) const {
+  const NeighbourTable& nb = m_model.neighbours;
+  return pair_lever(load3(&m_offsets[3 * p]), load3(&nb.weight_gradients[3 * p]), nb.weights[p],
+                    load_mat3(&m_rotations[9 * nb.frames[p]]));
+}
+
 void Elasticity::tangent_diagonal_blocks(double* blocks) {
   const int n = m_model.frame_count();
   const ReverseTable& rev = m_model.reverse;

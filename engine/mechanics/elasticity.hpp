@@ -52,6 +52,9 @@ class Elasticity final : public VolumetricElasticity {
   // vec row-major), and the pair's 9x6 Jacobian B_p (columns: dF for unit dx and dr, eq. 11).
   void material_matrix(int s, double* D) const;
   void pair_jacobian(int p, double* B) const;
+  // The pair's lever M_p = a_p g_p^T + w_p R_i at the prepared state: dF_p = dx g_p^T + [dr]x M_p
+  // (mechanics/frame_sample.hpp, pair_lever).
+  Mat3 lever(int p) const;
 
   const Model& model() const override { return m_model; }
   // Itself: the assembled tangent reads this object's prepared state.

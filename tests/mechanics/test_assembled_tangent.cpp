@@ -1,5 +1,6 @@
 // The assembled tangent (mechanics/assembled_tangent.hpp) on a model large enough for the
-// parallel assembly: the same bits for any thread count, and the matrix-free product's values.
+// parallel assembly: the same bits for any thread count, exactly symmetric, and the matrix-free
+// product's values.
 #include "mechanics/assembled_tangent.hpp"
 #include "support/finite_difference.hpp"
 #include "support/fixtures.hpp"
@@ -13,9 +14,9 @@ using namespace fascia;
 using namespace fascia::test;
 
 TEST_CASE("assembled tangent: the same bits for any thread count, equal to the matrix-free product", "[mechanics]") {
-  // 16 x 4 x 4 hexahedra with 8 samples of 8 frames each: 2,048 samples of 36 * 8^2 values, two
-  // chunks of at most 2^22 values; tetrahedra (6 per cell, 4 frames each): 1,536 samples in one.
-  // Both above the one-thread limit of 256 samples.
+  // 16 x 4 x 4 hexahedra with 8 samples of 8 frames each (2,048 samples), tetrahedra (6 per cell,
+  // 4 frames each: 1,536 samples), both above the one-thread limit of 256 samples. Three threads
+  // own three ranges of frames: many samples have frames in two of them.
   const CellType type = GENERATE(CellType::hexahedron, CellType::tetrahedron);
   const Model model = small_box_model(type, MaterialLaw::neo_hookean, 16, 4, 4);
   REQUIRE(model.sample_count() > 256);
@@ -29,6 +30,12 @@ TEST_CASE("assembled tangent: the same bits for any thread count, equal to the m
   Eigen::Index differing = 0;
   for (Eigen::Index k = 0; k < K1.nonZeros(); ++k) differing += K1.valuePtr()[k] != K3.valuePtr()[k];
   REQUIRE(differing == 0);
+  // Block (b, a) is block (a, b) transposed, stored by the same arithmetic: K = K^T bitwise.
+  const Eigen::SparseMatrix<double> K3t = K3.transpose();
+  REQUIRE(K3t.nonZeros() == K3.nonZeros());
+  Eigen::Index asymmetric = 0;
+  for (Eigen::Index k = 0; k < K3.nonZeros(); ++k) asymmetric += K3.valuePtr()[k] != K3t.valuePtr()[k];
+  REQUIRE(asymmetric == 0);
   // The assembled product equals the matrix-free one to round-off (sums of ~1e3 terms: 1e-12).
   const std::vector<double> d = random_direction(model, 5, 0.1);
   std::vector<double> kd(d.size());
