@@ -56,8 +56,10 @@ class DeviceProblem {
     m_ops.project(g);
     return phi;
   }
-  LinearResult solve(const State& q, const Vector& rhs, Vector& d) {
+  LinearResult solve(const State& q, const Vector& rhs, Vector& d, double tolerance) {
     m_potential.prepare_hessian(q);
+    LinearSettings linear = m_linear;
+    linear.tolerance = tolerance;
     auto apply = [this](const Vector& p, Vector& out) {
       m_ops.resize(out);
       m_potential.apply(p.data(), out.data());
@@ -74,10 +76,10 @@ class DeviceProblem {
         void solve(const Vector& r, Vector& z) const { problem.m_factor->solve(r.data(), z.data()); }
         int refactorise_above(const LinearSettings& s) const { return problem.m_factor->refactorise_above(s); }
       } kept{*this, q};
-      return pcg_with_kept_factorisation(m_ops, apply, kept, m_stale, m_linear, rhs, d);
+      return pcg_with_kept_factorisation(m_ops, apply, kept, m_stale, linear, rhs, d);
     }
     PcgSettings pcg_settings;
-    pcg_settings.tolerance = m_linear.tolerance;
+    pcg_settings.tolerance = linear.tolerance;
     pcg_settings.max_iterations = m_linear.max_iterations;
     pcg_settings.fixed_iterations = m_linear.fixed_iterations;
     if (m_linear.method == LinearMethod::cg)

@@ -322,10 +322,12 @@ class VariationalProblem {
     m_ops.scale(1 / m_dt, g);
     return norm_r;
   }
-  LinearResult solve(const State& end, const Vector& rhs, Vector& d) {
+  LinearResult solve(const State& end, const Vector& rhs, Vector& d, double tolerance) {
     m_rhs = rhs;
     m_ops.scale(4.0, m_rhs);
-    return m_solver.solve(m_step.iteration_matrix(m_start, end), m_linear, m_rhs, d);
+    LinearSettings linear = m_linear;
+    linear.tolerance = tolerance;
+    return m_solver.solve(m_step.iteration_matrix(m_start, end), linear, m_rhs, d);
   }
   void retract(State& q, const Vector& d, double alpha) { m_potential.retract(q, d.data(), alpha); }
 

@@ -38,9 +38,11 @@ class HostPotentialProblem {
     m_ops.project(g);
     return phi;
   }
-  LinearResult solve(const State& q, const Vector& rhs, Vector& d) {
+  LinearResult solve(const State& q, const Vector& rhs, Vector& d, double tolerance) {
     m_potential.prepare_hessian(q);
-    return m_solver.solve(m_potential.system(), m_linear, rhs, d);
+    LinearSettings linear = m_linear;
+    linear.tolerance = tolerance;
+    return m_solver.solve(m_potential.system(), linear, rhs, d);
   }
   void retract(State& q, const Vector& d, double alpha) { m_potential.retract(q, d.data(), alpha); }
 

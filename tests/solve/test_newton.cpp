@@ -6,6 +6,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <vector>
@@ -44,10 +45,17 @@ struct QuarticProblem {
     m_ops.project(g);
     return value(x);
   }
-  LinearResult solve(const State& x, const Vector& rhs, Vector& d) {
+  // The exact Newton step, or with `inexact` one whose residual is the tolerance asked for:
+  // d = (1 + tolerance) H^{-1} rhs, so |H d - rhs| = tolerance |rhs|.
+  bool inexact = false;
+  std::vector<double> tolerances, rhs_norms;  // per solve: the tolerance asked, |rhs|
+  LinearResult solve(const State& x, const Vector& rhs, Vector& d, double tolerance) {
     ++solves;
+    tolerances.push_back(tolerance);
+    rhs_norms.push_back(m_ops.norm(rhs));
+    const double scale = inexact ? 1 + tolerance : 1.0;
     d.resize(x.size());
-    for (size_t k = 0; k < x.size(); ++k) d[k] = fixed[k] ? 0.0 : rhs[k] / (3 * x[k] * x[k] + a[k]);
+    for (size_t k = 0; k < x.size(); ++k) d[k] = fixed[k] ? 0.0 : scale * rhs[k] / (3 * x[k] * x[k] + a[k]);
     LinearResult r;
     r.converged = true;
     r.iterations = 1;
@@ -90,6 +98,35 @@ TEST_CASE("Newton minimises a strictly convex potential to its tolerance", "[sol
     if (k != 2) REQUIRE(std::abs(x[k] - problem.root(k)) <= 2 * 1e-10 * g0 / 0.5);
   // Newton's local quadratic convergence: a handful of iterations from x = 0 even at f = 20.
   REQUIRE(r.iterations <= 15);
+}
+
+TEST_CASE("Newton's forcing term: loose solves far from the minimum, tight near it, at the same convergence",
+          "[solve][newton]") {
+  NewtonSettings settings;
+  settings.tolerance = 1e-10;
+  QuarticProblem exact(8, 20.0), inexact(8, 20.0);
+  inexact.inexact = true;
+  std::vector<double> x_exact(8, 0.0), x(8, 0.0);
+  const NewtonResult r_exact = newton(exact, x_exact, settings, 1.0);
+  const NewtonResult r = newton(inexact, x, settings, 1.0);
+  REQUIRE(r_exact.converged);
+  REQUIRE(r.converged);
+  // Solve k was asked for eta_k = min(kForcingMax, kForcing |g_k| / scale), at least the linear
+  // tolerance, with scale = max(reference 1 N, |g_0|) and |g_k| = |rhs_k|.
+  REQUIRE(inexact.rhs_norms.size() == inexact.tolerances.size());
+  const double scale = std::max(1.0, inexact.rhs_norms.front());
+  for (size_t k = 0; k < inexact.tolerances.size(); ++k) {
+    const double expected =
+        std::max(settings.linear.tolerance, std::min(kForcingMax, kForcing * (inexact.rhs_norms[k] / scale)));
+    REQUIRE(inexact.tolerances[k] == Approx(expected).epsilon(1e-15));
+  }
+  REQUIRE(inexact.tolerances.front() == kForcingMax);  // |g_0| = scale: the cap
+  REQUIRE(inexact.tolerances.back() < 1e-6);           // the last, near the minimum: tight
+  // Residuals of eta_k |g_k| keep the quadratic convergence: at most one more iteration than
+  // exact solves, and the same minimiser to the tolerance.
+  REQUIRE(r.iterations <= r_exact.iterations + 1);
+  for (int k = 0; k < 8; ++k)
+    if (k != 2) REQUIRE(std::abs(x[k] - inexact.root(k)) <= 2 * 1e-10 * scale / 0.5);
 }
 
 TEST_CASE("Newton in fixed-iteration mode takes exactly that many full steps", "[solve][newton]") {
