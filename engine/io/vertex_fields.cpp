@@ -122,13 +122,23 @@ std::vector<Field> surface_fields(const Model& model, const State& state, const 
   for (const Field& f : measures)
     out.push_back(Field{f.name, f.components, f.unit, std::vector<double>(V * static_cast<std::size_t>(f.components), 0.0)});
 
+  // The measures packed per frame, [N][C] with C all their components, so that a vertex sums
+  // one contiguous row per frame.
+  std::size_t C = 0;
+  for (const Field& f : measures) C += static_cast<std::size_t>(f.components);
+  const std::size_t N = static_cast<std::size_t>(model.frame_count());
+  std::vector<double> packed(N * C), row(C);
+  for (std::size_t i = 0, at = 0; i < N; ++i)
+    for (const Field& f : measures) {
+      const std::size_t c = static_cast<std::size_t>(f.components);
+      for (std::size_t k = 0; k < c; ++k) packed[at++] = f.values[c * i + k];
+    }
   for (std::size_t v = 0; v < V; ++v) {
     Vec3 u{0, 0, 0}, velocity{0, 0, 0};
+    std::fill(row.begin(), row.end(), 0.0);
     auto add_measures = [&](std::size_t frame, double w) {
-      for (std::size_t f = 0; f < measures.size(); ++f) {
-        const std::size_t c = static_cast<std::size_t>(measures[f].components);
-        for (std::size_t k = 0; k < c; ++k) out[first_measure + f].values[c * v + k] += w * measures[f].values[c * frame + k];
-      }
+      const double* in = &packed[C * frame];
+      for (std::size_t k = 0; k < C; ++k) row[k] += w * in[k];
     };
     if (source.skin) {
       // eq. (3) at the state minus eq. (3) at rest (R = I): sum_i w (x_i + R_i l - x̄_i - l).
@@ -152,6 +162,10 @@ std::vector<Field> surface_fields(const Model& model, const State& state, const 
     for (std::size_t k = 0; k < 3; ++k) {
       out[0].values[3 * v + k] = k == 0 ? u.x : k == 1 ? u.y : u.z;
       out[1].values[3 * v + k] = k == 0 ? velocity.x : k == 1 ? velocity.y : velocity.z;
+    }
+    for (std::size_t f = 0, at = 0; f < measures.size(); ++f) {
+      const std::size_t c = static_cast<std::size_t>(measures[f].components);
+      for (std::size_t k = 0; k < c; ++k) out[first_measure + f].values[c * v + k] = row[at++];
     }
   }
   return out;
