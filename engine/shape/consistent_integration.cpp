@@ -123,57 +123,67 @@ public:
   }
 
   // H assembled [4N x 4N], both triangles: block (i_p, i_q) = sum_s v_s^2 (Pi_s)_pq e_p e_q^T
-  // over the pairs p, q of each sample s, with (Pi_s)_pq = delta_pq - k_p^T G_s k_q.
+  // over the pairs p, q of each sample s, with (Pi_s)_pq = delta_pq - k_p^T G_s k_q. Column block
+  // j is formed from frame j's pairs alone (in sample order), in parallel over frames.
   Eigen::SparseMatrix<double> assemble() const {
-    const int s_count = static_cast<int>(m_volumes.size());
-    // Frames coupled through a sample, sorted; column block j holds rows of every neighbour.
-    std::vector<std::vector<int>> adjacency(m_frames);
-    for (int s = 0; s < s_count; ++s)
-      for (int p = m_nb.offsets[s]; p < m_nb.offsets[s + 1]; ++p)
-        for (int q = m_nb.offsets[s]; q < m_nb.offsets[s + 1]; ++q)
-          adjacency[m_nb.frames[q]].push_back(m_nb.frames[p]);
-    std::vector<int> outer(4 * static_cast<size_t>(m_frames) + 1, 0);
-    for (int j = 0; j < m_frames; ++j) {
-      std::vector<int> &rows = adjacency[j];
-      std::sort(rows.begin(), rows.end());
-      rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
-      for (int c = 0; c < 4; ++c)
-        outer[4 * j + c + 1] = outer[4 * j + c] + 4 * static_cast<int>(rows.size());
+    const int n = m_frames;
+    // Rows of column block j: the frames of every sample that has frame j, sorted.
+    std::vector<std::vector<int>> adjacency(n);
+#pragma omp parallel
+    {
+      std::vector<int> seen(n, -1);
+#pragma omp for schedule(dynamic, 16)
+      for (int j = 0; j < n; ++j) {
+        std::vector<int> &rows = adjacency[j];
+        for (int a = m_frame_offsets[j]; a < m_frame_offsets[j + 1]; ++a) {
+          const int s = m_pair_sample[m_frame_pairs[a]];
+          for (int p = m_nb.offsets[s]; p < m_nb.offsets[s + 1]; ++p)
+            if (seen[m_nb.frames[p]] != j) {
+              seen[m_nb.frames[p]] = j;
+              rows.push_back(m_nb.frames[p]);
+            }
+        }
+        std::sort(rows.begin(), rows.end());
+      }
     }
-    Eigen::SparseMatrix<double> H(4 * m_frames, 4 * m_frames);
+    std::vector<int> outer(4 * static_cast<size_t>(n) + 1, 0);
+    for (int j = 0; j < n; ++j)
+      for (int c = 0; c < 4; ++c)
+        outer[4 * j + c + 1] = outer[4 * j + c] + 4 * static_cast<int>(adjacency[j].size());
+    Eigen::SparseMatrix<double> H(4 * n, 4 * n);
     H.resizeNonZeros(outer.back());
     std::copy(outer.begin(), outer.end(), H.outerIndexPtr());
     int *inner = H.innerIndexPtr();
     double *values = H.valuePtr();
-    for (int j = 0; j < m_frames; ++j)
-      for (int c = 0; c < 4; ++c) {
-        int at = outer[4 * j + c];
-        for (int i : adjacency[j])
-          for (int r = 0; r < 4; ++r)
-            inner[at++] = 4 * i + r;
-      }
-    std::fill(values, values + outer.back(), 0.0);
-    std::vector<Vec4> gk;
-    for (int s = 0; s < s_count; ++s) {
-      const int begin = m_nb.offsets[s], k = m_nb.offsets[s + 1] - begin;
-      const double v2 = m_volumes[s] * m_volumes[s];
-      gk.resize(k);
-      for (int q = 0; q < k; ++q)
-        gk[q] = m_gram[s] * m_k[begin + q];
-      for (int q = 0; q < k; ++q) {
-        const int j = m_nb.frames[begin + q];
+#pragma omp parallel
+    {
+      std::vector<int> slot(n, 0);
+#pragma omp for schedule(dynamic, 16)
+      for (int j = 0; j < n; ++j) {
         const std::vector<int> &rows = adjacency[j];
-        for (int p = 0; p < k; ++p) {
-          const int i = m_nb.frames[begin + p];
-          const double pi = (p == q ? 1.0 : 0.0) - m_k[begin + p].dot(gk[q]);
-          const int slot = static_cast<int>(
-              std::lower_bound(rows.begin(), rows.end(), i) - rows.begin());
-          const Vec4 &ep = m_e[begin + p], &eq = m_e[begin + q];
-          for (int c = 0; c < 4; ++c) {
-            double *column = values + outer[4 * j + c] + 4 * slot;
-            const double f = v2 * pi * eq[c];
+        for (size_t k = 0; k < rows.size(); ++k)
+          slot[rows[k]] = static_cast<int>(k);
+        for (int c = 0; c < 4; ++c) {
+          int at = outer[4 * j + c];
+          std::fill(values + at, values + outer[4 * j + c + 1], 0.0);
+          for (int i : rows)
             for (int r = 0; r < 4; ++r)
-              column[r] += f * ep[r];
+              inner[at++] = 4 * i + r;
+        }
+        for (int a = m_frame_offsets[j]; a < m_frame_offsets[j + 1]; ++a) {
+          const int q = m_frame_pairs[a], s = m_pair_sample[q];
+          const double v2 = m_volumes[s] * m_volumes[s];
+          const Vec4 gk = m_gram[s] * m_k[q];
+          const Vec4 &eq = m_e[q];
+          for (int p = m_nb.offsets[s]; p < m_nb.offsets[s + 1]; ++p) {
+            const double f = v2 * ((p == q ? 1.0 : 0.0) - m_k[p].dot(gk));
+            const Vec4 &ep = m_e[p];
+            const int at = 4 * slot[m_nb.frames[p]];
+            for (int c = 0; c < 4; ++c) {
+              double *column = values + outer[4 * j + c] + at;
+              for (int r = 0; r < 4; ++r)
+                column[r] += f * eq[c] * ep[r];
+            }
           }
         }
       }
