@@ -13,42 +13,62 @@ constexpr int kParallelMin = 256;               // fewer samples: one thread
 }  // namespace
 
 TangentAssembler::TangentAssembler(const Model& model) {
-  const int n = model.frame_count();
+  const int n = model.frame_count(), samples = model.sample_count();
   const NeighbourTable& nb = model.neighbours;
-  // Block adjacency: frames i, j are coupled when a sample has both (the frame itself included).
+  const ReverseTable& rev = model.reverse;
+  // Block adjacency: frames i, j are coupled when a sample has both (the frame itself included);
+  // the rows of column block j are the frames of j's samples, each marked once, sorted.
   std::vector<std::vector<int>> adjacency(n);
-  for (int i = 0; i < n; ++i) adjacency[i].push_back(i);
-  for (int s = 0; s < model.sample_count(); ++s)
-    for (int a = nb.offsets[s]; a < nb.offsets[s + 1]; ++a)
-      for (int b = nb.offsets[s]; b < nb.offsets[s + 1]; ++b) adjacency[nb.frames[b]].push_back(nb.frames[a]);
-  for (auto& rows : adjacency) {
-    std::sort(rows.begin(), rows.end());
-    rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
+#pragma omp parallel if (samples > kParallelMin)
+  {
+    std::vector<int> seen(n, -1);
+#pragma omp for schedule(dynamic, 16)
+    for (int j = 0; j < n; ++j) {
+      std::vector<int>& rows = adjacency[j];
+      seen[j] = j;
+      rows.push_back(j);
+      for (int k = rev.offsets[j]; k < rev.offsets[j + 1]; ++k) {
+        const int s = rev.pair_samples[rev.pairs[k]];
+        for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p)
+          if (seen[nb.frames[p]] != j) {
+            seen[nb.frames[p]] = j;
+            rows.push_back(nb.frames[p]);
+          }
+      }
+      std::sort(rows.begin(), rows.end());
+    }
   }
   // Column-major pattern: column 6j+c holds the rows 6i..6i+5 of every neighbour i of j, sorted.
   const int size = 6 * n;
-  std::vector<int> outer(size + 1, 0), inner;
+  std::vector<int> outer(size + 1, 0);
+  for (int j = 0; j < n; ++j)
+    for (int c = 0; c < 6; ++c) outer[6 * j + c + 1] = outer[6 * j + c] + 6 * static_cast<int>(adjacency[j].size());
+  m_matrix.resize(size, size);
+  m_matrix.resizeNonZeros(static_cast<Eigen::Index>(outer.back()));
+  std::copy(outer.begin(), outer.end(), m_matrix.outerIndexPtr());
+  int* inner = m_matrix.innerIndexPtr();
+#pragma omp parallel for schedule(dynamic, 16) if (samples > kParallelMin)
   for (int j = 0; j < n; ++j)
     for (int c = 0; c < 6; ++c) {
-      outer[6 * j + c + 1] = outer[6 * j + c] + 6 * static_cast<int>(adjacency[j].size());
+      int at = outer[6 * j + c];
       for (int i : adjacency[j])
-        for (int r = 0; r < 6; ++r) inner.push_back(6 * i + r);
+        for (int r = 0; r < 6; ++r) inner[at++] = 6 * i + r;
     }
-  m_matrix.resize(size, size);
-  m_matrix.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
-  std::copy(outer.begin(), outer.end(), m_matrix.outerIndexPtr());
-  std::copy(inner.begin(), inner.end(), m_matrix.innerIndexPtr());
-  std::fill(m_matrix.valuePtr(), m_matrix.valuePtr() + inner.size(), 0.0);
+  std::fill(m_matrix.valuePtr(), m_matrix.valuePtr() + outer.back(), 0.0);
   // Position k of frame i (row block) in column block j, for every (sample, a, b).
-  m_pair_offsets.assign(model.sample_count() + 1, 0);
-  for (int s = 0; s < model.sample_count(); ++s) {
+  m_pair_offsets.assign(samples + 1, 0);
+  for (int s = 0; s < samples; ++s) {
     const int k = nb.offsets[s + 1] - nb.offsets[s];
     m_pair_offsets[s + 1] = m_pair_offsets[s] + k * k;
+  }
+  m_pair_slots.resize(static_cast<size_t>(m_pair_offsets.back()));
+#pragma omp parallel for schedule(dynamic, 64) if (samples > kParallelMin)
+  for (int s = 0; s < samples; ++s) {
+    int* slot = &m_pair_slots[m_pair_offsets[s]];
     for (int a = nb.offsets[s]; a < nb.offsets[s + 1]; ++a)
       for (int b = nb.offsets[s]; b < nb.offsets[s + 1]; ++b) {
         const auto& rows = adjacency[nb.frames[b]];
-        m_pair_slots.push_back(
-            static_cast<int>(std::lower_bound(rows.begin(), rows.end(), nb.frames[a]) - rows.begin()));
+        *slot++ = static_cast<int>(std::lower_bound(rows.begin(), rows.end(), nb.frames[a]) - rows.begin());
       }
   }
 }
