@@ -45,35 +45,73 @@ std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& 
       if (field.name == out[f].name) sources[f] = &field;
   const NeighbourTable& t = model.neighbours;
   const ReverseTable& rev = model.reverse;
+  auto fibred = [&](std::size_t s) {
+    return model.materials[static_cast<std::size_t>(model.samples.materials[s])].law == MaterialLaw::hgo;
+  };
+  // The sources packed per sample, [S][C] with C the components of every field but the fibre
+  // stretch (which averages other samples), so that a frame sums one contiguous row per pair.
+  const std::size_t S = static_cast<std::size_t>(model.sample_count());
+  std::vector<std::size_t> at(out.size(), 0);
+  std::size_t C = 0, fibre = out.size();
+  for (std::size_t f = 0; f < out.size(); ++f) {
+    if (!sources[f]) continue;
+    if (out[f].name == "fibre_stretch") {
+      fibre = f;
+      continue;
+    }
+    at[f] = C;
+    C += static_cast<std::size_t>(out[f].components);
+  }
+  std::vector<double> packed(S * C);
+#pragma omp parallel for schedule(static)
+  for (long sl = 0; sl < static_cast<long>(S); ++sl) {
+    const std::size_t s = static_cast<std::size_t>(sl);
+    for (std::size_t f = 0; f < out.size(); ++f) {
+      if (!sources[f] || f == fibre) continue;
+      const std::size_t c = static_cast<std::size_t>(out[f].components);
+      for (std::size_t j = 0; j < c; ++j) packed[C * s + at[f] + j] = sources[f]->values[c * s + j];
+    }
+  }
   // Each frame gathers its pairs (the reverse table) in their fixed order: frames in parallel.
   // The fibre stretch averages the samples that have fibres only: a frame that a ligament shares
   // with an isotropic organ shows the ligament's stretch, not a blend with 0.
-#pragma omp parallel for schedule(dynamic, 64)
-  for (long il = 0; il < n; ++il) {
-    const std::size_t i = static_cast<std::size_t>(il);
-    auto fibred = [&](std::size_t s) {
-      return model.materials[static_cast<std::size_t>(model.samples.materials[s])].law == MaterialLaw::hgo;
-    };
-    double weight = 0, weight_fibred = 0;
-    for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
-      const std::size_t q = static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)]);
-      const std::size_t s = static_cast<std::size_t>(rev.pair_samples[q]);
-      const double w = std::abs(t.weights[q]) * model.samples.volumes[s];
-      weight += w;
-      if (fibred(s)) weight_fibred += w;
-    }
-    for (std::size_t f = 0; f < out.size(); ++f) {
-      if (!sources[f]) continue;
-      const bool fibres_only = out[f].name == "fibre_stretch";
-      const double total = fibres_only ? weight_fibred : weight;
-      if (!(total > 0)) continue;
-      const std::size_t c = static_cast<std::size_t>(out[f].components);
+#pragma omp parallel
+  {
+    std::vector<double> row(C);
+#pragma omp for schedule(dynamic, 64)
+    for (long il = 0; il < n; ++il) {
+      const std::size_t i = static_cast<std::size_t>(il);
+      double weight = 0, weight_fibred = 0;
       for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
         const std::size_t q = static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)]);
         const std::size_t s = static_cast<std::size_t>(rev.pair_samples[q]);
-        if (fibres_only && !fibred(s)) continue;
-        const double w = std::abs(t.weights[q]) * model.samples.volumes[s] / total;
-        for (std::size_t j = 0; j < c; ++j) out[f].values[c * i + j] += w * sources[f]->values[c * s + j];
+        const double w = std::abs(t.weights[q]) * model.samples.volumes[s];
+        weight += w;
+        if (fibred(s)) weight_fibred += w;
+      }
+      if (weight > 0) {
+        std::fill(row.begin(), row.end(), 0.0);
+        for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
+          const std::size_t q = static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)]);
+          const std::size_t s = static_cast<std::size_t>(rev.pair_samples[q]);
+          const double w = std::abs(t.weights[q]) * model.samples.volumes[s] / weight;
+          const double* in = &packed[C * s];
+          for (std::size_t j = 0; j < C; ++j) row[j] += w * in[j];
+        }
+        for (std::size_t f = 0; f < out.size(); ++f) {
+          if (!sources[f] || f == fibre) continue;
+          const std::size_t c = static_cast<std::size_t>(out[f].components);
+          for (std::size_t j = 0; j < c; ++j) out[f].values[c * i + j] = row[at[f] + j];
+        }
+      }
+      if (fibre < out.size() && weight_fibred > 0) {
+        double sum = 0;
+        for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
+          const std::size_t q = static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)]);
+          const std::size_t s = static_cast<std::size_t>(rev.pair_samples[q]);
+          if (fibred(s)) sum += std::abs(t.weights[q]) * model.samples.volumes[s] / weight_fibred * sources[fibre]->values[s];
+        }
+        out[fibre].values[i] = sum;
       }
     }
   }
