@@ -155,6 +155,7 @@ class StepRecorder {
                                model.neighbours.weights.data(), model.neighbours.weight_gradients.data(),
                                model.neighbours.rest_offsets.data()};
       m_sample_positions.resize(3 * static_cast<std::size_t>(model.sample_count()));
+#pragma omp parallel for schedule(static)
       for (int s = 0; s < model.sample_count(); ++s) {
         const Vec3 p = sample_position(view, s, state.positions.data(), m_rotations.data());
         m_sample_positions[3 * static_cast<std::size_t>(s)] = p.x;
@@ -176,6 +177,7 @@ class StepRecorder {
         const NeighbourTable& t = object.skin;
         const PairTableView view{t.offsets.data(), t.frames.data(), t.weights.data(), t.weight_gradients.data(),
                                  t.rest_offsets.data()};
+#pragma omp parallel for schedule(static)
         for (std::size_t v = 0; v < frames.size(); ++v) {
           const Vec3 p = sample_position(view, static_cast<int>(v), state.positions.data(), m_rotations.data());
           out[3 * v] = p.x;
