@@ -165,45 +165,52 @@ std::vector<Field> surface_fields(const Model& model, const State& state, const 
   std::size_t C = 0;
   for (const Field& f : measures) C += static_cast<std::size_t>(f.components);
   const std::size_t N = static_cast<std::size_t>(model.frame_count());
-  std::vector<double> packed(N * C), row(C);
+  std::vector<double> packed(N * C);
   for (std::size_t i = 0, at = 0; i < N; ++i)
     for (const Field& f : measures) {
       const std::size_t c = static_cast<std::size_t>(f.components);
       for (std::size_t k = 0; k < c; ++k) packed[at++] = f.values[c * i + k];
     }
-  for (std::size_t v = 0; v < V; ++v) {
-    Vec3 u{0, 0, 0}, velocity{0, 0, 0};
-    std::fill(row.begin(), row.end(), 0.0);
-    auto add_measures = [&](std::size_t frame, double w) {
-      const double* in = &packed[C * frame];
-      for (std::size_t k = 0; k < C; ++k) row[k] += w * in[k];
-    };
-    if (source.skin) {
-      // eq. (3) at the state minus eq. (3) at rest (R = I): sum_i w (x_i + R_i l - x̄_i - l).
-      const NeighbourTable& t = *source.skin;
-      double total = 0;
-      for (int q = t.offsets[v]; q < t.offsets[v + 1]; ++q) total += std::abs(t.weights[static_cast<std::size_t>(q)]);
-      for (int q = t.offsets[v]; q < t.offsets[v + 1]; ++q) {
-        const std::size_t qi = static_cast<std::size_t>(q);
-        const std::size_t i = static_cast<std::size_t>(t.frames[qi]);
-        const Vec3 l = load3(&t.rest_offsets[3 * qi]), a = load_mat3(&rotations[9 * i]) * l;
-        u += t.weights[qi] * (load3(&state.positions[3 * i]) + a - load3(&model.frame_rest_positions[3 * i]) - l);
-        velocity += t.weights[qi] * (load3(&state.velocities[6 * i]) + cross(load3(&state.velocities[6 * i + 3]), a));
-        if (total > 0) add_measures(i, std::abs(t.weights[qi]) / total);
+  // Vertices are independent: in parallel.
+#pragma omp parallel
+  {
+    std::vector<double> row(C);
+#pragma omp for schedule(static)
+    for (long vl = 0; vl < static_cast<long>(V); ++vl) {
+      const std::size_t v = static_cast<std::size_t>(vl);
+      Vec3 u{0, 0, 0}, velocity{0, 0, 0};
+      std::fill(row.begin(), row.end(), 0.0);
+      auto add_measures = [&](std::size_t frame, double w) {
+        const double* in = &packed[C * frame];
+        for (std::size_t k = 0; k < C; ++k) row[k] += w * in[k];
+      };
+      if (source.skin) {
+        // eq. (3) at the state minus eq. (3) at rest (R = I): sum_i w (x_i + R_i l - x̄_i - l).
+        const NeighbourTable& t = *source.skin;
+        double total = 0;
+        for (int q = t.offsets[v]; q < t.offsets[v + 1]; ++q) total += std::abs(t.weights[static_cast<std::size_t>(q)]);
+        for (int q = t.offsets[v]; q < t.offsets[v + 1]; ++q) {
+          const std::size_t qi = static_cast<std::size_t>(q);
+          const std::size_t i = static_cast<std::size_t>(t.frames[qi]);
+          const Vec3 l = load3(&t.rest_offsets[3 * qi]), a = load_mat3(&rotations[9 * i]) * l;
+          u += t.weights[qi] * (load3(&state.positions[3 * i]) + a - load3(&model.frame_rest_positions[3 * i]) - l);
+          velocity += t.weights[qi] * (load3(&state.velocities[6 * i]) + cross(load3(&state.velocities[6 * i + 3]), a));
+          if (total > 0) add_measures(i, std::abs(t.weights[qi]) / total);
+        }
+      } else {
+        const std::size_t i = static_cast<std::size_t>(surface.vertex_frames[v]);
+        u = load3(&state.positions[3 * i]) - load3(&model.frame_rest_positions[3 * i]);
+        velocity = load3(&state.velocities[6 * i]);
+        add_measures(i, 1.0);
       }
-    } else {
-      const std::size_t i = static_cast<std::size_t>(surface.vertex_frames[v]);
-      u = load3(&state.positions[3 * i]) - load3(&model.frame_rest_positions[3 * i]);
-      velocity = load3(&state.velocities[6 * i]);
-      add_measures(i, 1.0);
-    }
-    for (std::size_t k = 0; k < 3; ++k) {
-      out[0].values[3 * v + k] = k == 0 ? u.x : k == 1 ? u.y : u.z;
-      out[1].values[3 * v + k] = k == 0 ? velocity.x : k == 1 ? velocity.y : velocity.z;
-    }
-    for (std::size_t f = 0, at = 0; f < measures.size(); ++f) {
-      const std::size_t c = static_cast<std::size_t>(measures[f].components);
-      for (std::size_t k = 0; k < c; ++k) out[first_measure + f].values[c * v + k] = row[at++];
+      for (std::size_t k = 0; k < 3; ++k) {
+        out[0].values[3 * v + k] = k == 0 ? u.x : k == 1 ? u.y : u.z;
+        out[1].values[3 * v + k] = k == 0 ? velocity.x : k == 1 ? velocity.y : velocity.z;
+      }
+      for (std::size_t f = 0, at = 0; f < measures.size(); ++f) {
+        const std::size_t c = static_cast<std::size_t>(measures[f].components);
+        for (std::size_t k = 0; k < c; ++k) out[first_measure + f].values[c * v + k] = row[at++];
+      }
     }
   }
   return out;
