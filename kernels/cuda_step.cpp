@@ -79,7 +79,7 @@ class CudaStep final : public StepBackend {
       m_potential.set_dynamic(o.start, o.dt, settings.rayleigh_mass);
     m_potential.set_load_scale(o.load_scale);
     m_state.upload(o.state);
-    m_potential.prepare_hessian(m_state);
+    m_potential.prepare_hessian(m_state, false);
     m_factor->factorise(m_potential);
     m_potential.set_load_scale(1.0);
     m_origin = o;

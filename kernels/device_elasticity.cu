@@ -85,7 +85,7 @@ struct DeviceElasticity::Impl {
   virtual void get_state(State& state) const = 0;
   virtual double energy() = 0;
   virtual double gradient(double* g) = 0;
-  virtual double prepare() = 0;
+  virtual double prepare(bool diagonal_blocks) = 0;
   virtual void apply_tangent(const double* d, double* out) = 0;
   virtual void diagonal_blocks(double* blocks) = 0;
   virtual void* stream() const = 0;
@@ -334,9 +334,9 @@ class System final : public DeviceElasticity::Impl {
     return e;
   }
 
-  double prepare() override {
+  double prepare(bool diagonal_blocks) override {
     enqueue_gradient_pass(false);
-    enqueue_frame_prepare(0.0, true);
+    enqueue_frame_prepare(0.0, diagonal_blocks, 1.0, nullptr, diagonal_blocks);
     return read_scalars().energy;
   }
 
@@ -1033,7 +1033,7 @@ void DeviceElasticity::set_state(const State& state) { m_impl->set_state(state);
 void DeviceElasticity::get_state(State& state) const { m_impl->get_state(state); }
 double DeviceElasticity::energy() { return m_impl->energy(); }
 double DeviceElasticity::gradient(double* g) { return m_impl->gradient(g); }
-double DeviceElasticity::prepare() { return m_impl->prepare(); }
+double DeviceElasticity::prepare(bool diagonal_blocks) { return m_impl->prepare(diagonal_blocks); }
 void DeviceElasticity::apply_tangent(const double* d, double* out) { m_impl->apply_tangent(d, out); }
 void DeviceElasticity::tangent_diagonal_blocks(double* blocks) { m_impl->diagonal_blocks(blocks); }
 void* DeviceElasticity::stream() const { return m_impl->stream(); }

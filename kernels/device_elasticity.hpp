@@ -72,8 +72,11 @@ class DeviceElasticity {
   // Energy and gradient [N][6] (host memory), as Elasticity::gradient.
   double gradient(double* gradient);
   // Precomputes F, P, the samples' state of the tangent product and the per-frame rotational
-  // blocks; returns the energy. Call before apply_tangent / tangent_diagonal_blocks.
-  double prepare();
+  // blocks; returns the energy. Call before apply_tangent / tangent_diagonal_blocks. Without
+  // `diagonal_blocks` the 6x6 blocks K_ii (one differential of P per pair and direction, most of
+  // the preparation's work) are left out: tangent_diagonal_blocks and diagonal_blocks_on_device
+  // are then not valid.
+  double prepare(bool diagonal_blocks = true);
   // out = K d, [N][6] host memory, as Elasticity::apply_tangent.
   void apply_tangent(const double* d, double* out);
   // K_ii [N][36] row-major, as Elasticity::tangent_diagonal_blocks.

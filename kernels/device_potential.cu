@@ -375,7 +375,7 @@ double DevicePotential::gradient(const DeviceFrames& q, double* g) {
   return phi;
 }
 
-void DevicePotential::prepare_hessian(const DeviceFrames& q) {
+void DevicePotential::prepare_hessian(const DeviceFrames& q, bool preconditioner) {
   Impl& m = *m_impl;
   const int n = m_model.frame_count();
   if (!m.mapping.empty()) {  // first: the gradient pass reuses the elasticity's buffers
@@ -385,11 +385,13 @@ void DevicePotential::prepare_hessian(const DeviceFrames& q) {
   }
   if (m.elasticity) {
     m.select(q);
-    m.elasticity->prepare();
+    m.elasticity->prepare(preconditioner);
   }
   m.shells.prepare(q.positions(), q.orientations(), m.stream);
   k_frame_diagonal<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(m.terms, q.orientations(), m.diag.data());
   check();
+  m.prepared = preconditioner;
+  if (!preconditioner) return;  // preconditioner() is null until a preparation with it
   k_diagonal_blocks<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(
       n, m.elasticity ? m.elasticity->diagonal_blocks_on_device() : nullptr, m.diag.data(), m.blocks.data());
   check();
@@ -397,7 +399,6 @@ void DevicePotential::prepare_hessian(const DeviceFrames& q) {
   m.mapping.reduce_diagonal_blocks(m.blocks.data(), m.stream);
   k_block_jacobi<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.blocks.data(), m.fixed.data(), m.minv.data());
   check();
-  m.prepared = true;
 }
 
 void DevicePotential::apply(const double* d_reduced, double* out) {

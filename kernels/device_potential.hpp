@@ -56,8 +56,10 @@ class DevicePotential {
   double value(const DeviceFrames& q);
   // Phi and g = dPhi/d(theta) at q (g unprojected).
   double gradient(const DeviceFrames& q, double* g);
-  // The Hessian at q for apply() and the preconditioner.
-  void prepare_hessian(const DeviceFrames& q);
+  // The Hessian at q for apply(), tangent_blocks() and, with `preconditioner`, the block-Jacobi
+  // preconditioner() (whose diagonal blocks are most of the elasticity's preparation: a solve
+  // preconditioned by the Cholesky factor leaves them out).
+  void prepare_hessian(const DeviceFrames& q, bool preconditioner = true);
   // out = H d (unprojected), with H prepared by prepare_hessian.
   void apply(const double* d, double* out);
   // The elastic blocks of the Hessian prepared by prepare_hessian for the block pattern set by

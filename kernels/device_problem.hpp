@@ -57,14 +57,15 @@ class DeviceProblem {
     return phi;
   }
   LinearResult solve(const State& q, const Vector& rhs, Vector& d, double tolerance) {
-    m_potential.prepare_hessian(q);
+    const bool factored = m_factor && factorises(m_linear);  // else block Jacobi or none
+    m_potential.prepare_hessian(q, !factored);
     LinearSettings linear = m_linear;
     linear.tolerance = tolerance;
     auto apply = [this](const Vector& p, Vector& out) {
       m_ops.resize(out);
       m_potential.apply(p.data(), out.data());
     };
-    if (m_factor && factorises(m_linear)) {
+    if (factored) {
       struct Kept {
         DeviceProblem& problem;
         const State& q;
