@@ -744,7 +744,8 @@ class System final : public DeviceElasticity::Impl {
 
   // The launched tangent product's sample kernel in use (enqueue_tangent's choice).
   const void* tangent_sample_kernel() const {
-    if (grouped) return reinterpret_cast<const void*>(&k_group_tangent<R>);
+    if (grouped) return m_fibres ? reinterpret_cast<const void*>(&k_group_tangent<R, true>)
+                                 : reinterpret_cast<const void*>(&k_group_tangent<R, false>);
     return reinterpret_cast<const void*>(ell_tangent_kernel(m_keep, m_lanes));
   }
 
@@ -756,8 +757,9 @@ class System final : public DeviceElasticity::Impl {
     const R* pd = z ? z : d;
     const R* pold = z ? d : nullptr;
     if (grouped) {
-      k_group_tangent<R><<<m_group_blocks, kGroupThreads, 0, m_stream>>>(m_group_view, m_frame_view, pd, pold,
-                                                                         m_group_partials.data(), sc, kSlotLanes);
+      const auto kernel = m_fibres ? &k_group_tangent<R, true> : &k_group_tangent<R, false>;
+      kernel<<<m_group_blocks, kGroupThreads, 0, m_stream>>>(m_group_view, m_frame_view, pd, pold,
+                                                             m_group_partials.data(), sc, kSlotLanes);
       check_launch();
       enqueue_frame_rows(m_group_view, m_group_partials.data(), frame_block(pcg), frame_inertia(pcg), flags, d, out,
                          pcg, z);
