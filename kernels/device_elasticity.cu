@@ -487,9 +487,8 @@ class System final : public DeviceElasticity::Impl {
     m_resident_frames_bytes = lever_bytes <= static_cast<size_t>(shared_limit) ? lever_bytes : 0;
     for (int keep : {2, 4, 8}) {
       for (int lanes : {1, kSampleLanes})
-        for (EllTangentKernel kernel : {ell_tangent_kernel_of<true>(keep, lanes), ell_tangent_kernel_of<false>(keep, lanes)})
-          FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(kernel),
-                                           cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
+        FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep, lanes)),
+                                         cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
       FASCIA_CUDA(cudaFuncSetAttribute(two_barrier_kernel(keep), cudaFuncAttributeMaxDynamicSharedMemorySize,
                                        static_cast<int>(m_ell_bytes)));
     }
@@ -836,19 +835,11 @@ class System final : public DeviceElasticity::Impl {
     return lanes == 1 ? reinterpret_cast<const void*>(&k_frame_sums<R, 1>)
                       : reinterpret_cast<const void*>(&k_frame_sums<R, kFrameLanes>);
   }
-  template <bool Fibres>
-  static EllTangentKernel ell_tangent_kernel_of(int keep, int lanes) {
-    if (lanes == 1)
-      return keep == 2   ? &k_ell_tangent<R, 2, 1, Fibres>
-             : keep == 4 ? &k_ell_tangent<R, 4, 1, Fibres>
-                         : &k_ell_tangent<R, 8, 1, Fibres>;
-    return keep == 2   ? &k_ell_tangent<R, 2, kSampleLanes, Fibres>
-           : keep == 4 ? &k_ell_tangent<R, 4, kSampleLanes, Fibres>
-                       : &k_ell_tangent<R, 8, kSampleLanes, Fibres>;
-  }
-  // The coalesced tangent kernel of this model: without the fibre code unless a material is hgo.
-  EllTangentKernel ell_tangent_kernel(int keep, int lanes) const {
-    return m_fibres ? ell_tangent_kernel_of<true>(keep, lanes) : ell_tangent_kernel_of<false>(keep, lanes);
+  static EllTangentKernel ell_tangent_kernel(int keep, int lanes) {
+    if (lanes == 1) return keep == 2 ? &k_ell_tangent<R, 2, 1> : keep == 4 ? &k_ell_tangent<R, 4, 1> : &k_ell_tangent<R, 8, 1>;
+    return keep == 2   ? &k_ell_tangent<R, 2, kSampleLanes>
+           : keep == 4 ? &k_ell_tangent<R, 4, kSampleLanes>
+                       : &k_ell_tangent<R, 8, kSampleLanes>;
   }
   // k_pcg_two_barrier for `keep` held entries.
   static const void* two_barrier_kernel(int keep) {
@@ -984,7 +975,7 @@ class System final : public DeviceElasticity::Impl {
   int m_lanes = 1;        // threads per sample of the launched coalesced tangent kernel
   int m_frame_lanes = 1;  // threads per frame of its frame pass
   bool m_resident = false;  // the persistent PCG is k_pcg_resident
-  bool m_fibres = false;    // some material is hgo: tangent kernels with fibre code, no k_pcg_resident
+  bool m_fibres = false;    // some material is hgo: k_pcg_resident does not serve the model
   size_t m_shared_bytes = 0, m_ell_bytes = 0;
   size_t m_resident_frames_bytes = 0;  // the resident double kernel's with staged frames
   bool m_resident_try_staged = true;   // persistent_grid: the staged kernel is still a candidate

@@ -313,9 +313,8 @@ __device__ void warp_slot_sums(const ModelView<R>& m, const R* outs, int stride,
 // lever records are gathered in each half (the second read hits the cache). Outputs [6][P_b] in
 // slot-major order in `local`, then `slot_lanes` lanes per slot sum it (warp_slot_sums). All
 // arithmetic in R. Every thread of the block must call it. Returns this thread's v dF : dP (lane
-// 0 of each sample), the sample terms of p . K p for the persistent PCG. Fibres = false: models
-// without an hgo material (pk1_differential).
-template <class R, int Keep, int Lanes = 1, bool Fibres = true>
+// 0 of each sample), the sample terms of p . K p for the persistent PCG.
+template <class R, int Keep, int Lanes = 1>
 __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f, const R* d, const R* p_old,
                                     double beta, int b, int slot_lanes, R* local, R* slot_partials) {
   static_assert(Lanes >= 1 && Lanes <= 32 && (Lanes & (Lanes - 1)) == 0, "Lanes: a power of two <= 32");
@@ -352,7 +351,7 @@ __device__ double ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f
           for (int o = Lanes / 2; o > 0; o >>= 1) dF.m[r][c] += __shfl_xor_sync(lanes_mask, dF.m[r][c], o);
     }
     if (count > 0) {
-      const Mat3T<R> dP = ell_sample_dP<R, Fibres>(m, f.sample_state, s, dF);
+      const Mat3T<R> dP = ell_sample_dP(m, f.sample_state, s, dF);
       const R v = sample_value(f.sample_state, m.samples, 3, s);
       if (lane == 0) work += static_cast<double>(v) * static_cast<double>(ddot(dF, dP));
 #pragma unroll
@@ -386,9 +385,8 @@ constexpr int dense_blocks_per_sm(int keep) {
 
 // Coalesced tangent pass, one block of kDenseThreads threads per sample block. In the PCG (p_old
 // set) the direction is p = z + beta p_old with z = d and beta from the scalars; k_frame_sums
-// stores it. Fibres = false (models without an hgo material) leaves the fibre code out: compiled
-// in, it spills every instantiation's registers to local memory (ptxas, sm_90).
-template <class R, int Keep, int Lanes, bool Fibres>
+// stores it.
+template <class R, int Keep, int Lanes>
 __global__ void __launch_bounds__(kDenseThreads, dense_blocks_per_sm<R>(Keep))
     k_ell_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
                   int slot_lanes) {
@@ -396,8 +394,8 @@ __global__ void __launch_bounds__(kDenseThreads, dense_blocks_per_sm<R>(Keep))
   R* local = reinterpret_cast<R*>(shared_raw);
   if (finished(sc)) return;
   const double beta = p_old ? sc->beta : 0.0;
-  ell_tangent_block<R, Keep, Lanes, Fibres>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), slot_lanes, local,
-                                            slot_partials);
+  ell_tangent_block<R, Keep, Lanes>(m, f, d, p_old, beta, static_cast<int>(blockIdx.x), slot_lanes, local,
+                                    slot_partials);
 }
 
 // The end of a chunk's PCG row update (update_rows_chunk, frame_update_chunk): row j = 6 i + k

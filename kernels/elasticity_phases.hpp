@@ -424,14 +424,13 @@ FASCIA_HD void ell_sample_material(const ModelView<R>& m, const R* state, int s,
   ell_sample_material(m, state, s, m.materials[m.sample_materials[s]], F, c);
 }
 
-// dP = C[dF] (eq. 22-24) of sample s (ell_sample_material); Fibres = false for models without an
-// hgo material (pk1_differential).
-template <class R, bool Fibres = true>
+// dP = C[dF] (eq. 22-24) of sample s (ell_sample_material).
+template <class R>
 FASCIA_HD Mat3T<R> ell_sample_dP(const ModelView<R>& m, const R* state, int s, const Mat3T<R>& dF) {
   Mat3T<R> F;
   MaterialCacheT<R> c;
   ell_sample_material(m, state, s, F, c);
-  return pk1_differential<R, Fibres>(m.materials[m.sample_materials[s]], F, c, dF);
+  return pk1_differential(m.materials[m.sample_materials[s]], F, c, dF);
 }
 
 // The pair's v B_p^T dP (eq. 21, 23, 25-26) into outs[k stride + pos] (pos its slot-major
