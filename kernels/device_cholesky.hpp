@@ -66,8 +66,9 @@ class DeviceCholesky {
   // CPU's LinearSettings::refactorise_above weighs the CPU's costs). A factorisation costs
   // products() tangent products, the blocks (one pass over the pairs of each sample) and potrf
   // and potri, about n/20 products (an H100: 6 ms at 2,208 DOFs, 125 ms at 11,460, against a
-  // product of 50 and 200 us); a CG iteration one product and one product with H^{-1}. Renewing pays when the iterations it saves over the solves that follow
-  // (about ten: a few steps' Newton iterations) exceed its cost.
+  // product of 50 and 200 us); a CG iteration one product and one product with H^{-1}. Renewing
+  // pays when the iterations it saves over the solves that follow (about ten: a few steps' Newton
+  // iterations) exceed its cost.
   int refactorise_above(const LinearSettings& settings) const;
   // A fingerprint of the colouring (FNV-1a): equal for one model and build.
   std::uint64_t fingerprint() const;

@@ -292,7 +292,7 @@ struct DevicePotential::Impl {
   DeviceShells shells;
   cudaStream_t stream = nullptr;
   bool dynamic = false;
-  bool prepared = false;
+  bool preconditioned = false;  // minv holds the block-Jacobi inverse of the last prepare_hessian
   FrameTerms terms{};
   DeviceBuffer<double> load_f, load_C, masses, inertia0, inertia, start_x, start_q, start_v, diag, minv, scratch, blocks;
   DeviceBuffer<double> expanded, full_g;  // rigid mapping: d with mapped frames filled in, unreduced gradient
@@ -390,7 +390,7 @@ void DevicePotential::prepare_hessian(const DeviceFrames& q, bool preconditioner
   m.shells.prepare(q.positions(), q.orientations(), m.stream);
   k_frame_diagonal<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(m.terms, q.orientations(), m.diag.data());
   check();
-  m.prepared = preconditioner;
+  m.preconditioned = preconditioner;
   if (!preconditioner) return;  // preconditioner() is null until a preparation with it
   k_diagonal_blocks<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(
       n, m.elasticity ? m.elasticity->diagonal_blocks_on_device() : nullptr, m.diag.data(), m.blocks.data());
@@ -436,7 +436,9 @@ void DevicePotential::tangent_blocks(double* blocks) {
     m.ops.fill(blocks, 0.0, 36 * m.block_count);
 }
 
-const double* DevicePotential::preconditioner() const { return m_impl->prepared ? m_impl->minv.data() : nullptr; }
+const double* DevicePotential::preconditioner() const {
+  return m_impl->preconditioned ? m_impl->minv.data() : nullptr;
+}
 
 void DevicePotential::retract(DeviceFrames& q, const double* d, double scale) {
   Impl& m = *m_impl;

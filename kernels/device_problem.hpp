@@ -25,15 +25,15 @@ class DeviceProblem {
   using Vector = DeviceVector;
   using State = DeviceFrames;
 
+  // @param linear      the settings Newton solves with (NewtonSettings::linear): the direct
+  //                    cholmod method is refused (it runs on the CPU)
   // @param factor      the device factor for the cholmod preconditioner, kept by the caller
   //                    between problems with its `stale` flag; null: pcg is preconditioned by
-  //                    block Jacobi whatever LinearSettings::preconditioner says. The direct
-  //                    cholmod method is refused (it runs on the CPU).
+  //                    block Jacobi whatever LinearSettings::preconditioner says.
   // @param factorising called with the iterate before each factorisation (may be empty)
   DeviceProblem(DevicePotential& potential, const LinearSettings& linear, DeviceCholesky* factor, bool& stale,
                 std::function<void(const DeviceFrames&)> factorising = {})
       : m_potential(potential),
-        m_linear(linear),
         m_ops(potential.ops(), potential.dofs(), potential.fixed()),
         m_factor(factor),
         m_stale(stale),
@@ -56,11 +56,9 @@ class DeviceProblem {
     m_ops.project(g);
     return phi;
   }
-  LinearResult solve(const State& q, const Vector& rhs, Vector& d, double tolerance) {
-    const bool factored = m_factor && factorises(m_linear);  // else block Jacobi or none
+  LinearResult solve(const State& q, const Vector& rhs, Vector& d, const LinearSettings& linear) {
+    const bool factored = m_factor && factorises(linear);  // else block Jacobi or none
     m_potential.prepare_hessian(q, !factored);
-    LinearSettings linear = m_linear;
-    linear.tolerance = tolerance;
     auto apply = [this](const Vector& p, Vector& out) {
       m_ops.resize(out);
       m_potential.apply(p.data(), out.data());
@@ -81,9 +79,9 @@ class DeviceProblem {
     }
     PcgSettings pcg_settings;
     pcg_settings.tolerance = linear.tolerance;
-    pcg_settings.max_iterations = m_linear.max_iterations;
-    pcg_settings.fixed_iterations = m_linear.fixed_iterations;
-    if (m_linear.method == LinearMethod::cg)
+    pcg_settings.max_iterations = linear.max_iterations;
+    pcg_settings.fixed_iterations = linear.fixed_iterations;
+    if (linear.method == LinearMethod::cg)
       return pcg(m_ops, apply, IdentityPreconditioner<Ops>{m_ops}, pcg_settings, rhs, d);
     const double* blocks = m_potential.preconditioner();
     const int frames = static_cast<int>(m_potential.dofs() / 6);
@@ -97,7 +95,6 @@ class DeviceProblem {
 
  private:
   DevicePotential& m_potential;
-  const LinearSettings& m_linear;
   DeviceVectorOps m_ops;
   DeviceCholesky* m_factor;
   bool& m_stale;

@@ -310,9 +310,9 @@ class VariationalProblem {
 
   VariationalProblem(VariationalStep& step, StepPotential& potential, const State& start,
                      const std::vector<double>& p_start, const std::vector<std::uint8_t>& fixed, double dt,
-                     LinearSolver& solver, const LinearSettings& linear)
+                     LinearSolver& solver)
       : m_step(step), m_potential(potential), m_start(start), m_p_start(p_start),
-        m_ops(static_cast<int>(fixed.size()), fixed.data()), m_dt(dt), m_solver(solver), m_linear(linear) {}
+        m_ops(static_cast<int>(fixed.size()), fixed.data()), m_dt(dt), m_solver(solver) {}
 
   const Ops& ops() const { return m_ops; }
   bool minimises() const { return false; }
@@ -322,11 +322,9 @@ class VariationalProblem {
     m_ops.scale(1 / m_dt, g);
     return norm_r;
   }
-  LinearResult solve(const State& end, const Vector& rhs, Vector& d, double tolerance) {
+  LinearResult solve(const State& end, const Vector& rhs, Vector& d, const LinearSettings& linear) {
     m_rhs = rhs;
     m_ops.scale(4.0, m_rhs);
-    LinearSettings linear = m_linear;
-    linear.tolerance = tolerance;
     return m_solver.solve(m_step.iteration_matrix(m_start, end), linear, m_rhs, d);
   }
   void retract(State& q, const Vector& d, double alpha) { m_potential.retract(q, d.data(), alpha); }
@@ -339,7 +337,6 @@ class VariationalProblem {
   HostVectorOps m_ops;
   double m_dt;
   LinearSolver& m_solver;
-  const LinearSettings& m_linear;
   Vector m_rhs;
 };
 
@@ -365,7 +362,7 @@ NewtonResult VariationalStep::advance(const State& start, State& end, const Newt
   if (std::isfinite(norm_r0)) m_scale = std::max(m_scale, norm_r0 / h);
   std::unique_ptr<LinearSolver> local;
   if (!solver) solver = (local = std::make_unique<LinearSolver>()).get();
-  VariationalProblem problem(*this, m_potential, start, p_start, m_fixed, h, *solver, settings.linear);
+  VariationalProblem problem(*this, m_potential, start, p_start, m_fixed, h, *solver);
   NewtonResult result = newton(problem, end, settings, m_scale);
   m_residual_norm = residual(start, end, p_start, r);
   if (!result.converged) {

@@ -24,10 +24,9 @@ class HostPotentialProblem {
   using Vector = std::vector<double>;
   using State = fascia::State;
 
-  HostPotentialProblem(Potential& potential, LinearSolver& solver, const LinearSettings& linear)
+  HostPotentialProblem(Potential& potential, LinearSolver& solver)
       : m_potential(potential),
         m_solver(solver),
-        m_linear(linear),
         m_ops(potential.model().dof_count(), potential.model().fixed_dofs.data()) {}
 
   const Ops& ops() const { return m_ops; }
@@ -38,10 +37,8 @@ class HostPotentialProblem {
     m_ops.project(g);
     return phi;
   }
-  LinearResult solve(const State& q, const Vector& rhs, Vector& d, double tolerance) {
+  LinearResult solve(const State& q, const Vector& rhs, Vector& d, const LinearSettings& linear) {
     m_potential.prepare_hessian(q);
-    LinearSettings linear = m_linear;
-    linear.tolerance = tolerance;
     return m_solver.solve(m_potential.system(), linear, rhs, d);
   }
   void retract(State& q, const Vector& d, double alpha) { m_potential.retract(q, d.data(), alpha); }
@@ -49,7 +46,6 @@ class HostPotentialProblem {
  private:
   Potential& m_potential;
   LinearSolver& m_solver;
-  const LinearSettings& m_linear;
   HostVectorOps m_ops;
 };
 
@@ -59,7 +55,7 @@ NewtonResult minimise(Potential& potential, State& state, const NewtonSettings& 
                       LinearSolver* solver) {
   std::unique_ptr<LinearSolver> local;
   if (!solver) solver = (local = std::make_unique<LinearSolver>()).get();
-  HostPotentialProblem problem(potential, *solver, settings.linear);
+  HostPotentialProblem problem(potential, *solver);
   return newton(problem, state, settings, reference_force);
 }
 
@@ -68,7 +64,7 @@ NewtonResult minimise_load_stepping(Potential& potential, State& state, const Ne
                                     LinearSolver* solver) {
   std::unique_ptr<LinearSolver> local;
   if (!solver) solver = (local = std::make_unique<LinearSolver>()).get();
-  HostPotentialProblem problem(potential, *solver, settings.linear);
+  HostPotentialProblem problem(potential, *solver);
   return newton_load_stepping(problem, state, settings, stepping, set_load_factor);
 }
 

@@ -13,11 +13,10 @@
 //                                            minimises() (else any finite value; non-finite
 //                                            means q is not admissible, e.g. inverted elements)
 //   double value(const State& q);            Phi(q) (called only when minimises())
-//   LinearResult solve(const State& q, const Vector& rhs, Vector& d, double tolerance);
-//                                            d = H(q)^{-1} rhs on the free DOFs (the problem's
-//                                            linear solver: PCG, solve/pcg.hpp, or direct), an
-//                                            iterative solve stopping at relative residual
-//                                            `tolerance`
+//   LinearResult solve(const State& q, const Vector& rhs, Vector& d, const LinearSettings& linear);
+//                                            d = H(q)^{-1} rhs on the free DOFs by `linear`
+//                                            (PCG, solve/pcg.hpp, or direct): settings.linear
+//                                            with this iteration's tolerance (below)
 //   void retract(State& q, const Vector& d, double alpha);   q <- q (+) alpha d
 //
 // States are assigned (trial = q) and swapped during the line search.
@@ -105,8 +104,9 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
     }
     ops.copy(g, rhs);
     ops.scale(-1.0, rhs);
-    const double forcing = std::max(settings.linear.tolerance, std::min(kForcingMax, kForcing * result.residual));
-    const LinearResult lin = problem.solve(state, rhs, d, forcing);
+    LinearSettings linear = settings.linear;
+    linear.tolerance = std::max(settings.linear.tolerance, std::min(kForcingMax, kForcing * result.residual));
+    const LinearResult lin = problem.solve(state, rhs, d, linear);
     result.cg_iterations += lin.iterations;
     double slope = ops.dot(g, d);
     if (!(slope < 0)) {  // not a descent direction: steepest descent

@@ -49,8 +49,9 @@ struct QuarticProblem {
   // d = (1 + tolerance) H^{-1} rhs, so |H d - rhs| = tolerance |rhs|.
   bool inexact = false;
   std::vector<double> tolerances, rhs_norms;  // per solve: the tolerance asked, |rhs|
-  LinearResult solve(const State& x, const Vector& rhs, Vector& d, double tolerance) {
+  LinearResult solve(const State& x, const Vector& rhs, Vector& d, const LinearSettings& linear) {
     ++solves;
+    const double tolerance = linear.tolerance;
     tolerances.push_back(tolerance);
     rhs_norms.push_back(m_ops.norm(rhs));
     const double scale = inexact ? 1 + tolerance : 1.0;
