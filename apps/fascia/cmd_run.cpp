@@ -11,6 +11,7 @@
 #include "backend.hpp"
 #include "commands.hpp"
 #include "output_check.hpp"
+#include "output_thread.hpp"
 #include "process_threads.hpp"
 #include "progress.hpp"
 #include "run_files.hpp"
@@ -28,6 +29,7 @@
 #include "mechanics/external_loads.hpp"
 #include "mechanics/frame_sample.hpp"
 
+#include <omp.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -434,6 +436,11 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     xdmf_seconds = std::chrono::duration<double>(last_xdmf - now).count();
   };
 
+  // Rows, checkpoints and sidecars: on a thread of their own while the device runs the next step
+  // (the CPU backend's threads are all busy with the step, so there they run in turn with it).
+  // The file is opened on this thread, before the first job; every HDF5 call after that is a job.
+  OutputThread output_thread(simulation.on_step_backend(), omp_get_max_threads());
+
   StepReport last;
   last.time = simulation.time();
   long total_newton = 0, total_cg = 0;
@@ -459,8 +466,8 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     if (const StepController* controller = simulation.controller()) c.controller = controller->state();
     c.progress = simulation.advance_progress();
     c.history = simulation.path_history();
-    checkpoints->write(c);
     checkpointed_step = c.step;
+    output_thread.submit([&checkpoints, c = std::move(c)] { checkpoints->write(c); });
     last_checkpoint_wall = std::chrono::steady_clock::now();
   };
   int row_step = -1;  // the simulation step of the last row (or of the checkpoint resumed from)
@@ -507,12 +514,14 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       initial.converged = true;
       initial.kinetic_energy = kinetic_energy(simulation.model(), simulation.state());
       initial.external_potential = load_potential(simulation.model(), simulation.loads(), simulation.state());
-      writer->append(recorder.record(simulation.state(), initial));
+      output_thread.submit([&, state = simulation.state(), initial] {
+        writer->append(recorder.record(state, initial));
+        written_times.push_back(initial.time);
+      });
       ++regular_rows;
-      written_times.push_back(initial.time);
       write_checkpoint(steps == 0);
       row_step = 0;
-      update_xdmf(true);
+      output_thread.submit([&] { update_xdmf(true); });
     }
 
     const auto steps_start = std::chrono::steady_clock::now();
@@ -546,10 +555,12 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       if (adaptive || k % out_spec.every == 0 || k == steps) {
         row_step = simulation.steps_taken();
         if (!adaptive) last.accepted_steps = row.accepted_steps;
-        writer->append(recorder.record(simulation.state(), last));
+        output_thread.submit([&, state = simulation.state(), report = last] {
+          writer->append(recorder.record(state, report));
+          written_times.push_back(report.time);
+          update_xdmf(false);
+        });
         ++regular_rows;
-        written_times.push_back(last.time);
-        update_xdmf(false);
         row = StepReport{};
       }
       const double since_checkpoint =
@@ -575,15 +586,20 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
         StepReport report = last;
         report.step = done;
         report.time = simulation.time();
-        writer->append(recorder.record(simulation.state(), report));
-        written_times.push_back(report.time);
+        output_thread.submit([&, state = simulation.state(), report] {
+          writer->append(recorder.record(state, report));
+          written_times.push_back(report.time);
+        });
       }
       status = "stopped by " + stop_reason_name(stop_requested()) + " after step " + std::to_string(done) +
                " (written, checkpoint committed; continue with --resume)";
       exit_code = kStoppedOnSignal;
     }
-    writer->close();  // shrinks the datasets to the written steps
-    update_xdmf(true);
+    output_thread.submit([&] {
+      writer->close();  // shrinks the datasets to the written steps
+      update_xdmf(true);
+    });
+    output_thread.finish();
     if (run_figures)
       run_figures->step_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - steps_start).count();
   } catch (const NonFiniteStep& e) {
