@@ -78,6 +78,99 @@ void check() { FASCIA_CUDA(cudaGetLastError()); }
 
 }  // namespace
 
+// What cg_step's update does this iteration.
+enum CgMode : int { kCgIdle = 0, kCgUpdate = 1, kCgFirstBreakdown = 2, kCgBreakdown = 3 };
+
+struct VectorOps::CgState {
+  double rho, alpha, beta, b_norm, tolerance, relative_residual;
+  int iterations, stopped, negative_curvature, mode;
+};
+
+namespace {
+
+// The sum of the kReduceBlocks partials, in the fixed tree of k_sum_partials, valid in thread 0.
+__device__ double sum_partials(const double* partials) {
+  __shared__ double shared[1][kReduceThreads];
+  double s[1] = {0.0};
+  for (int b = threadIdx.x; b < kReduceBlocks; b += kReduceThreads) s[0] += partials[b];
+  block_sum<1>(s, shared);
+  return s[0];
+}
+
+__global__ void k_cg_start(const double* partials, double b_norm, double tolerance, VectorOps::CgState* cg) {
+  const double rho = sum_partials(partials);
+  if (threadIdx.x == 0) *cg = VectorOps::CgState{rho, 0, 0, b_norm, tolerance, 0, 0, 0, 0, kCgIdle};
+}
+
+// From c = p^T H p (the partials): alpha = rho / c, or the breakdown.
+__global__ void k_cg_curvature(const double* partials, VectorOps::CgState* cg) {
+  const double c = sum_partials(partials);
+  if (threadIdx.x != 0) return;
+  if (cg->stopped) {
+    cg->mode = kCgIdle;
+  } else if (!(c > 0)) {
+    cg->mode = cg->iterations == 0 ? kCgFirstBreakdown : kCgBreakdown;
+    cg->stopped = cg->negative_curvature = 1;
+  } else {
+    cg->alpha = cg->rho / c;
+    cg->mode = kCgUpdate;
+  }
+}
+
+// The update of the mode (x += alpha p, r -= alpha H p; or x = z), and the partials of r^T r
+// (over k_dot_partials's pattern).
+__global__ void k_cg_update(long long n, const VectorOps::CgState* cg, const double* p, const double* hp, const double* z,
+                            double* x, double* r, double* partials) {
+  const int mode = cg->mode;
+  if (mode == kCgIdle) return;
+  const double alpha = cg->alpha;
+  __shared__ double shared[1][kReduceThreads];
+  double s[1] = {0.0};
+  for (long long k = blockIdx.x * static_cast<long long>(kReduceThreads) + threadIdx.x; k < n;
+       k += static_cast<long long>(kReduceBlocks) * kReduceThreads) {
+    if (mode == kCgUpdate) {
+      x[k] += alpha * p[k];
+      r[k] -= alpha * hp[k];
+    } else if (mode == kCgFirstBreakdown) {
+      x[k] = z[k];  // preconditioned steepest descent
+    }
+    s[0] += r[k] * r[k];
+  }
+  block_sum<1>(s, shared);
+  if (threadIdx.x == 0) partials[blockIdx.x] = s[0];
+}
+
+// |r| / |b| from the partials of r^T r; the convergence test after an update.
+__global__ void k_cg_residual(const double* partials, VectorOps::CgState* cg) {
+  const double rr = sum_partials(partials);
+  if (threadIdx.x != 0 || cg->mode == kCgIdle) return;
+  cg->relative_residual = sqrt(rr) / cg->b_norm;
+  if (cg->mode == kCgUpdate) {
+    ++cg->iterations;
+    cg->stopped = cg->relative_residual <= cg->tolerance;
+  }
+  cg->mode = kCgIdle;
+}
+
+// From rho' = r^T z (the partials): beta = rho' / rho, rho = rho'.
+__global__ void k_cg_rho(const double* partials, VectorOps::CgState* cg) {
+  const double rho = sum_partials(partials);
+  if (threadIdx.x != 0 || cg->stopped) return;
+  cg->beta = rho / cg->rho;
+  cg->rho = rho;
+}
+
+// p = z + beta p while running.
+__global__ void k_cg_xpay(long long n, const VectorOps::CgState* cg, const double* z, double* p) {
+  if (cg->stopped) return;
+  const double beta = cg->beta;
+  for (long long k = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x; k < n;
+       k += static_cast<long long>(gridDim.x) * blockDim.x)
+    p[k] = z[k] + beta * p[k];
+}
+
+}  // namespace
+
 DeviceVector::~DeviceVector() { release(); }
 
 DeviceVector::DeviceVector(DeviceVector&& o) noexcept : m_data(o.m_data), m_size(o.m_size), m_stream(o.m_stream) {
@@ -115,9 +208,15 @@ VectorOps::VectorOps(cudaStream_t stream) : m_stream(stream) {
   m_partials.resize(kReduceBlocks);
   m_result.resize(1);
   FASCIA_CUDA(cudaMallocHost(&m_host, sizeof(double)));
+  FASCIA_CUDA(cudaMalloc(reinterpret_cast<void**>(&m_cg), sizeof(CgState)));
+  FASCIA_CUDA(cudaMallocHost(reinterpret_cast<void**>(&m_cg_host), sizeof(CgState)));
 }
 
-VectorOps::~VectorOps() { cudaFreeHost(m_host); }
+VectorOps::~VectorOps() {
+  cudaFreeHost(m_host);
+  cudaFree(m_cg);
+  cudaFreeHost(m_cg_host);
+}
 
 void VectorOps::copy(const double* x, double* y, long long n) const { convert_async(x, y, n, m_stream); }
 
@@ -169,6 +268,38 @@ double VectorOps::finish() const {
   FASCIA_CUDA(cudaMemcpyAsync(m_host, m_result.data(), sizeof(double), cudaMemcpyDeviceToHost, m_stream));
   FASCIA_CUDA(cudaStreamSynchronize(m_stream));
   return *m_host;
+}
+
+void VectorOps::cg_start(const double* r, const double* z, long long n, double b_norm, double tolerance) const {
+  k_dot_partials<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, r, z, m_partials.data());
+  k_cg_start<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), b_norm, tolerance, m_cg);
+  check();
+}
+
+void VectorOps::cg_step(const double* p, const double* hp, const double* z, double* x, double* r, long long n) const {
+  k_dot_partials<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, p, hp, m_partials.data());
+  k_cg_curvature<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), m_cg);
+  k_cg_update<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, m_cg, p, hp, z, x, r, m_partials.data());
+  k_cg_residual<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), m_cg);
+  check();
+}
+
+void VectorOps::cg_direction(const double* r, const double* z, double* p, long long n) const {
+  k_dot_partials<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, r, z, m_partials.data());
+  k_cg_rho<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), m_cg);
+  if (n > 0) k_cg_xpay<<<vector_grid(n), kVectorThreads, 0, m_stream>>>(n, m_cg, z, p);
+  check();
+}
+
+CgStatus VectorOps::cg_status() const {
+  FASCIA_CUDA(cudaMemcpyAsync(m_cg_host, m_cg, sizeof(CgState), cudaMemcpyDeviceToHost, m_stream));
+  FASCIA_CUDA(cudaStreamSynchronize(m_stream));
+  CgStatus s;
+  s.iterations = m_cg_host->iterations;
+  s.relative_residual = m_cg_host->relative_residual;
+  s.stopped = m_cg_host->stopped != 0;
+  s.negative_curvature = m_cg_host->negative_curvature != 0;
+  return s;
 }
 
 double DeviceVectorOps::norm(const Vector& x) const { return std::sqrt(dot(x, x)); }

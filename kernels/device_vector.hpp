@@ -15,6 +15,7 @@
 #pragma once
 
 #include "device_buffers.cuh"
+#include "solve/linear_result.hpp"
 
 #include <cstdint>
 
@@ -69,10 +70,21 @@ class VectorOps {
   // Sums the kReduceBlocks partials that a fused kernel left in partials() and returns the sum.
   double finish() const;
 
+  // The PCG scalars of DeviceVectorOps (the CgScalars concept of engine/solve/vector_ops.hpp), in
+  // device memory: each operation is enqueued without a read back; cg_status() reads them.
+  void cg_start(const double* r, const double* z, long long n, double b_norm, double tolerance) const;
+  void cg_step(const double* p, const double* hp, const double* z, double* x, double* r, long long n) const;
+  void cg_direction(const double* r, const double* z, double* p, long long n) const;
+  CgStatus cg_status() const;
+
+  struct CgState;  // device_vector.cu
+
  private:
   cudaStream_t m_stream;
   mutable DeviceBuffer<double> m_partials, m_result;
   double* m_host = nullptr;  // pinned
+  CgState* m_cg = nullptr;       // device
+  CgState* m_cg_host = nullptr;  // pinned
 };
 
 // The vector-operations concept of engine/solve/vector_ops.hpp on DeviceVector: n values, a
@@ -100,6 +112,19 @@ class DeviceVectorOps {
   double norm(const Vector& x) const;
   void project(Vector& x) const { m_ops.project(x.data(), m_fixed, m_n); }
   const std::uint8_t* fixed() const { return m_fixed; }
+
+  static constexpr bool kScalarsOnHost = false;
+  struct CgScalars {};  // held by the VectorOps (one solve at a time per stream)
+  void cg_start(CgScalars&, const Vector& r, const Vector& z, double b_norm, double tolerance) const {
+    m_ops.cg_start(r.data(), z.data(), m_n, b_norm, tolerance);
+  }
+  void cg_step(CgScalars&, const Vector& p, const Vector& hp, const Vector& z, Vector& x, Vector& r) const {
+    m_ops.cg_step(p.data(), hp.data(), z.data(), x.data(), r.data(), m_n);
+  }
+  void cg_direction(CgScalars&, const Vector& r, const Vector& z, Vector& p) const {
+    m_ops.cg_direction(r.data(), z.data(), p.data(), m_n);
+  }
+  CgStatus cg_status(const CgScalars&) const { return m_ops.cg_status(); }
   const VectorOps& ops() const { return m_ops; }
 
  private:

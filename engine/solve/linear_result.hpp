@@ -15,4 +15,12 @@ struct LinearResult {
   std::string message;
 };
 
+// Where a PCG solve stands (the CgScalars of solve/vector_ops.hpp).
+struct CgStatus {
+  int iterations = 0;              // iterations taken (updates of x)
+  double relative_residual = 0;    // |r| / |b| after them
+  bool stopped = false;            // converged or negative curvature: later iterations change nothing
+  bool negative_curvature = false;
+};
+
 }  // namespace fascia

@@ -9,11 +9,21 @@
 // benchmarks). On non-positive curvature p^T H p <= 0 it returns the current iterate, or the
 // preconditioned residual when no step was taken: still a descent direction for Newton
 // (Steihaug's truncation; Nocedal & Wright, Numerical Optimization, Alg. 7.2).
+//
+// The iteration's scalars (rho = r^T z, alpha, beta, |r|) and its stopping tests live with the
+// backend (Ops::CgScalars): an iteration that stops leaves x and r as they are, and the ones
+// after it change nothing. The loop reads them with cg_status(): every iteration where they are
+// host values; on a device, which would wait for its queue at each read, at the iterations where
+// the residual's rate so far predicts the tolerance (next_status_read), so a solve runs its
+// iterations without waiting and reads back a few times. Either way the result is that of the
+// iteration that stopped.
 #pragma once
 
 #include "core/stop_request.hpp"
 #include "solve/linear_result.hpp"
+#include "solve/vector_ops.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace fascia {
@@ -23,6 +33,22 @@ struct PcgSettings {
   int max_iterations = 2000;
   bool fixed_iterations = false;  // run exactly max_iterations
 };
+
+// The most iterations between two reads of a device's status: a solve that stops between two
+// reads runs the products of the iterations up to the next one for nothing.
+constexpr int kMaxIterationsBetweenReads = 8;
+
+// The iterations after `k` (k iterations done, relative residual `residual`, and `previous` at
+// iteration `k_previous` < k) until the residual should reach `tolerance` at the geometric rate
+// seen between the two, at least 1 and at most kMaxIterationsBetweenReads: rounded down, since
+// reading early costs one wait and reading late costs whole iterations.
+inline int next_status_read(int k_previous, double previous, int k, double residual, double tolerance) {
+  if (!(residual > tolerance)) return 1;
+  const double rate = std::pow(residual / previous, 1.0 / std::max(1, k - k_previous));
+  if (!(rate > 0 && rate < 1)) return 1;
+  const double remaining = std::log(tolerance / residual) / std::log(rate);
+  return static_cast<int>(std::clamp(std::floor(remaining), 1.0, static_cast<double>(kMaxIterationsBetweenReads)));
+}
 
 // @param apply          callable (const Vector& p, Vector& out): out = H p (projection not needed)
 // @param precondition   callable (const Vector& r, Vector& z): z = M^{-1} r, M symmetric positive
@@ -49,35 +75,36 @@ LinearResult pcg(const Ops& ops, Apply&& apply, Precondition&& precondition, con
   precondition(r, z);
   ops.project(z);
   ops.copy(z, p);
-  double rz = ops.dot(r, z);
+  typename Ops::CgScalars scalars;
+  ops.cg_start(scalars, r, z, b_norm, settings.fixed_iterations ? -1.0 : settings.tolerance);
+  CgStatus status;  // as of the last read
+  int k_read = 0, next_read = 1;
+  double residual_read = 1;  // |r| / |b| at iteration k_read (r = b at the start)
   for (int k = 0; k < settings.max_iterations; ++k) {
     throw_if_stop_requested();  // a stop takes effect within one product
     apply(p, hp);
     ops.project(hp);
-    const double curvature = ops.dot(p, hp);
-    if (!(curvature > 0)) {
-      result.negative_curvature = true;
-      if (k == 0) ops.copy(z, x);  // preconditioned steepest descent
-      result.iterations = k;
-      result.relative_residual = ops.norm(r) / b_norm;
-      result.message = "non-positive curvature in CG; step truncated";
-      return result;
-    }
-    const double alpha = rz / curvature;
-    ops.axpy(alpha, p, x);
-    ops.axpy(-alpha, hp, r);
-    result.iterations = k + 1;
-    result.relative_residual = ops.norm(r) / b_norm;
-    if (!settings.fixed_iterations && result.relative_residual <= settings.tolerance) {
-      result.converged = true;
-      return result;
+    ops.cg_step(scalars, p, hp, z, x, r);  // alpha = rho / p^T H p, x += alpha p, r -= alpha H p
+    if (Ops::kScalarsOnHost || k + 1 == next_read || k + 1 == settings.max_iterations) {
+      status = ops.cg_status(scalars);
+      if (status.stopped) break;
+      if (!settings.fixed_iterations)
+        next_read = k + 1 + next_status_read(k_read, residual_read, k + 1, status.relative_residual, settings.tolerance);
+      else
+        next_read = settings.max_iterations;
+      k_read = k + 1;
+      residual_read = status.relative_residual;
     }
     precondition(r, z);
     ops.project(z);
-    const double rz_new = ops.dot(r, z);
-    const double beta = rz_new / rz;
-    rz = rz_new;
-    ops.xpay(z, beta, p);
+    ops.cg_direction(scalars, r, z, p);  // beta = rho' / rho, p = z + beta p
+  }
+  result.iterations = status.iterations;
+  result.relative_residual = status.relative_residual;
+  if (status.negative_curvature) {
+    result.negative_curvature = true;
+    result.message = "non-positive curvature in CG; step truncated";
+    return result;
   }
   result.converged = settings.fixed_iterations || result.relative_residual <= settings.tolerance;
   if (!result.converged) result.message = "CG reached its iteration cap";

@@ -18,12 +18,28 @@
 //   double norm(const Vector& x) const;              sqrt(x^T x)
 //   void project(Vector& x) const;                   x_k = 0 at every fixed DOF k
 //
-// Scalars (dot, norm, the step lengths) are host doubles: the solvers' control flow runs on the
-// host and reads one or two scalars per iteration, as mfem's does. Operators and preconditioners
-// are callables over Vector (solve/pcg.hpp); Newton's problem supplies its states (newton.hpp).
+// and the scalars of a PCG iteration (solve/pcg.hpp), kept where the backend computes:
+//
+//   static constexpr bool kScalarsOnHost;            cg_status() costs nothing (read every iteration)
+//   using CgScalars = ...;                           rho = r^T z, alpha, beta, the status below
+//   void cg_start(CgScalars& s, const Vector& r, const Vector& z, double b_norm, double tolerance) const;
+//       rho = r^T z; running; stop when |r| <= tolerance b_norm (negative: never)
+//   void cg_step(CgScalars& s, const Vector& p, const Vector& hp, const Vector& z, Vector& x, Vector& r) const;
+//       while running: c = p^T hp; c > 0: alpha = rho / c, x += alpha p, r -= alpha hp, one more
+//       iteration, stopped when |r| / b_norm <= tolerance; otherwise stopped with negative
+//       curvature (x = z when no iteration was taken). The residual is |r| / b_norm in either case.
+//   void cg_direction(CgScalars& s, const Vector& r, const Vector& z, Vector& p) const;
+//       while running: rho' = r^T z, beta = rho' / rho, rho = rho', p = z + beta p
+//   CgStatus cg_status(const CgScalars& s) const;    the status, on the host
+//
+// Other scalars (dot, norm, Newton's step lengths) are host doubles: the solvers' control flow runs
+// on the host, as mfem's does. Operators and preconditioners are callables over Vector
+// (solve/pcg.hpp); Newton's problem supplies its states (newton.hpp).
 //
 // HostVectorOps below is the CPU backend: std::vector<double>, SIMD loops.
 #pragma once
+
+#include "solve/linear_result.hpp"
 
 #include <cmath>
 #include <cstdint>
@@ -84,6 +100,42 @@ class HostVectorOps {
   }
 
   const std::uint8_t* fixed() const { return m_fixed; }
+
+  static constexpr bool kScalarsOnHost = true;
+  struct CgScalars {
+    CgStatus status;
+    double rho = 0, b_norm = 0, tolerance = 0;
+  };
+  void cg_start(CgScalars& s, const Vector& r, const Vector& z, double b_norm, double tolerance) const {
+    s = CgScalars{};
+    s.rho = dot(r, z);
+    s.b_norm = b_norm;
+    s.tolerance = tolerance;
+  }
+  void cg_step(CgScalars& s, const Vector& p, const Vector& hp, const Vector& z, Vector& x, Vector& r) const {
+    if (s.status.stopped) return;
+    const double curvature = dot(p, hp);
+    if (!(curvature > 0)) {
+      if (s.status.iterations == 0) copy(z, x);  // preconditioned steepest descent
+      s.status.stopped = s.status.negative_curvature = true;
+      s.status.relative_residual = norm(r) / s.b_norm;
+      return;
+    }
+    const double alpha = s.rho / curvature;
+    axpy(alpha, p, x);
+    axpy(-alpha, hp, r);
+    ++s.status.iterations;
+    s.status.relative_residual = norm(r) / s.b_norm;
+    s.status.stopped = s.status.relative_residual <= s.tolerance;
+  }
+  void cg_direction(CgScalars& s, const Vector& r, const Vector& z, Vector& p) const {
+    if (s.status.stopped) return;
+    const double rho = dot(r, z);
+    const double beta = rho / s.rho;
+    s.rho = rho;
+    xpay(z, beta, p);
+  }
+  CgStatus cg_status(const CgScalars& s) const { return s.status; }
 
  private:
   int m_n;

@@ -119,3 +119,75 @@ TEST_CASE("PCG truncates at non-positive curvature with a descent direction", "[
   REQUIRE(!r.converged);
   REQUIRE(ops.dot(b, x) > 0);  // descent for Newton, which solves H d = -g = b
 }
+
+namespace {
+
+// HostVectorOps whose PCG scalars count as a device's: pcg reads them at the iterations
+// next_status_read schedules, not after each one.
+struct DeferredReadOps : HostVectorOps {
+  using HostVectorOps::HostVectorOps;
+  static constexpr bool kScalarsOnHost = false;
+  mutable int reads = 0;
+  CgStatus cg_status(const CgScalars& s) const {
+    ++reads;
+    return HostVectorOps::cg_status(s);
+  }
+};
+
+// A diagonal operator with eigenvalues spread over [1, 1000] (CG takes tens of iterations), one
+// of them -1 at `negative` (>= 0) to break down there.
+struct SpreadOperator {
+  int n, negative;
+  double eigenvalue(int k) const { return k == negative ? -1.0 : std::pow(1000.0, static_cast<double>(k) / (n - 1)); }
+  void operator()(const std::vector<double>& x, std::vector<double>& y) const {
+    for (int k = 0; k < n; ++k) y[k] = eigenvalue(k) * x[k];
+  }
+};
+
+}  // namespace
+
+TEST_CASE("next_status_read predicts the iterations to the tolerance at the rate seen", "[solve][pcg]") {
+  // Rate 0.1 per iteration: from 1e-2 at iteration 2, 1e-8 is 6 iterations away.
+  CHECK(next_status_read(0, 1.0, 2, 1e-2, 1e-8) == 6);
+  CHECK(next_status_read(0, 1.0, 1, 0.5, 1e-8) == kMaxIterationsBetweenReads);  // far: the cap
+  CHECK(next_status_read(4, 1e-3, 5, 1e-3, 1e-8) == 1);                        // no progress: every one
+  CHECK(next_status_read(4, 1e-3, 5, 2e-3, 1e-8) == 1);                        // growing
+  CHECK(next_status_read(4, 1e-3, 5, 1e-9, 1e-8) == 1);                        // already there
+  CHECK(next_status_read(0, 1.0, 3, 1e-7, 1e-8) == 1);                         // 1/3 of an iteration: next
+}
+
+TEST_CASE("PCG reading its scalars only now and then returns what reading every iteration does",
+          "[solve][pcg]") {
+  const int n = 60;
+  for (const int negative : {-1, 0, 17}) {
+    for (const bool fixed : {false, true}) {
+      for (const int cap : {5, 2000}) {
+        CAPTURE(negative, fixed, cap);
+        const SpreadOperator A{n, negative};
+        std::vector<double> b(n);
+        for (int k = 0; k < n; ++k) b[k] = std::cos(0.3 + k);
+        PcgSettings settings;
+        settings.tolerance = 1e-10;
+        settings.fixed_iterations = fixed;
+        settings.max_iterations = cap;
+        const HostVectorOps every(n, nullptr);
+        const DeferredReadOps deferred(n, nullptr);
+        std::vector<double> x_every, x_deferred;
+        const LinearResult a = pcg(every, A, IdentityPreconditioner<HostVectorOps>{every}, settings, b, x_every);
+        const LinearResult d =
+            pcg(deferred, A, IdentityPreconditioner<DeferredReadOps>{deferred}, settings, b, x_deferred);
+        CHECK(d.iterations == a.iterations);
+        CHECK(d.relative_residual == a.relative_residual);
+        CHECK(d.converged == a.converged);
+        CHECK(d.negative_curvature == a.negative_curvature);
+        CHECK(d.message == a.message);
+        CHECK(x_deferred == x_every);  // bitwise: the iterations after the stop change nothing
+        if (negative < 0 && !fixed && cap > 100) {
+          REQUIRE(a.converged);
+          CHECK(a.iterations > 20);
+          CHECK(deferred.reads < a.iterations / 2);  // most iterations ran without a read
+        }
+      }
+    }
+  }
+}
