@@ -5,22 +5,23 @@
 // H is recovered into a dense n x n matrix from its elastic blocks, formed sample by sample on the
 // device, and coloured products for the rest (integrate/tangent_probing.hpp: 6 per colour; one
 // colour for a tissue alone, a few tens with shells and rigid bodies), factorised by cuSOLVER's
-// potrf and inverted from the factor by potri; the preconditioner is then cuBLAS's symmetric
-// product (symv) with the lower triangle of H^{-1}, one pass over n^2/2 numbers at the device's
-// memory bandwidth (where potrs's two triangular solves, sequential by blocks, took 1.7 ms at
-// 11,460 DOFs on an H100, and a product with both triangles 0.37 ms). The inverse costs about 2n^3/3 flops
-// more per factorisation (0.1 s at 11,460 DOFs), which the tens to hundreds of CG iterations
-// each factorisation serves repay. Dense, because the scenes' reduced tangents are small (2,208
-// DOFs for the pelvis, 11,460 with its finest fasciae: 1 GB, about n^3/3 = 5e11 flops per
-// factorisation) while their sparse factors have deep elimination trees that triangular solves
-// on a GPU walk level by level. A model whose dense factor would not fit is refused (refusal()):
+// potrf (H = L L^T) and inverted from the factor by cuBLAS, W = L^{-1} (trsm with the identity)
+// then H^{-1} = W^T W (syrk); the preconditioner is then cuBLAS's symmetric product (symv) with
+// the lower triangle of H^{-1}, one pass over n^2/2 numbers at the device's memory bandwidth
+// (where potrs's two triangular solves, sequential by blocks, took 1.7 ms at 11,460 DOFs on an
+// H100, and a product with both triangles 0.37 ms). The inverse costs about 2n^3 flops more per
+// factorisation (76 ms at 10,962 DOFs on an H100, potrf 17 ms), which the tens to hundreds of CG
+// iterations each factorisation serves repay. Dense, because the scenes' reduced tangents are
+// small (2,148 DOFs for the pelvis, 10,962 with its finest fasciae: 1 GB, about n^3/3 = 4e11
+// flops per factorisation) while their sparse factors have deep elimination trees that
+// triangular solves on a GPU walk level by level. A model whose dense factor would not fit is refused (refusal()):
 // the device then preconditions by block Jacobi.
 //
 // Not positive definite: shifted like the CPU's, H + tau diag|H| for tau = 1e-6, 1e-5, ... 1e3
-// (the strict upper triangle, which potrf and potri leave untouched, restores the lower one
+// (the strict upper triangle, which potrf and syrk leave untouched, restores the lower one
 // between tries).
-// cuSOLVER's kernels for the model's order are loaded when the object is made (a factorisation of
-// the identity), not in the first step.
+// cuSOLVER's and cuBLAS's kernels for the model's order are loaded when the object is made (an
+// inversion of the identity), not in the first step.
 // Fixed DOFs are identity rows and columns. All work is enqueued on the stream of `ops`; a
 // factorisation reads back one status word per try.
 #pragma once
@@ -39,8 +40,9 @@ namespace fascia::gpu {
 
 class DeviceCholesky {
  public:
-  // The largest dense factor the device keeps: n <= 32,768 DOFs (8 GiB), within half the free
-  // device memory; cuSOLVER and cuBLAS (libcusolver, libcublas) must load. Empty when a model of
+  // The largest dense factor the device keeps: n <= 32,768 DOFs (8 GiB, and as much for L^{-1}),
+  // both within half the free device memory; cuSOLVER and cuBLAS (libcusolver, libcublas) must
+  // load. Empty when a model of
   // `dofs` DOFs can be factorised now, else the reason.
   static std::string refusal(long long dofs);
 
@@ -64,9 +66,9 @@ class DeviceCholesky {
   // The iterations of one PCG solve beyond which the kept factorisation is renewed
   // (solve/factorised_solve.hpp): an eighth of its cost in tangent products, at least 10 (the
   // CPU's LinearSettings::refactorise_above weighs the CPU's costs). A factorisation costs
-  // products() tangent products, the blocks (one pass over the pairs of each sample) and potrf
-  // and potri, about n/20 products (an H100: 6 ms at 2,208 DOFs, 125 ms at 11,460, against a
-  // product of 50 and 200 us); a CG iteration one product and one product with H^{-1}. Renewing
+  // products() tangent products, the blocks (one pass over the pairs of each sample) and the
+  // inversion, about n/20 products (an H100: 2.7 ms at 2,148 DOFs, 93 ms at 10,962, against a
+  // product of 50 and 150 us); a CG iteration one product and one product with H^{-1}. Renewing
   // pays when the iterations it saves over the solves that follow (about ten: a few steps' Newton
   // iterations) exceed its cost.
   int refactorise_above(const LinearSettings& settings) const;
