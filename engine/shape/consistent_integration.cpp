@@ -122,12 +122,13 @@ public:
     m_frames = n;
   }
 
-  // H assembled [4N x 4N], both triangles: block (i_p, i_q) = sum_s v_s^2 (Pi_s)_pq e_p e_q^T
-  // over the pairs p, q of each sample s, with (Pi_s)_pq = delta_pq - k_p^T G_s k_q. Column block
-  // j is formed from frame j's pairs alone (in sample order), in parallel over frames.
+  // The lower triangle of H [4N x 4N] (the blocks of rows i >= j in column block j, which is what
+  // the factorisation reads): block (i_p, i_q) = sum_s v_s^2 (Pi_s)_pq e_p e_q^T over the pairs
+  // p, q of each sample s, with (Pi_s)_pq = delta_pq - k_p^T G_s k_q. Column block j is formed
+  // from frame j's pairs alone (in sample order), in parallel over frames.
   Eigen::SparseMatrix<double> assemble() const {
     const int n = m_frames;
-    // Rows of column block j: the frames of every sample that has frame j, sorted.
+    // Rows of column block j: the frames i >= j of every sample that has frame j, sorted.
     std::vector<std::vector<int>> adjacency(n);
 #pragma omp parallel
     {
@@ -138,7 +139,7 @@ public:
         for (int a = m_frame_offsets[j]; a < m_frame_offsets[j + 1]; ++a) {
           const int s = m_pair_sample[m_frame_pairs[a]];
           for (int p = m_nb.offsets[s]; p < m_nb.offsets[s + 1]; ++p)
-            if (seen[m_nb.frames[p]] != j) {
+            if (m_nb.frames[p] >= j && seen[m_nb.frames[p]] != j) {
               seen[m_nb.frames[p]] = j;
               rows.push_back(m_nb.frames[p]);
             }
@@ -176,6 +177,7 @@ public:
           const Vec4 gk = m_gram[s] * m_k[q];
           const Vec4 &eq = m_e[q];
           for (int p = m_nb.offsets[s]; p < m_nb.offsets[s + 1]; ++p) {
+            if (m_nb.frames[p] < j) continue;
             const double f = v2 * ((p == q ? 1.0 : 0.0) - m_k[p].dot(gk));
             const Vec4 &ep = m_e[p];
             const int at = 4 * slot[m_nb.frames[p]];
