@@ -77,10 +77,7 @@ class DeviceProblem {
       } kept{*this, q};
       return pcg_with_kept_factorisation(m_ops, apply, kept, m_stale, linear, rhs, d);
     }
-    PcgSettings pcg_settings;
-    pcg_settings.tolerance = linear.tolerance;
-    pcg_settings.max_iterations = linear.max_iterations;
-    pcg_settings.fixed_iterations = linear.fixed_iterations;
+    const PcgSettings pcg_settings = fascia::pcg_settings(linear);
     if (linear.method == LinearMethod::cg)
       return pcg(m_ops, apply, IdentityPreconditioner<Ops>{m_ops}, pcg_settings, rhs, d);
     const double* blocks = m_potential.preconditioner();

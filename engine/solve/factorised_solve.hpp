@@ -24,6 +24,15 @@
 
 namespace fascia {
 
+// The PCG settings of an iterative solve by `linear` (its tolerance, cap and fixed-iteration mode).
+inline PcgSettings pcg_settings(const LinearSettings& linear) {
+  PcgSettings s;
+  s.tolerance = linear.tolerance;
+  s.max_iterations = linear.max_iterations;
+  s.fixed_iterations = linear.fixed_iterations;
+  return s;
+}
+
 template <class Ops, class Apply, class Factorisation>
 LinearResult direct_solve(const Ops& ops, Apply&& apply, Factorisation& factor, const typename Ops::Vector& b,
                           typename Ops::Vector& x) {
@@ -50,10 +59,7 @@ LinearResult pcg_with_kept_factorisation(const Ops& ops, Apply&& apply, Factoris
                                          const LinearSettings& settings, const typename Ops::Vector& b,
                                          typename Ops::Vector& x) {
   using Vector = typename Ops::Vector;
-  PcgSettings pcg_settings;
-  pcg_settings.tolerance = settings.tolerance;
-  pcg_settings.max_iterations = settings.max_iterations;
-  pcg_settings.fixed_iterations = settings.fixed_iterations;
+  const PcgSettings pcg_settings = fascia::pcg_settings(settings);
   auto factorise = [&] {
     LinearResult f = factor.factorise();
     if (factor.factorised()) stale = false;

@@ -75,10 +75,7 @@ LinearResult LinearSolver::solve(const LinearSystem& system, const LinearSetting
                                  const std::vector<double>& b, std::vector<double>& x) {
   const HostVectorOps ops(system.size, system.fixed);
   auto apply = [&](const std::vector<double>& p, std::vector<double>& out) { system.apply(p.data(), out.data()); };
-  PcgSettings pcg_settings;
-  pcg_settings.tolerance = settings.tolerance;
-  pcg_settings.max_iterations = settings.max_iterations;
-  pcg_settings.fixed_iterations = settings.fixed_iterations;
+  const PcgSettings pcg_settings = fascia::pcg_settings(settings);
 
   if (settings.method == LinearMethod::cg)
     return pcg(ops, apply, IdentityPreconditioner<HostVectorOps>{ops}, pcg_settings, b, x);

@@ -21,7 +21,6 @@
 
 #include "core/stop_request.hpp"
 #include "solve/linear_result.hpp"
-#include "solve/vector_ops.hpp"
 
 #include <algorithm>
 #include <cmath>
