@@ -91,11 +91,13 @@ void write_box(hid_t particles_group, const std::string& path) {
 // earlier steps fail to read ("addr overflow"), and H5Fflush itself is not atomic. So the file's
 // structure is fixed before the first step: every dataset is created with room for `capacity`
 // rows and all its chunks allocated (H5D_ALLOC_TIME_EARLY), and a step writes raw data only, with
-// no chunk cache, so the writes reach the operating system in program order: value, time, then
-// step. `step` rows are -1 (and `time` rows NaN) until written; a killed run leaves those
-// never-completed rows at the end, and readers count the leading rows with step >= 0. A run that
-// ends normally, on a signal or on a solver failure shrinks every dataset to the written rows.
-// Exceeding the capacity doubles it (metadata changes, flushed at once).
+// no chunk cache, so the writes reach the operating system in program order: every series' value,
+// then time, then step. Every series is written at every row, so all of them share one `step` and
+// one `time` dataset (H5MD's hard links): a row is two writes more than its values. `step` rows
+// are -1 (and `time` rows NaN) until written; a killed run leaves those never-completed rows at
+// the end, and readers count the leading rows with step >= 0. A run that ends normally, on a
+// signal or on a solver failure shrinks every dataset to the written rows. Exceeding the capacity
+// doubles it (metadata changes, flushed at once).
 Handle series_dataset(hid_t parent, const std::string& name, hid_t file_type, const std::vector<hsize_t>& shape,
                       hsize_t capacity, const std::string& path) {
   // Chunks of about 64 KiB or one row, whichever is larger (fewer chunks to preallocate).
@@ -159,19 +161,33 @@ void write_row(hid_t ds, hid_t mem_type, const void* data, hsize_t row, const st
 
 struct Series {
   std::string name;
-  Handle group, step, time, value;
+  Handle group, value;
   hid_t mem_type = H5T_NATIVE_DOUBLE;
   std::size_t count = 1;  // values per step
 };
 
+// The `step` and `time` datasets every series of a file shares: created in the first series'
+// group, hard-linked into the others'.
+struct Clock {
+  Handle step, time;
+  std::string where;  // the first series' group
+};
+
 Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& shape, bool integer,
-                   const std::string& unit, hsize_t capacity, const std::string& path) {
+                   const std::string& unit, hsize_t capacity, Clock& clock, const std::string& path) {
   Series s;
   s.name = name;
   s.group = group(parent, name, path);
-  s.step = series_dataset(s.group.get(), "step", H5T_STD_I32LE, {}, capacity, path);
-  s.time = series_dataset(s.group.get(), "time", H5T_IEEE_F64LE, {}, capacity, path);
-  write_text_attribute(s.time.get(), "unit", "s", path);
+  if (!clock.step.valid()) {
+    clock.step = series_dataset(s.group.get(), "step", H5T_STD_I32LE, {}, capacity, path);
+    clock.time = series_dataset(s.group.get(), "time", H5T_IEEE_F64LE, {}, capacity, path);
+    write_text_attribute(clock.time.get(), "unit", "s", path);
+  } else {
+    for (const char* part : {"step", "time"})
+      checked(H5Lcreate_hard(clock.step.get(), (clock.where + "/" + part).c_str(), s.group.get(), part, H5P_DEFAULT,
+                             H5P_DEFAULT),
+              path, "link " + name + "/" + part, 0);
+  }
   s.value = series_dataset(s.group.get(), "value", integer ? H5T_STD_I32LE : H5T_IEEE_F64LE, shape, capacity, path);
   if (!unit.empty()) write_text_attribute(s.value.get(), "unit", unit, path);
   s.mem_type = integer ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE;
@@ -209,6 +225,19 @@ Handle writer_access(const std::string& path) {
   return fapl;
 }
 
+// Opens the shared step and time datasets of the series at `where` (its group's path).
+Clock open_clock(hid_t file, const std::string& where, const std::string& path) {
+  Handle dapl(H5Pcreate(H5P_DATASET_ACCESS), H5Pclose);
+  H5Pset_chunk_cache(dapl.get(), 0, 0, 1.0);  // write through, in program order
+  Clock clock;
+  clock.where = where;
+  clock.step = Handle(checked(H5Dopen2(file, (where + "/step").c_str(), dapl.get()), path, "open " + where + "/step"),
+                      H5Dclose);
+  clock.time = Handle(checked(H5Dopen2(file, (where + "/time").c_str(), dapl.get()), path, "open " + where + "/time"),
+                      H5Dclose);
+  return clock;
+}
+
 Series open_series(hid_t file, const SeriesPlan& plan, const std::string& path) {
   Series s;
   s.name = plan.name;
@@ -219,8 +248,6 @@ Series open_series(hid_t file, const SeriesPlan& plan, const std::string& path) 
   auto open = [&](const char* name) {
     return Handle(checked(H5Dopen2(s.group.get(), name, dapl.get()), path, "open " + where + "/" + name), H5Dclose);
   };
-  s.step = open("step");
-  s.time = open("time");
   s.value = open("value");
   std::vector<hsize_t> dims = dataset_dims(s.value.get());
   dims.erase(dims.begin());
@@ -272,6 +299,7 @@ std::vector<SeriesPlan> series_plan(const TrajectoryLayout& layout) {
 
 struct TrajectoryWriter::Impl {
   Handle file;
+  Clock clock;
   std::vector<Series> series;  // series_plan() order
 };
 
@@ -372,7 +400,9 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
   Handle observables = group(f, "observables", path);
   for (const SeriesPlan& plan : series_plan(layout)) {
     Handle parent(checked(H5Gopen2(f, plan.group.c_str(), H5P_DEFAULT), path, "open " + plan.group), H5Gclose);
-    m_impl->series.push_back(make_series(parent.get(), plan.name, plan.shape, plan.integer, plan.unit, capacity, path));
+    if (m_impl->series.empty()) m_impl->clock.where = plan.group + "/" + plan.name;
+    m_impl->series.push_back(
+        make_series(parent.get(), plan.name, plan.shape, plan.integer, plan.unit, capacity, m_impl->clock, path));
   }
   checked(H5Fflush(f, H5F_SCOPE_GLOBAL), path, "flush", 0);
 }
@@ -385,29 +415,24 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryLayo
   m_impl->file = Handle(checked(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.get()), path, "cannot open file for writing"),
                         H5Fclose);
   const hid_t f = m_impl->file.get();
-  hsize_t rows = std::numeric_limits<hsize_t>::max();
   for (const SeriesPlan& plan : series_plan(layout)) {
+    if (m_impl->series.empty()) m_impl->clock = open_clock(f, plan.group + "/" + plan.name, path);
     m_impl->series.push_back(open_series(f, plan, path));
-    rows = std::min(rows, dataset_dims(m_impl->series.back().step.get()).at(0));
   }
+  const hsize_t rows = dataset_dims(m_impl->clock.step.get()).at(0);
   if (keep_rows < 0 || static_cast<hsize_t>(keep_rows) > rows)
     fail(path, "cannot keep " + std::to_string(keep_rows) + " rows of " + std::to_string(rows));
   m_steps = keep_rows;
   m_capacity = std::max(layout.capacity, keep_rows + 1);
   // Rows past the kept ones are invalidated (step -1, time NaN) before anything new is written,
   // so that no reader takes an old row for a new one, whenever the run is stopped.
-  std::vector<hsize_t> old_rows;
-  for (Series& s : m_impl->series) old_rows.push_back(dataset_dims(s.step.get()).at(0));
   resize_all(static_cast<hsize_t>(m_capacity));
-  for (std::size_t i = 0; i < m_impl->series.size(); ++i) {
-    Series& s = m_impl->series[i];
-    const hsize_t end = std::min<hsize_t>(old_rows[i], static_cast<hsize_t>(m_capacity));
-    for (hsize_t row = static_cast<hsize_t>(keep_rows); row < end; ++row) {
-      const int step = -1;
-      const double time = std::numeric_limits<double>::quiet_NaN();
-      write_row(s.step.get(), H5T_NATIVE_INT, &step, row, path, s.name + "/step");
-      write_row(s.time.get(), H5T_NATIVE_DOUBLE, &time, row, path, s.name + "/time");
-    }
+  const Clock& clock = m_impl->clock;
+  for (hsize_t row = static_cast<hsize_t>(keep_rows); row < std::min<hsize_t>(rows, m_capacity); ++row) {
+    const int step = -1;
+    const double time = std::numeric_limits<double>::quiet_NaN();
+    write_row(clock.step.get(), H5T_NATIVE_INT, &step, row, path, clock.where + "/step");
+    write_row(clock.time.get(), H5T_NATIVE_DOUBLE, &time, row, path, clock.where + "/time");
   }
   checked(H5Fflush(f, H5F_SCOPE_GLOBAL), path, "flush", 0);
 }
@@ -495,8 +520,6 @@ void TrajectoryWriter::append(const TrajectoryStep& step) {
   }
   auto write_series = [&](Series& s, const void* data) {
     write_row(s.value.get(), s.mem_type, data, row, m_path, s.name + "/value");
-    write_row(s.time.get(), H5T_NATIVE_DOUBLE, &step.time, row, m_path, s.name + "/time");
-    write_row(s.step.get(), H5T_NATIVE_INT, &step.step, row, m_path, s.name + "/step");
   };
   const std::size_t particles = arrays.size();
   for (std::size_t i = 0; i < particles; ++i) write_series(m_impl->series[i], arrays[i].first);
@@ -509,17 +532,18 @@ void TrajectoryWriter::append(const TrajectoryStep& step) {
       write_series(s, &step.observables[i]);
     }
   }
+  // The row is complete once its step is written.
+  const Clock& clock = m_impl->clock;
+  write_row(clock.time.get(), H5T_NATIVE_DOUBLE, &step.time, row, m_path, clock.where + "/time");
+  write_row(clock.step.get(), H5T_NATIVE_INT, &step.step, row, m_path, clock.where + "/step");
   checked(H5Fflush(m_impl->file.get(), H5F_SCOPE_GLOBAL), m_path, "flush", 0);
   ++m_steps;
 }
 
 void TrajectoryWriter::resize_all(unsigned long long rows) {
-  auto resize = [&](Series& s) {
-    set_rows(s.value.get(), rows, m_path, s.name + "/value");
-    set_rows(s.time.get(), rows, m_path, s.name + "/time");
-    set_rows(s.step.get(), rows, m_path, s.name + "/step");
-  };
-  for (Series& s : m_impl->series) resize(s);
+  for (Series& s : m_impl->series) set_rows(s.value.get(), rows, m_path, s.name + "/value");
+  set_rows(m_impl->clock.time.get(), rows, m_path, m_impl->clock.where + "/time");
+  set_rows(m_impl->clock.step.get(), rows, m_path, m_impl->clock.where + "/step");
 }
 
 // ---------------------------------------------------------------------------------------------

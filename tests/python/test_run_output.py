@@ -32,8 +32,11 @@ def check_file(path, expect_steps=None):
         assert f["particles/frames/orientation/value"].shape[1:] == (n, 4)
         for group in f["particles"].values():
             assert "box" in group and group["box"].attrs["dimension"] == 3
+        clocks = set()
+
         def visit(name, obj):
             if isinstance(obj, h5py.Group) and "step" in obj:
+                clocks.add((obj["step"].id, obj["time"].id))
                 steps = obj["step"][:t]
                 times = obj["time"][:t]
                 values = obj["value"][:t]
@@ -42,6 +45,8 @@ def check_file(path, expect_steps=None):
                 assert np.all(np.diff(steps) > 0), name
                 assert np.all(np.diff(times) > 0), name
         f.visititems(visit)
+        # Every series is written at every row: all share one step and one time dataset (hard links).
+        assert len(clocks) == 1
         q = f["particles/frames/orientation/value"][:t]
         assert np.allclose(np.linalg.norm(q, axis=2), 1.0, atol=1e-9)
         for name, conn in f.get("connectivity", {}).items():
@@ -237,3 +242,4 @@ run: {{steps: 1}}
     assert all(abs(c["within_m"] - 1e-3) < 1e-15 for c in couplings)
     # 16 + 42 frames of the blocks and the slab's one, less the 21 merged ones.
     assert json.loads(r.stdout)["discretisation"]["frames"] == 16 + 42 + 1 - 21
+
