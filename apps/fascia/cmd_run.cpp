@@ -436,10 +436,17 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     xdmf_seconds = std::chrono::duration<double>(last_xdmf - now).count();
   };
 
-  // Rows, checkpoints and sidecars: on a thread of their own while the device runs the next step
-  // (the CPU backend's threads are all busy with the step, so there they run in turn with it).
-  // The file is opened on this thread, before the first job; every HDF5 call after that is a job.
-  OutputThread output_thread(simulation.on_step_backend(), omp_get_max_threads());
+  // Rows, checkpoints and sidecars: on a thread of their own while the next step runs, where the
+  // step leaves cores to them: the device's step (the host's threads are idle during it), or a CPU
+  // step on fewer threads than the process may use (the output's parallel loops get the rest).
+  // Otherwise the step's threads are all busy, and the output runs in turn with the steps. The
+  // file is opened on this thread, before the first job; every HDF5 call after that is a job.
+  const int step_threads = omp_get_max_threads();
+  const bool spare_cores = !simulation.on_step_backend() && step_threads < process_threads();
+  // The output thread's OpenMP team; 0: the output runs in turn with the steps.
+  const int output_threads =
+      simulation.on_step_backend() ? step_threads : spare_cores ? process_threads() - step_threads : 0;
+  OutputThread output_thread(output_threads > 0, output_threads);
 
   StepReport last;
   last.time = simulation.time();
@@ -634,6 +641,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
         {"accepted_steps", simulation.steps_taken()},
         {"rejected_steps", simulation.controller() ? simulation.controller()->state().rejected : 0},
         {"wall_seconds", wall},
+        {"threads", {{"step", step_threads}, {"output", output_threads}}},
         {"discretisation", stats_json(built.stats)},
         {"final",
          {{"elastic_energy", last.elastic_energy},

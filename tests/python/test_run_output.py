@@ -1,5 +1,6 @@
 """Runs real scenes with the fascia program and checks the files with h5py: the H5MD layout, the
 XDMF sidecar, SIGTERM handling and a run killed with SIGKILL mid-way."""
+import json
 import os
 import signal
 import subprocess
@@ -9,6 +10,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import pytest
 
 
 def run_fascia(fascia_bin, root, *args, **kw):
@@ -243,3 +245,29 @@ run: {{steps: 1}}
     # 16 + 42 frames of the blocks and the slab's one, less the 21 merged ones.
     assert json.loads(r.stdout)["discretisation"]["frames"] == 16 + 42 + 1 - 21
 
+
+def test_rows_written_beside_the_steps_equal_rows_written_in_turn(fascia_bin, root, tmp_path):
+    """With fewer step threads than the cores the process may use, each row is formed and written
+    on an output thread while the next step runs; on one core, in turn with the steps. The two
+    files hold the same bits (wall times and the run's environment aside)."""
+    cores = sorted(os.sched_getaffinity(0))
+    if len(cores) < 2:
+        pytest.skip("one core: the rows are written in turn with the steps either way")
+    scene = ["scenes/pelvis.yaml", "--set", "run.duration=0.1 s", "--threads", "1", "--json", "-q"]
+    beside, in_turn = tmp_path / "beside.h5", tmp_path / "in_turn.h5"
+    r = run_fascia(fascia_bin, root, "run", *scene, "-o", str(beside))
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["threads"] == {"step": 1, "output": len(cores) - 1}
+    r = run_fascia(fascia_bin, root, "run", *scene, "-o", str(in_turn), preexec_fn=lambda: os.sched_setaffinity(0, cores[:1]))
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["threads"] == {"step": 1, "output": 0}
+    compared = []
+    with h5py.File(beside, "r") as a, h5py.File(in_turn, "r") as b:
+        def visit(name, obj):
+            if not isinstance(obj, h5py.Dataset) or "wall_time" in name or name.startswith(("parameters", "h5md")):
+                return
+            x, y = obj[()], b[name][()]
+            assert x.shape == y.shape and x.tobytes() == y.tobytes(), name
+            compared.append(name)
+        a.visititems(visit)
+    assert len(compared) > 100 and "particles/samples/cauchy_stress/value" in compared
