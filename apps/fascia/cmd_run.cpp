@@ -328,6 +328,9 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   built.settings.elasticity = backend.elasticity;
   built.settings.step_backend = backend.step;
   if (options.threads >= 0) built.settings.threads = options.threads;
+  // A step on the device leaves every host thread to its rows; a CPU step takes as many as the
+  // scene's size can use, and its rows the rest.
+  if (!backend.step) built.settings.threads = step_threads(built.model, built.settings.threads, process_threads());
   bound_process_threads(built.settings.threads);
 
   // The steps of this run: the scene's, or fewer under a benchmark's cap.
@@ -685,7 +688,7 @@ CLI::Option* add_duration(CLI::App& command, const std::string& name, std::optio
 
 void add_run_options(CLI::App& cmd, RunOptions& options) {
   add_backend_options(cmd, options.backend);
-  cmd.add_option("--threads", options.threads, "CPU threads (0 = all; default: the scene's solver.threads)")
+  cmd.add_option("--threads", options.threads, "CPU threads of the step (0 = one per 500 samples and shell triangles, at most the cores; default: the scene's solver.threads)")
       ->check(CLI::NonNegativeNumber);
   CLI::Option* overwrite =
       cmd.add_flag("--overwrite", options.overwrite, "Replace an existing output file (refused otherwise, exit 73)");

@@ -1,5 +1,9 @@
 #include "process_threads.hpp"
 
+#include "model/model.hpp"
+
+#include <algorithm>
+
 #include <omp.h>
 
 namespace fascia::app {
@@ -8,6 +12,14 @@ int process_threads() {
   // Read once, before any bound is set: "all threads" restores it after a run that set fewer.
   static const int at_start = omp_get_max_threads();
   return at_start;
+}
+
+int step_threads(const Model& model, int requested, int available) {
+  if (requested > 0) return requested;
+  long elements = model.sample_count();
+  for (const Shell& shell : model.shells) elements += static_cast<long>(shell.triangles.size() / 3);
+  const long wanted = (elements + kElementsPerThread - 1) / kElementsPerThread;
+  return static_cast<int>(std::clamp<long>(wanted, 1, std::max(available, 1)));
 }
 
 void bound_process_threads(int threads) {
