@@ -88,8 +88,10 @@ def test_a_stopped_run_resumes_to_the_same_bits(fascia_bin, root, tmp_path, refe
 
 @pytest.mark.parametrize("scene,stop_after_rows", [
     # bone: from step 47 on a solve takes at most 10 PCG iterations, so one factorisation serves
-    # several steps and the resumed run must start with the one the stopped run held.
-    (["scenes/bone.yaml"], 50),
+    # several steps and the resumed run must start with the one the stopped run held. Run for 2 s
+    # (200 steps, not the scene's 60): the signal must land before the run ends, and the rows
+    # reach the file some steps after those steps are taken.
+    (["scenes/bone.yaml", "--set", "run.duration=2 s"], 50),
     # The variational integrator's iteration matrix (start and end states of the step).
     (["scenes/tool_pull.yaml", "--set", "run.duration=0.2 s", "--set", "solver.integrator=variational",
       "--set", "solver.rayleigh_mass=0"], 12),
