@@ -104,16 +104,19 @@ void Simulation::restore(const State& state, int step, double time) {
 
 void Simulation::restore_path_history(const PathHistory& history) {
   if (history.held() && (history.previous.positions.size() != m_state.positions.size() ||
-                         history.previous.orientations.size() != m_state.orientations.size()))
+                         history.previous.orientations.size() != m_state.orientations.size() ||
+                         history.previous.velocities.size() != m_state.velocities.size()))
     throw std::invalid_argument("restored path history has " + std::to_string(history.previous.frame_count()) +
                                 " frames, the model " + std::to_string(m_state.frame_count()));
   m_history = history.held() ? history : PathHistory{};
 }
 
 void Simulation::record_history(State start, double h) {
-  // Only a step between two equilibria lies on the path: the first starts from the rest state,
-  // not an equilibrium of the loads.
-  if (m_settings.integrator != Integrator::static_equilibrium || m_step == 0) return;
+  // Static steps: only a step between two equilibria lies on the path (the first starts from the
+  // rest state, not an equilibrium of the loads). Backward Euler: every step, whose velocities
+  // give the next guess's acceleration. The variational step makes no guess.
+  const Integrator integrator = m_settings.integrator;
+  if (integrator == Integrator::variational || (integrator == Integrator::static_equilibrium && m_step == 0)) return;
   m_history.previous = std::move(start);
   m_history.dt = h;
 }
@@ -208,7 +211,7 @@ Simulation::Attempt Simulation::attempt(double h, State& trial) {
     potential.set_dynamic(m_state, h, m_settings.rayleigh_mass, m_settings.rayleigh_stiffness);
   trial = m_state;
   apply_motions(m_model, m_motions, m_time + h, trial);
-  if (!variational) predict_dynamic_step(m_model, m_state, h, m_settings.rayleigh_mass, trial);
+  if (!variational) predict_dynamic_step(m_model, m_history, m_state, h, m_settings.rayleigh_mass, trial);
   potential.rigid_mapping().sync(trial);
   Attempt a;
   StepBackend* backend = m_impl->backend.get();

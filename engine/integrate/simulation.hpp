@@ -96,9 +96,10 @@ class Simulation {
   // exactly as an uninterrupted simulation would (the state, step count and time are all a step
   // depends on; io/checkpoint.hpp saves them).
   void restore(const State& state, int step, double time);
-  // Static steps: the equilibrium before the current one, from which the next step's starting
-  // guess is extrapolated (step_predictor.hpp); empty for the other integrators and until two
-  // static steps have been solved. restore() clears it; restore_path_history() sets it after restore().
+  // The accepted state before the current one, from which the next step's starting guess is
+  // extrapolated (step_predictor.hpp): static steps from their second on, backward Euler from its
+  // first; empty for the variational integrator. restore() clears it; restore_path_history() sets
+  // it after restore().
   const PathHistory& path_history() const { return m_history; }
   void restore_path_history(const PathHistory& history);
   // PCG's reused CHOLMOD factorisation (solver.linear: pcg + cholmod on the CPU engine) as it

@@ -25,11 +25,18 @@ void predict_static_step(const Model& model, const PathHistory& history, const S
   retract(model, trial, d.data(), 1.0);
 }
 
-void predict_dynamic_step(const Model& model, const State& current, double h, double rayleigh_mass, State& trial) {
+void predict_dynamic_step(const Model& model, const PathHistory& history, const State& current, double h,
+                          double rayleigh_mass, State& trial) {
   const double scale = h / (1 + rayleigh_mass * h);
+  // h a = r ((1 + alpha h_old) v_k - v_{k-1}), r = h / h_old.
+  const bool accelerated = history.held();
+  const double r = accelerated ? h / history.dt : 0.0, damped = 1 + rayleigh_mass * history.dt;
   std::vector<double> d(current.velocities.size(), 0.0);
-  for (size_t k = 0; k < d.size(); ++k)
-    if (!model.fixed_dofs[k]) d[k] = scale * current.velocities[k];
+  for (size_t k = 0; k < d.size(); ++k) {
+    if (model.fixed_dofs[k]) continue;
+    const double v = current.velocities[k];
+    d[k] = scale * (accelerated ? v + r * (damped * v - history.previous.velocities[k]) : v);
+  }
   retract(model, trial, d.data(), 1.0);
 }
 

@@ -13,16 +13,19 @@
 // exact for frames turning at a constant rate about a fixed axis (exp(r psi) R_k with
 // psi = log(Q) gives Q^r R_k); the positions are exact for translations at a constant rate.
 //
-// Backward Euler needs no history: its velocities v_k = Delta_k / h_old are the same secant. Its
-// guess is the minimiser of the step's inertia and mass-damping terms alone (step_potential.hpp's
-// Phi without W, V and the stiffness damping): 1/(2h^2) |Delta - h v_k|^2_M + alpha/(2h) |Delta|^2_M
-// is least at
+// Backward Euler: its guess is the minimiser of the step's inertia and mass-damping terms, with
+// the forces taken as those of the last step (step_potential.hpp's Phi with W + V linearised as a
+// constant force f). The step from q_k satisfies M (Delta - h v_k) / h^2 + alpha M Delta / h = -f,
+// so with the force acceleration a = -M^{-1} f
 //
-//   Delta = h v_k / (1 + alpha h)
+//   Delta = h (v_k + h a) / (1 + alpha h)
 //
-// (the free motion of a damped mass over one step; q_k + h v_k without damping). Where the
-// damping dominates, the secant h v_k overshoots: a held load's decaying velocities are cut by
-// 1 / (1 + alpha h) per step.
+// and the last step (h_old, from v_{k-1} to v_k) gives a = ((1 + alpha h_old) v_k - v_{k-1}) / h_old
+// exactly for that step's forces. Holding a over the next step is the secant extrapolation of the
+// velocities: its error is O(h h_old) in the velocities, O(h^2 h_old) in Delta, where the guess
+// without a (the free motion of a damped mass, h v_k / (1 + alpha h)) is O(h^2) away. Under
+// constant forces (a uniform fall, a held load on a body moving rigidly) the guess is the step's
+// minimiser. Without a history (the first step, or after a restore without one) a = 0.
 #pragma once
 
 #include "model/model.hpp"
@@ -32,8 +35,9 @@
 
 namespace fascia {
 
-// What the predictor keeps from one step to the next (a checkpoint keeps it): the accepted
-// equilibrium before the current one and the step h_old from it to the current one.
+// What the predictor keeps from one step to the next (a checkpoint keeps it): the accepted state
+// before the current one (static steps: an equilibrium; backward Euler: its velocities too) and
+// the step h_old from it to the current one.
 struct PathHistory {
   State previous;   // q_{k-1}; empty: none (the first step, or after a restore without one)
   double dt = 0;    // h_old (s of pseudo-time); 0: none
@@ -50,9 +54,11 @@ void extrapolated_increments(const State& previous, const State& current, double
 // No change without a history.
 void predict_static_step(const Model& model, const PathHistory& history, const State& current, double h, State& trial);
 
-// Backward Euler: moves the free DOFs of `trial` by Delta = h v / (1 + rayleigh_mass h) (above),
-// v the velocities of `current` (m/s, rad/s world axes), h in s, rayleigh_mass alpha in 1/s.
-// Fixed DOFs keep their values; attached frames must be synced by the caller.
-void predict_dynamic_step(const Model& model, const State& current, double h, double rayleigh_mass, State& trial);
+// Backward Euler: moves the free DOFs of `trial` by Delta = h (v + h a) / (1 + rayleigh_mass h)
+// (above), v the velocities of `current` (m/s, rad/s world axes), a from history.previous's
+// velocities and history.dt (a = 0 without a history), h in s, rayleigh_mass alpha in 1/s. Fixed
+// DOFs keep their values; attached frames must be synced by the caller.
+void predict_dynamic_step(const Model& model, const PathHistory& history, const State& current, double h,
+                          double rayleigh_mass, State& trial);
 
 }  // namespace fascia

@@ -1,6 +1,6 @@
 // Continuation from what a checkpoint keeps (io/checkpoint.hpp): a simulation restored at step
 // `split` of another one (state, step, time, PCG's reused factorisation, an adaptive run's step
-// controller, static steps' path history) continues to step `total` exactly as the uninterrupted one does. The same check runs
+// controller, the predictor's path history) continues to step `total` exactly as the uninterrupted one does. The same check runs
 // on the CPU engine (tests/integrate/test_simulation.cpp) and on the CUDA step backend
 // (tests/kernels/test_cuda_simulation.cpp), with the backend the settings' factories give.
 #pragma once
@@ -30,14 +30,14 @@ struct ResumeComparison {
   bool held = false;                     // a factorisation was held at the split
   std::vector<int> cg_full, cg_resumed;  // PCG iterations of steps split+1..total (rows, adaptive)
   std::vector<int> cg_fresh;             // the same, restored without the factorisation
-  bool history = false;                  // a path history was held at the split (static steps)
+  bool history = false;                  // a path history was held at the split (static, backward Euler)
   State full, resumed, fresh;            // the final states
   State forgetful;                       // restored with the factorisation, without the path history
 };
 
 // Runs `total` steps (adaptive: advances to k dt, k = 1..total) uninterrupted, and from step
 // `split` again in new simulations restored with and without the reused factorisation, and
-// (static steps) with the factorisation but without the path history.
+// (static steps, backward Euler) with the factorisation but without the path history.
 inline ResumeComparison compare_resume(const Model& model, const ExternalLoads& loads,
                                        const std::vector<PrescribedMotion>& motions, const SimulationSettings& settings,
                                        int split, int total) {
