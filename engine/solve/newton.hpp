@@ -31,7 +31,9 @@
 // Convergence: |g_free| <= tolerance * max(reference force, |g_free(q_0)|). Line search: halve
 // alpha until Phi(q (+) alpha d) <= Phi(q) + armijo alpha g.d (Nocedal & Wright, eq. 3.4); near
 // the minimum the predicted decrease falls below the round-off of Phi (a sum of many terms), and
-// there, as for residual problems, a step that reduces |g| is accepted.
+// there, as for residual problems, a step that reduces |g| is accepted. The full step's Phi is
+// the one its gradient returns (accepted, that gradient is the next iteration's); shortened steps
+// evaluate Phi alone.
 #pragma once
 
 #include "core/stop_request.hpp"
@@ -126,12 +128,21 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
       throw_if_stop_requested();
       trial = state;
       problem.retract(trial, d, alpha);
+      // The full step is accepted in most iterations: there the gradient, which returns Phi too,
+      // is evaluated at once; a shortened step first evaluates Phi alone.
+      const bool full_step = b == 0;
+      double phi_trial = 0;
       if (minimises) {
-        const double phi_trial = problem.value(trial);
+        phi_trial = full_step ? problem.gradient(trial, g_trial) : problem.value(trial);
         if (!std::isfinite(phi_trial)) continue;
         if (phi_trial <= phi + settings.armijo * alpha * slope) {
           std::swap(state, trial);
-          phi = problem.gradient(state, g);
+          if (full_step) {
+            std::swap(g, g_trial);
+            phi = phi_trial;
+          } else {
+            phi = problem.gradient(state, g);
+          }
           g_norm = ops.norm(g);
           accepted = true;
           break;
@@ -140,7 +151,7 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
                                std::abs(phi_trial - phi) <= 1e-10 * std::abs(phi);
         if (!round_off) continue;
       }
-      const double phi_trial = problem.gradient(trial, g_trial);
+      if (!(minimises && full_step)) phi_trial = problem.gradient(trial, g_trial);
       const double trial_norm = ops.norm(g_trial);
       if (std::isfinite(phi_trial) && std::isfinite(trial_norm) && trial_norm < g_norm) {
         std::swap(state, trial);

@@ -34,16 +34,22 @@ struct QuarticProblem {
   }
   const Ops& ops() const { return m_ops; }
   bool minimises() const { return potential; }
-  double value(const State& x) const {
+  mutable int values = 0, gradients = 0;  // calls of value() and gradient()
+  double phi(const State& x) const {
     double s = 0;
     for (size_t k = 0; k < x.size(); ++k) s += 0.25 * std::pow(x[k], 4) + 0.5 * a[k] * x[k] * x[k] - f * b[k] * x[k];
     return s;
   }
+  double value(const State& x) const {
+    ++values;
+    return phi(x);
+  }
   double gradient(const State& x, Vector& g) const {
+    ++gradients;
     g.resize(x.size());
     for (size_t k = 0; k < x.size(); ++k) g[k] = x[k] * x[k] * x[k] + a[k] * x[k] - f * b[k];
     m_ops.project(g);
-    return value(x);
+    return phi(x);
   }
   // The exact Newton step, or with `inexact` one whose residual is the tolerance asked for:
   // d = (1 + tolerance) H^{-1} rhs, so |H d - rhs| = tolerance |rhs|.
@@ -99,6 +105,29 @@ TEST_CASE("Newton minimises a strictly convex potential to its tolerance", "[sol
     if (k != 2) REQUIRE(std::abs(x[k] - problem.root(k)) <= 2 * 1e-10 * g0 / 0.5);
   // Newton's local quadratic convergence: a handful of iterations from x = 0 even at f = 20.
   REQUIRE(r.iterations <= 15);
+}
+
+TEST_CASE("Newton's accepted full steps cost one gradient each and no separate value", "[solve][newton]") {
+  // The gradient returns Phi too: a full step is tested for sufficient decrease with the Phi of
+  // its gradient, which, accepted, serves the next iteration. Only shortened steps evaluate Phi
+  // alone. A mild load (every full step accepted): one gradient at the start and one per iteration.
+  // A load of 20 from x = 0 shortens some steps: each halving evaluates Phi once, and a rejected
+  // full step's gradient is the one extra gradient per shortened iteration.
+  const double load = GENERATE(0.5, 20.0);
+  QuarticProblem problem(8, load);
+  std::vector<double> x(8, 0.0);
+  NewtonSettings settings;
+  settings.tolerance = 1e-10;
+  const NewtonResult r = newton(problem, x, settings, 1.0);
+  REQUIRE(r.converged);
+  if (load < 1) {
+    REQUIRE(problem.values == 0);
+    REQUIRE(problem.gradients == r.iterations + 1);
+  } else {
+    REQUIRE(problem.values > 0);
+    REQUIRE(problem.gradients <= 2 * r.iterations + 1);
+    REQUIRE(problem.gradients >= r.iterations + 1);
+  }
 }
 
 TEST_CASE("Newton's forcing term: loose solves far from the minimum, tight near it, at the same convergence",
