@@ -9,7 +9,7 @@
 
 namespace fascia::app {
 
-// "fascia 0.1.0, executable fnv1a64:0123456789abcdef": the version and a hash of the running
+// "fascia 0.1.0, executable fnv1a64w:0123456789abcdef": the version and a hash of the running
 // executable's bytes (/proc/self/exe), so that any rebuild with other code is another build.
 const std::string& build_identity();
 
