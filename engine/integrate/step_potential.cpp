@@ -39,6 +39,7 @@ void StepPotential::retract(State& state, const double* d, double scale) const {
 void StepPotential::set_static() {
   m_dynamic = false;
   m_equilibrium = false;
+  m_mapped_gradient.held = false;
 }
 
 void StepPotential::set_equilibrium() {
@@ -49,6 +50,7 @@ void StepPotential::set_equilibrium() {
 void StepPotential::set_dynamic(const State& start, double dt, double rayleigh_mass, double rayleigh_stiffness) {
   m_dynamic = true;
   m_equilibrium = false;
+  m_mapped_gradient.held = false;
   m_start = start;
   m_dt = dt;
   m_alpha = rayleigh_mass;
@@ -125,6 +127,10 @@ double StepPotential::full_gradient(const State& state, std::vector<double>& g) 
 double StepPotential::gradient(const State& state, std::vector<double>& g) {
   const double phi = full_gradient(state, g);
   if (!m_mapping.empty()) {
+    m_mapped_gradient.held = true;
+    m_mapped_gradient.state = state;
+    m_mapped_gradient.load_scale = m_loads.scale;
+    m_mapped_gradient.g = g;
     m_mapping.set_state(state);
     m_mapping.reduce(g.data());
   }
@@ -134,9 +140,12 @@ double StepPotential::gradient(const State& state, std::vector<double>& g) {
 void StepPotential::prepare_hessian(const State& state) {
   m_prepared = state;
   if (!m_mapping.empty()) {  // first: the gradient pass reuses the elasticity's buffers
-    full_gradient(state, m_scratch);
+    const MappedGradient& last = m_mapped_gradient;
+    const bool same = last.held && last.load_scale == m_loads.scale && last.state.positions == state.positions &&
+                      last.state.orientations == state.orientations;
+    if (!same) full_gradient(state, m_scratch);
     m_mapping.set_state(state);
-    m_mapping.set_geometric(m_scratch.data());
+    m_mapping.set_geometric(same ? last.g.data() : m_scratch.data());
   }
   m_elasticity->prepare(state);
   for (auto& field : m_fields) field->prepare(state);

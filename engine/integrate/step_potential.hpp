@@ -65,7 +65,10 @@ class StepPotential : public Potential {
   void retract(State& state, const double* d, double scale) const override;
 
   // Adds a force field (the model's shells are added by the constructor).
-  void add_force_field(std::unique_ptr<ForceField> field) { m_fields.push_back(std::move(field)); }
+  void add_force_field(std::unique_ptr<ForceField> field) {
+    m_fields.push_back(std::move(field));
+    m_mapped_gradient.held = false;
+  }
   const std::vector<std::unique_ptr<ForceField>>& force_fields() const { return m_fields; }
   const RigidMapping& rigid_mapping() const { return m_mapping; }
 
@@ -99,6 +102,15 @@ class StepPotential : public Potential {
   double m_dt = 0, m_alpha = 0, m_beta = 0;
   std::vector<double> m_world_inertia;  // [N][9] R_n I_0 R_n^T
   std::vector<double> m_scratch;
+  // With a rigid mapping: the unreduced gradient of the last gradient() call and where it was
+  // taken, which prepare_hessian() at that state reuses for the mapping's geometric term (Newton
+  // prepares the tangent at the state whose gradient it has just evaluated).
+  struct MappedGradient {
+    bool held = false;
+    State state;
+    double load_scale = 0;
+    std::vector<double> g;  // [N][6]
+  } m_mapped_gradient;
   std::vector<std::unique_ptr<ForceField>> m_fields;
   std::unique_ptr<RotationStabilisation> m_stabilisation;  // null: no frame hexahedra
   bool m_equilibrium = false;  // set_equilibrium(): Phi carries m_stabilisation

@@ -88,6 +88,53 @@ TEST_CASE("rigid mapping: reduced gradient and Hessian match finite differences"
   }
 }
 
+TEST_CASE("rigid mapping: the tangent prepared after a gradient at its state is the one prepared alone",
+          "[integrate][rigid]") {
+  // prepare_hessian() reuses the unreduced gradient of the last gradient() call for the mapping's
+  // geometric term when it was taken at the same state and load factor, and computes it otherwise.
+  // The operator must be bitwise that of a potential prepared without a gradient before, also after
+  // a gradient at another state, at another load factor, or before set_dynamic().
+  const Model model = coupled_model();
+  ExternalLoads loads;
+  loads.gravity = Vec3{0.5, -9.81, 2.0};
+  const RigidMapping mapping(model);
+  State state = random_state(model, 21, 0.005, 0.5, 2.0), other = random_state(model, 22, 0.005, 0.5, 2.0);
+  mapping.sync(state);
+  mapping.sync(other);
+  State start = state;
+  for (int k = 0; k < model.dof_count(); ++k) start.velocities[k] = k % 6 < 3 ? 0.3 : 0.0;
+  const std::vector<double> d = reduced_direction(model, 5, 0.05);
+  auto product = [&](StepPotential& p) {
+    p.prepare_hessian(state);
+    std::vector<double> hd(model.dof_count());
+    p.system().apply(d.data(), hd.data());
+    return hd;
+  };
+  StepPotential alone(model, loads);
+  alone.set_dynamic(start, 0.01, 0.5, 0.0);
+  const std::vector<double> reference = product(alone);
+  std::vector<double> g;
+  StepPotential same(model, loads);
+  same.set_dynamic(start, 0.01, 0.5, 0.0);
+  same.gradient(state, g);
+  CHECK(product(same) == reference);
+  StepPotential elsewhere(model, loads);
+  elsewhere.set_dynamic(start, 0.01, 0.5, 0.0);
+  elsewhere.gradient(other, g);
+  CHECK(product(elsewhere) == reference);
+  StepPotential before_dynamic(model, loads);
+  before_dynamic.gradient(state, g);  // static potential: no inertia in its gradient
+  before_dynamic.set_dynamic(start, 0.01, 0.5, 0.0);
+  CHECK(product(before_dynamic) == reference);
+  ExternalLoads scaled = loads;
+  StepPotential rescaled(model, scaled);
+  rescaled.set_dynamic(start, 0.01, 0.5, 0.0);
+  scaled.scale = 0.5;
+  rescaled.gradient(state, g);
+  scaled.scale = 1.0;
+  CHECK(product(rescaled) == reference);
+}
+
 TEST_CASE("free coupled system: backward Euler conserves linear momentum; damping dissipates", "[integrate][coupling]") {
   const Model model = coupled_model();
   SimulationSettings settings;
