@@ -15,10 +15,10 @@
 //                                 advance in progress: Newton and CG iterations, accepted,
 //                                 rejected (solve/step_controller.hpp; zeros unless adaptive);
 //                                 history float64 [1]: the step h_old (s) from the previous
-//                                 equilibrium to the state, 0 when none is held;
-//                                 history_{positions,orientations,velocities}: the previous
-//                                 equilibrium as the state (integrate/step_predictor.hpp; zeros
-//                                 where not held)
+//                                 state (static steps: equilibrium) to the state, 0 when none
+//                                 is held;
+//                                 history_{positions,orientations,velocities}: that previous
+//                                 state (integrate/step_predictor.hpp; zeros where not held)
 //   /checkpoint/commit            int64 [2]: the committed sequence number (0: none yet) and its step
 //
 // Atomicity: every dataset is contiguous and allocated when the file is created, so writing a
@@ -31,7 +31,7 @@
 // and the time (Simulation::restore), the step size dt, the origin of the factorisation PCG
 // reuses (Simulation::restore_tangent), an adaptive run's step controller and the attempts
 // since its last output time (StepController::restore, Simulation::restore_progress), and the
-// previous equilibrium static steps extrapolate from (Simulation::restore_path_history). A format that adds datasets to the slots raises `format`;
+// previous state the steps' starting guesses extrapolate from (Simulation::restore_path_history). A format that adds datasets to the slots raises `format`;
 // a reader reads its own format only (a checkpoint is resumed by the build that wrote it).
 #pragma once
 
@@ -58,7 +58,7 @@ struct Checkpoint {
   ReusedTangent tangent;    // PCG's reused factorisation (Simulation::reused_tangent())
   StepControllerState controller;  // adaptive steps: the controller (Simulation::controller())
   AdvanceProgress progress;        // adaptive steps: since the last output time
-  PathHistory history;             // static steps: the previous equilibrium (Simulation::path_history())
+  PathHistory history;             // the predictor's previous state (Simulation::path_history())
 };
 
 // What a checkpoint may be resumed by: the resolved scene and the build that wrote it.
