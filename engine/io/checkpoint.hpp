@@ -31,8 +31,9 @@
 // and the time (Simulation::restore), the step size dt, the origin of the factorisation PCG
 // reuses (Simulation::restore_tangent), an adaptive run's step controller and the attempts
 // since its last output time (StepController::restore, Simulation::restore_progress), and the
-// previous state the steps' starting guesses extrapolate from (Simulation::restore_path_history). A format that adds datasets to the slots raises `format`;
-// a reader reads its own format only (a checkpoint is resumed by the build that wrote it).
+// previous state the steps' starting guesses extrapolate from (Simulation::restore_path_history).
+// A format that adds datasets to the slots raises `format`; a reader reads its own format only (a
+// checkpoint is resumed by the build that wrote it).
 #pragma once
 
 #include "integrate/step_error.hpp"
