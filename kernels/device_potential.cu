@@ -232,10 +232,9 @@ struct DevicePotential::Impl {
       : device(model, options), elasticity(device.elasticity.get()), ops(device.stream), mapping(model), shells(model) {
     const int n = model.frame_count();
     stream = ops.stream();
-    std::vector<double> f, C;
-    frame_load_moments(model, loads, f, C);
-    load_f.upload(f);
-    load_C.upload(C);
+    const FrameLoads frame_loads(model, loads);
+    load_f.upload(frame_loads.forces());
+    load_C.upload(frame_loads.moments());
     std::vector<double> frame_masses = model.frame_masses, frame_inertias = model.frame_inertias;
     frame_masses.resize(n, 0.0);
     frame_inertias.resize(9 * static_cast<size_t>(n), 0.0);

@@ -1,5 +1,7 @@
 #include "device_step.hpp"
 
+#include "mechanics/frame_loads.hpp"
+
 #include <stdexcept>
 
 namespace fascia::gpu {
@@ -16,12 +18,13 @@ StepOptions make_step_options(const Model& model, const ExternalLoads& loads, co
   o.preconditioner = linear.method == LinearMethod::pcg;
   o.max_cg_iterations = linear.max_iterations;
   o.cg_tolerance = linear.fixed_iterations ? 0.0 : linear.tolerance;
+  const FrameLoads frame_loads(model, loads);
   std::vector<double> g(6 * static_cast<size_t>(n), 0.0);
-  add_load_gradient(model, loads, start, g.data());
+  frame_loads.add_gradient(start, loads.scale, g.data());
   o.external_forces.resize(g.size());
   for (size_t k = 0; k < g.size(); ++k) o.external_forces[k] = -g[k];
   o.load_rotational_blocks.assign(9 * static_cast<size_t>(n), 0.0);
-  add_load_rotational_blocks(model, loads, start, o.load_rotational_blocks.data());
+  frame_loads.add_rotational_blocks(start, loads.scale, o.load_rotational_blocks.data());
   return o;
 }
 

@@ -523,7 +523,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       initial.time = simulation.time();
       initial.converged = true;
       initial.kinetic_energy = kinetic_energy(simulation.model(), simulation.state());
-      initial.external_potential = load_potential(simulation.model(), simulation.loads(), simulation.state());
+      initial.external_potential = simulation.external_potential(simulation.state());
       output_thread.submit([&, state = simulation.state(), initial] {
         writer->append(recorder.record(state, initial));
         written_times.push_back(initial.time);

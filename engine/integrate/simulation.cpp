@@ -203,7 +203,7 @@ Simulation::Attempt Simulation::attempt(double h, State& trial) {
   // The variational step solves its discrete Euler-Lagrange equations (with V from the static
   // potential), backward Euler minimises its incremental potential.
   StepPotential& potential = m_impl->potential;
-  const double reference = load_force_norm(m_model, m_loads);
+  const double reference = potential.frame_loads().force_norm(m_loads.scale);
   const bool variational = m_settings.integrator == Integrator::variational;
   if (variational)
     potential.set_static();
@@ -249,7 +249,7 @@ Simulation::Attempt Simulation::static_attempt(double t_next, State& trial) {
   stepping.max_halvings = loaded ? 0 : m_settings.max_load_halvings;
   const std::function<double(double)> set_load_factor = [&](double factor) {
     loads.scale = factor;
-    return load_force_norm(m_model, loads);
+    return potential.frame_loads().force_norm(factor);
   };
   a.newton = m_impl->backend
                  ? m_impl->backend->equilibrium(trial, m_settings.newton, stepping, set_load_factor)
@@ -261,6 +261,10 @@ Simulation::Attempt Simulation::static_attempt(double t_next, State& trial) {
   return a;
 }
 
+double Simulation::external_potential(const State& state) const {
+  return m_impl->potential.frame_loads().value(state, m_loads.scale);
+}
+
 bool Simulation::finish(StepReport& report, int step, double time, std::chrono::steady_clock::time_point t0) {
   report.step = step;
   report.time = time;
@@ -268,7 +272,7 @@ bool Simulation::finish(StepReport& report, int step, double time, std::chrono::
   report.elastic_energy =
       m_impl->backend ? m_impl->backend->elastic_energy(m_state) : m_impl->potential.elastic_energy(m_state);
   report.kinetic_energy = kinetic_energy(m_model, m_state);
-  report.external_potential = load_potential(m_model, m_loads, m_state);
+  report.external_potential = external_potential(m_state);
   report.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   // A step is accepted only with a finite state and finite energies: values beyond the range of
   // a double (a modulus of 1e300 Pa, a time step of 1e-300 s) are a divergence, never output.

@@ -116,6 +116,8 @@ class Simulation {
   const State& state() const { return m_state; }
   State& state() { return m_state; }
   const ExternalLoads& loads() const { return m_loads; }
+  // The load potential V at `state` (J), at the loads' factor (mechanics/frame_loads.hpp).
+  double external_potential(const State& state) const;
   const SimulationSettings& settings() const { return m_settings; }
   // Whether the steps run on the settings' step backend, and why not where one was given.
   bool on_step_backend() const;

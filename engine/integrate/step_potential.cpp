@@ -15,6 +15,7 @@ StepPotential::StepPotential(const Model& model, const ExternalLoads& loads, int
                              const ElasticityFactory& elasticity)
     : m_model(model),
       m_loads(loads),
+      m_frame_loads(model, loads),
       m_threads(threads > 0 ? threads : omp_get_max_threads()),
       m_factory(elasticity),
       m_elasticity(make_elasticity(elasticity, model, m_threads)),
@@ -107,7 +108,7 @@ double StepPotential::inertia_value(const State& state, std::vector<double>* gra
 }
 
 double StepPotential::value(const State& state) {
-  double phi = elastic_energy(state) + load_potential(m_model, m_loads, state);
+  double phi = elastic_energy(state) + m_frame_loads.value(state, m_loads.scale);
   if (stabilised()) phi += m_stabilisation->energy(state);
   if (m_dynamic) phi += inertia_value(state, nullptr);
   return phi;
@@ -118,8 +119,8 @@ double StepPotential::full_gradient(const State& state, std::vector<double>& g) 
   double phi = m_elasticity->gradient(state, g.data());
   for (auto& field : m_fields) phi += field->add_gradient(state, g.data());
   if (stabilised()) phi += m_stabilisation->add_gradient(state, g.data());
-  add_load_gradient(m_model, m_loads, state, g.data());
-  phi += load_potential(m_model, m_loads, state);
+  m_frame_loads.add_gradient(state, m_loads.scale, g.data());
+  phi += m_frame_loads.value(state, m_loads.scale);
   if (m_dynamic) phi += inertia_value(state, &g);
   return phi;
 }
@@ -152,7 +153,7 @@ void StepPotential::prepare_hessian(const State& state) {
   m_stabilised = stabilised();
   if (m_stabilised) m_stabilisation->prepare(state);
   std::fill(m_load_blocks.begin(), m_load_blocks.end(), 0.0);
-  add_load_rotational_blocks(m_model, m_loads, state, m_load_blocks.data());
+  m_frame_loads.add_rotational_blocks(state, m_loads.scale, m_load_blocks.data());
 }
 
 LinearSystem StepPotential::system() {

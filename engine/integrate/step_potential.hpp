@@ -34,6 +34,7 @@
 #include "mechanics/external_loads.hpp"
 #include "mechanics/force_field.hpp"
 #include "mechanics/frame_inertia.hpp"
+#include "mechanics/frame_loads.hpp"
 #include "mechanics/rigid_mapping.hpp"
 #include "mechanics/rotation_stabilisation.hpp"
 #include "mechanics/volumetric_elasticity.hpp"
@@ -45,6 +46,8 @@ namespace fascia {
 
 class StepPotential : public Potential {
  public:
+  // The model and the loads must outlive the potential and not change after its construction
+  // but for the loads' factor (ExternalLoads::scale).
   // @param elasticity makes the volumetric elasticity (empty: the CPU Elasticity).
   StepPotential(const Model& model, const ExternalLoads& loads, int threads = 0,
                 const ElasticityFactory& elasticity = {});
@@ -75,6 +78,8 @@ class StepPotential : public Potential {
   VolumetricElasticity& elasticity() { return *m_elasticity; }
   int threads() const { return m_threads; }  // OpenMP threads of the CPU work (0 resolved)
   const ExternalLoads& loads() const { return m_loads; }
+  // The loads summed per frame (V, its gradient and blocks at the load factor loads().scale).
+  const FrameLoads& frame_loads() const { return m_frame_loads; }
   // Volumetric elastic energy plus every force field's energy (J); without S.
   double elastic_energy(const State& state);
 
@@ -91,6 +96,7 @@ class StepPotential : public Potential {
 
   const Model& m_model;
   const ExternalLoads& m_loads;
+  FrameLoads m_frame_loads;
   int m_threads;
   ElasticityFactory m_factory;
   std::unique_ptr<VolumetricElasticity> m_elasticity;

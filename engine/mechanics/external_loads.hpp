@@ -1,11 +1,12 @@
-// External loads as potentials on the frame configuration: gravity acting on every sample's
-// mass through eq. (3), and point forces on frames. Conservative, so static equilibrium is the
-// minimum of W + V and the line search works on one energy.
+// External loads on the frame configuration: gravity acting on every sample's mass through
+// eq. (3) and on the frames' point masses (Model::frame_point_masses: shell nodes, rigid bodies),
+// point forces on frames, and forces on material points. All are constant forces, so they have a
+// potential V = -scale (sum_s rho_s v_s g . p_s + sum_i m_i g . x_i + sum_k f_k . x_k +
+// sum_m f_m . p_m) (J): static equilibrium is the minimum of W + V and the line search works on
+// one energy. mechanics/frame_loads.hpp sums V per frame and evaluates it.
 #pragma once
 
 #include "core/small_math.hpp"
-#include "model/model.hpp"
-#include "model/state.hpp"
 
 #include <vector>
 
@@ -32,19 +33,5 @@ struct ExternalLoads {
   std::vector<MaterialPointForce> material_point_forces;
   double scale = 1.0;  // load factor (load stepping)
 };
-
-// V = -scale (sum_s rho_s v_s g . p_s + sum_i m_i g . x_i + sum_k f_k . x_k + sum_m f_m . p_m), J,
-// with m_i the frames' point masses (Model::frame_point_masses: shell nodes, rigid bodies).
-double load_potential(const Model& model, const ExternalLoads& loads, const State& state);
-
-// Adds dV/d(theta) at theta = 0 to gradient [N][6].
-void add_load_gradient(const Model& model, const ExternalLoads& loads, const State& state, double* gradient);
-
-// Adds the rotational blocks of the Hessian of V (the gravity moment arm a = R l turns with the
-// frame) to blocks [N][9].
-void add_load_rotational_blocks(const Model& model, const ExternalLoads& loads, const State& state, double* blocks);
-
-// Total external force on translations (N), for convergence scales.
-double load_force_norm(const Model& model, const ExternalLoads& loads);
 
 }  // namespace fascia

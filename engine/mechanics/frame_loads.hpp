@@ -12,14 +12,35 @@
 
 #include "core/small_math.hpp"
 #include "mechanics/external_loads.hpp"
+#include "model/model.hpp"
+#include "model/state.hpp"
 
 #include <vector>
 
 namespace fascia {
 
-// f [N][3] and C [N][9] row-major at load factor 1.
-void frame_load_moments(const Model& model, const ExternalLoads& loads, std::vector<double>& f,
-                        std::vector<double>& C);
+// The loads' moments f and C of every frame, summed once from the model and the loads (which must
+// not change after; their load factor ExternalLoads::scale is given to each evaluation instead),
+// and V, dV/d(theta) and V's rotational Hessian blocks from them, O(N) per evaluation.
+class FrameLoads {
+ public:
+  FrameLoads(const Model& model, const ExternalLoads& loads);
+
+  const std::vector<double>& forces() const { return m_f; }   // f [N][3] (N) at load factor 1
+  const std::vector<double>& moments() const { return m_C; }  // C [N][9] row-major (N m) at load factor 1
+
+  // V = sum_i V_i (J) at load factor s.
+  double value(const State& state, double s) const;
+  // Adds dV/d(theta) at load factor s to gradient [N][6].
+  void add_gradient(const State& state, double s, double* gradient) const;
+  // Adds the rotational Hessian blocks of V at load factor s to blocks [N][9].
+  void add_rotational_blocks(const State& state, double s, double* blocks) const;
+  // |f| summed per frame at load factor s (N): the external force scale of Newton's tolerance.
+  double force_norm(double s) const;
+
+ private:
+  std::vector<double> m_f, m_C;
+};
 
 // V_i (J) of frame i at load factor s.
 FASCIA_HD double frame_load_value(const Vec3& f, const Mat3& C, const Vec3& x, const Mat3& R, double s) {

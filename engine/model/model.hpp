@@ -114,7 +114,7 @@ void build_reverse_table(Model& model);
 // Lumped frame masses and inertias from the sample densities (m_s = rho_s v_s; eq. 3 weights w_p,
 // rest offsets l_p). Mass: m_i = sum_p w_p m_s, the row sums of the consistent mass matrix, which
 // make a uniform translation exact under gravity (the same sums weigh the frames,
-// mechanics/external_loads.cpp). Inertia: I_i = sum_p m_p (|l_p|^2 I - l_p l_p^T) with the shares
+// mechanics/frame_loads.cpp). Inertia: I_i = sum_p m_p (|l_p|^2 I - l_p l_p^T) with the shares
 // m_p = m_s w+_p / sum w+ (w+ = max(w, 0)): moving least squares weights of linear precision are
 // negative in places, and with them a frame's inertia can be indefinite, and the step's Hessian
 // with it once I / h^2 outweighs the elastic stiffness (small steps). The shares are the weights

@@ -13,6 +13,7 @@
 #include "cuda_step.hpp"
 #include "discretise/mesh_based.hpp"
 #include "discretise/probe.hpp"
+#include "mechanics/frame_loads.hpp"
 #include "study/beam_study.hpp"
 #include "support/backend_comparison.hpp"
 #include "support/coupling_fixtures.hpp"
@@ -135,7 +136,7 @@ TEST_CASE("a beam study row on the CUDA backend equals the CPU row", "[gpu]") {
   StepPotential probe(solved.model(), solved.loads());
   probe.set_static();
   const MinimiserBound b = minimiser_bound(probe, solved.state(), solved.state());
-  const double F = load_force_norm(solved.model(), solved.loads());
+  const double F = FrameLoads(solved.model(), solved.loads()).force_norm(solved.loads().scale);
   const double bound = (1 + b.extent) * 2 * (cpu.residual + gpu.residual) * F / b.lambda_min +
                        state_round_off(cpu_settings.length);
   const double diff = norm(gpu.tip_displacement - cpu.tip_displacement);
