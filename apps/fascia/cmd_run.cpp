@@ -217,7 +217,7 @@ class StepRecorder {
     const Model& model = m_built.model;
     rotation_matrices(state, m_field_rotations);
     m_frame_fields = frame_fields(model, state, m_field_rotations);
-    m_sample_fields = sample_fields(model, state, m_field_rotations);
+    sample_fields(model, state, m_field_rotations, m_sample_fields);
     const std::vector<Field> averages = frame_averages(model, m_sample_fields);
     m_surface_fields.clear();
     for (const SurfaceSource& source : m_sources)

@@ -43,7 +43,8 @@ std::vector<Field> measure_fields(std::size_t n, bool fibres) {
   return f;
 }
 
-void set_measures(std::vector<Field>& f, std::size_t i, const StressMeasures& m) {
+void set_measures(std::vector<Field>& fields, std::size_t first, std::size_t i, const StressMeasures& m) {
+  Field* f = fields.data() + first;
   store(f[0].values, i, m.green_strain);
   store(f[1].values, i, m.second_piola);
   store(f[2].values, i, m.cauchy);
@@ -53,7 +54,7 @@ void set_measures(std::vector<Field>& f, std::size_t i, const StressMeasures& m)
   f[6].values[i] = von_mises(m.second_piola);
   f[7].values[i] = von_mises(m.cauchy);
   f[8].values[i] = m.energy_density;
-  if (f.size() > 9) f[9].values[i] = m.fibre_stretch;
+  if (fields.size() > first + 9) f[9].values[i] = m.fibre_stretch;
 }
 
 bool has_fibres(const Model& model) {
@@ -62,12 +63,17 @@ bool has_fibres(const Model& model) {
   return false;
 }
 
-std::vector<Field> sample_fields(const Model& model, const State& state, const std::vector<double>& rotations) {
+void sample_fields(const Model& model, const State& state, const std::vector<double>& rotations,
+                   std::vector<Field>& f) {
   const std::size_t n = static_cast<std::size_t>(model.sample_count());
-  std::vector<Field> f;
-  f.push_back(make("displacement", 3, "m", n));
-  f.push_back(make("velocity", 3, "m/s", n));
-  std::vector<Field> measures = measure_fields(n, has_fibres(model));
+  const bool fibres = has_fibres(model);
+  constexpr std::size_t kKinematic = 2;  // displacement, velocity; then the measures
+  if (f.size() != kKinematic + measure_fields(0, fibres).size() || f[0].values.size() != 3 * n) {
+    f.clear();
+    f.push_back(make("displacement", 3, "m", n));
+    f.push_back(make("velocity", 3, "m/s", n));
+    for (Field& m : measure_fields(n, fibres)) f.push_back(std::move(m));
+  }
 
   const NeighbourTable& t = model.neighbours;
   const PairTableView view{t.offsets.data(), t.frames.data(), t.weights.data(), t.weight_gradients.data(),
@@ -89,10 +95,8 @@ std::vector<Field> sample_fields(const Model& model, const State& state, const s
     }
     store(f[1].values, si, v);
     const Mat3 F = sample_deformation_gradient(view, s, x, R);
-    set_measures(measures, si, stress_measures(model.materials[static_cast<std::size_t>(model.samples.materials[si])], F));
+    set_measures(f, kKinematic, si, stress_measures(model.materials[static_cast<std::size_t>(model.samples.materials[si])], F));
   }
-  for (Field& m : measures) f.push_back(std::move(m));
-  return f;
 }
 
 std::vector<Field> frame_fields(const Model& model, const State& state, const std::vector<double>& rotations) {

@@ -32,17 +32,21 @@ struct Field {
   std::vector<double> values;
 };
 
-// The sample fields in the order listed above; rotations are rotation_matrices(state) ([N][9]).
-std::vector<Field> sample_fields(const Model& model, const State& state, const std::vector<double>& rotations);
+// The sample fields in the order listed above into `fields`; rotations are
+// rotation_matrices(state) ([N][9]). Every value is written: fields of this model's layout are
+// overwritten in place (a caller keeping them across rows allocates them once), others replaced.
+void sample_fields(const Model& model, const State& state, const std::vector<double>& rotations,
+                   std::vector<Field>& fields);
 
 // The frame fields in the order listed above.
 std::vector<Field> frame_fields(const Model& model, const State& state, const std::vector<double>& rotations);
 
 // The strain and stress measure fields (green_strain ... strain_energy_density above, and
 // fibre_stretch with `fibres`) for n particles, zero, and their values for particle `index` from
-// a point's measures.
+// a point's measures, into the measure fields fields[first], fields[first + 1], ... (the fibre
+// stretch where fields holds it).
 std::vector<Field> measure_fields(std::size_t n, bool fibres = false);
-void set_measures(std::vector<Field>& measures, std::size_t index, const StressMeasures& m);
+void set_measures(std::vector<Field>& fields, std::size_t first, std::size_t index, const StressMeasures& m);
 
 // Whether any material of the model has fibres (its sample fields include fibre_stretch).
 bool has_fibres(const Model& model);

@@ -128,7 +128,7 @@ std::vector<Field> shell_frame_averages(const Model& model, const Shell& shell, 
   std::vector<double> area(triangles), weight(n, 0.0);
   for (std::size_t t = 0; t < triangles; ++t) {
     const int* v = &shell.triangles[3 * t];
-    set_measures(per_triangle, t, shell_membrane_measures(model, shell, v[0], v[1], v[2], state.positions.data()));
+    set_measures(per_triangle, 0, t, shell_membrane_measures(model, shell, v[0], v[1], v[2], state.positions.data()));
     area[t] = make_shell_element(model.frame_rest_positions.data(), v[0], v[1], v[2], shell).area;
     for (int k = 0; k < 3; ++k) weight[static_cast<std::size_t>(v[k])] += area[t];
   }
