@@ -541,9 +541,11 @@ __global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* ge
 // blocks and Cholesky factor itself (the same bits in each) and solves for column c of the
 // preconditioner (frame_prepare_finish's arithmetic, column by column); thread 0 stores the blocks.
 // Two kernels, so that the pair sums run with many threads per frame and the factorisation with
-// few registers per thread.
-constexpr int kColumnParts = 4;    // k_frame_columns: threads per frame
-constexpr int kColumnFrames = 16;  // k_frame_columns: frames per block, 64 threads (blocks spread evenly)
+// few registers per thread. A warp per frame: meshless frames meet hundreds of samples (about 670
+// pairs per frame in the pelvis at 56 k samples), whose pairs one thread each would walk in turn
+// with the grid's few thousand threads mostly idle.
+constexpr int kColumnParts = 32;  // k_frame_columns: threads per frame
+constexpr int kColumnFrames = 2;  // k_frame_columns: frames per block, 64 threads (blocks spread evenly)
 constexpr int kFinishFrames = 21;  // k_frame_finish: frames per block, 126 threads
 
 template <class R>
