@@ -126,12 +126,17 @@ std::vector<Field> shell_frame_averages(const Model& model, const Shell& shell, 
   const std::size_t triangles = shell.triangles.size() / 3;
   std::vector<Field> per_triangle = measure_fields(triangles);
   std::vector<double> area(triangles), weight(n, 0.0);
-  for (std::size_t t = 0; t < triangles; ++t) {
+  // Triangles are independent (their principal values are most of a row's shell work): in
+  // parallel; the frames' weights and averages are then summed in triangle order.
+#pragma omp parallel for schedule(static)
+  for (long tl = 0; tl < static_cast<long>(triangles); ++tl) {
+    const std::size_t t = static_cast<std::size_t>(tl);
     const int* v = &shell.triangles[3 * t];
     set_measures(per_triangle, 0, t, shell_membrane_measures(model, shell, v[0], v[1], v[2], state.positions.data()));
     area[t] = make_shell_element(model.frame_rest_positions.data(), v[0], v[1], v[2], shell).area;
-    for (int k = 0; k < 3; ++k) weight[static_cast<std::size_t>(v[k])] += area[t];
   }
+  for (std::size_t t = 0; t < triangles; ++t)
+    for (int k = 0; k < 3; ++k) weight[static_cast<std::size_t>(shell.triangles[3 * t + static_cast<std::size_t>(k)])] += area[t];
   std::vector<Field> out = measure_fields(n);
   for (std::size_t f = 0; f < out.size(); ++f) {
     const std::size_t c = static_cast<std::size_t>(out[f].components);
