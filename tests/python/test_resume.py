@@ -15,10 +15,12 @@ from trajectory_rows import rows
 STOPPED = 75
 DATA_ERROR = 65
 
-# tool_pull for 0.3 s: 30 backward-Euler steps with a prescribed motion, on one thread, with the
+# tool_pull for 1 s: 100 backward-Euler steps with a prescribed motion, on one thread, with the
 # default linear solver (PCG preconditioned by a CHOLMOD factorisation reused across Newton
-# iterations and steps, which the checkpoint records where it was computed).
-SCENE = ["scenes/tool_pull.yaml", "--set", "run.duration=0.3 s", "--threads", "1"]
+# iterations and steps, which the checkpoint records where it was computed). The tests stop it
+# after at most 12 rows: the steps left (about 2 s on one thread of a 2-core machine) leave the
+# poller time to see the rows and signal the run before it ends, also on a loaded machine.
+SCENE = ["scenes/tool_pull.yaml", "--set", "run.duration=1 s", "--threads", "1"]
 
 
 def run(fascia_bin, root, *args):
@@ -71,7 +73,7 @@ def test_a_stopped_run_resumes_to_the_same_bits(fascia_bin, root, tmp_path, refe
     assert f"stopped by {stop.name}" in err and "--resume" in err
     with h5py.File(out, "r") as f:
         assert "checkpoint" in f and f["checkpoint/commit"][0] > 0
-        assert 5 <= f["particles/frames/position/value"].shape[0] < 31
+        assert 5 <= f["particles/frames/position/value"].shape[0] < 101
     r = run(fascia_bin, root, *SCENE, "-o", str(out), "--resume", "-q")
     assert r.returncode == 0, r.stderr
     assert_bitwise_equal(out, reference)
