@@ -439,16 +439,18 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     xdmf_seconds = std::chrono::duration<double>(last_xdmf - now).count();
   };
 
-  // Rows, checkpoints and sidecars: on a thread of their own while the next step runs, where the
-  // step leaves cores to them: the device's step (the host's threads are idle during it), or a CPU
-  // step on fewer threads than the process may use (the output's parallel loops get the rest).
-  // Otherwise the step's threads are all busy, and the output runs in turn with the steps. The
-  // file is opened on this thread, before the first job; every HDF5 call after that is a job.
+  // Rows, checkpoints and sidecars: on a thread of their own while the next steps run, where the
+  // step leaves cores to them: the device's step (the host's threads are idle during it but this
+  // one, which waits for the device spinning on its core, CUDA's default), or a CPU step on fewer
+  // threads than the process may use (the output's parallel loops get the rest). Otherwise the
+  // step's threads are all busy, and the output runs in turn with the steps. The file is opened on
+  // this thread, before the first job; every HDF5 call after that is a job.
   const int step_threads = omp_get_max_threads();
   const bool spare_cores = !simulation.on_step_backend() && step_threads < process_threads();
   // The output thread's OpenMP team; 0: the output runs in turn with the steps.
-  const int output_threads =
-      simulation.on_step_backend() ? step_threads : spare_cores ? process_threads() - step_threads : 0;
+  const int output_threads = simulation.on_step_backend() ? std::max(1, step_threads - 1)
+                             : spare_cores                ? process_threads() - step_threads
+                                                          : 0;
   OutputThread output_thread(output_threads > 0, output_threads);
 
   StepReport last;

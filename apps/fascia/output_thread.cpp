@@ -20,28 +20,30 @@ OutputThread::~OutputThread() {
   m_thread.join();
 }
 
-void OutputThread::wait_idle(std::unique_lock<std::mutex>& lock) {
-  m_changed.wait(lock, [this] { return !m_busy; });
+void OutputThread::rethrow_error() {
   if (m_error) std::rethrow_exception(std::exchange(m_error, nullptr));
 }
 
 void OutputThread::submit(std::function<void()> job) {
   std::unique_lock<std::mutex> lock(m_mutex);
-  wait_idle(lock);
   if (!m_thread.joinable()) {
     lock.unlock();
     job();
     return;
   }
-  m_job = std::move(job);
-  m_busy = true;
+  m_changed.wait(lock, [this] {
+    return m_error || static_cast<int>(m_jobs.size()) + (m_running ? 1 : 0) < kQueuedJobs;
+  });
+  rethrow_error();
+  m_jobs.push_back(std::move(job));
   lock.unlock();
   m_changed.notify_all();
 }
 
 void OutputThread::finish() {
   std::unique_lock<std::mutex> lock(m_mutex);
-  wait_idle(lock);
+  m_changed.wait(lock, [this] { return m_jobs.empty() && !m_running; });
+  rethrow_error();
 }
 
 void OutputThread::serve(int threads) {
@@ -49,9 +51,11 @@ void OutputThread::serve(int threads) {
   omp_set_num_threads(threads);
   std::unique_lock<std::mutex> lock(m_mutex);
   for (;;) {
-    m_changed.wait(lock, [this] { return m_busy || m_quit; });
-    if (!m_busy) return;  // quit, nothing in flight
-    std::function<void()> job = std::move(m_job);
+    m_changed.wait(lock, [this] { return !m_jobs.empty() || m_quit; });
+    if (m_jobs.empty()) return;  // quit, nothing queued
+    std::function<void()> job = std::move(m_jobs.front());
+    m_jobs.pop_front();
+    m_running = true;
     lock.unlock();
     std::exception_ptr error;
     try {
@@ -60,8 +64,11 @@ void OutputThread::serve(int threads) {
       error = std::current_exception();
     }
     lock.lock();
-    m_error = error;
-    m_busy = false;
+    m_running = false;
+    if (error) {
+      m_error = error;
+      m_jobs.clear();  // what follows a failed job is not run
+    }
     m_changed.notify_all();
   }
 }

@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <mutex>
 #include <stdexcept>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -31,7 +33,7 @@ TEST_CASE("OutputThread runs jobs in order, on its own thread or inline", "[outp
   }
 }
 
-TEST_CASE("OutputThread has at most one job in flight", "[output_thread]") {
+TEST_CASE("OutputThread runs one job at a time", "[output_thread]") {
   std::atomic<int> running{0}, most{0};
   OutputThread out(true, 1);
   for (int k = 0; k < 20; ++k) {
@@ -45,6 +47,33 @@ TEST_CASE("OutputThread has at most one job in flight", "[output_thread]") {
   CHECK(most.load() == 1);
 }
 
+TEST_CASE("OutputThread's submit waits while kQueuedJobs jobs are unfinished", "[output_thread]") {
+  std::mutex gate;
+  std::unique_lock<std::mutex> closed(gate);
+  std::atomic<int> ran{0};
+  OutputThread out(true, 1);
+  const auto job = [&] {
+    const std::lock_guard<std::mutex> pass(gate);
+    ++ran;
+  };
+  // The first job holds the thread at the gate; the queue takes the rest without waiting.
+  for (int k = 0; k < OutputThread::kQueuedJobs; ++k) out.submit(job);
+  std::atomic<bool> queued{false};
+  std::thread extra([&] {
+    out.submit(job);
+    queued = true;
+  });
+  // However long it is given, the extra submit cannot return before a job finishes.
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  CHECK_FALSE(queued.load());
+  CHECK(ran.load() == 0);
+  closed.unlock();
+  extra.join();
+  CHECK(queued.load());
+  out.finish();
+  CHECK(ran.load() == OutputThread::kQueuedJobs + 1);
+}
+
 TEST_CASE("OutputThread rethrows a job's exception on the caller's thread and runs nothing after it",
           "[output_thread]") {
   for (const bool background : {true, false}) {
@@ -54,8 +83,21 @@ TEST_CASE("OutputThread rethrows a job's exception on the caller's thread and ru
     const auto failing = [] { throw std::runtime_error("disk full"); };
     if (background) {
       REQUIRE_NOTHROW(out.submit(failing));
-      // The exception reaches the next call, and the job given to it does not run.
-      REQUIRE_THROWS_WITH(out.submit([&later] { later = true; }), "disk full");
+      // The exception reaches the next call after the failure: this submit if the job has failed
+      // by then (its job is dropped), else finish() (the job queued behind the failure is dropped).
+      int thrown = 0;
+      for (const bool finishing : {false, true}) {
+        try {
+          if (finishing)
+            out.finish();
+          else
+            out.submit([&later] { later = true; });
+        } catch (const std::runtime_error& e) {
+          CHECK(std::string(e.what()) == "disk full");
+          ++thrown;
+        }
+      }
+      CHECK(thrown == 1);
       CHECK_FALSE(later);
     } else {
       REQUIRE_THROWS_WITH(out.submit(failing), "disk full");
@@ -67,14 +109,30 @@ TEST_CASE("OutputThread rethrows a job's exception on the caller's thread and ru
   }
 }
 
-TEST_CASE("OutputThread's destructor waits for the job in flight", "[output_thread]") {
-  std::atomic<bool> done{false};
+TEST_CASE("OutputThread drops the jobs queued after a failed one", "[output_thread]") {
+  std::mutex gate;
+  std::unique_lock<std::mutex> closed(gate);
+  OutputThread out(true, 1);
+  bool queued_ran = false;
+  out.submit([&gate] {
+    const std::lock_guard<std::mutex> pass(gate);
+    throw std::runtime_error("disk full");
+  });
+  out.submit([&queued_ran] { queued_ran = true; });  // queued behind the failing job
+  closed.unlock();
+  REQUIRE_THROWS_WITH(out.finish(), "disk full");
+  CHECK_FALSE(queued_ran);
+}
+
+TEST_CASE("OutputThread's destructor runs the jobs still queued", "[output_thread]") {
+  std::atomic<int> done{0};
   {
     OutputThread out(true, 1);
-    out.submit([&done] {
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      done = true;
-    });
+    for (int k = 0; k < OutputThread::kQueuedJobs; ++k)
+      out.submit([&done] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        ++done;
+      });
   }
-  CHECK(done.load());
+  CHECK(done.load() == OutputThread::kQueuedJobs);
 }
