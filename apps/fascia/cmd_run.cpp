@@ -33,6 +33,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -394,8 +395,9 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       std::cerr << "fascia: the step runs on the CPU with the volumetric elasticity on the device: "
                 << simulation.step_backend_refusal() << "\n";
   }
-  StepRecorder recorder(built, out_spec.samples);
-  TrajectoryLayout layout = recorder.layout();
+  // Two recorders, used in turn: a row is formed in one while the previous one's is written.
+  std::array<StepRecorder, 2> recorders{StepRecorder(built, out_spec.samples), StepRecorder(built, out_spec.samples)};
+  TrajectoryLayout layout = recorders[0].layout();
   // Rows to preallocate: the initial state, every output step, and one written on a stop. All
   // of them up front: growing datasets later is the one write a kill could corrupt.
   // Fixed steps: the loop runs over the steps, a row every output.every steps. Adaptive steps:
@@ -439,19 +441,47 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     xdmf_seconds = std::chrono::duration<double>(last_xdmf - now).count();
   };
 
-  // Rows, checkpoints and sidecars: on a thread of their own while the next steps run, where the
+  // Rows, checkpoints and sidecars: on threads of their own while the next steps run, where the
   // step leaves cores to them: the device's step (the host's threads are idle during it but this
   // one, which waits for the device spinning on its core, CUDA's default), or a CPU step on fewer
   // threads than the process may use (the output's parallel loops get the rest). Otherwise the
-  // step's threads are all busy, and the output runs in turn with the steps. The file is opened on
-  // this thread, before the first job; every HDF5 call after that is a job.
+  // step's threads are all busy, and the output runs in turn with the steps.
+  //
+  // The output thread forms the rows (their fields, in parallel) and hands them to the writer
+  // thread, which makes every HDF5 call after the file is opened here: jobs in order, so a file's
+  // writes keep the order a killed run's readability relies on (io/trajectory.cpp,
+  // io/checkpoint.hpp), and HDF5 is entered from one thread only. A row is written while the next
+  // is formed in the other recorder: the writer holds one job at most, so a recorder is reused
+  // only after its row is written. The output thread holds four: a row of the pelvis at 56 k
+  // samples (about 20 MB) takes longer than a device step that reuses its factorisation, and the
+  // rows catch up during the next one that factorises; each job holds a copy of a step's state
+  // (the frames', about 0.1 MB at 56 k samples).
   const int step_threads = omp_get_max_threads();
   const bool spare_cores = !simulation.on_step_backend() && step_threads < process_threads();
   // The output thread's OpenMP team; 0: the output runs in turn with the steps.
   const int output_threads = simulation.on_step_backend() ? std::max(1, step_threads - 1)
                              : spare_cores                ? process_threads() - step_threads
                                                           : 0;
-  OutputThread output_thread(output_threads > 0, output_threads);
+  OutputThread writer_thread(output_threads > 0, 1, 1);
+  OutputThread output_thread(output_threads > 0, output_threads, 4);
+  // An HDF5 job, in order with the rows submitted before it.
+  auto submit_write = [&](std::function<void()> job) {
+    output_thread.submit([&writer_thread, job = std::move(job)] { writer_thread.submit(job); });
+  };
+  int formed_rows = 0;  // on the output thread: which recorder forms the next row
+  auto submit_row = [&](const StepReport& report) {
+    output_thread.submit([&, state = simulation.state(), report] {
+      const TrajectoryStep row = recorders[static_cast<std::size_t>(formed_rows++ % 2)].record(state, report);
+      writer_thread.submit([&, row, state, report] {
+        TrajectoryStep step = row;  // its frames from this job's copy of the state
+        step.frame_positions = state.positions.data();
+        step.frame_orientations = state.orientations.data();
+        writer->append(step);
+        written_times.push_back(report.time);
+        update_xdmf(false);
+      });
+    });
+  };
 
   StepReport last;
   last.time = simulation.time();
@@ -479,7 +509,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     c.progress = simulation.advance_progress();
     c.history = simulation.path_history();
     checkpointed_step = c.step;
-    output_thread.submit([&checkpoints, c = std::move(c)] { checkpoints->write(c); });
+    submit_write([&checkpoints, c = std::move(c)] { checkpoints->write(c); });
     last_checkpoint_wall = std::chrono::steady_clock::now();
   };
   int row_step = -1;  // the simulation step of the last row (or of the checkpoint resumed from)
@@ -526,14 +556,11 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       initial.converged = true;
       initial.kinetic_energy = kinetic_energy(simulation.model(), simulation.state());
       initial.external_potential = simulation.external_potential(simulation.state());
-      output_thread.submit([&, state = simulation.state(), initial] {
-        writer->append(recorder.record(state, initial));
-        written_times.push_back(initial.time);
-      });
+      submit_row(initial);
       ++regular_rows;
       write_checkpoint(steps == 0);
       row_step = 0;
-      output_thread.submit([&] { update_xdmf(true); });
+      submit_write([&] { update_xdmf(true); });
     }
 
     const auto steps_start = std::chrono::steady_clock::now();
@@ -567,11 +594,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       if (adaptive || k % out_spec.every == 0 || k == steps) {
         row_step = simulation.steps_taken();
         if (!adaptive) last.accepted_steps = row.accepted_steps;
-        output_thread.submit([&, state = simulation.state(), report = last] {
-          writer->append(recorder.record(state, report));
-          written_times.push_back(report.time);
-          update_xdmf(false);
-        });
+        submit_row(last);
         ++regular_rows;
         row = StepReport{};
       }
@@ -598,20 +621,18 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
         StepReport report = last;
         report.step = done;
         report.time = simulation.time();
-        output_thread.submit([&, state = simulation.state(), report] {
-          writer->append(recorder.record(state, report));
-          written_times.push_back(report.time);
-        });
+        submit_row(report);
       }
       status = "stopped by " + stop_reason_name(stop_requested()) + " after step " + std::to_string(done) +
                " (written, checkpoint committed; continue with --resume)";
       exit_code = kStoppedOnSignal;
     }
-    output_thread.submit([&] {
+    submit_write([&] {
       writer->close();  // shrinks the datasets to the written steps
       update_xdmf(true);
     });
     output_thread.finish();
+    writer_thread.finish();
     if (run_figures)
       run_figures->step_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - steps_start).count();
   } catch (const NonFiniteStep& e) {

@@ -6,7 +6,7 @@
 
 namespace fascia::app {
 
-OutputThread::OutputThread(bool background, int threads) {
+OutputThread::OutputThread(bool background, int threads, int depth) : m_depth(depth < 1 ? 1 : depth) {
   if (background) m_thread = std::thread([this, threads] { serve(threads); });
 }
 
@@ -32,7 +32,7 @@ void OutputThread::submit(std::function<void()> job) {
     return;
   }
   m_changed.wait(lock, [this] {
-    return m_error || static_cast<int>(m_jobs.size()) + (m_running ? 1 : 0) < kQueuedJobs;
+    return m_error || static_cast<int>(m_jobs.size()) + (m_running ? 1 : 0) < m_depth;
   });
   rethrow_error();
   m_jobs.push_back(std::move(job));

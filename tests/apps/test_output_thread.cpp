@@ -13,13 +13,17 @@
 
 using namespace fascia::app;
 
+namespace {
+constexpr int kDepth = 4;
+}  // namespace
+
 TEST_CASE("OutputThread runs jobs in order, on its own thread or inline", "[output_thread]") {
   for (const bool background : {true, false}) {
     CAPTURE(background);
     std::vector<int> order;
     std::vector<std::thread::id> ids;
     {
-      OutputThread out(background, 2);
+      OutputThread out(background, 2, kDepth);
       for (int k = 0; k < 50; ++k)
         out.submit([&order, &ids, k] {
           order.push_back(k);
@@ -35,7 +39,7 @@ TEST_CASE("OutputThread runs jobs in order, on its own thread or inline", "[outp
 
 TEST_CASE("OutputThread runs one job at a time", "[output_thread]") {
   std::atomic<int> running{0}, most{0};
-  OutputThread out(true, 1);
+  OutputThread out(true, 1, kDepth);
   for (int k = 0; k < 20; ++k) {
     out.submit([&] {
       most = std::max(most.load(), ++running);
@@ -47,38 +51,41 @@ TEST_CASE("OutputThread runs one job at a time", "[output_thread]") {
   CHECK(most.load() == 1);
 }
 
-TEST_CASE("OutputThread's submit waits while kQueuedJobs jobs are unfinished", "[output_thread]") {
-  std::mutex gate;
-  std::unique_lock<std::mutex> closed(gate);
-  std::atomic<int> ran{0};
-  OutputThread out(true, 1);
-  const auto job = [&] {
-    const std::lock_guard<std::mutex> pass(gate);
-    ++ran;
-  };
-  // The first job holds the thread at the gate; the queue takes the rest without waiting.
-  for (int k = 0; k < OutputThread::kQueuedJobs; ++k) out.submit(job);
-  std::atomic<bool> queued{false};
-  std::thread extra([&] {
-    out.submit(job);
-    queued = true;
-  });
-  // However long it is given, the extra submit cannot return before a job finishes.
-  std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  CHECK_FALSE(queued.load());
-  CHECK(ran.load() == 0);
-  closed.unlock();
-  extra.join();
-  CHECK(queued.load());
-  out.finish();
-  CHECK(ran.load() == OutputThread::kQueuedJobs + 1);
+TEST_CASE("OutputThread's submit waits while `depth` jobs are unfinished", "[output_thread]") {
+  for (const int depth : {1, kDepth}) {
+    CAPTURE(depth);
+    std::mutex gate;
+    std::unique_lock<std::mutex> closed(gate);
+    std::atomic<int> ran{0};
+    OutputThread out(true, 1, depth);
+    const auto job = [&] {
+      const std::lock_guard<std::mutex> pass(gate);
+      ++ran;
+    };
+    // The first job holds the thread at the gate; the queue takes the rest without waiting.
+    for (int k = 0; k < depth; ++k) out.submit(job);
+    std::atomic<bool> queued{false};
+    std::thread extra([&] {
+      out.submit(job);
+      queued = true;
+    });
+    // However long it is given, the extra submit cannot return before a job finishes.
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    CHECK_FALSE(queued.load());
+    CHECK(ran.load() == 0);
+    closed.unlock();
+    extra.join();
+    CHECK(queued.load());
+    out.finish();
+    CHECK(ran.load() == depth + 1);
+  }
 }
 
 TEST_CASE("OutputThread rethrows a job's exception on the caller's thread and runs nothing after it",
           "[output_thread]") {
   for (const bool background : {true, false}) {
     CAPTURE(background);
-    OutputThread out(background, 1);
+    OutputThread out(background, 1, kDepth);
     bool later = false;
     const auto failing = [] { throw std::runtime_error("disk full"); };
     if (background) {
@@ -112,7 +119,7 @@ TEST_CASE("OutputThread rethrows a job's exception on the caller's thread and ru
 TEST_CASE("OutputThread drops the jobs queued after a failed one", "[output_thread]") {
   std::mutex gate;
   std::unique_lock<std::mutex> closed(gate);
-  OutputThread out(true, 1);
+  OutputThread out(true, 1, kDepth);
   bool queued_ran = false;
   out.submit([&gate] {
     const std::lock_guard<std::mutex> pass(gate);
@@ -127,12 +134,12 @@ TEST_CASE("OutputThread drops the jobs queued after a failed one", "[output_thre
 TEST_CASE("OutputThread's destructor runs the jobs still queued", "[output_thread]") {
   std::atomic<int> done{0};
   {
-    OutputThread out(true, 1);
-    for (int k = 0; k < OutputThread::kQueuedJobs; ++k)
+    OutputThread out(true, 1, kDepth);
+    for (int k = 0; k < kDepth; ++k)
       out.submit([&done] {
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
         ++done;
       });
   }
-  CHECK(done.load() == OutputThread::kQueuedJobs);
+  CHECK(done.load() == kDepth);
 }
