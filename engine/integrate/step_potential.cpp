@@ -129,7 +129,8 @@ double StepPotential::gradient(const State& state, std::vector<double>& g) {
   const double phi = full_gradient(state, g);
   if (!m_mapping.empty()) {
     m_mapped_gradient.held = true;
-    m_mapped_gradient.state = state;
+    m_mapped_gradient.positions.assign(state.positions.begin(), state.positions.end());
+    m_mapped_gradient.orientations.assign(state.orientations.begin(), state.orientations.end());
     m_mapped_gradient.load_scale = m_loads.scale;
     m_mapped_gradient.g = g;
     m_mapping.set_state(state);
@@ -142,8 +143,8 @@ void StepPotential::prepare_hessian(const State& state) {
   m_prepared = state;
   if (!m_mapping.empty()) {  // first: the gradient pass reuses the elasticity's buffers
     const MappedGradient& last = m_mapped_gradient;
-    const bool same = last.held && last.load_scale == m_loads.scale && last.state.positions == state.positions &&
-                      last.state.orientations == state.orientations;
+    const bool same = last.held && last.load_scale == m_loads.scale && last.positions == state.positions &&
+                      last.orientations == state.orientations;
     if (!same) full_gradient(state, m_scratch);
     m_mapping.set_state(state);
     m_mapping.set_geometric(same ? last.g.data() : m_scratch.data());

@@ -113,7 +113,7 @@ class StepPotential : public Potential {
   // prepares the tangent at the state whose gradient it has just evaluated).
   struct MappedGradient {
     bool held = false;
-    State state;
+    std::vector<double> positions, orientations;  // the state it was evaluated at ([N][3], [N][4])
     double load_scale = 0;
     std::vector<double> g;  // [N][6]
   } m_mapped_gradient;
