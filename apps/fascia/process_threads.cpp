@@ -14,12 +14,17 @@ int process_threads() {
   return at_start;
 }
 
-int step_threads(const Model& model, int requested, int available) {
+int step_threads(const Model& model, int requested, int available, bool row_per_step) {
   if (requested > 0) return requested;
   long elements = model.sample_count();
   for (const Shell& shell : model.shells) elements += static_cast<long>(shell.triangles.size() / 3);
   const long wanted = (elements + kElementsPerThread - 1) / kElementsPerThread;
-  return static_cast<int>(std::clamp<long>(wanted, 1, std::max(available, 1)));
+  const int cores = std::max(available, 1);
+  const int threads = static_cast<int>(std::clamp<long>(wanted, 1, cores));
+  // Every core of several, few elements on each, a row per step: one core is left to the rows.
+  if (row_per_step && threads == cores && cores > 1 && elements < static_cast<long>(kElementsPerCoreOwned) * cores)
+    return cores - 1;
+  return threads;
 }
 
 void bound_process_threads(int threads) {
