@@ -367,7 +367,7 @@ ParamSpec build_registry() {
                                   "static: the smallest load increment is the first halved this many times"),
                              0, false),
                        "10"),
-          with_default(above(leaf("threads", ParamType::integer, "CPU threads of the step (0 = one per 500 samples and shell triangles, at most the cores; one fewer, left to the rows, where that is every core of several, under 1,000 per core, with a row per dynamic step)"), 0, false), "0"),
+          with_default(above(leaf("threads", ParamType::integer, "CPU threads of the step (0 = one per 500 samples and shell triangles, at most the cores; one fewer, left to the rows, where that is every core of several, under 1,000 per core, with a row after each fixed dynamic step)"), 0, false), "0"),
           object("adaptive",
                  "backward_euler, static: adaptive time steps, dt the first; a step whose Newton fails or whose "
                  "error exceeds the tolerance is retried smaller, easy steps grow; output rows stay at the "

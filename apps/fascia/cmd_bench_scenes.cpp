@@ -131,7 +131,7 @@ void add_bench_scenes(CLI::App& bench, Action& action) {
   cmd->add_option("--scenes-dir", options->directory, "Folder of the scenes (default: scenes)");
   cmd->add_option("--only", options->only, "Only these scenes (file names without .yaml)");
   cmd->add_flag("!--no-fine", options->fine, "Skip the pelvis at finer resolutions");
-  cmd->add_option("--threads", options->threads, "CPU threads of each scene's step (0 = one per 500 samples and shell triangles, at most the cores; one fewer, left to the rows, where that is every core of several, under 1,000 per core, with a row per dynamic step; default: each scene's solver.threads)")
+  cmd->add_option("--threads", options->threads, "CPU threads of each scene's step (0 = one per 500 samples and shell triangles, at most the cores; one fewer, left to the rows, where that is every core of several, under 1,000 per core, with a row after each fixed dynamic step; default: each scene's solver.threads)")
       ->check(CLI::NonNegativeNumber);
   cmd->callback([options, &action] { action = [options] { return run_bench(*options); }; });
 }

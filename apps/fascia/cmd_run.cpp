@@ -332,8 +332,8 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   // A step on the device leaves every host thread to its rows; a CPU step takes as many as the
   // scene's size can use, and its rows the rest.
   if (!backend.step) {
-    const bool row_per_step =
-        built.settings.integrator != Integrator::static_equilibrium && scene->spec.output.every == 1;
+    const bool row_per_step = built.settings.integrator != Integrator::static_equilibrium &&
+                              !built.settings.adaptive.enabled && scene->spec.output.every == 1;
     built.settings.threads = step_threads(built.model, built.settings.threads, process_threads(), row_per_step);
   }
   bound_process_threads(built.settings.threads);
@@ -715,7 +715,7 @@ CLI::Option* add_duration(CLI::App& command, const std::string& name, std::optio
 
 void add_run_options(CLI::App& cmd, RunOptions& options) {
   add_backend_options(cmd, options.backend);
-  cmd.add_option("--threads", options.threads, "CPU threads of the step (0 = one per 500 samples and shell triangles, at most the cores; one fewer, left to the rows, where that is every core of several, under 1,000 per core, with a row per dynamic step; default: the scene's solver.threads)")
+  cmd.add_option("--threads", options.threads, "CPU threads of the step (0 = one per 500 samples and shell triangles, at most the cores; one fewer, left to the rows, where that is every core of several, under 1,000 per core, with a row after each fixed dynamic step; default: the scene's solver.threads)")
       ->check(CLI::NonNegativeNumber);
   CLI::Option* overwrite =
       cmd.add_flag("--overwrite", options.overwrite, "Replace an existing output file (refused otherwise, exit 73)");

@@ -21,7 +21,7 @@ int process_threads();
 //
 constexpr int kElementsPerThread = 500;
 // Where that is every core of several, the run writes a row after each step (row_per_step: a
-// dynamic integrator, output.every 1) and the step has fewer than kElementsPerCoreOwned elements
+// dynamic integrator with fixed steps, output.every 1) and the step has fewer than kElementsPerCoreOwned elements
 // per core, the step takes one core fewer and leaves it to its rows, which are then formed and
 // written while the next step runs instead of between steps: a small step gains little from its
 // last core, and a row costs a fair part of a step of a few Newton iterations. On a 2-core
