@@ -1,5 +1,6 @@
-// The CPU engine's backward-Euler step on the device: what `fascia bench gpu` times, what the GPU
-// tests compare with fascia::minimise, and the entry point for a `--backend cuda` of `fascia run`.
+// The CPU engine's backward-Euler step of one Newton iteration on the device: what `fascia bench
+// gpu` times and what the GPU tests compare with fascia::minimise. (`fascia run --backend cuda`
+// steps through kernels/device_problem.hpp.)
 //
 // One step from state q_n = minimise(StepPotential::set_dynamic(q_n, h, alpha, beta), q,
 // NewtonSettings{fixed_iterations = 1, linear}) followed by v = Delta / h
@@ -22,9 +23,9 @@ namespace fascia::gpu {
 StepOptions make_step_options(const Model& model, const ExternalLoads& loads, const State& start, double dt,
                               double rayleigh_mass, double rayleigh_stiffness, const LinearSettings& linear);
 
-// A model kept on the device that advances host states by the step above. The state is uploaded
-// and read back every step (positions, orientations, velocities), so a caller such as
-// fascia::Simulation can keep the CPU engine for everything else.
+// A model kept on the device that advances host states by the step above, the state uploaded and
+// read back every step (positions, orientations, velocities): the GPU tests' comparison with the
+// CPU engine's step.
 class DeviceImplicitStep {
  public:
   explicit DeviceImplicitStep(const Model& model, const DeviceOptions& options = {});
