@@ -7,8 +7,8 @@
 
 namespace fascia {
 
-StressMeasures shell_membrane_measures(const Model& model, const Shell& shell, int n0, int n1, int n2, const double* x) {
-  const ShellElementRest e = make_shell_element(model.frame_rest_positions.data(), n0, n1, n2, shell);
+StressMeasures shell_membrane_measures(const ShellElementRest& e, const Shell& shell, const double* x) {
+  const int n0 = e.nodes[0], n1 = e.nodes[1], n2 = e.nodes[2];
   const Vec3 x0 = load3(x + 3 * n0), d1 = load3(x + 3 * n1) - x0, d2 = load3(x + 3 * n2) - x0;
   // F2 columns f_c = d1 Dm^{-1}_{0c} + d2 Dm^{-1}_{1c}.
   const Vec3 f[2] = {e.dm_inverse[0][0] * d1 + e.dm_inverse[1][0] * d2, e.dm_inverse[0][1] * d1 + e.dm_inverse[1][1] * d2};
@@ -132,8 +132,9 @@ std::vector<Field> shell_frame_averages(const Model& model, const Shell& shell, 
   for (long tl = 0; tl < static_cast<long>(triangles); ++tl) {
     const std::size_t t = static_cast<std::size_t>(tl);
     const int* v = &shell.triangles[3 * t];
-    set_measures(per_triangle, 0, t, shell_membrane_measures(model, shell, v[0], v[1], v[2], state.positions.data()));
-    area[t] = make_shell_element(model.frame_rest_positions.data(), v[0], v[1], v[2], shell).area;
+    const ShellElementRest e = make_shell_element(model.frame_rest_positions.data(), v[0], v[1], v[2], shell);
+    set_measures(per_triangle, 0, t, shell_membrane_measures(e, shell, state.positions.data()));
+    area[t] = e.area;
   }
   for (std::size_t t = 0; t < triangles; ++t)
     for (int k = 0; k < 3; ++k) weight[static_cast<std::size_t>(shell.triangles[3 * t + static_cast<std::size_t>(k)])] += area[t];

@@ -17,6 +17,7 @@
 #include "io/sample_fields.hpp"
 #include "io/trajectory.hpp"
 #include "material/stress_measures.hpp"
+#include "mechanics/shell.hpp"
 
 namespace fascia {
 
@@ -27,14 +28,15 @@ struct SurfaceSource {
   const Shell* shell = nullptr;          // shell objects: measures from the shell's membrane
 };
 
-// Membrane strain and stress of a shell triangle (frames n0, n1, n2 at positions x [N][3]), as 3 x 3
+// Membrane strain and stress of a shell triangle (rest element e: make_shell_element of its frames;
+// frame positions x [N][3]), as 3 x 3
 // tensors in world axes: with F2 = [x1 - x0, x2 - x0] Dm^{-1} (3 x 2, rest in-plane coordinates
 // along the rest axes A = [e1 e2], 3 x 2) and E2 = (F2^T F2 - I)/2, the plane-stress StVK law of
 // the shell (mechanics/shell.hpp): S2 = lambda* tr(E2) I + 2 mu E2, lambda* = Y nu / (1 - nu^2),
 // mu = Y / (2 (1 + nu)); E = A E2 A^T, S = A S2 A^T, sigma = F2 S2 F2^T / J2 with the area ratio
 // J2 = sqrt(det F2^T F2) (the thickness change of plane stress is not modelled), and
 // psi = mu tr(E2^2) + lambda*/2 tr(E2)^2 per rest volume.
-StressMeasures shell_membrane_measures(const Model& model, const Shell& shell, int n0, int n1, int n2, const double* x);
+StressMeasures shell_membrane_measures(const ShellElementRest& e, const Shell& shell, const double* x);
 
 // The measure fields of `samples` (sample_fields) averaged to every frame, [N][components] each.
 std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& samples);
