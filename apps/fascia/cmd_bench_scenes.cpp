@@ -26,6 +26,7 @@ struct BenchScenesOptions {
   bool fine = true;
   std::vector<std::string> only;  // scene names (file stems) to run; empty: all
   int threads = -1;
+  std::vector<std::string> overrides;  // --set, for every scene after its resolution's own
 };
 
 struct Case {
@@ -87,6 +88,7 @@ int run_bench(const BenchScenesOptions& o) {
     run.request.path = c.scene;
     run.request.output = (fs::path(dir) / (fs::path(c.scene).stem().string() + "-" + c.resolution + ".h5")).string();
     run.request.overrides = c.overrides;
+    run.request.overrides.insert(run.request.overrides.end(), o.overrides.begin(), o.overrides.end());
     run.backend = o.backend;
     run.threads = o.threads;
     run.quiet = true;
@@ -101,7 +103,7 @@ int run_bench(const BenchScenesOptions& o) {
     const double cg = f.steps > 0 ? static_cast<double>(f.cg_iterations) / f.steps : 0.0;
     if (code != kOk) worst = code;
     if (o.json) {
-      nlohmann::json j = {{"scene", name},         {"resolution", c.resolution}, {"overrides", c.overrides},
+      nlohmann::json j = {{"scene", name},         {"resolution", c.resolution}, {"overrides", run.request.overrides},
                           {"backend", o.backend.backend}, {"frames", f.frames}, {"samples", f.samples},
                           {"dofs", f.dofs},        {"steps", f.steps},          {"setup_seconds", f.setup_seconds},
                           {"ms_per_step", ms},     {"newton_per_step", newton}, {"cg_per_step", cg},
@@ -131,6 +133,8 @@ void add_bench_scenes(CLI::App& bench, Action& action) {
   cmd->add_option("--scenes-dir", options->directory, "Folder of the scenes (default: scenes)");
   cmd->add_option("--only", options->only, "Only these scenes (file names without .yaml)");
   cmd->add_flag("!--no-fine", options->fine, "Skip the pelvis at finer resolutions");
+  cmd->add_option("--set", options->overrides,
+                  "Override a value in every scene: path=value, as fascia run --set (e.g. output.every=10)");
   cmd->add_option("--threads", options->threads, "CPU threads of each scene's step (0 = one per 500 samples and shell triangles, at most the cores; one fewer, left to the rows, where that is every core of several, under 1,000 per core, with a row after each fixed dynamic step; default: each scene's solver.threads)")
       ->check(CLI::NonNegativeNumber);
   cmd->callback([options, &action] { action = [options] { return run_bench(*options); }; });
