@@ -214,6 +214,12 @@ struct DeviceCholesky::Impl {
     k_unit_diagonal<<<blocks_for(n), kThreads, 0, ops.stream()>>>(A.data(), n);
     FASCIA_CUDA(cudaGetLastError());
     if (!invert()) throw std::runtime_error("cuSOLVER potrf failed on the identity");
+    // And the product of a solve, which the PCG iterations record as a CUDA graph (stream
+    // capture): whatever cuBLAS sets up at its first call is set up here, outside a capture.
+    FASCIA_CUDA(cudaMemsetAsync(probe.data(), 0, sizeof(double) * static_cast<size_t>(n), ops.stream()));
+    const double one = 1.0, zero = 0.0;
+    FASCIA_CUBLAS(cusolver().symv(blas, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), &one, A.data(),
+                                  static_cast<int>(n), probe.data(), 1, &zero, product.data(), 1));
   }
   ~Impl() {
     if (handle) cusolver().destroy(handle);

@@ -21,7 +21,7 @@
 // (the strict upper triangle, which potrf and syrk leave untouched, restores the lower one
 // between tries).
 // cuSOLVER's and cuBLAS's kernels for the model's order are loaded when the object is made (an
-// inversion of the identity), not in the first step.
+// inversion of the identity and a product), not in the first step.
 // Fixed DOFs are identity rows and columns. All work is enqueued on the stream of `ops`; a
 // factorisation reads back one status word per try.
 #pragma once

@@ -1,5 +1,7 @@
 #include "device_vector.hpp"
 
+#include <functional>
+
 #include "device_vector.cuh"
 
 #include <cmath>
@@ -213,6 +215,7 @@ VectorOps::VectorOps(cudaStream_t stream) : m_stream(stream) {
 }
 
 VectorOps::~VectorOps() {
+  if (m_record) cudaGraphExecDestroy(m_record);
   cudaFreeHost(m_host);
   cudaFree(m_cg);
   cudaFreeHost(m_cg_host);
@@ -289,6 +292,38 @@ void VectorOps::cg_direction(const double* r, const double* z, double* p, long l
   k_cg_rho<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), m_cg);
   if (n > 0) k_cg_xpay<<<vector_grid(n), kVectorThreads, 0, m_stream>>>(n, m_cg, z, p);
   check();
+}
+
+unsigned long VectorOps::record(const std::function<void()>& body) const {
+  cudaGraph_t graph = nullptr;
+  FASCIA_CUDA(cudaStreamBeginCapture(m_stream, cudaStreamCaptureModeThreadLocal));
+  try {
+    body();
+  } catch (...) {
+    cudaStreamEndCapture(m_stream, &graph);
+    if (graph) cudaGraphDestroy(graph);
+    throw;
+  }
+  FASCIA_CUDA(cudaStreamEndCapture(m_stream, &graph));
+  // The record is updated in place where the body enqueued the same kinds of work as the last
+  // one (the next solve's iterations), else made anew.
+  if (m_record) {
+    cudaGraphExecUpdateResultInfo info{};
+    if (cudaGraphExecUpdate(m_record, graph, &info) != cudaSuccess) {
+      (void)cudaGetLastError();
+      cudaGraphExecDestroy(m_record);
+      m_record = nullptr;
+    }
+  }
+  cudaError_t made = cudaSuccess;
+  if (!m_record) made = cudaGraphInstantiate(&m_record, graph, 0);
+  cudaGraphDestroy(graph);
+  FASCIA_CUDA(made);
+  return ++m_generation;
+}
+
+void VectorOps::replay(int count) const {
+  for (int k = 0; k < count; ++k) FASCIA_CUDA(cudaGraphLaunch(m_record, m_stream));
 }
 
 CgStatus VectorOps::cg_status() const {

@@ -18,6 +18,8 @@
 #include "solve/linear_result.hpp"
 
 #include <cstdint>
+#include <functional>
+#include <utility>
 
 namespace fascia::gpu {
 
@@ -76,6 +78,13 @@ class VectorOps {
   void cg_step(const double* p, const double* hp, const double* z, double* x, double* r, long long n) const;
   void cg_direction(const double* r, const double* z, double* p, long long n) const;
   CgStatus cg_status() const;
+  // The operations' one record of work: body() captured as a CUDA graph (body must only enqueue
+  // work on this stream), replacing the record before; returns the record's generation, which
+  // replay() checks. One graph launch then enqueues the dozen or so kernels of a PCG iteration.
+  unsigned long record(const std::function<void()>& body) const;
+  unsigned long generation() const { return m_generation; }
+  // Launches the record `count` times.
+  void replay(int count) const;
 
   struct CgState;  // device_vector.cu
 
@@ -85,6 +94,8 @@ class VectorOps {
   double* m_host = nullptr;  // pinned
   CgState* m_cg = nullptr;       // device
   CgState* m_cg_host = nullptr;  // pinned
+  mutable cudaGraphExec_t m_record = nullptr;  // the last record()
+  mutable unsigned long m_generation = 0;       // records made
 };
 
 // The vector-operations concept of engine/solve/vector_ops.hpp on DeviceVector: n values, a
@@ -125,6 +136,25 @@ class DeviceVectorOps {
     m_ops.cg_direction(r.data(), z.data(), p.data(), m_n);
   }
   CgStatus cg_status(const CgScalars&) const { return m_ops.cg_status(); }
+  // Records body at its first run (and again where another record replaced it) and replays it.
+  class Repeated {
+   public:
+    Repeated(const VectorOps& ops, std::function<void()> body) : m_ops(ops), m_body(std::move(body)) {}
+    void run(int count) {
+      if (count <= 0) return;
+      if (m_generation == 0 || m_generation != m_ops.generation()) m_generation = m_ops.record(m_body);
+      m_ops.replay(count);
+    }
+
+   private:
+    const VectorOps& m_ops;
+    std::function<void()> m_body;
+    unsigned long m_generation = 0;
+  };
+  template <class Body>
+  Repeated repeated(Body& body) const {
+    return Repeated(m_ops, std::ref(body));
+  }
   const VectorOps& ops() const { return m_ops; }
 
  private:

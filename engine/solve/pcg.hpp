@@ -15,8 +15,9 @@
 // after it change nothing. The loop reads them with cg_status(): every iteration where they are
 // host values; on a device, which would wait for its queue at each read, at the iterations where
 // the residual's rate so far predicts the tolerance (next_status_read), so a solve runs its
-// iterations without waiting and reads back a few times. Either way the result is that of the
-// iteration that stopped.
+// iterations without waiting and reads back a few times, and an iteration is recorded once per
+// solve and the record replayed (Ops::repeated). Either way the result is that of the iteration
+// that stopped.
 #pragma once
 
 #include "core/stop_request.hpp"
@@ -76,27 +77,43 @@ LinearResult pcg(const Ops& ops, Apply&& apply, Precondition&& precondition, con
   ops.copy(z, p);
   typename Ops::CgScalars scalars;
   ops.cg_start(scalars, r, z, b_norm, settings.fixed_iterations ? -1.0 : settings.tolerance);
-  CgStatus status;  // as of the last read
-  int k_read = 0, next_read = 1;
-  double residual_read = 1;  // |r| / |b| at iteration k_read (r = b at the start)
-  for (int k = 0; k < settings.max_iterations; ++k) {
-    throw_if_stop_requested();  // a stop takes effect within one product
+  // An iteration: H p and the step along p, then the next direction (the first direction is z).
+  // The iterations between two reads of the status have no host reads: the backend may record
+  // an iteration once per solve and replay the record (Ops::repeated).
+  auto product_and_step = [&] {
     apply(p, hp);
     ops.project(hp);
     ops.cg_step(scalars, p, hp, z, x, r);  // alpha = rho / p^T H p, x += alpha p, r -= alpha H p
-    if (Ops::kScalarsOnHost || k + 1 == next_read || k + 1 == settings.max_iterations) {
-      status = ops.cg_status(scalars);
-      if (status.stopped) break;
-      if (!settings.fixed_iterations)
-        next_read = k + 1 + next_status_read(k_read, residual_read, k + 1, status.relative_residual, settings.tolerance);
-      else
-        next_read = settings.max_iterations;
-      k_read = k + 1;
-      residual_read = status.relative_residual;
-    }
+  };
+  auto iteration = [&] {
     precondition(r, z);
     ops.project(z);
     ops.cg_direction(scalars, r, z, p);  // beta = rho' / rho, p = z + beta p
+    product_and_step();
+  };
+  auto repeated = ops.repeated(iteration);
+  CgStatus status;  // as of the last read
+  int k = 0, k_read = 0, next_read = 1;
+  double residual_read = 1;  // |r| / |b| at iteration k_read (r = b at the start)
+  while (k < settings.max_iterations) {
+    throw_if_stop_requested();  // a stop takes effect within kMaxIterationsBetweenReads products
+    const int read_at = std::min(next_read, settings.max_iterations);
+    if (k == 0) {
+      product_and_step();
+      k = 1;
+    }
+    repeated.run(read_at - k);
+    k = read_at;
+    status = ops.cg_status(scalars);
+    if (status.stopped || k == settings.max_iterations) break;
+    if (Ops::kScalarsOnHost)
+      next_read = k + 1;
+    else if (!settings.fixed_iterations)
+      next_read = k + next_status_read(k_read, residual_read, k, status.relative_residual, settings.tolerance);
+    else
+      next_read = settings.max_iterations;
+    k_read = k;
+    residual_read = status.relative_residual;
   }
   result.iterations = status.iterations;
   result.relative_residual = status.relative_residual;

@@ -31,6 +31,10 @@
 //   void cg_direction(CgScalars& s, const Vector& r, const Vector& z, Vector& p) const;
 //       while running: rho' = r^T z, beta = rho' / rho, rho = rho', p = z + beta p
 //   CgStatus cg_status(const CgScalars& s) const;    the status, on the host
+//   template <class Body> auto repeated(Body& body) const;
+//       an object whose run(count) calls body() count times in order (count <= 0: none); body
+//       only enqueues the backend's work and reads nothing back, so that a device may record it
+//       at the first run and replay the record (the object lives while body's data does)
 //
 // Other scalars (dot, norm, Newton's step lengths) are host doubles: the solvers' control flow runs
 // on the host, as mfem's does. Operators and preconditioners are callables over Vector
@@ -136,6 +140,17 @@ class HostVectorOps {
     xpay(z, beta, p);
   }
   CgStatus cg_status(const CgScalars& s) const { return s.status; }
+  template <class Body>
+  struct Repeated {
+    Body& body;
+    void run(int count) {
+      for (int k = 0; k < count; ++k) body();
+    }
+  };
+  template <class Body>
+  Repeated<Body> repeated(Body& body) const {
+    return Repeated<Body>{body};
+  }
 
  private:
   int m_n;
