@@ -366,9 +366,15 @@ class System final : public DeviceElasticity::Impl {
   }
 
   void apply_tangent_on_device(const double* d, double* out) override {
-    convert_async(d, m_d.data(), 6LL * m_n, m_stream);
-    enqueue_tangent(m_d.data(), m_out.data(), FrameTermsFlags{0.0, false}, false);
-    convert_async(m_out.data(), out, 6LL * m_n, m_stream);
+    if constexpr (std::is_same_v<R, double>) {
+      // The passes read d and write every row of out: no copies in double (outside the PCG of
+      // the stepper, enqueue_tangent leaves d as it is).
+      enqueue_tangent(const_cast<double*>(d), out, FrameTermsFlags{0.0, false}, false);
+    } else {
+      convert_async(d, m_d.data(), 6LL * m_n, m_stream);
+      enqueue_tangent(m_d.data(), m_out.data(), FrameTermsFlags{0.0, false}, false);
+      convert_async(m_out.data(), out, 6LL * m_n, m_stream);
+    }
   }
 
   const double* diagonal_blocks_on_device() const override { return m_diag.data(); }
