@@ -91,21 +91,55 @@ struct VectorOps::CgState {
 namespace {
 
 // The sum of the kReduceBlocks partials, in the fixed tree of k_sum_partials, valid in thread 0.
+// Read past the L1 cache: other blocks of the same kernel wrote them (last_block).
 __device__ double sum_partials(const double* partials) {
   __shared__ double shared[1][kReduceThreads];
   double s[1] = {0.0};
-  for (int b = threadIdx.x; b < kReduceBlocks; b += kReduceThreads) s[0] += partials[b];
+  for (int b = threadIdx.x; b < kReduceBlocks; b += kReduceThreads) s[0] += __ldcg(partials + b);
   block_sum<1>(s, shared);
   return s[0];
 }
 
-__global__ void k_cg_start(const double* partials, double b_norm, double tolerance, VectorOps::CgState* cg) {
+// Block b's partial of x^T y (the pattern of k_dot_partials) into partials[b].
+__device__ void dot_partial(long long n, const double* x, const double* y, double* partials) {
+  __shared__ double shared[1][kReduceThreads];
+  double s[1] = {0.0};
+  for (long long k = blockIdx.x * static_cast<long long>(kReduceThreads) + threadIdx.x; k < n;
+       k += static_cast<long long>(kReduceBlocks) * kReduceThreads)
+    s[0] += x[k] * y[k];
+  block_sum<1>(s, shared);
+  if (threadIdx.x == 0) partials[blockIdx.x] = s[0];
+}
+
+// Whether this block is the grid's last to have written its partial (each block's thread 0
+// fences its partial, then counts itself in): that block then sums the partials in the fixed
+// tree, so that one kernel forms a reduction's scalar, and sets the counter back to zero for the
+// next kernel (CUDA C++ Programming Guide, the memory fence functions' example).
+__device__ bool last_block(unsigned* counter) {
+  __shared__ bool last;
+  if (threadIdx.x == 0) {
+    __threadfence();
+    last = atomicAdd(counter, 1u) == gridDim.x - 1;
+    if (last) *counter = 0;
+  }
+  __syncthreads();
+  return last;
+}
+
+// rho = r^T z; the state of a solve that has just started.
+__global__ void k_cg_start(long long n, const double* r, const double* z, double* partials, unsigned* counter,
+                           double b_norm, double tolerance, VectorOps::CgState* cg) {
+  dot_partial(n, r, z, partials);
+  if (!last_block(counter)) return;
   const double rho = sum_partials(partials);
   if (threadIdx.x == 0) *cg = VectorOps::CgState{rho, 0, 0, b_norm, tolerance, 0, 0, 0, 0, kCgIdle};
 }
 
-// From c = p^T H p (the partials): alpha = rho / c, or the breakdown.
-__global__ void k_cg_curvature(const double* partials, VectorOps::CgState* cg) {
+// From c = p^T H p: alpha = rho / c, or the breakdown.
+__global__ void k_cg_curvature(long long n, const double* p, const double* hp, double* partials, unsigned* counter,
+                               VectorOps::CgState* cg) {
+  dot_partial(n, p, hp, partials);
+  if (!last_block(counter)) return;
   const double c = sum_partials(partials);
   if (threadIdx.x != 0) return;
   if (cg->stopped) {
@@ -119,10 +153,10 @@ __global__ void k_cg_curvature(const double* partials, VectorOps::CgState* cg) {
   }
 }
 
-// The update of the mode (x += alpha p, r -= alpha H p; or x = z), and the partials of r^T r
-// (over k_dot_partials's pattern).
-__global__ void k_cg_update(long long n, const VectorOps::CgState* cg, const double* p, const double* hp, const double* z,
-                            double* x, double* r, double* partials) {
+// The update of the mode (x += alpha p, r -= alpha H p; or x = z), then |r| / |b| from r^T r and
+// the convergence test after an update. Every block reads the mode before the last one resets it.
+__global__ void k_cg_update(long long n, VectorOps::CgState* cg, const double* p, const double* hp, const double* z,
+                            double* x, double* r, double* partials, unsigned* counter) {
   const int mode = cg->mode;
   if (mode == kCgIdle) return;
   const double alpha = cg->alpha;
@@ -140,22 +174,22 @@ __global__ void k_cg_update(long long n, const VectorOps::CgState* cg, const dou
   }
   block_sum<1>(s, shared);
   if (threadIdx.x == 0) partials[blockIdx.x] = s[0];
-}
-
-// |r| / |b| from the partials of r^T r; the convergence test after an update.
-__global__ void k_cg_residual(const double* partials, VectorOps::CgState* cg) {
+  if (!last_block(counter)) return;
   const double rr = sum_partials(partials);
-  if (threadIdx.x != 0 || cg->mode == kCgIdle) return;
+  if (threadIdx.x != 0) return;
   cg->relative_residual = sqrt(rr) / cg->b_norm;
-  if (cg->mode == kCgUpdate) {
+  if (mode == kCgUpdate) {
     ++cg->iterations;
     cg->stopped = cg->relative_residual <= cg->tolerance;
   }
   cg->mode = kCgIdle;
 }
 
-// From rho' = r^T z (the partials): beta = rho' / rho, rho = rho'.
-__global__ void k_cg_rho(const double* partials, VectorOps::CgState* cg) {
+// From rho' = r^T z: beta = rho' / rho, rho = rho'.
+__global__ void k_cg_rho(long long n, const double* r, const double* z, double* partials, unsigned* counter,
+                         VectorOps::CgState* cg) {
+  dot_partial(n, r, z, partials);
+  if (!last_block(counter)) return;
   const double rho = sum_partials(partials);
   if (threadIdx.x != 0 || cg->stopped) return;
   cg->beta = rho / cg->rho;
@@ -209,6 +243,8 @@ void DeviceVector::release() {
 VectorOps::VectorOps(cudaStream_t stream) : m_stream(stream) {
   m_partials.resize(kReduceBlocks);
   m_result.resize(1);
+  m_counter.resize(1);
+  FASCIA_CUDA(cudaMemset(m_counter.data(), 0, sizeof(unsigned)));
   FASCIA_CUDA(cudaMallocHost(&m_host, sizeof(double)));
   FASCIA_CUDA(cudaMalloc(reinterpret_cast<void**>(&m_cg), sizeof(CgState)));
   FASCIA_CUDA(cudaMallocHost(reinterpret_cast<void**>(&m_cg_host), sizeof(CgState)));
@@ -274,22 +310,20 @@ double VectorOps::finish() const {
 }
 
 void VectorOps::cg_start(const double* r, const double* z, long long n, double b_norm, double tolerance) const {
-  k_dot_partials<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, r, z, m_partials.data());
-  k_cg_start<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), b_norm, tolerance, m_cg);
+  k_cg_start<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, r, z, m_partials.data(), m_counter.data(), b_norm,
+                                                              tolerance, m_cg);
   check();
 }
 
 void VectorOps::cg_step(const double* p, const double* hp, const double* z, double* x, double* r, long long n) const {
-  k_dot_partials<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, p, hp, m_partials.data());
-  k_cg_curvature<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), m_cg);
-  k_cg_update<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, m_cg, p, hp, z, x, r, m_partials.data());
-  k_cg_residual<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), m_cg);
+  k_cg_curvature<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, p, hp, m_partials.data(), m_counter.data(), m_cg);
+  k_cg_update<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, m_cg, p, hp, z, x, r, m_partials.data(),
+                                                               m_counter.data());
   check();
 }
 
 void VectorOps::cg_direction(const double* r, const double* z, double* p, long long n) const {
-  k_dot_partials<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, r, z, m_partials.data());
-  k_cg_rho<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), m_cg);
+  k_cg_rho<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, r, z, m_partials.data(), m_counter.data(), m_cg);
   if (n > 0) k_cg_xpay<<<vector_grid(n), kVectorThreads, 0, m_stream>>>(n, m_cg, z, p);
   check();
 }

@@ -91,6 +91,7 @@ class VectorOps {
  private:
   cudaStream_t m_stream;
   mutable DeviceBuffer<double> m_partials, m_result;
+  mutable DeviceBuffer<unsigned> m_counter;  // the PCG kernels' blocks done (zero between kernels)
   double* m_host = nullptr;  // pinned
   CgState* m_cg = nullptr;       // device
   CgState* m_cg_host = nullptr;  // pinned
