@@ -1,10 +1,9 @@
 #include "device_vector.hpp"
 
-#include <functional>
-
 #include "device_vector.cuh"
 
 #include <cmath>
+#include <functional>
 
 namespace fascia::gpu {
 namespace {

@@ -79,8 +79,9 @@ class VectorOps {
   void cg_direction(const double* r, const double* z, double* p, long long n) const;
   CgStatus cg_status() const;
   // The operations' one record of work: body() captured as a CUDA graph (body must only enqueue
-  // work on this stream), replacing the record before; returns the record's generation, which
-  // replay() checks. One graph launch then enqueues the dozen or so kernels of a PCG iteration.
+  // work on this stream), replacing the record before; returns the new record's generation, by
+  // which a holder (DeviceVectorOps::Repeated) tells whether the record is still its own. One
+  // graph launch then enqueues the dozen or so kernels of a PCG iteration.
   unsigned long record(const std::function<void()>& body) const;
   unsigned long generation() const { return m_generation; }
   // Launches the record `count` times.
