@@ -405,8 +405,7 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
   const int n = m_model.frame_count();
   const double* d = d_reduced;
   if (!m.mapping.empty()) {
-    m.ops.copy(d_reduced, m.expanded.data(), dofs());
-    m.mapping.expand(m.expanded.data(), m.stream);
+    m.mapping.expand(d_reduced, m.expanded.data(), m.stream);
     d = m.expanded.data();
   }
   if (m.elasticity)
@@ -416,10 +415,7 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
   k_add_frame_diagonal<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.diag.data(), d, out);
   check();
   m.shells.add_tangent(d, out, m.stream);
-  if (!m.mapping.empty()) {
-    m.mapping.reduce(out, m.stream);
-    m.mapping.add_geometric(d_reduced, out, m.stream);
-  }
+  m.mapping.reduce_product(d_reduced, out, m.stream);
 }
 
 void DevicePotential::set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) {

@@ -26,6 +26,10 @@ DeviceRigidMapping::DeviceRigidMapping(const Model& model) {
     offsets.push_back(static_cast<int>(entries.size()));
   }
   m_bodies = static_cast<int>(body.size());
+  m_frames = model.frame_count();
+  std::vector<int> slot(static_cast<size_t>(m_frames), -1);
+  for (int k = 0; k < m_count; ++k) slot[static_cast<size_t>(mapping.mapped()[k])] = k;
+  m_slot.upload(slot);
   m_mapped.upload(mapping.mapped());
   m_parent.upload(mapping.bodies());
   m_body.upload(body);

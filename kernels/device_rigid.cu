@@ -37,11 +37,9 @@ __global__ void k_forces(int count, const int* mapped, const double* g, double* 
   store3(forces + 3 * k, load3(g + 6 * mapped[k]));
 }
 
-// One thread per body: its attached frames in ascending k, as RigidMapping::reduce.
-__global__ void k_reduce(int bodies, const int* body, const int* offsets, const int* entries, const int* mapped,
-                         const double* r_all, double* v) {
-  const int j = blockIdx.x * blockDim.x + threadIdx.x;
-  if (j >= bodies) return;
+// v_b += J_a^T v_a, v_a = 0 for the attached frames of body j in ascending k, as RigidMapping::reduce.
+__device__ void reduce_body(int j, const int* body, const int* offsets, const int* entries, const int* mapped,
+                            const double* r_all, double* v) {
   double* vb = v + 6 * body[j];
   for (int e = offsets[j]; e < offsets[j + 1]; ++e) {
     const int k = entries[e];
@@ -54,20 +52,21 @@ __global__ void k_reduce(int bodies, const int* body, const int* offsets, const 
   }
 }
 
-__global__ void k_expand(int count, const int* mapped, const int* parent, const double* r_all, double* d) {
-  const int k = blockIdx.x * blockDim.x + threadIdx.x;
-  if (k >= count) return;
-  const double* db = d + 6 * parent[k];
-  double* fa = d + 6 * mapped[k];
-  const Vec3 u = load3(db), w = load3(db + 3), r = load3(r_all + 3 * k);
-  const Vec3 x = u + cross(w, r);  // u - [r]x w
-  fa[0] = x.x, fa[1] = x.y, fa[2] = x.z, fa[3] = w.x, fa[4] = w.y, fa[5] = w.z;
-}
-
-__global__ void k_add_geometric(int bodies, const int* body, const int* offsets, const int* entries,
-                                const double* forces, const double* r_all, const double* d, double* out) {
+// One thread per body.
+__global__ void k_reduce(int bodies, const int* body, const int* offsets, const int* entries, const int* mapped,
+                         const double* r_all, double* v) {
   const int j = blockIdx.x * blockDim.x + threadIdx.x;
   if (j >= bodies) return;
+  reduce_body(j, body, offsets, entries, mapped, r_all, v);
+}
+
+// One thread per body: the reduction, then out_b(rotation) += G_a d_b(rotation) over its frames.
+__global__ void k_reduce_product(int bodies, const int* body, const int* offsets, const int* entries,
+                                 const int* mapped, const double* forces, const double* r_all, const double* d,
+                                 double* out) {
+  const int j = blockIdx.x * blockDim.x + threadIdx.x;
+  if (j >= bodies) return;
+  reduce_body(j, body, offsets, entries, mapped, r_all, out);
   const int b = body[j];
   const Vec3 w = load3(d + 6 * b + 3);
   for (int e = offsets[j]; e < offsets[j + 1]; ++e) {
@@ -75,6 +74,23 @@ __global__ void k_add_geometric(int bodies, const int* body, const int* offsets,
     const Vec3 y = geometric_block(load3(forces + 3 * k), load3(r_all + 3 * k)) * w;
     out[6 * b + 3] += y.x, out[6 * b + 4] += y.y, out[6 * b + 5] += y.z;
   }
+}
+
+// One thread per frame: out_i = d_i, or J_a d_b for an attached frame (u - [r]x w, w).
+__global__ void k_expand(int frames, const int* slot, const int* parent, const double* r_all, const double* d,
+                         double* out) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= frames) return;
+  const int k = slot[i];
+  double* o = out + 6 * i;
+  if (k < 0) {
+    for (int c = 0; c < 6; ++c) o[c] = d[6 * i + c];
+    return;
+  }
+  const double* db = d + 6 * parent[k];
+  const Vec3 u = load3(db), w = load3(db + 3), r = load3(r_all + 3 * k);
+  const Vec3 x = u + cross(w, r);  // u - [r]x w
+  o[0] = x.x, o[1] = x.y, o[2] = x.z, o[3] = w.x, o[4] = w.y, o[5] = w.z;
 }
 
 __global__ void k_reduce_blocks(int bodies, const int* body, const int* offsets, const int* entries,
@@ -138,17 +154,17 @@ void DeviceRigidMapping::reduce(double* v, cudaStream_t stream) const {
   check();
 }
 
-void DeviceRigidMapping::expand(double* d, cudaStream_t stream) const {
+void DeviceRigidMapping::reduce_product(const double* d, double* out, cudaStream_t stream) const {
   if (!m_count) return;
-  k_expand<<<grid(m_count), kThreads, 0, stream>>>(m_count, m_mapped.data(), m_parent.data(), m_offsets.data(), d);
+  k_reduce_product<<<grid(m_bodies), kThreads, 0, stream>>>(m_bodies, m_body.data(), m_body_offsets.data(),
+                                                            m_body_entries.data(), m_mapped.data(), m_forces.data(),
+                                                            m_offsets.data(), d, out);
   check();
 }
 
-void DeviceRigidMapping::add_geometric(const double* d, double* out, cudaStream_t stream) const {
+void DeviceRigidMapping::expand(const double* d, double* out, cudaStream_t stream) const {
   if (!m_count) return;
-  k_add_geometric<<<grid(m_bodies), kThreads, 0, stream>>>(m_bodies, m_body.data(), m_body_offsets.data(),
-                                                           m_body_entries.data(), m_forces.data(), m_offsets.data(), d,
-                                                           out);
+  k_expand<<<grid(m_frames), kThreads, 0, stream>>>(m_frames, m_slot.data(), m_parent.data(), m_offsets.data(), d, out);
   check();
 }
 

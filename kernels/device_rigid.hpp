@@ -29,17 +29,19 @@ class DeviceRigidMapping {
   void set_geometric(const double* gradient, cudaStream_t stream);
   // v_b += J_a^T v_a, then v_a = 0.
   void reduce(double* v, cudaStream_t stream) const;
-  // d_a = J_a d_b, in place.
-  void expand(double* d, cudaStream_t stream) const;
-  // out_b(rotation) += G_a d_b(rotation).
-  void add_geometric(const double* d, double* out, cudaStream_t stream) const;
+  // The reduced tangent product from the unreduced one: out_b += J_a^T out_a, out_a = 0, then
+  // out_b(rotation) += G_a d_b(rotation) (reduce, then the geometric term, in one pass).
+  void reduce_product(const double* d, double* out, cudaStream_t stream) const;
+  // out = d with d_a = J_a d_b (the expanded vector, in one pass over the frames).
+  void expand(const double* d, double* out, cudaStream_t stream) const;
   // blocks_b += J_a^T blocks_a J_a + G_a; blocks_a = identity.
   void reduce_diagonal_blocks(double* blocks, cudaStream_t stream) const;
 
  private:
-  int m_count = 0, m_bodies = 0;
+  int m_count = 0, m_bodies = 0, m_frames = 0;
   std::vector<std::uint8_t> m_reduced_fixed;
   DeviceBuffer<int> m_mapped, m_parent;           // [A] frame a, its body b
+  DeviceBuffer<int> m_slot;                       // [N] each frame's index k in m_mapped, -1 if not mapped
   DeviceBuffer<int> m_body, m_body_offsets;       // [B] body frames, [B+1] ranges into m_body_entries
   DeviceBuffer<int> m_body_entries;               // [A] mapped indices k grouped by body, ascending k
   DeviceBuffer<double> m_rest_offsets, m_offsets, m_forces;  // [A][3] c_a, r_a, g_a

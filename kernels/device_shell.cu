@@ -19,7 +19,13 @@ __device__ void gather_nodes(const ShellElementRest& e, const double* x, const d
   }
 }
 
-// Per triangle: its energy, and with `values` its gradient [18]; with `hessians` its Hessian.
+// What k_shell_elements evaluates per triangle besides its energy.
+enum class ElementOutput { energy, gradient, hessian };
+
+// Per triangle: its energy, and its gradient [18] into `values` or its Hessian [18][18] into
+// `hessians`. One kernel per output: the Hessian's registers and stack (about 5 KB per thread)
+// would otherwise be those of the energy and gradient too.
+template <ElementOutput Output>
 __global__ void k_shell_elements(int count, const ShellElementRest* elements, const ShellModuli* moduli,
                                  const double* x, const double* q, double* energies, double* values,
                                  double* hessians) {
@@ -29,16 +35,20 @@ __global__ void k_shell_elements(int count, const ShellElementRest* elements, co
   Vec3 xs[3];
   Mat3 Rs[3];
   gather_nodes(e, x, q, xs, Rs);
-  if (hessians) {
+  if constexpr (Output == ElementOutput::hessian) {
     double g[kShellElementDofs];
     energies[t] = shell_element_hessian(e, moduli[t], xs, Rs, g,
                                         hessians + static_cast<long long>(t) * kShellElementDofs * kShellElementDofs);
-  } else if (values) {
+  } else if constexpr (Output == ElementOutput::gradient) {
     energies[t] = shell_element_gradient(e, moduli[t], xs, Rs, values + static_cast<long long>(t) * kShellElementDofs);
   } else {
     energies[t] = shell_element_energy(e, moduli[t], xs, Rs);
   }
 }
+
+// Threads per block of the Hessian kernel: its stack of a block stays within an SM's L1 cache
+// (32 x 5 KB), and a few hundred triangles spread over as many SMs as there are blocks.
+constexpr int kHessianThreads = 32;
 
 // values_t = H_t d_t [18] per triangle, one thread per triangle and row: the 18 threads of a
 // triangle read its Hessian's rows side by side (a thread per triangle would read 2.6 KB alone
@@ -89,16 +99,16 @@ __global__ void k_shell_blocks(int frames, const int* frame_ids, const int* offs
 
 double DeviceShells::energy(const double* x, const double* q, const VectorOps& ops) {
   if (empty()) return 0.0;
-  k_shell_elements<<<grid(m_triangles), kThreads, 0, ops.stream()>>>(m_triangles, m_elements.data(), m_moduli.data(), x,
-                                                                     q, m_energies.data(), nullptr, nullptr);
+  k_shell_elements<ElementOutput::energy><<<grid(m_triangles), kThreads, 0, ops.stream()>>>(
+      m_triangles, m_elements.data(), m_moduli.data(), x, q, m_energies.data(), nullptr, nullptr);
   check();
   return ops.dot(m_energies.data(), nullptr, m_triangles);
 }
 
 double DeviceShells::add_gradient(const double* x, const double* q, double* g, const VectorOps& ops) {
   if (empty()) return 0.0;
-  k_shell_elements<<<grid(m_triangles), kThreads, 0, ops.stream()>>>(m_triangles, m_elements.data(), m_moduli.data(), x,
-                                                                     q, m_energies.data(), m_values.data(), nullptr);
+  k_shell_elements<ElementOutput::gradient><<<grid(m_triangles), kThreads, 0, ops.stream()>>>(
+      m_triangles, m_elements.data(), m_moduli.data(), x, q, m_energies.data(), m_values.data(), nullptr);
   check();
   k_shell_gather<<<grid(m_frames), kThreads, 0, ops.stream()>>>(m_frames, m_frame_ids.data(), m_offsets.data(),
                                                                 m_entries.data(), m_values.data(), g);
@@ -108,8 +118,9 @@ double DeviceShells::add_gradient(const double* x, const double* q, double* g, c
 
 void DeviceShells::prepare(const double* x, const double* q, cudaStream_t stream) {
   if (empty()) return;
-  k_shell_elements<<<grid(m_triangles), kThreads, 0, stream>>>(m_triangles, m_elements.data(), m_moduli.data(), x, q,
-                                                               m_energies.data(), nullptr, m_hessians.data());
+  k_shell_elements<ElementOutput::hessian>
+      <<<(m_triangles + kHessianThreads - 1) / kHessianThreads, kHessianThreads, 0, stream>>>(
+          m_triangles, m_elements.data(), m_moduli.data(), x, q, m_energies.data(), nullptr, m_hessians.data());
   check();
 }
 

@@ -152,10 +152,11 @@ __global__ void k_cg_curvature(long long n, const double* p, const double* hp, d
   }
 }
 
-// The update of the mode (x += alpha p, r -= alpha H p; or x = z), then |r| / |b| from r^T r and
-// the convergence test after an update. Every block reads the mode before the last one resets it.
+// The update of the mode (x += alpha p, r -= alpha P H p; or x = P z), then |r| / |b| from r^T r
+// and the convergence test after an update. Every block reads the mode before the last one resets
+// it.
 __global__ void k_cg_update(long long n, VectorOps::CgState* cg, const double* p, const double* hp, const double* z,
-                            double* x, double* r, double* partials, unsigned* counter) {
+                            const std::uint8_t* fixed, double* x, double* r, double* partials, unsigned* counter) {
   const int mode = cg->mode;
   if (mode == kCgIdle) return;
   const double alpha = cg->alpha;
@@ -163,11 +164,12 @@ __global__ void k_cg_update(long long n, VectorOps::CgState* cg, const double* p
   double s[1] = {0.0};
   for (long long k = blockIdx.x * static_cast<long long>(kReduceThreads) + threadIdx.x; k < n;
        k += static_cast<long long>(kReduceBlocks) * kReduceThreads) {
+    const bool free = !(fixed && fixed[k]);
     if (mode == kCgUpdate) {
       x[k] += alpha * p[k];
-      r[k] -= alpha * hp[k];
+      if (free) r[k] -= alpha * hp[k];
     } else if (mode == kCgFirstBreakdown) {
-      x[k] = z[k];  // preconditioned steepest descent
+      x[k] = free ? z[k] : 0.0;  // preconditioned steepest descent
     }
     s[0] += r[k] * r[k];
   }
@@ -195,13 +197,14 @@ __global__ void k_cg_rho(long long n, const double* r, const double* z, double* 
   cg->rho = rho;
 }
 
-// p = z + beta p while running.
-__global__ void k_cg_xpay(long long n, const VectorOps::CgState* cg, const double* z, double* p) {
+// p = P z + beta p while running.
+__global__ void k_cg_xpay(long long n, const VectorOps::CgState* cg, const double* z, const std::uint8_t* fixed,
+                          double* p) {
   if (cg->stopped) return;
   const double beta = cg->beta;
   for (long long k = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x; k < n;
        k += static_cast<long long>(gridDim.x) * blockDim.x)
-    p[k] = z[k] + beta * p[k];
+    p[k] = fixed && fixed[k] ? 0.0 : z[k] + beta * p[k];
 }
 
 }  // namespace
@@ -314,16 +317,18 @@ void VectorOps::cg_start(const double* r, const double* z, long long n, double b
   check();
 }
 
-void VectorOps::cg_step(const double* p, const double* hp, const double* z, double* x, double* r, long long n) const {
+void VectorOps::cg_step(const double* p, const double* hp, const double* z, const std::uint8_t* fixed, double* x,
+                        double* r, long long n) const {
   k_cg_curvature<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, p, hp, m_partials.data(), m_counter.data(), m_cg);
-  k_cg_update<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, m_cg, p, hp, z, x, r, m_partials.data(),
+  k_cg_update<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, m_cg, p, hp, z, fixed, x, r, m_partials.data(),
                                                                m_counter.data());
   check();
 }
 
-void VectorOps::cg_direction(const double* r, const double* z, double* p, long long n) const {
+void VectorOps::cg_direction(const double* r, const double* z, const std::uint8_t* fixed, double* p,
+                             long long n) const {
   k_cg_rho<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, r, z, m_partials.data(), m_counter.data(), m_cg);
-  if (n > 0) k_cg_xpay<<<vector_grid(n), kVectorThreads, 0, m_stream>>>(n, m_cg, z, p);
+  if (n > 0) k_cg_xpay<<<vector_grid(n), kVectorThreads, 0, m_stream>>>(n, m_cg, z, fixed, p);
   check();
 }
 

@@ -75,8 +75,10 @@ class VectorOps {
   // The PCG scalars of DeviceVectorOps (the CgScalars concept of engine/solve/vector_ops.hpp), in
   // device memory: each operation is enqueued without a read back; cg_status() reads them.
   void cg_start(const double* r, const double* z, long long n, double b_norm, double tolerance) const;
-  void cg_step(const double* p, const double* hp, const double* z, double* x, double* r, long long n) const;
-  void cg_direction(const double* r, const double* z, double* p, long long n) const;
+  // fixed: the projection P of hp and z (null: none).
+  void cg_step(const double* p, const double* hp, const double* z, const std::uint8_t* fixed, double* x, double* r,
+               long long n) const;
+  void cg_direction(const double* r, const double* z, const std::uint8_t* fixed, double* p, long long n) const;
   CgStatus cg_status() const;
   // The operations' one record of work: body() captured as a CUDA graph (body must only enqueue
   // work on this stream), replacing the record before; returns the new record's generation, by
@@ -132,10 +134,10 @@ class DeviceVectorOps {
     m_ops.cg_start(r.data(), z.data(), m_n, b_norm, tolerance);
   }
   void cg_step(CgScalars&, const Vector& p, const Vector& hp, const Vector& z, Vector& x, Vector& r) const {
-    m_ops.cg_step(p.data(), hp.data(), z.data(), x.data(), r.data(), m_n);
+    m_ops.cg_step(p.data(), hp.data(), z.data(), m_fixed, x.data(), r.data(), m_n);
   }
   void cg_direction(CgScalars&, const Vector& r, const Vector& z, Vector& p) const {
-    m_ops.cg_direction(r.data(), z.data(), p.data(), m_n);
+    m_ops.cg_direction(r.data(), z.data(), m_fixed, p.data(), m_n);
   }
   CgStatus cg_status(const CgScalars&) const { return m_ops.cg_status(); }
   // Records body at its first run (and again where another record replaced it) and replays it.

@@ -78,17 +78,16 @@ LinearResult pcg(const Ops& ops, Apply&& apply, Precondition&& precondition, con
   typename Ops::CgScalars scalars;
   ops.cg_start(scalars, r, z, b_norm, settings.fixed_iterations ? -1.0 : settings.tolerance);
   // An iteration: H p and the step along p, then the next direction (the first direction is z).
-  // The iterations between two reads of the status have no host reads: the backend may record
-  // an iteration once per solve and replay the record (Ops::repeated).
+  // cg_step and cg_direction read H p and z through the projection. The iterations between two
+  // reads of the status have no host reads: the backend may record an iteration once per solve
+  // and replay the record (Ops::repeated).
   auto product_and_step = [&] {
     apply(p, hp);
-    ops.project(hp);
-    ops.cg_step(scalars, p, hp, z, x, r);  // alpha = rho / p^T H p, x += alpha p, r -= alpha H p
+    ops.cg_step(scalars, p, hp, z, x, r);  // alpha = rho / p^T H p, x += alpha p, r -= alpha P H p
   };
   auto iteration = [&] {
     precondition(r, z);
-    ops.project(z);
-    ops.cg_direction(scalars, r, z, p);  // beta = rho' / rho, p = z + beta p
+    ops.cg_direction(scalars, r, z, p);  // beta = rho' / rho, p = P z + beta p
     product_and_step();
   };
   auto repeated = ops.repeated(iteration);

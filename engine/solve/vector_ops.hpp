@@ -25,11 +25,14 @@
 //   void cg_start(CgScalars& s, const Vector& r, const Vector& z, double b_norm, double tolerance) const;
 //       rho = r^T z; running; stop when |r| <= tolerance b_norm (negative: never)
 //   void cg_step(CgScalars& s, const Vector& p, const Vector& hp, const Vector& z, Vector& x, Vector& r) const;
-//       while running: c = p^T hp; c > 0: alpha = rho / c, x += alpha p, r -= alpha hp, one more
-//       iteration, stopped when |r| / b_norm <= tolerance; otherwise stopped with negative
-//       curvature (x = z when no iteration was taken). The residual is |r| / b_norm in either case.
+//       while running, with p and r projected and hp, z read through the projection P: c = p^T hp;
+//       c > 0: alpha = rho / c, x += alpha p, r -= alpha P hp, one more iteration, stopped when
+//       |r| / b_norm <= tolerance; otherwise stopped with negative curvature (x = P z when no
+//       iteration was taken). The residual is |r| / b_norm in either case.
 //   void cg_direction(CgScalars& s, const Vector& r, const Vector& z, Vector& p) const;
-//       while running: rho' = r^T z, beta = rho' / rho, rho = rho', p = z + beta p
+//       while running: rho' = r^T z, beta = rho' / rho, rho = rho', p = P z + beta p
+// (r^T z = r^T P z and p^T hp = p^T P hp, r and p being projected: P is applied where a
+// vector is written, in the same pass.)
 //   CgStatus cg_status(const CgScalars& s) const;    the status, on the host
 //   template <class Body> auto repeated(Body& body) const;
 //       an object whose run(count) calls body() count times in order (count <= 0: none); body
@@ -105,6 +108,16 @@ class HostVectorOps {
 
   const std::uint8_t* fixed() const { return m_fixed; }
 
+  // y = y + a P x.
+  void axpy_projected(double a, const Vector& x, Vector& y) const {
+    if (!m_fixed) return axpy(a, x, y);
+    const std::uint8_t* __restrict fixed = m_fixed;
+    const double* __restrict xd = x.data();
+    double* __restrict yd = y.data();
+#pragma omp simd
+    for (int k = 0; k < m_n; ++k) yd[k] += fixed[k] ? 0.0 : a * xd[k];
+  }
+
   static constexpr bool kScalarsOnHost = true;
   struct CgScalars {
     CgStatus status;
@@ -120,14 +133,17 @@ class HostVectorOps {
     if (s.status.stopped) return;
     const double curvature = dot(p, hp);
     if (!(curvature > 0)) {
-      if (s.status.iterations == 0) copy(z, x);  // preconditioned steepest descent
+      if (s.status.iterations == 0) {  // preconditioned steepest descent
+        copy(z, x);
+        project(x);
+      }
       s.status.stopped = s.status.negative_curvature = true;
       s.status.relative_residual = norm(r) / s.b_norm;
       return;
     }
     const double alpha = s.rho / curvature;
     axpy(alpha, p, x);
-    axpy(-alpha, hp, r);
+    axpy_projected(-alpha, hp, r);
     ++s.status.iterations;
     s.status.relative_residual = norm(r) / s.b_norm;
     s.status.stopped = s.status.relative_residual <= s.tolerance;
@@ -138,6 +154,7 @@ class HostVectorOps {
     const double beta = rho / s.rho;
     s.rho = rho;
     xpay(z, beta, p);
+    project(p);
   }
   CgStatus cg_status(const CgScalars& s) const { return s.status; }
   template <class Body>
