@@ -45,10 +45,10 @@ namespace {
 
 constexpr int kThreads = 128;  // the per-frame and per-sample kernels
 // Samples per block of the force and tangent passes: one thread each, the block size the dense
-// tangent kernels and the resident PCG are compiled for (kDenseThreads, kResidentThreads).
+// tangent kernels are compiled for (kDenseThreads).
 constexpr int kBlockSamples = 128;
 // Pairs and distinct frames per block at most: they bound the shared memory of a block's pair
-// outputs and of the resident PCG's staged frame records.
+// outputs.
 constexpr int kMaxBlockPairs = 1024;
 constexpr int kMaxBlockSlots = 256;
 // Lanes that sum one slot of a block's pair outputs in the launched tangent kernels (a power of
@@ -67,18 +67,11 @@ constexpr int kSampleLanes = 4;
 // loads; mesh models keep one thread per frame.
 constexpr int kLanedSlots = 8;
 constexpr int kFrameLanes = 8;
-// Frames per chunk of the launched PCG update (k_update_rows, 6 threads per frame): 252-thread
-// blocks, large enough that few blocks share the grid reduction, small enough to fill the device.
-constexpr int kRowFrames = 42;
-// The persistent PCG runs while the model needs at most this many thread blocks per
-// multiprocessor: its grid barriers and every block's sum of all partials grow with the grid.
-constexpr int kPersistentBlocksPerSM = 4;
-
 int grid_for(long long count, int threads) { return static_cast<int>(std::max<long long>(1, (count + threads - 1) / threads)); }
 
 }  // namespace
 
-// The implementation behind both public classes: abstract over the storage precision.
+// The implementation of DeviceElasticity: abstract over the storage precision.
 struct DeviceElasticity::Impl {
   virtual ~Impl() = default;
   virtual void set_state(const State& state) = 0;
@@ -100,12 +93,6 @@ struct DeviceElasticity::Impl {
   virtual KernelResources tangent_kernel_resources() const = 0;
   virtual LaunchGrids launch_grids() const = 0;
   virtual void limit_row_blocks(int blocks) = 0;
-  // Stepper.
-  virtual void configure_step(const StepOptions& options) = 0;
-  virtual StepReport step() = 0;
-  virtual void last_increment(double* delta) const = 0;
-  virtual double time_step_ms(int repeats) = 0;
-  virtual double time_cg_iteration_ms(int repeats) = 0;
 
   DeviceOptions options;
   bool grouped = false;         // the launched tangent product runs the grouped pass
@@ -148,7 +135,6 @@ class System final : public DeviceElasticity::Impl {
     m_n = model.frame_count();
     m_s = model.sample_count();
     m_p = model.pair_count();
-    m_locked = model.rotations_locked;
     m_max_neighbours = model.max_neighbours();
     m_fibres = std::any_of(model.materials.begin(), model.materials.end(),
                            [](const Material& mat) { return mat.law == MaterialLaw::hgo; });
@@ -179,12 +165,6 @@ class System final : public DeviceElasticity::Impl {
     m_materials.upload(model.materials);
     m_sample_rest.upload(sample_rest);
     m_frame_rest.upload(frame_rest);
-    std::vector<double> masses = model.frame_masses, inertias = model.frame_inertias;
-    masses.resize(m_n, 0.0);
-    inertias.resize(9 * static_cast<size_t>(m_n), 0.0);
-    m_masses.upload(masses);
-    m_inertias.upload(inertias);
-    m_fixed.upload(model.fixed_dofs);
 
     m_lanes = model.pair_count() > static_cast<long long>(kLanedPairs) * model.sample_count() ? kSampleLanes : 1;
     BlockLayout L = build_block_layout(model, kBlockSamples / m_lanes, kMaxBlockPairs, kMaxBlockSlots);
@@ -226,10 +206,6 @@ class System final : public DeviceElasticity::Impl {
     m_view.materials = m_materials.data();
     m_view.sample_rest = m_sample_rest.data();
     m_view.frame_rest = m_frame_rest.data();
-    m_view.masses = m_masses.data();
-    m_view.inertias = m_inertias.data();
-    m_view.fixed = m_fixed.data();
-    m_view.rotations_locked = m_locked;
     m_view.blocks = m_blocks;
     m_view.block_samples = m_block_samples.data();
     m_view.block_slots = m_block_slots.data();
@@ -266,31 +242,24 @@ class System final : public DeviceElasticity::Impl {
     const size_t dofs = 6 * static_cast<size_t>(m_n);
     m_positions.resize(3 * static_cast<size_t>(m_n));
     m_orientations.resize(4 * static_cast<size_t>(m_n));
-    m_velocities.resize(dofs);
     m_x.resize(3 * static_cast<size_t>(m_n));
     m_rot.resize(9 * static_cast<size_t>(m_n));
     m_F.resize(9 * static_cast<size_t>(m_s));
     m_geo.resize(9 * static_cast<size_t>(m_n));
-    m_inertia_world.resize(9 * static_cast<size_t>(m_n));
-    m_step_block.resize(9 * static_cast<size_t>(m_n));
-    m_minv.resize(kMinvValues * static_cast<size_t>(m_n));
     m_diag.resize(36 * static_cast<size_t>(m_n));
     m_prepare_sums.resize(kPrepareSums * static_cast<size_t>(m_n));
-    for (auto* v : {&m_grad, &m_d, &m_out, &m_cx, &m_cr, &m_cz, &m_cp, &m_cAp}) v->resize(dofs);
-    // The partials and counters of every kernel that reduces (reduce_and_finish).
-    const int max_grid = std::max({grid_for(m_s, kThreads), grid_for(static_cast<long long>(kFrameLanes) * m_n, kThreads),
-                                   grid_for(m_n, kRowFrames), m_blocks, m_group_blocks, 1});
+    for (auto* v : {&m_grad, &m_d, &m_out}) v->resize(dofs);
+    // The partials and counters of the force pass's reduction (reduce_and_finish).
+    const int max_grid = std::max(m_blocks, 1);
     m_red_partials.resize(reduce_partial_count(max_grid));
     m_counter.resize(reduce_counter_count(max_grid));
     m_counter.zero();
     m_scalars.resize(1);
     m_scalars.zero();
-    // The launched row passes loop over their frames (or chunks) in the blocks that fit at once.
+    // The launched frame pass loops over its frames in the blocks that fit at once.
     m_frame_lanes = !grouped && m_slots > static_cast<long long>(kLanedSlots) * m_n ? kFrameLanes : 1;
     m_rows_grid = resident_blocks(frame_sums_kernel(m_frame_lanes), kFrameThreads,
                                   grid_for(static_cast<long long>(m_frame_lanes) * m_n, kFrameThreads));
-    m_update_grid =
-        resident_blocks(reinterpret_cast<const void*>(&k_update_rows<R>), 6 * kRowFrames, grid_for(m_n, kRowFrames));
     m_frame_view.rotations = m_rot.data();
     m_frame_view.positions = m_x.data();
     m_frame_view.levers = m_levers.data();
@@ -298,7 +267,6 @@ class System final : public DeviceElasticity::Impl {
   }
 
   ~System() override {
-    destroy_graphs();
     cudaEventDestroy(m_start);
     cudaEventDestroy(m_stop);
     cudaStreamDestroy(m_stream);
@@ -308,18 +276,13 @@ class System final : public DeviceElasticity::Impl {
     if (state.frame_count() != m_n) throw std::invalid_argument("DeviceElasticity: state has the wrong frame count");
     m_positions.upload(state.positions);
     m_orientations.upload(state.orientations);
-    std::vector<double> v = state.velocities;
-    v.resize(6 * static_cast<size_t>(m_n), 0.0);
-    m_velocities.upload(v);
   }
 
   void get_state(State& state) const override {
     state.positions.resize(3 * static_cast<size_t>(m_n));
     state.orientations.resize(4 * static_cast<size_t>(m_n));
-    state.velocities.resize(6 * static_cast<size_t>(m_n));
     m_positions.download(state.positions.data());
     m_orientations.download(state.orientations.data());
-    m_velocities.download(state.velocities.data());
   }
 
   double energy() override {
@@ -336,13 +299,13 @@ class System final : public DeviceElasticity::Impl {
 
   double prepare(bool diagonal_blocks) override {
     enqueue_gradient_pass(false);
-    enqueue_frame_prepare(0.0, diagonal_blocks, 1.0, nullptr, diagonal_blocks);
+    enqueue_frame_prepare(diagonal_blocks);
     return read_scalars().energy;
   }
 
   void apply_tangent(const double* d, double* out) override {
     m_d.upload(d, 6 * static_cast<size_t>(m_n));
-    enqueue_tangent(m_d.data(), m_out.data(), FrameTermsFlags{0.0, false}, false);
+    enqueue_tangent(m_d.data(), m_out.data());
     FASCIA_CUDA(cudaStreamSynchronize(m_stream));
     m_out.download(out);
   }
@@ -367,12 +330,11 @@ class System final : public DeviceElasticity::Impl {
 
   void apply_tangent_on_device(const double* d, double* out) override {
     if constexpr (std::is_same_v<R, double>) {
-      // The passes read d and write every row of out: no copies in double (outside the PCG of
-      // the stepper, enqueue_tangent leaves d as it is).
-      enqueue_tangent(const_cast<double*>(d), out, FrameTermsFlags{0.0, false}, false);
+      // The passes read d and write every row of out: no copies in double.
+      enqueue_tangent(d, out);
     } else {
       convert_async(d, m_d.data(), 6LL * m_n, m_stream);
-      enqueue_tangent(m_d.data(), m_out.data(), FrameTermsFlags{0.0, false}, false);
+      enqueue_tangent(m_d.data(), m_out.data());
       convert_async(m_out.data(), out, 6LL * m_n, m_stream);
     }
   }
@@ -432,9 +394,9 @@ class System final : public DeviceElasticity::Impl {
     std::vector<double> d(6 * static_cast<size_t>(m_n));
     for (size_t k = 0; k < d.size(); ++k) d[k] = 1e-3 * std::sin(0.37 * static_cast<double>(k));
     m_d.upload(d);
-    for (int k = 0; k < 3; ++k) enqueue_tangent(m_d.data(), m_out.data(), FrameTermsFlags{0.0, false}, false);
+    for (int k = 0; k < 3; ++k) enqueue_tangent(m_d.data(), m_out.data());
     FASCIA_CUDA(cudaEventRecord(m_start, m_stream));
-    for (int k = 0; k < repeats; ++k) enqueue_tangent(m_d.data(), m_out.data(), FrameTermsFlags{0.0, false}, false);
+    for (int k = 0; k < repeats; ++k) enqueue_tangent(m_d.data(), m_out.data());
     FASCIA_CUDA(cudaEventRecord(m_stop, m_stream));
     FASCIA_CUDA(cudaEventSynchronize(m_stop));
     float ms = 0;
@@ -482,25 +444,10 @@ class System final : public DeviceElasticity::Impl {
     m_ell_pos.upload(std::vector<unsigned short>(L.ell_pos.begin(), L.ell_pos.end()));
     m_levers.resize(kLeverRecord * static_cast<size_t>(m_n));
     m_sample_state.resize(kSampleState * static_cast<size_t>(m_s));
-    // The resident kernel's staged frames after the outputs: lever records, directions and frame
-    // indices (0 where they would not fit).
-    int max_slots = 0;
-    for (int b = 0; b < L.block_count(); ++b) max_slots = std::max(max_slots, L.block_slots[b + 1] - L.block_slots[b]);
-    const size_t lever_bytes = (static_cast<size_t>(slot_records_offset(static_cast<int>(pairs))) +
-                                (kLeverRecord + 6) * static_cast<size_t>(max_slots)) *
-                                   sizeof(R) +
-                               sizeof(int) * static_cast<size_t>(max_slots);
-    m_resident_frames_bytes = lever_bytes <= static_cast<size_t>(shared_limit) ? lever_bytes : 0;
-    for (int keep : {2, 4, 8}) {
+    for (int keep : {2, 4, 8})
       for (int lanes : {1, kSampleLanes})
         FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep, lanes)),
                                          cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
-      FASCIA_CUDA(cudaFuncSetAttribute(two_barrier_kernel(keep), cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                       static_cast<int>(m_ell_bytes)));
-    }
-    for (int pairs_max : {4, kResidentPairs})
-      FASCIA_CUDA(cudaFuncSetAttribute(resident_kernel(pairs_max), cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                       static_cast<int>(m_ell_bytes)));
   }
 
   // The grouped pass's tables (group_layout.hpp) for a model in group order whose groups average
@@ -563,123 +510,13 @@ class System final : public DeviceElasticity::Impl {
     m_ell_entries = E;
   }
 
-  // ---- stepper -------------------------------------------------------------------------------
-
-  void configure_step(const StepOptions& o) override {
-    if (!(o.dt > 0)) throw std::invalid_argument("DeviceBackwardEuler: dt must be > 0 s");
-    if (o.max_cg_iterations < 1) throw std::invalid_argument("DeviceBackwardEuler: max_cg_iterations must be >= 1");
-    m_step = o;
-    if (m_step.check_every < 1) m_step.check_every = 1;
-    if (!o.external_forces.empty()) {
-      if (o.external_forces.size() != 6 * static_cast<size_t>(m_n))
-        throw std::invalid_argument("DeviceBackwardEuler: external_forces must be [N][6]");
-      m_external.upload(o.external_forces);
-    } else {
-      m_external.resize(0);
-    }
-    if (!o.load_rotational_blocks.empty()) {
-      if (o.load_rotational_blocks.size() != 9 * static_cast<size_t>(m_n))
-        throw std::invalid_argument("DeviceBackwardEuler: load_rotational_blocks must be [N][9]");
-      m_load_rot.upload(o.load_rotational_blocks);
-    } else {
-      m_load_rot.resize(0);
-    }
-    if (o.rayleigh_mass < 0 || o.rayleigh_stiffness < 0)
-      throw std::invalid_argument("DeviceBackwardEuler: Rayleigh coefficients must be >= 0");
-    m_persistent_grid = o.persistent ? persistent_grid() : 0;
-    if (m_red_partials.size() < 2 * static_cast<size_t>(m_persistent_grid)) {
-      m_red_partials.resize(2 * static_cast<size_t>(m_persistent_grid));
-    }
-    destroy_graphs();
-  }
-
-  StepReport step() override {
-    if (use_persistent()) {
-      launch_graph(m_graph_begin, [&] { enqueue_step_begin(); });
-      enqueue_persistent_pcg();
-      launch_graph(m_graph_end, [&] { enqueue_step_end(); });
-    } else if (m_step.cg_tolerance <= 0) {
-      launch_graph(m_graph_full, [&] {
-        enqueue_step_begin();
-        for (int k = 0; k < m_step.max_cg_iterations; ++k) enqueue_cg_iteration();
-        enqueue_step_end();
-      });
-    } else {
-      launch_graph(m_graph_begin, [&] { enqueue_step_begin(); });
-      run_tolerance_loop();
-      launch_graph(m_graph_end, [&] { enqueue_step_end(); });
-    }
-    const Scalars sc = read_scalars();
-    StepReport report;
-    report.persistent = use_persistent();
-    report.resident = use_persistent() && m_resident;
-    report.cg_iterations = sc.iterations;
-    report.cg_relative_residual = sc.rz0 > 0 ? std::sqrt(std::max(0.0, sc.rz) / sc.rz0) : 0.0;
-    report.energy = sc.energy;
-    return report;
-  }
-
-  void last_increment(double* delta) const override {
-    FASCIA_CUDA(cudaStreamSynchronize(m_stream));
-    m_cx.download(delta);
-  }
-
-  double time_step_ms(int repeats) override {
-    for (int k = 0; k < 2; ++k) step();
-    FASCIA_CUDA(cudaEventRecord(m_start, m_stream));
-    for (int k = 0; k < repeats; ++k) {
-      if (use_persistent()) {
-        FASCIA_CUDA(cudaGraphLaunch(m_graph_begin, m_stream));
-        enqueue_persistent_pcg();
-        FASCIA_CUDA(cudaGraphLaunch(m_graph_end, m_stream));
-      } else if (m_step.cg_tolerance <= 0) {
-        FASCIA_CUDA(cudaGraphLaunch(m_graph_full, m_stream));
-      } else {
-        enqueue_step_begin();
-        for (int j = 0; j < m_step.max_cg_iterations; ++j) enqueue_cg_iteration();
-        enqueue_step_end();
-      }
-    }
-    FASCIA_CUDA(cudaEventRecord(m_stop, m_stream));
-    FASCIA_CUDA(cudaEventSynchronize(m_stop));
-    float ms = 0;
-    FASCIA_CUDA(cudaEventElapsedTime(&ms, m_start, m_stop));
-    return ms / repeats;
-  }
-
-  double time_cg_iteration_ms(int repeats) override {
-    const int iterations = m_step.max_cg_iterations;
-    if (!use_persistent())
-      launch_graph(m_graph_iterations, [&] {
-        for (int k = 0; k < iterations; ++k) enqueue_cg_iteration();
-      });
-    double total = 0;
-    for (int k = 0; k < repeats + 1; ++k) {
-      enqueue_step_begin();
-      FASCIA_CUDA(cudaEventRecord(m_start, m_stream));
-      if (use_persistent())
-        enqueue_persistent_pcg();
-      else
-        FASCIA_CUDA(cudaGraphLaunch(m_graph_iterations, m_stream));
-      FASCIA_CUDA(cudaEventRecord(m_stop, m_stream));
-      FASCIA_CUDA(cudaEventSynchronize(m_stop));
-      float ms = 0;
-      FASCIA_CUDA(cudaEventElapsedTime(&ms, m_start, m_stop));
-      if (k > 0) total += ms;  // the first is the warm-up
-    }
-    return total / (repeats * static_cast<double>(iterations));
-  }
-
   LaunchGrids launch_grids() const override {
-    return LaunchGrids{grid_for(m_n, kFrameThreads), grid_for(m_n, kRowFrames), m_rows_grid, m_update_grid,
-                       kReduceChunk};
+    return LaunchGrids{grid_for(m_n, kFrameThreads), m_rows_grid, kReduceChunk};
   }
 
   void limit_row_blocks(int blocks) override {
     if (blocks < 1) throw std::invalid_argument("DeviceElasticity::limit_row_blocks: blocks must be >= 1");
     m_rows_grid = std::min(m_rows_grid, blocks);
-    m_update_grid = std::min(m_update_grid, blocks);
-    destroy_graphs();
   }
 
   KernelResources tangent_kernel_resources() const override {
@@ -710,41 +547,25 @@ class System final : public DeviceElasticity::Impl {
     k_fused_samples<R><<<m_blocks, kBlockSamples, m_shared_bytes, m_stream>>>(
         m_view, m_frame_view, m_F.data(), m_cache.data(), m_partials.data(), reduction(), m_sample_state.data());
     check_launch();
-    if (gather)
-      enqueue_frame_rows(m_view, m_partials.data(), nullptr, nullptr, FrameTermsFlags{0.0, false}, nullptr,
-                         m_grad.data(), false, nullptr);
+    if (gather) enqueue_frame_rows(m_view, m_partials.data(), nullptr, nullptr, m_grad.data());
   }
 
-  void enqueue_frame_prepare(double inv_h2, bool diag, double k_scale = 1.0, const double* load_rot = nullptr,
-                             bool precondition = true) {
+  // The per-frame preparation: the rotational geometric blocks Kr (m_geo) and, with `diag`, the
+  // diagonal blocks K_ii (m_diag).
+  void enqueue_frame_prepare(bool diag) {
     k_frame_columns<R><<<grid_for(m_n, kColumnFrames), kColumnParts * kColumnFrames, 0, m_stream>>>(
-        m_view, m_frame_view, m_F.data(), precondition || diag, m_prepare_sums.data());
+        m_view, m_frame_view, m_F.data(), diag, m_prepare_sums.data());
     check_launch();
-    k_frame_finish<R><<<grid_for(m_n, kFinishFrames), 6 * kFinishFrames, 0, m_stream>>>(
-        m_view, m_frame_view, m_prepare_sums.data(), inv_h2, m_geo.data(), m_inertia_world.data(), m_minv.data(),
-        diag ? m_diag.data() : nullptr, k_scale, load_rot, precondition, m_step_block.data());
+    k_frame_finish<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(m_n, m_prepare_sums.data(), m_geo.data(),
+                                                                        diag ? m_diag.data() : nullptr);
     check_launch();
   }
 
-  // Step operator flags: H = k_scale K + inv_h2 M (+ load blocks in m_geo), fixed DOFs projected.
-  FrameTermsFlags step_flags() const {
-    const double h = m_step.dt;
-    return FrameTermsFlags{(1.0 + m_step.rayleigh_mass * h) / (h * h), true, 1.0 + m_step.rayleigh_stiffness / h};
-  }
-
-  // The frame terms of the launched frame pass: in the PCG the step's rotational block with the
-  // inertia added (m_step_block, k_frame_finish: k_scale Kr + L + (1 + alpha h)/h^2 R I_0 R^T, 9
-  // values per frame instead of 18) and no inertia; else the rotational block and the inertia.
-  const R* frame_block(bool pcg) const { return pcg ? m_step_block.data() : m_geo.data(); }
-  const R* frame_inertia(bool pcg) const { return pcg ? nullptr : m_inertia_world.data(); }
-
-  // The frame pass of the launched tangent product (k_frame_sums): out = H d from the slot
-  // partials and the frame terms; in the PCG (`pcg`) also alpha, with p = z + beta p formed where
-  // z is set.
-  void enqueue_frame_rows(const ModelView<R>& view, const R* partials, const R* geo, const R* inertia,
-                          FrameTermsFlags flags, R* d, R* out, bool pcg, const R* z) {
+  // The frame pass of the launched tangent product (k_frame_sums): out = K d from the slot
+  // partials and the rotational geometric blocks geo (the force pass's gather: d and geo null).
+  void enqueue_frame_rows(const ModelView<R>& view, const R* partials, const R* geo, const R* d, R* out) {
     const auto kernel = m_frame_lanes == 1 ? &k_frame_sums<R, 1> : &k_frame_sums<R, kFrameLanes>;
-    kernel<<<m_rows_grid, kFrameThreads, 0, m_stream>>>(view, partials, geo, inertia, flags, d, out, reduction(), pcg, z);
+    kernel<<<m_rows_grid, kFrameThreads, 0, m_stream>>>(view, partials, geo, d, out);
     check_launch();
   }
 
@@ -755,88 +576,25 @@ class System final : public DeviceElasticity::Impl {
     return reinterpret_cast<const void*>(ell_tangent_kernel(m_keep, m_lanes));
   }
 
-  // out = (K + M/h^2) d with the given flags; in the PCG (`pcg`) also alpha = rz / d.out, with d
-  // the direction p, set to z + beta p (z = m_cz) by the passes.
-  void enqueue_tangent(R* d, R* out, FrameTermsFlags flags, bool pcg) {
-    const Scalars* sc = pcg ? m_scalars.data() : nullptr;
-    const R* z = pcg ? m_cz.data() : nullptr;
-    const R* pd = z ? z : d;
-    const R* pold = z ? d : nullptr;
+  // out = K d: the grouped or the coalesced sample pass, then the frame pass.
+  void enqueue_tangent(const R* d, R* out) {
     if (grouped) {
       const auto kernel = m_fibres ? &k_group_tangent<R, true> : &k_group_tangent<R, false>;
-      kernel<<<m_group_blocks, kGroupThreads, 0, m_stream>>>(m_group_view, m_frame_view, pd, pold,
-                                                             m_group_partials.data(), sc, kSlotLanes);
+      kernel<<<m_group_blocks, kGroupThreads, 0, m_stream>>>(m_group_view, m_frame_view, d, m_group_partials.data(),
+                                                             kSlotLanes);
       check_launch();
-      enqueue_frame_rows(m_group_view, m_group_partials.data(), frame_block(pcg), frame_inertia(pcg), flags, d, out,
-                         pcg, z);
+      enqueue_frame_rows(m_group_view, m_group_partials.data(), m_geo.data(), d, out);
       return;
     }
     ell_tangent_kernel(m_keep, m_lanes)<<<m_blocks, kDenseThreads, m_ell_bytes, m_stream>>>(
-        m_view, m_frame_view, pd, pold, m_partials.data(), sc, kSlotLanes);
+        m_view, m_frame_view, d, m_partials.data(), kSlotLanes);
     check_launch();
-    enqueue_frame_rows(m_view, m_partials.data(), frame_block(pcg), frame_inertia(pcg), flags, d, out, pcg, z);
-  }
-
-  void enqueue_step_begin() {
-    const double h = m_step.dt;
-    const FrameTermsFlags flags = step_flags();
-    enqueue_gradient_pass(true);
-    enqueue_frame_prepare(flags.inv_h2, false, flags.k_scale, m_load_rot.size() ? m_load_rot.data() : nullptr,
-                          m_step.preconditioner);
-    k_pcg_init<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
-        m_view, m_grad.data(), m_inertia_world.data(), m_velocities.data(),
-        m_external.size() ? m_external.data() : nullptr, 1.0 / h, m_minv.data(), m_cx.data(), m_cr.data(), m_cz.data(),
-        m_cp.data(), reduction());
-    check_launch();
-  }
-
-  // One launched CG iteration: the tangent product forms p = z + beta p and alpha, the update x,
-  // r, z and beta.
-  void enqueue_cg_iteration() {
-    enqueue_tangent(m_cp.data(), m_cAp.data(), step_flags(), true);
-    k_update_rows<R><<<m_update_grid, 6 * kRowFrames, 0, m_stream>>>(
-        m_n, m_minv.data(), m_cp.data(), m_cAp.data(), m_cx.data(), m_cr.data(), m_cz.data(), reduction(),
-        m_step.cg_tolerance);
-    check_launch();
-  }
-
-  // The PCG loop as one cooperative kernel (k_pcg_resident or k_pcg_two_barrier), up to
-  // max_cg_iterations.
-  void enqueue_persistent_pcg() {
-    ModelView<R> view = m_view;
-    FrameView<R> frames = m_frame_view;
-    const R* geo = m_geo.data();
-    const R* inertia = m_inertia_world.data();
-    FrameTermsFlags flags = step_flags();
-    const R* minv = m_minv.data();
-    R *x = m_cx.data(), *r = m_cr.data(), *z = m_cz.data(), *p = m_cp.data(), *Ap = m_cAp.data();
-    R* slots = m_partials.data();
-    double* partials = m_red_partials.data();
-    Scalars* scalars = m_scalars.data();
-    int iterations = m_step.max_cg_iterations;
-    double tolerance = m_step.cg_tolerance;
-    if (m_resident) {
-      void* args[] = {&view, &frames, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
-                      &slots, &partials, &scalars, &iterations, &tolerance};
-      FASCIA_CUDA(cudaLaunchCooperativeKernel(persistent_kernel(), dim3(m_persistent_grid), dim3(kResidentThreads),
-                                              args, persistent_shared_bytes(), m_stream));
-      return;
-    }
-    int slot_lanes = kSlotLanes;
-    void* args[] = {&view, &frames, &slot_lanes, &geo, &inertia, &flags, &minv, &x, &r, &z, &p, &Ap,
-                    &slots, &partials, &scalars, &iterations, &tolerance};
-    FASCIA_CUDA(cudaLaunchCooperativeKernel(persistent_kernel(), dim3(m_persistent_grid), dim3(kBlockSamples), args,
-                                            persistent_shared_bytes(), m_stream));
-  }
-
-  bool use_persistent() const { return m_step.persistent && m_persistent_grid > 0; }
-  size_t persistent_shared_bytes() const {
-    return m_resident && resident_staged() ? m_resident_frames_bytes : m_ell_bytes;
+    enqueue_frame_rows(m_view, m_partials.data(), m_geo.data(), d, out);
   }
 
   // The launched coalesced tangent kernel for `keep` held ELL entries per lane (2, 4, else 8) and
   // `lanes` threads per sample (1, else kSampleLanes).
-  using EllTangentKernel = void (*)(ModelView<R>, FrameView<R>, const R*, const R*, R*, const Scalars*, int);
+  using EllTangentKernel = void (*)(ModelView<R>, FrameView<R>, const R*, R*, int);
   static const void* frame_sums_kernel(int lanes) {
     return lanes == 1 ? reinterpret_cast<const void*>(&k_frame_sums<R, 1>)
                       : reinterpret_cast<const void*>(&k_frame_sums<R, kFrameLanes>);
@@ -846,39 +604,6 @@ class System final : public DeviceElasticity::Impl {
     return keep == 2   ? &k_ell_tangent<R, 2, kSampleLanes>
            : keep == 4 ? &k_ell_tangent<R, 4, kSampleLanes>
                        : &k_ell_tangent<R, 8, kSampleLanes>;
-  }
-  // k_pcg_two_barrier for `keep` held entries.
-  static const void* two_barrier_kernel(int keep) {
-    return keep == 2   ? reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 2>)
-           : keep == 4 ? reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 4>)
-                       : reinterpret_cast<const void*>(&k_pcg_two_barrier<R, 8>);
-  }
-
-  // Most pairs per sample of the resident kernel: 8 in single precision; 4 in double, where the
-  // kernel for 8 needs local memory and k_pcg_two_barrier is the faster.
-  static constexpr int kResidentPairs = sizeof(R) == sizeof(float) ? 8 : 4;
-
-  // k_pcg_resident for samples of at most `pairs` (4 or kResidentPairs) pairs: the invariants in
-  // registers in single precision, partly in shared memory in double (in registers they would not
-  // leave room for three blocks per multiprocessor). Staged: the double kernel with the slots'
-  // lever records and directions in shared memory; single precision holds its levers in registers
-  // and does not stage.
-  static const void* resident_kernel(int pairs, bool staged = false) {
-    constexpr bool in_registers = sizeof(R) == sizeof(float);
-    if constexpr (!in_registers)
-      if (staged) return reinterpret_cast<const void*>(&k_pcg_resident<R, 4, false, true>);
-    return pairs <= 4 ? reinterpret_cast<const void*>(&k_pcg_resident<R, 4, in_registers>)
-                      : reinterpret_cast<const void*>(&k_pcg_resident<R, kResidentPairs, in_registers>);
-  }
-  bool resident_staged() const {
-    return std::is_same_v<R, double> && m_max_neighbours <= 4 && m_resident_frames_bytes > 0 && m_resident_try_staged;
-  }
-
-  // The persistent PCG kernel: k_pcg_resident, else k_pcg_two_barrier (two grid barriers per
-  // iteration, the invariants read again each iteration).
-  const void* persistent_kernel() const {
-    if (m_resident) return resident_kernel(m_max_neighbours, resident_staged());
-    return two_barrier_kernel(m_keep);
   }
 
   // Blocks of `kernel` (`threads` each) that fit on the device at once, at most `blocks`.
@@ -890,119 +615,28 @@ class System final : public DeviceElasticity::Impl {
     return std::max(1, std::min(blocks, std::max(1, per_sm) * sms));
   }
 
-  // Grid of the persistent PCG: every block resident (cooperative launch), one block per sample
-  // block and per chunk of frame rows; 0 where it cannot run (no cooperative launch, or the model
-  // needs more than kPersistentBlocksPerSM blocks per multiprocessor).
-  int persistent_grid() {
-    m_resident = false;
-    int dev = 0, coop = 0, sms = 0, per_sm = 0;
-    FASCIA_CUDA(cudaGetDevice(&dev));
-    FASCIA_CUDA(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, dev));
-    FASCIA_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
-    if (!coop) return 0;
-    const int wanted = std::max(m_blocks, grid_for(m_n, kBlockSamples / 6));
-    if (wanted > kPersistentBlocksPerSM * sms) return 0;
-    // The resident kernel for samples of at most kResidentPairs pairs, all blocks co-resident (in
-    // double where the compiled kernel needs no local memory). Its static shared memory (double) plus the
-    // pair outputs can pass 48 KB, hence the opt-in before the occupancy query. In double with
-    // staged lever records first, then without, where the larger shared memory leaves too few
-    // blocks per multiprocessor.
-    if (m_max_neighbours <= kResidentPairs && !m_fibres) {
-      m_resident = true;
-      for (bool try_staged : {true, false}) {
-        m_resident_try_staged = try_staged;
-        cudaFuncAttributes attr{};
-        FASCIA_CUDA(cudaFuncGetAttributes(&attr, persistent_kernel()));
-        FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                         static_cast<int>(persistent_shared_bytes())));
-        FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), kResidentThreads,
-                                                                  persistent_shared_bytes()));
-        if ((sizeof(R) == sizeof(float) || attr.localSizeBytes == 0) && per_sm > 0 && wanted <= per_sm * sms)
-          return wanted;
-      }
-      m_resident = false;
-    }
-    FASCIA_CUDA(cudaFuncSetAttribute(persistent_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                     static_cast<int>(persistent_shared_bytes())));
-    FASCIA_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, persistent_kernel(), kBlockSamples,
-                                                              persistent_shared_bytes()));
-    if (per_sm < 1) return 0;
-    return std::max(1, std::min(wanted, per_sm * sms));
-  }
-
-  void enqueue_step_end() {
-    k_step_update<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
-        m_n, m_locked, 1.0 / m_step.dt, m_cx.data(), m_positions.data(), m_orientations.data(), m_velocities.data());
-    check_launch();
-  }
-
-  // Runs the PCG in graphs of check_every iterations, reading the flag once per graph: no host
-  // round trip per iteration.
-  void run_tolerance_loop() {
-    int done_iterations = 0;
-    while (done_iterations < m_step.max_cg_iterations) {
-      const int chunk = std::min(m_step.check_every, m_step.max_cg_iterations - done_iterations);
-      cudaGraphExec_t& g = chunk == m_step.check_every ? m_graph_chunk : m_graph_tail;
-      launch_graph(g, [&] {
-        for (int k = 0; k < chunk; ++k) enqueue_cg_iteration();
-      });
-      done_iterations += chunk;
-      if (read_scalars().done) break;
-    }
-  }
-
-  template <class Body>
-  void launch_graph(cudaGraphExec_t& exec, Body body) {
-    if (!exec) {
-      cudaGraph_t graph = nullptr;
-      FASCIA_CUDA(cudaStreamBeginCapture(m_stream, cudaStreamCaptureModeThreadLocal));
-      body();
-      FASCIA_CUDA(cudaStreamEndCapture(m_stream, &graph));
-      FASCIA_CUDA(cudaGraphInstantiate(&exec, graph, 0));
-      FASCIA_CUDA(cudaGraphDestroy(graph));
-    }
-    FASCIA_CUDA(cudaGraphLaunch(exec, m_stream));
-  }
-
-  void destroy_graphs() {
-    for (cudaGraphExec_t* g : {&m_graph_full, &m_graph_begin, &m_graph_end, &m_graph_chunk, &m_graph_tail,
-                               &m_graph_iterations}) {
-      if (*g) cudaGraphExecDestroy(*g);
-      *g = nullptr;
-    }
-  }
-
-  // Grids of the launched row passes (k_frame_sums, k_update_rows): the blocks that fit at once
-  // (resident_blocks).
-  int m_rows_grid = 1, m_update_grid = 1;
-  int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0, m_persistent_grid = 0;
-  bool m_locked = false;
+  // Grid of the launched frame pass (k_frame_sums): the blocks that fit at once (resident_blocks).
+  int m_rows_grid = 1;
+  int m_n = 0, m_s = 0, m_p = 0, m_blocks = 0, m_slots = 0;
   int m_ell_entries = 0, m_keep = 2, m_max_neighbours = 0;
   int m_lanes = 1;        // threads per sample of the launched coalesced tangent kernel
   int m_frame_lanes = 1;  // threads per frame of its frame pass
-  bool m_resident = false;  // the persistent PCG is k_pcg_resident
-  bool m_fibres = false;    // some material is hgo: k_pcg_resident does not serve the model
+  bool m_fibres = false;  // some material is hgo: the grouped pass with its fibre code
   size_t m_shared_bytes = 0, m_ell_bytes = 0;
-  size_t m_resident_frames_bytes = 0;  // the resident double kernel's with staged frames
-  bool m_resident_try_staged = true;   // persistent_grid: the staged kernel is still a candidate
   Origin m_origin{};
   cudaStream_t m_stream = nullptr;
   cudaEvent_t m_start = nullptr, m_stop = nullptr;
   ModelView<R> m_view;
   ModelView<R> m_group_view;  // the grouped pass's: m_view with its blocks of groups and their slots
   FrameView<R> m_frame_view;
-  StepOptions m_step;
-  cudaGraphExec_t m_graph_full = nullptr, m_graph_begin = nullptr, m_graph_end = nullptr, m_graph_chunk = nullptr,
-                  m_graph_tail = nullptr, m_graph_iterations = nullptr;
 
   // Model.
   DeviceBuffer<int> m_offsets, m_frames, m_rev_offsets, m_rev_pairs, m_pair_samples, m_sample_materials;
   // The tangent blocks' pattern and each block's pairs (tangent_blocks_on_device).
   int m_block_count = 0;
   DeviceBuffer<int> m_contribution_offsets, m_contributions;
-  DeviceBuffer<R> m_weights, m_gradients, m_volumes, m_sample_rest, m_frame_rest, m_masses, m_inertias;
+  DeviceBuffer<R> m_weights, m_gradients, m_volumes, m_sample_rest, m_frame_rest;
   DeviceBuffer<Material> m_materials;
-  DeviceBuffer<unsigned char> m_fixed;
   DeviceBuffer<int> m_block_samples, m_block_slots, m_slot_frames, m_slot_pair_offsets, m_slot_pairs,
       m_frame_slot_offsets, m_frame_slots, m_ell_offsets, m_ell_frame;
   DeviceBuffer<unsigned short> m_ell_slot, m_ell_pos;
@@ -1014,11 +648,10 @@ class System final : public DeviceElasticity::Impl {
   DeviceBuffer<unsigned short> m_group_pos;
   DeviceBuffer<R> m_group_data, m_group_partials;
   // State (double) and per-iteration data (R).
-  DeviceBuffer<double> m_positions, m_orientations, m_velocities, m_external, m_load_rot, m_diag;
+  DeviceBuffer<double> m_positions, m_orientations, m_diag;
   DeviceBuffer<double> m_prepare_sums;  // k_frame_columns -> k_frame_finish: [N][kPrepareSums]
-  DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_partials, m_geo, m_inertia_world, m_minv;
-  DeviceBuffer<R> m_step_block;  // [N][9] the PCG's rotational frame block (frame_block)
-  DeviceBuffer<R> m_grad, m_d, m_out, m_cx, m_cr, m_cz, m_cp, m_cAp;
+  DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_partials, m_geo;
+  DeviceBuffer<R> m_grad, m_d, m_out;
   // Reductions.
   DeviceBuffer<double> m_red_partials;
   DeviceBuffer<unsigned> m_counter;
@@ -1064,21 +697,5 @@ double DeviceElasticity::tangent_bytes() const { return m_impl->tangent_bytes();
 KernelResources DeviceElasticity::tangent_kernel_resources() const { return m_impl->tangent_kernel_resources(); }
 LaunchGrids DeviceElasticity::launch_grids() const { return m_impl->launch_grids(); }
 void DeviceElasticity::limit_row_blocks(int blocks) { m_impl->limit_row_blocks(blocks); }
-
-struct DeviceBackwardEuler::Impl {
-  DeviceElasticity::Impl* system;
-};
-
-DeviceBackwardEuler::DeviceBackwardEuler(DeviceElasticity& elasticity, const StepOptions& options)
-    : m_impl(std::make_unique<Impl>(Impl{elasticity.m_impl.get()})) {
-  m_impl->system->configure_step(options);
-}
-DeviceBackwardEuler::~DeviceBackwardEuler() = default;
-StepReport DeviceBackwardEuler::step() { return m_impl->system->step(); }
-void DeviceBackwardEuler::last_increment(double* delta) const { m_impl->system->last_increment(delta); }
-double DeviceBackwardEuler::time_step_ms(int repeats) { return m_impl->system->time_step_ms(std::max(1, repeats)); }
-double DeviceBackwardEuler::time_cg_iteration_ms(int repeats) {
-  return m_impl->system->time_cg_iteration_ms(std::max(1, repeats));
-}
 
 }  // namespace fascia::gpu

@@ -1,5 +1,5 @@
-// CUDA backend of the elastic forces, tangent products and the backward-Euler Newton-PCG step
-// (paper §3). Host API: including this header needs no CUDA toolkit; the implementation lives in
+// CUDA backend of the elastic forces and tangent products (paper §3); the step that uses them is
+// kernels/device_potential.hpp with the one Newton and PCG (kernels/cuda_step.hpp). Host API: including this header needs no CUDA toolkit; the implementation lives in
 // device_elasticity.cu behind a pointer. Only built with FASCIA_WITH_CUDA = 1.
 //
 // Semantics follow the CPU reference fascia::Elasticity (engine/mechanics/elasticity.hpp): the
@@ -18,7 +18,8 @@
 namespace fascia::gpu {
 
 // Storage precision of device data. Per-sample and per-frame arithmetic runs in double registers
-// in both; `single` stores the model tables, frame kinematics and CG vectors in float.
+// in both; `single` stores the model tables, frame kinematics and the products' partial sums in
+// float (the solver's vectors stay double: kernels/device_vector.hpp).
 enum class Precision { double_precision, single_precision };
 
 const char* to_string(Precision precision);
@@ -41,19 +42,17 @@ struct DeviceOptions {
   Precision precision = Precision::double_precision;
 };
 
-class DeviceBackwardEuler;
-
 // Per-thread resources of a compiled kernel (cudaFuncGetAttributes).
 struct KernelResources {
   int registers = 0;
   long long local_bytes = 0;  // local memory: register spills and stack
 };
 
-// Grids of the launched PCG's row passes: their blocks of work (the frame pass: blocks of
-// kFrameThreads frames; the update: chunks of frame rows) and the thread blocks of each, which
-// loop over them; and the blocks per chunk of the grid reductions' first level.
+// Grids of the launched frame pass (k_frame_sums): its blocks of work (blocks of kFrameThreads
+// frames) and the thread blocks that loop over them; and the blocks per chunk of the grid
+// reductions' first level.
 struct LaunchGrids {
-  int frame_work = 0, update_work = 0, frame_grid = 0, update_grid = 0;
+  int frame_work = 0, frame_grid = 0;
   int reduce_chunk = 0;
 };
 
@@ -116,68 +115,10 @@ class DeviceElasticity {
   // Benchmark support: registers per thread and local memory (spills, stack) per thread of the
   // launched tangent product's sample kernel in use, as the CUDA runtime reports them.
   KernelResources tangent_kernel_resources() const;
-  // Test support: the launched row passes' chunks and grids; at most `blocks` thread blocks in
-  // each, so that a small model's row passes loop over their work as a large one's do.
+  // Test support: the launched frame pass's grid; at most `blocks` thread blocks, so that a small
+  // model's frame pass loops over its work as a large one's does.
   LaunchGrids launch_grids() const;
   void limit_row_blocks(int blocks);
-
-  struct Impl;
-
- private:
-  friend class DeviceBackwardEuler;
-  std::unique_ptr<Impl> m_impl;
-};
-
-// The step solves H delta = -g with (engine/integrate/step_potential.hpp at the step start)
-//   H = (1 + beta/h) K + (1 + alpha h)/h^2 diag(m_i I, R_i I_0 R_i^T) + diag(0, L_i)
-//   g = dW - f_ext - M v / h
-// K the elastic tangent (material + geometric), I_0 = Model::frame_inertias, L_i the load
-// potential's rotational blocks, fixed DOFs projected out. make_step_options (device_step.hpp)
-// fills f_ext and L from fascia::ExternalLoads so that the step equals the CPU engine's.
-struct StepOptions {
-  double dt = 0.01;                     // s
-  int max_cg_iterations = 60;
-  double cg_tolerance = 0;              // relative, on sqrt(r.z / r0.z0); 0 = run max_cg_iterations
-  int check_every = 10;                 // CG iterations between host reads of the convergence flag
-  bool use_graphs = true;               // replay the launches of a step as CUDA graphs
-  // The whole PCG loop in one cooperative kernel with grid barriers (no launch per phase; tolerance
-  // checked every iteration on the device), used where the model's sample blocks fit in one
-  // resident wave of the device; launches per phase otherwise (and where false).
-  bool persistent = true;
-  bool preconditioner = true;           // block-Jacobi PCG (as LinearMethod::pcg); false: plain CG
-  double rayleigh_mass = 0;             // alpha, 1/s
-  double rayleigh_stiffness = 0;        // beta, s
-  std::vector<double> external_forces;  // [N][6] constant generalised forces (N, N m) or empty
-  std::vector<double> load_rotational_blocks;  // [N][9] L_i (N m), row-major, or empty
-};
-
-struct StepReport {
-  bool persistent = false;          // the PCG ran as one cooperative kernel
-  bool resident = false;            // ... with the loop invariants held in the kernel (k_pcg_resident)
-  int cg_iterations = 0;
-  double cg_relative_residual = 0;  // sqrt(r.z / r0.z0) at the end
-  double energy = 0;                // elastic energy at the start of the step, J
-};
-
-// One backward-Euler step solved by one Newton iteration, entirely on the device: gradient,
-// preparation (rotational blocks, block-Jacobi preconditioner), PCG on (M/h^2 + K) delta = -g with
-// g = dW - f_ext - M v / h, then x <- x (+) delta, v <- delta / h. The device state advances; read
-// it with DeviceElasticity::get_state. Scalars of the PCG stay on the device.
-class DeviceBackwardEuler {
- public:
-  DeviceBackwardEuler(DeviceElasticity& elasticity, const StepOptions& options);
-  ~DeviceBackwardEuler();
-  DeviceBackwardEuler(const DeviceBackwardEuler&) = delete;
-  DeviceBackwardEuler& operator=(const DeviceBackwardEuler&) = delete;
-
-  StepReport step();
-  // The increment delta of the last step, [N][6] host memory.
-  void last_increment(double* delta) const;
-
-  // Benchmark support (CUDA events, after a warm-up): mean ms of a full step without host
-  // transfers, and mean ms of one CG iteration of the captured loop.
-  double time_step_ms(int repeats);
-  double time_cg_iteration_ms(int repeats);
 
   struct Impl;
 

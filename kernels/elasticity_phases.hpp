@@ -3,7 +3,7 @@
 // (device_elasticity.cu) and can be stepped through on the host (tests/kernels).
 //
 // Storage precision is the template parameter R (double or float): the model tables, the frame
-// kinematics and the CG vectors are stored in R. All arithmetic of one sample or frame runs in
+// kinematics and the product's direction and partial sums are stored in R. All arithmetic of one sample or frame runs in
 // double registers through the shared mechanics of engine/ (frame_sample.hpp, material.hpp), so
 // the single-precision build loses accuracy only where values are rounded to float in memory.
 //
@@ -69,10 +69,6 @@ struct ModelView {
   const Material* materials = nullptr;
   const R* sample_rest = nullptr;  // [S][3] m, minus origin
   const R* frame_rest = nullptr;   // [N][3] m, minus origin
-  const R* masses = nullptr;       // [N] kg
-  const R* inertias = nullptr;     // [N][9] kg m^2 at rest
-  const unsigned char* fixed = nullptr;  // [N][6]
-  bool rotations_locked = false;
   // Blocks of consecutive samples and their distinct frames ("slots").
   int blocks = 0;
   const int* block_samples = nullptr;       // [B+1]
@@ -113,23 +109,6 @@ struct FrameView {
   // Tangent passes: the samples' state of the Newton iteration, [kSampleState][S].
   const R* sample_state = nullptr;
 };
-
-FASCIA_HD double fused_multiply_add(double a, double b, double c) { return fma(a, b, c); }
-FASCIA_HD float fused_multiply_add(float a, float b, float c) { return fmaf(a, b, c); }
-
-// One value of the CG direction p_new = z + beta p_old in the storage precision R (beta rounded
-// to R: no double arithmetic in the single-precision passes). One function (explicit fma) so that
-// every kernel that forms it gets the same bits.
-template <class R>
-FASCIA_HD R direction_value(R z, R p_old, double beta) {
-  return fused_multiply_add(static_cast<R>(beta), p_old, z);
-}
-
-// Component j of the CG direction (direction_value).
-template <class R>
-FASCIA_HD R next_direction(const R* z, const R* p_old, double beta, int j) {
-  return direction_value(z[j], p_old[j], beta);
-}
 
 // ---- frames: kinematics ------------------------------------------------------------------------
 
@@ -359,17 +338,11 @@ FASCIA_HD EllPair<R> ell_pair_of(const EllEntry<R>& en, const R* levers, const V
   return ell_pair_from_record(en, rec, ps);
 }
 
-// Adds the pair's dF_p = dx g^T + [dr]x M (eq. 11) for the direction d_i, formed as
-// z_i + beta p_old_i with next_direction's rounding when p_old is set.
+// Adds the pair's dF_p = dx g^T + [dr]x M (eq. 11) for the direction d_i.
 template <class R>
-FASCIA_HD void ell_pair_dF(const EllPair<R>& q, const R* d, const R* p_old, double beta, Mat3T<R>& dF) {
+FASCIA_HD void ell_pair_dF(const EllPair<R>& q, const R* d, Mat3T<R>& dF) {
   R di[6];
   load_six(d, q.i, di);
-  if (p_old) {
-    R po[6];
-    load_six(p_old, q.i, po);
-    for (int k = 0; k < 6; ++k) di[k] = direction_value(di[k], po[k], beta);
-  }
   dF += pair_lever_differential(Vec3T<R>{di[0], di[1], di[2]}, Vec3T<R>{di[3], di[4], di[5]}, q.g, q.M);
 }
 
@@ -452,7 +425,7 @@ FASCIA_HD void ell_sample(const ModelView<R>& m, const FrameView<R>& f, const R*
                     sample_value(f.sample_state, m.samples, 2, s)};
   Mat3T<R> dF = zero3<R>();
   for (int j = 0; j < count; ++j)
-    ell_pair_dF(ell_pair_of(ell_entry(m, e0 + j * ns + t), f.levers, ps), d, static_cast<const R*>(nullptr), 0.0, dF);
+    ell_pair_dF(ell_pair_of(ell_entry(m, e0 + j * ns + t), f.levers, ps), d, dF);
   const Mat3T<R> dP = ell_sample_dP(m, f.sample_state, s, dF);
   const R v = sample_value(f.sample_state, m.samples, 3, s);
   for (int j = 0; j < count; ++j) {
@@ -481,193 +454,18 @@ FASCIA_HD R slot_tree_sum(const R* outs, int stride, int a, int e, int c, int la
   return sums[0];
 }
 
-// ---- PCG rows --------------------------------------------------------------------------------------
-// One row j of the PCG update: x_j + alpha p_j and r_j - alpha (A p)_j, in double, rounded to the
-// storage precision R. Every kernel that updates rows calls it, so all give the same bits.
-template <class R>
-struct UpdatedRow {
-  R x, r;
-};
-template <class R>
-FASCIA_HD UpdatedRow<R> update_row(R x, R r, double alpha, double p, double ap) {
-  return UpdatedRow<R>{static_cast<R>(static_cast<double>(x) + alpha * p),
-                       static_cast<R>(static_cast<double>(r) - alpha * ap)};
-}
+// ---- frames: the rest of the product ----------------------------------------------------------
 
-// Frame i's preconditioner block M_i^-1 (symmetric) is stored packed: its lower triangle row by
-// row, 21 values per frame ([N][kMinvValues]); entry (a, b) at kMinvValues i + minv_index(a, b).
-// Against the full 36 values, 15 values fewer read per frame and CG iteration.
-constexpr int kMinvValues = 21;
-FASCIA_HD int minv_index(int a, int b) {
-  const int hi = a > b ? a : b, lo = a > b ? b : a;
-  return hi * (hi + 1) / 2 + lo;
-}
-
-// Row k of the block-Jacobi preconditioner applied to one frame's residual res [6]:
-// sum_c minv_kc(c) res_c in that order (minv_kc(c): the row's entries as double).
-template <class Row>
-FASCIA_HD double preconditioned_row(const Row& minv_kc, const double* res) {
-  double acc = 0;
-  for (int c = 0; c < 6; ++c) acc += minv_kc(c) * res[c];
-  return acc;
-}
-
-// ---- frames: the rest of the operator ------------------------------------------------------------
-
-// Row k of the frame terms added after the gather of the sample terms `acc`: k_scale acc (the
-// elastic tangent; k_scale = 1 + beta/h with stiffness-proportional damping), plus the frame
-// block `geo` [N][9] (rotational geometric block, already times k_scale, plus the load potential's
-// rotational block; tangent products only, null otherwise) times d_r, plus the inertia
-// inv_h2 M_i d (inv_h2 = (1 + alpha h)/h^2; translations m_i, rotations R_i I_0 R_i^T in
-// `inertia_world` [N][9]; gyroscopic terms neglected, as engine/integrate/step_potential.hpp), and,
-// when `project` is set, the projection of fixed DOFs (they leave the unknowns: row set to 0).
-// frame_row_of takes the frame's 6 direction values di (d + 6 i, or a copy of them).
-// The per-frame values row k of frame_row_of needs (loaded once by the resident PCG).
-struct FrameRowTerms {
-  bool fixed = false;
-  bool has_geo = false;
-  double geo[3] = {0, 0, 0};      // row k - 3 of the frame block (k >= 3)
-  double inertia[3] = {0, 0, 0};  // row k - 3 of R I_0 R^T (k >= 3)
-  double mass = 0;                // k < 3
-};
-
-template <class R>
-FASCIA_HD FrameRowTerms frame_row_terms(const ModelView<R>& m, const R* geo, const R* inertia_world, int i, int k) {
-  FrameRowTerms t;
-  t.fixed = m.fixed[6 * i + k] != 0;
-  if (k >= 3) {
-    t.has_geo = geo != nullptr;
-    for (int c = 0; c < 3; ++c) {
-      if (geo) t.geo[c] = static_cast<double>(geo[9 * i + 3 * (k - 3) + c]);
-      if (inertia_world) t.inertia[c] = static_cast<double>(inertia_world[9 * i + 3 * (k - 3) + c]);
-    }
-  } else {
-    t.mass = static_cast<double>(m.masses[i]);
-  }
-  return t;
-}
-
-// frame_row_of's arithmetic from loaded terms.
-template <class D>
-FASCIA_HD double apply_frame_row(const FrameRowTerms& t, double inv_h2, bool project, const D* di, int k, double acc,
-                                 double k_scale) {
-  if (project && t.fixed) return 0.0;
-  acc *= k_scale;
-  if (k >= 3) {
-    const D* dr = di + 3;
-    if (t.has_geo)
-      acc += t.geo[0] * static_cast<double>(dr[0]) + t.geo[1] * static_cast<double>(dr[1]) +
-             t.geo[2] * static_cast<double>(dr[2]);
-    if (inv_h2 != 0)
-      acc += inv_h2 * (t.inertia[0] * static_cast<double>(dr[0]) + t.inertia[1] * static_cast<double>(dr[1]) +
-                       t.inertia[2] * static_cast<double>(dr[2]));
-  } else if (inv_h2 != 0) {
-    acc += inv_h2 * t.mass * static_cast<double>(di[k]);
-  }
-  return acc;
-}
-
+// Row k of the tangent product from the gather of frame i's sample terms `acc`: for the rotation
+// rows (k >= 3) plus the frame's rotational geometric block geo [N][9] (frame_prepare_pairs' Kr,
+// row-major; null: none) times d_r, di the frame's 6 direction values.
 template <class R, class D>
-FASCIA_HD double frame_row_of(const ModelView<R>& m, const R* geo, const R* inertia_world, double inv_h2, bool project,
-                              const D* di, int i, int k, double acc, double k_scale = 1.0) {
-  if (project && m.fixed[6 * i + k]) return 0.0;
-  return apply_frame_row(frame_row_terms(m, geo, inertia_world, i, k), inv_h2, project, di, k, acc, k_scale);
-}
-
-template <class R>
-FASCIA_HD double frame_row(const ModelView<R>& m, const R* geo, const R* inertia_world, double inv_h2, bool project,
-                           const R* d, int i, int k, double acc, double k_scale = 1.0) {
-  return frame_row_of(m, geo, inertia_world, inv_h2, project, d + 6 * i, i, k, acc, k_scale);
-}
-
-// Cholesky factor L (row-major, lower triangle; the upper is zeroed) of a symmetric 6x6 matrix;
-// false if it is not positive definite (a non-positive pivot).
-FASCIA_HD bool cholesky_factor6(const double* a, double* L) {
-  for (int k = 0; k < 36; ++k) L[k] = 0;
-  for (int j = 0; j < 6; ++j) {
-    double d = a[6 * j + j];
-    for (int k = 0; k < j; ++k) d -= L[6 * j + k] * L[6 * j + k];
-    if (!(d > 0)) return false;
-    L[6 * j + j] = std::sqrt(d);
-    for (int r = j + 1; r < 6; ++r) {
-      double v = a[6 * r + j];
-      for (int k = 0; k < j; ++k) v -= L[6 * r + k] * L[6 * j + k];
-      L[6 * r + j] = v / L[6 * j + j];
-    }
-  }
-  return true;
-}
-
-// Column c of a^-1 = L^-T L^-1 from a's Cholesky factor: forward then back substitution on the
-// unit vector e_c; col [6] receives the rows.
-FASCIA_HD void cholesky_inverse_column6(const double* L, int c, double* col) {
-  double y[6];
-  for (int r = 0; r < 6; ++r) {
-    double v = r == c ? 1.0 : 0.0;
-    for (int k = 0; k < r; ++k) v -= L[6 * r + k] * y[k];
-    y[r] = v / L[6 * r + r];
-  }
-  for (int r = 5; r >= 0; --r) {
-    double v = y[r];
-    for (int k = r + 1; k < 6; ++k) v -= L[6 * k + r] * col[k];
-    col[r] = v / L[6 * r + r];
-  }
-}
-
-// The block-Jacobi inverse of one frame's 6x6 block H_ii, as the CPU PCG builds it
-// (engine/solve/linear_solver.cpp): fixed DOFs get their row and column zeroed and the largest
-// absolute diagonal entry on the diagonal; the inverse by Cholesky, or, where the block is not
-// positive definite, the inverse of its absolute diagonal (floored at 1e-12 of the largest).
-// Fixed rows of the inverse are set to 0 (the CPU projects z there). In place: `K` is modified.
-// Its pieces: block_jacobi_factor (block_jacobi_condition for the fixed DOFs, then the Cholesky
-// factor) and block_jacobi_inverse_column (a column of the inverse by the factor, or of the
-// fallback, block_jacobi_diagonal, with fixed rows and columns set to 0), so that the device can
-// form the columns in parallel (k_frame_finish).
-FASCIA_HD double block_jacobi_condition(const unsigned char* fixed, double* K) {
-  double largest = 0;
-  for (int k = 0; k < 6; ++k) largest = std::fmax(largest, std::fabs(K[6 * k + k]));
-  if (largest == 0) largest = 1;
-  for (int k = 0; k < 6; ++k)
-    if (fixed[k])
-      for (int j = 0; j < 6; ++j) K[6 * k + j] = K[6 * j + k] = (j == k ? largest : 0.0);
-  return largest;
-}
-FASCIA_HD double block_jacobi_diagonal(double pivot, double largest) {
-  return 1.0 / std::fmax(std::fabs(pivot), 1e-12 * largest);
-}
-
-struct BlockJacobiFactor {
-  double L[36];    // Cholesky factor of the conditioned block, where `factored`
-  double largest;  // the largest absolute diagonal entry (block_jacobi_condition)
-  bool factored;   // false: the block is not positive definite
-};
-
-// Conditions K in place for the fixed DOFs and factors it.
-FASCIA_HD BlockJacobiFactor block_jacobi_factor(const unsigned char* fixed, double* K) {
-  BlockJacobiFactor out{};
-  out.largest = block_jacobi_condition(fixed, K);
-  out.factored = cholesky_factor6(K, out.L);
-  return out;
-}
-
-// Column c of the block-Jacobi inverse from the conditioned K and its factor.
-FASCIA_HD void block_jacobi_inverse_column(const unsigned char* fixed, const double* K, const BlockJacobiFactor& factor,
-                                           int c, double* col) {
-  if (factor.factored)
-    cholesky_inverse_column6(factor.L, c, col);
-  else
-    for (int r = 0; r < 6; ++r) col[r] = r == c ? block_jacobi_diagonal(K[7 * r], factor.largest) : 0.0;
-  for (int r = 0; r < 6; ++r)
-    if (fixed[r] || fixed[c]) col[r] = 0.0;
-}
-
-FASCIA_HD void block_jacobi_inverse(const unsigned char* fixed, double* K, double* inv) {
-  const BlockJacobiFactor factor = block_jacobi_factor(fixed, K);
-  for (int c = 0; c < 6; ++c) {
-    double col[6];
-    block_jacobi_inverse_column(fixed, K, factor, c, col);
-    for (int r = 0; r < 6; ++r) inv[6 * r + c] = col[r];
-  }
+FASCIA_HD double frame_row(const R* geo, const D* di, int i, int k, double acc) {
+  if (k < 3 || !geo) return acc;
+  const R* row = geo + 9 * i + 3 * (k - 3);
+  return acc + (static_cast<double>(row[0]) * static_cast<double>(di[3]) +
+                static_cast<double>(row[1]) * static_cast<double>(di[4]) +
+                static_cast<double>(row[2]) * static_cast<double>(di[5]));
 }
 
 constexpr int kPrepareSums = 45;  // a frame's prepared sums: [K_ii (36), Kr (9)]
@@ -717,80 +515,30 @@ FASCIA_HD void frame_prepare_pairs(const ModelView<R>& m, const FrameView<R>& f,
   }
 }
 
-// The rest of a frame's preparation from its sums: K [36] row-major (the sample terms of K_ii,
-// modified in place) and Kr. Writes the rotational geometric block (times k_scale, plus the load
-// potential's rotational block `load_rot` [N][9], nullable) to geo_out, the rotated inertia
-// R I_0 R^T to inertia_out, K_ii (= Elasticity::tangent_diagonal_blocks) to diag_out (the three
-// outputs nullable: frame_prepare_blocks skips the null ones), and the block-Jacobi
-// preconditioner of H_ii = k_scale K_ii + inv_h2 M_i + [0 0; 0 load_i]
-// (block_jacobi_inverse; with `precondition` false: the identity on free DOFs, plain CG) to minv_out.
-// frame_prepare_finish up to the inverse: with `precondition`, K becomes H_ii (before the fixed
-// DOFs' treatment of block_jacobi_inverse).
+// The rest of a frame's preparation from its sums: K [36] row-major (the sample terms of K_ii) and
+// Kr. Writes Kr to geo_out and K_ii = K + [0 0; 0 Kr] (= Elasticity::tangent_diagonal_blocks) to
+// diag_out (both nullable).
 template <class R>
-FASCIA_HD void frame_prepare_blocks(const ModelView<R>& m, const FrameView<R>& f, int i, double* K, const Mat3& Kr,
-                                    double inv_h2, R* geo_out, R* inertia_out, double* diag_out, double k_scale,
-                                    const double* load_rot, bool precondition, R* step_block_out = nullptr) {
-  const Mat3 Ri = ldm(f.rotations + 9 * i);
+FASCIA_HD void frame_prepare_blocks(int i, double* K, const Mat3& Kr, R* geo_out, double* diag_out) {
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) K[6 * (3 + r) + 3 + c] += Kr.m[r][c];
-  const Mat3 J = Ri * ldm(m.inertias + 9 * i) * transpose(Ri);
-  Mat3 frame_block = k_scale * Kr;
-  if (load_rot) frame_block += load_mat3(load_rot + 9 * i);
-  if (geo_out) stm(geo_out + 9 * i, frame_block);
-  if (inertia_out) stm(inertia_out + 9 * i, J);
-  if (step_block_out) stm(step_block_out + 9 * i, frame_block + inv_h2 * J);
+  if (geo_out) stm(geo_out + 9 * i, Kr);
   if (diag_out)
     for (int k = 0; k < 36; ++k) diag_out[36 * i + k] = K[k];
-  if (precondition) {
-    for (int k = 0; k < 36; ++k) K[k] *= k_scale;
-    const double mass = static_cast<double>(m.masses[i]);
-    for (int r = 0; r < 3; ++r) {
-      K[6 * r + r] += inv_h2 * mass;
-      for (int c = 0; c < 3; ++c) {
-        K[6 * (3 + r) + 3 + c] += inv_h2 * J.m[r][c];
-        if (load_rot) K[6 * (3 + r) + 3 + c] += load_rot[9 * i + 3 * r + c];
-      }
-    }
-  }
-}
-
-// Column c of frame i's preconditioner, its rows r >= c, into minv_out (packed, minv_index) from K after
-// frame_prepare_blocks and its block_jacobi_factor: block_jacobi_inverse's column, or with
-// `precondition` false the identity's on free DOFs (plain CG).
-template <class R>
-FASCIA_HD void frame_preconditioner_column(const unsigned char* fixed, const double* K, const BlockJacobiFactor& factor,
-                                           bool precondition, int i, int c, R* minv_out) {
-  double col[6];
-  if (precondition)
-    block_jacobi_inverse_column(fixed, K, factor, c, col);
-  else
-    for (int r = 0; r < 6; ++r) col[r] = r == c && !fixed[c] ? 1.0 : 0.0;
-  for (int r = c; r < 6; ++r) minv_out[kMinvValues * static_cast<size_t>(i) + minv_index(r, c)] = static_cast<R>(col[r]);
-}
-
-template <class R>
-FASCIA_HD void frame_prepare_finish(const ModelView<R>& m, const FrameView<R>& f, int i, double* K, const Mat3& Kr,
-                                    double inv_h2, R* geo_out, R* inertia_out, R* minv_out, double* diag_out,
-                                    double k_scale, const double* load_rot, bool precondition) {
-  frame_prepare_blocks(m, f, i, K, Kr, inv_h2, geo_out, inertia_out, diag_out, k_scale, load_rot, precondition);
-  const unsigned char* fixed = m.fixed + 6 * i;
-  const BlockJacobiFactor factor = precondition ? block_jacobi_factor(fixed, K) : BlockJacobiFactor{};
-  for (int c = 0; c < 6; ++c) frame_preconditioner_column(fixed, K, factor, precondition, i, c, minv_out);
 }
 
 // Per-frame preparation of a Newton iteration by one thread (frame_prepare_pairs, then
-// frame_prepare_finish); the device spreads the pairs over threads (elasticity_kernels.cuh,
+// frame_prepare_blocks); the device spreads the pairs over threads (elasticity_kernels.cuh,
 // k_frame_columns and k_frame_finish).
 template <class R>
-FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const R* F, double inv_h2, int i,
-                             R* geo_out, R* inertia_out, R* minv_out, double* diag_out, double k_scale = 1.0,
-                             const double* load_rot = nullptr, bool precondition = true) {
+FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const R* F, int i, R* geo_out,
+                             double* diag_out) {
   double sums[kPrepareSums] = {};
   frame_prepare_pairs(m, f, F, i, 0, 1, true, [&](int k, double value) { sums[k] += value; });
   double K[36];
   Mat3 Kr;
   unpack_prepare_sums(sums, K, Kr);
-  frame_prepare_finish(m, f, i, K, Kr, inv_h2, geo_out, inertia_out, minv_out, diag_out, k_scale, load_rot, precondition);
+  frame_prepare_blocks(i, K, Kr, geo_out, diag_out);
 }
 
 }  // namespace fascia::gpu

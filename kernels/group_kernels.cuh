@@ -87,8 +87,7 @@ __device__ void group_slot_sums(const ModelView<R>& m, const R* outs, int stride
   }
 }
 
-// Tangent sample pass, grouped (ModelView's grouped fields; `d`, `p_old`, scalars as
-// k_ell_tangent): per group its frames' records into shared memory, per thread its sample's dF,
+// Tangent sample pass, grouped (ModelView's grouped fields; `d` as k_ell_tangent): per group its frames' records into shared memory, per thread its sample's dF,
 // dP and pair outputs; the outputs of each frame summed across the group's threads by a
 // reduce-scatter (exchanges at distance 4, 2, 1: group_lane_sum's order), in two halves of 4
 // frames (24 values live); each (group, frame) entry's sum into shared memory at its slot-major
@@ -98,8 +97,7 @@ __device__ void group_slot_sums(const ModelView<R>& m, const R* outs, int stride
 // against 0.54).
 template <class R, bool Fibres>
 __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
-    k_group_tangent(ModelView<R> m, FrameView<R> f, const R* d, const R* p_old, R* slot_partials, const Scalars* sc,
-                    int slot_lanes) {
+    k_group_tangent(ModelView<R> m, FrameView<R> f, const R* d, R* slot_partials, int slot_lanes) {
   constexpr bool kKeepEntries = sizeof(R) == sizeof(float);
   __shared__ __align__(16) R records[kGroupRecords];
   __shared__ __align__(16) R outs[6 * kGroupThreads];
@@ -110,7 +108,7 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
   const bool up4 = (lane & 4) != 0, up2 = (lane & 2) != 0, up1 = (lane & 1) != 0;
   // The loads that depend on nothing else, issued together: the group's frame `lane`, first
   // sample and the slot-major positions this thread stores (frames kh and kh + 4 of the group,
-  // group_exchange's split), the block's slot range and the scalars.
+  // group_exchange's split) and the block's slot range.
   const int kh = (up4 ? 2 : 0) + (up2 ? 1 : 0);
   const size_t entry = kGroupLanes * static_cast<size_t>(g);
   const int frame = group_active ? m.group_frames[entry + lane] : -1;
@@ -125,17 +123,6 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
     pos[0] = m.group_pos[entry + kh];
     pos[1] = m.group_pos[entry + kh + 4];
   }
-  const double beta = p_old ? sc->beta : 0.0;
-  // Double tests the scalars' flag together with the loads above, so that its latency overlaps
-  // theirs: its exit also reads `token`, never INT_MIN, which keeps those loads before it (a
-  // finished PCG then reads them for nothing, a few bytes per thread). Float, with more blocks
-  // per multiprocessor to hide the wait, tests the flag first.
-  bool done = finished(sc);
-  if constexpr (sizeof(R) == sizeof(double)) {
-    const int token = frame | s0 | s1;
-    done = done && token != INT_MIN;
-  }
-  if (done) return;
   // Then every global load of the dF half and the material, so that their latencies overlap:
   // thread `lane` gathers its group's frame `lane` (lever record, direction) and reads its
   // group's sample `lane` (position, w and g of its pairs, H and the material cache); and the
@@ -145,12 +132,6 @@ __global__ void __launch_bounds__(kGroupThreads, group_blocks_per_sm<R>())
   if (frame >= 0) {
     load_aligned<kLeverRecord>(f.levers + kLeverRecord * static_cast<size_t>(frame), lever);
     load_six(d, frame, di);
-    if (p_old) {
-      R po[6];
-      load_six(p_old, frame, po);
-#pragma unroll
-      for (int k = 0; k < 6; ++k) di[k] = direction_value(di[k], po[k], beta);
-    }
   }
   // The group's frame count: its threads' bits of the warp's ballot (frames come first).
   const unsigned present = __ballot_sync(0xffffffffu, frame >= 0);

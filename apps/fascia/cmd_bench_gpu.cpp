@@ -1,9 +1,10 @@
 #include "cmd_bench_gpu.hpp"
 
 #include "bench/step_bench.hpp"
+#include "cuda_step.hpp"
 #include "device_elasticity.hpp"
-#include "device_step.hpp"
 #include "discretise/mesh_based.hpp"
+#include "integrate/simulation.hpp"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -13,7 +14,9 @@
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -36,7 +39,7 @@ Model hex_block(long long target) {
 struct Row {
   std::string gpu;
   int samples = 0, frames = 0, neighbours = 0;
-  std::string precision, pass, linear, cg_kernel;
+  std::string precision, pass, linear;
   double ms_per_step = 0, ms_per_cg_iteration = 0, tangent_ms = 0, tangent_gbs = 0, peak_gbs = 0;
   int tangent_registers = 0;            // the launched tangent sample kernel's registers per thread
   long long tangent_local_bytes = 0;    // ... and local memory per thread (spills)
@@ -57,29 +60,69 @@ void note_refusal(const char* what, const std::string& why) {
   if (printed.insert(line).second) std::fprintf(stderr, "%s\n", line.c_str());
 }
 
-// The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) on the device.
+// The benchmark step of engine/bench/step_bench.hpp (the one `fascia bench cpu` times) taken as
+// `fascia run --backend cuda` takes a step (kernels/cuda_step.hpp): the start state uploaded, the
+// one Newton and PCG on the device potential, the result read back; timed on the host.
+class DeviceBenchStep {
+ public:
+  DeviceBenchStep(const Model& model, gpu::Precision precision) : m_loads(bench_step_loads()), m_start(rest_state(model)) {
+    gpu::DeviceOptions options;
+    options.precision = precision;
+    SimulationSettings settings;
+    settings.integrator = Integrator::backward_euler;
+    settings.dt = kBenchStepDt;
+    settings.newton.fixed_iterations = 1;
+    settings.newton.linear = bench_linear_settings(LinearMethod::pcg, 60);
+    std::string why;
+    m_backend = gpu::cuda_step_factory(options)(model, m_loads, settings, why);
+    if (!m_backend) throw std::runtime_error("the CUDA step does not cover the benchmark model: " + why);
+  }
+
+  // Mean ms of a step whose solve runs exactly `cg_iterations` iterations of `linear`, over
+  // `repeats` steps from the start state after one warm-up step.
+  double ms_per_step(LinearMethod linear, int cg_iterations, int repeats) {
+    NewtonSettings newton;
+    newton.fixed_iterations = 1;
+    newton.linear = bench_linear_settings(linear, cg_iterations);
+    State trial = m_start;
+    m_backend->backward_euler(m_start, trial, kBenchStepDt, 0.0, newton, 0.0);
+    double seconds = 0;
+    for (int k = 0; k < repeats; ++k) {
+      trial = m_start;
+      const auto t0 = std::chrono::steady_clock::now();
+      m_backend->backward_euler(m_start, trial, kBenchStepDt, 0.0, newton, 0.0);
+      seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+    return 1e3 * seconds / repeats;
+  }
+
+ private:
+  ExternalLoads m_loads;
+  State m_start;
+  std::unique_ptr<StepBackend> m_backend;
+};
+
 Row measure(const Model& model, const Case& c, int repeats, const gpu::DeviceInfo& info, bool tangent) {
-  gpu::DeviceOptions options;
-  options.precision = c.precision;
-  gpu::DeviceElasticity dev(model, options);
-  note_refusal("grouped pass", dev.group_samples_refusal());
-  const State start = rest_state(model);
-  dev.set_state(start);
-  gpu::DeviceBackwardEuler stepper(dev, gpu::make_step_options(model, bench_step_loads(), start, kBenchStepDt, 0, 0,
-                                                               bench_linear_settings(c.linear, 60)));
-  const gpu::StepReport report = stepper.step();
   Row row;
   row.gpu = info.name;
   row.samples = model.sample_count();
   row.frames = model.frame_count();
   row.neighbours = model.max_neighbours();
   row.precision = gpu::to_string(c.precision);
-  row.pass = dev.group_samples() ? "grouped" : "coalesced";
   row.linear = to_string(c.linear);
-  row.cg_kernel = report.resident ? "resident" : report.persistent ? "two-barrier" : "launches";
-  row.ms_per_step = stepper.time_step_ms(repeats);
-  row.ms_per_cg_iteration = stepper.time_cg_iteration_ms(std::max(1, repeats / 2));
+  {
+    DeviceBenchStep step(model, c.precision);
+    row.ms_per_step = step.ms_per_step(c.linear, 60, repeats);
+    // A CG iteration: the step with 60 iterations against the step with one.
+    row.ms_per_cg_iteration = (row.ms_per_step - step.ms_per_step(c.linear, 1, repeats)) / 59;
+  }
+  gpu::DeviceOptions options;
+  options.precision = c.precision;
+  gpu::DeviceElasticity dev(model, options);
+  note_refusal("grouped pass", dev.group_samples_refusal());
+  row.pass = dev.group_samples() ? "grouped" : "coalesced";
   if (tangent) {
+    dev.set_state(rest_state(model));
     dev.prepare();
     row.tangent_ms = dev.time_tangent_ms(std::max(10, 5 * repeats));
     row.tangent_gbs = dev.tangent_bytes() / (row.tangent_ms * 1e-3) / 1e9;
@@ -100,7 +143,6 @@ void print(const Row& r, bool json) {
                         {"precision", r.precision},
                         {"pass", r.pass},
                         {"linear", r.linear},
-                        {"cg_kernel", r.cg_kernel},
                         {"ms_per_step", r.ms_per_step},
                         {"ms_per_cg_iteration", r.ms_per_cg_iteration},
                         {"tangent_ms", r.tangent_ms},
@@ -115,9 +157,8 @@ void print(const Row& r, bool json) {
   }
   char paper[64] = "      -        -";
   if (!std::isnan(r.paper_ms)) std::snprintf(paper, sizeof paper, "%8.2f %8.2f", r.paper_cpu_ms, r.paper_ms);
-  std::printf("%9d %8d %3d %-6s %-9s %-3s %-11s %10.3f %10.4f %17s %9.4f %7.0f (%3.0f%%)\n", r.samples, r.frames,
-              r.neighbours, r.precision.c_str(), r.pass.c_str(), r.linear.c_str(), r.cg_kernel.c_str(),
-              r.ms_per_step, r.ms_per_cg_iteration, paper, r.tangent_ms, r.tangent_gbs,
+  std::printf("%9d %8d %3d %-6s %-9s %-3s %10.3f %10.4f %17s %9.4f %7.0f (%3.0f%%)\n", r.samples, r.frames,
+              r.neighbours, r.precision.c_str(), r.pass.c_str(), r.linear.c_str(), r.ms_per_step, r.ms_per_cg_iteration, paper, r.tangent_ms, r.tangent_gbs,
               r.peak_gbs > 0 ? 100 * r.tangent_gbs / r.peak_gbs : 0.0);
   std::fflush(stdout);
 }
@@ -138,14 +179,8 @@ std::vector<Case> cases(const BenchGpuOptions& o) {
 
 double time_cuda_step(const Model& model, LinearMethod linear, int cg_iterations, const std::string& precision,
                       int repeats) {
-  gpu::DeviceOptions options;
-  options.precision = precision == "single" ? gpu::Precision::single_precision : gpu::Precision::double_precision;
-  gpu::DeviceElasticity dev(model, options);
-  const State start = rest_state(model);
-  dev.set_state(start);
-  gpu::DeviceBackwardEuler stepper(dev, gpu::make_step_options(model, bench_step_loads(), start, kBenchStepDt, 0, 0,
-                                                               bench_linear_settings(linear, cg_iterations)));
-  return stepper.time_step_ms(repeats);
+  DeviceBenchStep step(model, precision == "single" ? gpu::Precision::single_precision : gpu::Precision::double_precision);
+  return step.ms_per_step(linear, cg_iterations, repeats);
 }
 
 bool cuda_device_available(std::string* name) {
@@ -165,10 +200,10 @@ int run_bench_gpu(const BenchGpuOptions& o) {
   if (!o.json) {
     std::printf("fascia bench gpu on %s (%d SMs, %.0f GiB, peak DRAM %.0f GB/s from clock x bus width)\n",
                 info.name.c_str(), info.multiprocessors, info.memory_gib, info.peak_bandwidth_gbs);
-    std::printf("ms per full implicit step (the step of `fascia bench cpu`): forces + preparation + 60 CG\n"
-                "iterations + update, CUDA events\n");
-    std::printf("%9s %8s %3s %-6s %-9s %-3s %-11s %10s %10s %8s %8s %9s %15s\n", "samples", "frames", "nb", "prec",
-                "Kd pass", "lin", "cg kernel", "ms/step", "ms/CG it", "CPU'13", "GTX570", "Kd ms", "Kd GB/s (peak)");
+    std::printf("ms per full implicit step (the step of `fascia bench cpu`) as `fascia run --backend cuda` takes\n"
+                "it: upload, forces + preparation + 60 CG iterations + update, read back; host clock\n");
+    std::printf("%9s %8s %3s %-6s %-9s %-3s %10s %10s %8s %8s %9s %15s\n", "samples", "frames", "nb", "prec",
+                "Kd pass", "lin", "ms/step", "ms/CG it", "CPU'13", "GTX570", "Kd ms", "Kd GB/s (peak)");
   }
   for (const PaperTiming& p : paper_table3()) {
     if (!o.sizes.empty() && std::find(o.sizes.begin(), o.sizes.end(), p.samples) == o.sizes.end()) continue;

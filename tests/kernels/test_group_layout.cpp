@@ -1,7 +1,7 @@
 // Host-side checks of the grouped pass's layout (group_layout.hpp): no GPU needed.
 #include "group_layout.hpp"
 #include "group_pass.hpp"
-#include "reference_step.hpp"
+#include "kernels_fixtures.hpp"
 
 #include <catch2/catch.hpp>
 
