@@ -8,8 +8,9 @@
 namespace fascia::gpu {
 namespace {
 
-// partials[b] = sum of x_k y_k over block b's stride (y null: sum of x_k).
-__global__ void k_dot_partials(long long n, const double* x, const double* y, double* partials) {
+// Block b's partial of x^T y (y null: of x) into partials[b]: block b takes k = b kReduceThreads
+// + t, + kReduceBlocks kReduceThreads, ... and sums its values in the fixed tree of block_sum.
+__device__ void dot_partial(long long n, const double* x, const double* y, double* partials) {
   __shared__ double shared[1][kReduceThreads];
   double s[1] = {0.0};
   for (long long k = blockIdx.x * static_cast<long long>(kReduceThreads) + threadIdx.x; k < n;
@@ -19,13 +20,24 @@ __global__ void k_dot_partials(long long n, const double* x, const double* y, do
   if (threadIdx.x == 0) partials[blockIdx.x] = s[0];
 }
 
-// out[0] = sum of the kReduceBlocks partials (one block).
-__global__ void k_sum_partials(const double* partials, double* out) {
+// The sum of the kReduceBlocks partials in a fixed tree, valid in thread 0. Read past the L1
+// cache: other blocks of the same kernel may have written them (last_block).
+__device__ double sum_partials(const double* partials) {
   __shared__ double shared[1][kReduceThreads];
   double s[1] = {0.0};
-  for (int b = threadIdx.x; b < kReduceBlocks; b += kReduceThreads) s[0] += partials[b];
+  for (int b = threadIdx.x; b < kReduceBlocks; b += kReduceThreads) s[0] += __ldcg(partials + b);
   block_sum<1>(s, shared);
-  if (threadIdx.x == 0) out[0] = s[0];
+  return s[0];
+}
+
+__global__ void k_dot_partials(long long n, const double* x, const double* y, double* partials) {
+  dot_partial(n, x, y, partials);
+}
+
+// out[0] = sum of the kReduceBlocks partials (one block).
+__global__ void k_sum_partials(const double* partials, double* out) {
+  const double s = sum_partials(partials);
+  if (threadIdx.x == 0) out[0] = s;
 }
 
 __global__ void k_fill(long long n, double value, double* x) {
@@ -88,27 +100,6 @@ struct VectorOps::CgState {
 };
 
 namespace {
-
-// The sum of the kReduceBlocks partials, in the fixed tree of k_sum_partials, valid in thread 0.
-// Read past the L1 cache: other blocks of the same kernel wrote them (last_block).
-__device__ double sum_partials(const double* partials) {
-  __shared__ double shared[1][kReduceThreads];
-  double s[1] = {0.0};
-  for (int b = threadIdx.x; b < kReduceBlocks; b += kReduceThreads) s[0] += __ldcg(partials + b);
-  block_sum<1>(s, shared);
-  return s[0];
-}
-
-// Block b's partial of x^T y (the pattern of k_dot_partials) into partials[b].
-__device__ void dot_partial(long long n, const double* x, const double* y, double* partials) {
-  __shared__ double shared[1][kReduceThreads];
-  double s[1] = {0.0};
-  for (long long k = blockIdx.x * static_cast<long long>(kReduceThreads) + threadIdx.x; k < n;
-       k += static_cast<long long>(kReduceBlocks) * kReduceThreads)
-    s[0] += x[k] * y[k];
-  block_sum<1>(s, shared);
-  if (threadIdx.x == 0) partials[blockIdx.x] = s[0];
-}
 
 // Whether this block is the grid's last to have written its partial (each block's thread 0
 // fences its partial, then counts itself in): that block then sums the partials in the fixed
