@@ -84,7 +84,7 @@ struct DeviceElasticity::Impl {
   virtual void* stream() const = 0;
   virtual void set_state_on_device(const double* positions, const double* orientations) = 0;
   virtual double gradient_on_device(double* g) = 0;
-  virtual void apply_tangent_on_device(const double* d, double* out) = 0;
+  virtual void apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal) = 0;
   virtual void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) = 0;
   virtual void tangent_blocks_on_device(double* blocks) = 0;
   virtual const double* diagonal_blocks_on_device() const = 0;
@@ -248,7 +248,9 @@ class System final : public DeviceElasticity::Impl {
     m_geo.resize(9 * static_cast<size_t>(m_n));
     m_diag.resize(36 * static_cast<size_t>(m_n));
     m_prepare_sums.resize(kPrepareSums * static_cast<size_t>(m_n));
-    for (auto* v : {&m_grad, &m_d, &m_out}) v->resize(dofs);
+    m_d.resize(dofs);
+    m_grad.resize(dofs);
+    m_out.resize(dofs);
     // The partials and counters of the force pass's reduction (reduce_and_finish).
     const int max_grid = std::max(m_blocks, 1);
     m_red_partials.resize(reduce_partial_count(max_grid));
@@ -286,26 +288,26 @@ class System final : public DeviceElasticity::Impl {
   }
 
   double energy() override {
-    enqueue_gradient_pass(false);
+    enqueue_gradient_pass(nullptr);
     return read_scalars().energy;
   }
 
   double gradient(double* g) override {
-    enqueue_gradient_pass(true);
+    enqueue_gradient_pass(m_grad.data());
     const double e = read_scalars().energy;
     m_grad.download(g);
     return e;
   }
 
   double prepare(bool diagonal_blocks) override {
-    enqueue_gradient_pass(false);
+    enqueue_gradient_pass(nullptr);
     enqueue_frame_prepare(diagonal_blocks);
     return read_scalars().energy;
   }
 
   void apply_tangent(const double* d, double* out) override {
     m_d.upload(d, 6 * static_cast<size_t>(m_n));
-    enqueue_tangent(m_d.data(), m_out.data());
+    enqueue_tangent(m_d.data(), m_out.data(), nullptr);
     FASCIA_CUDA(cudaStreamSynchronize(m_stream));
     m_out.download(out);
   }
@@ -323,19 +325,16 @@ class System final : public DeviceElasticity::Impl {
   }
 
   double gradient_on_device(double* g) override {
-    enqueue_gradient_pass(true);
-    convert_async(m_grad.data(), g, 6LL * m_n, m_stream);
+    enqueue_gradient_pass(g);
     return read_scalars().energy;
   }
 
-  void apply_tangent_on_device(const double* d, double* out) override {
+  void apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal) override {
     if constexpr (std::is_same_v<R, double>) {
-      // The passes read d and write every row of out: no copies in double.
-      enqueue_tangent(d, out);
+      enqueue_tangent(d, out, frame_diagonal);  // the passes read d and write every row of out
     } else {
       convert_async(d, m_d.data(), 6LL * m_n, m_stream);
-      enqueue_tangent(m_d.data(), m_out.data());
-      convert_async(m_out.data(), out, 6LL * m_n, m_stream);
+      enqueue_tangent(m_d.data(), out, frame_diagonal);
     }
   }
 
@@ -394,9 +393,9 @@ class System final : public DeviceElasticity::Impl {
     std::vector<double> d(6 * static_cast<size_t>(m_n));
     for (size_t k = 0; k < d.size(); ++k) d[k] = 1e-3 * std::sin(0.37 * static_cast<double>(k));
     m_d.upload(d);
-    for (int k = 0; k < 3; ++k) enqueue_tangent(m_d.data(), m_out.data());
+    for (int k = 0; k < 3; ++k) enqueue_tangent(m_d.data(), m_out.data(), nullptr);
     FASCIA_CUDA(cudaEventRecord(m_start, m_stream));
-    for (int k = 0; k < repeats; ++k) enqueue_tangent(m_d.data(), m_out.data());
+    for (int k = 0; k < repeats; ++k) enqueue_tangent(m_d.data(), m_out.data(), nullptr);
     FASCIA_CUDA(cudaEventRecord(m_stop, m_stream));
     FASCIA_CUDA(cudaEventSynchronize(m_stop));
     float ms = 0;
@@ -406,8 +405,8 @@ class System final : public DeviceElasticity::Impl {
 
   double tangent_bytes() const override {
     const double r = sizeof(R), P = m_p, S = m_s, N = m_n;
-    // Frames: rotation, position, d (read), out (write), geometric block (read), fixed flags.
-    const double frames = N * (9 * r + 3 * r + 6 * r + 6 * r + 9 * r + 6);
+    // Frames: rotation, position, d (read), out (write, double), geometric block (read).
+    const double frames = N * (9 * r + 3 * r + 6 * r + 6 * 8.0 + 9 * r);
     if (grouped) {
       // Per pair w and g; per group its frames, entry positions and first sample; per sample its
       // state (StVK: 13 values), material and offset; lever records (instead of rotation and
@@ -538,8 +537,9 @@ class System final : public DeviceElasticity::Impl {
   void check_launch() { FASCIA_CUDA(cudaGetLastError()); }
 
   // Kinematics and the force pass: energy into the scalars, F, the material cache and the samples'
-  // state of the tangent product stored, the gradient into m_grad when `gather`.
-  void enqueue_gradient_pass(bool gather) {
+  // state of the tangent product stored, the gradient [N][6] into `gradient` (device memory) where
+  // it is set.
+  void enqueue_gradient_pass(double* gradient) {
     k_kinematics<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
         m_n, m_positions.data(), m_orientations.data(), m_origin, m_x.data(), m_rot.data(), m_frame_rest.data(),
         m_levers.data());
@@ -547,7 +547,7 @@ class System final : public DeviceElasticity::Impl {
     k_fused_samples<R><<<m_blocks, kBlockSamples, m_shared_bytes, m_stream>>>(
         m_view, m_frame_view, m_F.data(), m_cache.data(), m_partials.data(), reduction(), m_sample_state.data());
     check_launch();
-    if (gather) enqueue_frame_rows(m_view, m_partials.data(), nullptr, nullptr, m_grad.data());
+    if (gradient) enqueue_frame_rows(m_view, m_partials.data(), nullptr, nullptr, nullptr, gradient);
   }
 
   // The per-frame preparation: the rotational geometric blocks Kr (m_geo) and, with `diag`, the
@@ -561,11 +561,13 @@ class System final : public DeviceElasticity::Impl {
     check_launch();
   }
 
-  // The frame pass of the launched tangent product (k_frame_sums): out = K d from the slot
-  // partials and the rotational geometric blocks geo (the force pass's gather: d and geo null).
-  void enqueue_frame_rows(const ModelView<R>& view, const R* partials, const R* geo, const R* d, R* out) {
+  // The frame pass of the launched tangent product (k_frame_sums): out = K d (+ D d) from the slot
+  // partials, the rotational geometric blocks geo and the frame terms D (the force pass's gather:
+  // d, geo and D null).
+  void enqueue_frame_rows(const ModelView<R>& view, const R* partials, const R* geo, const R* d,
+                          const double* frame_diagonal, double* out) {
     const auto kernel = m_frame_lanes == 1 ? &k_frame_sums<R, 1> : &k_frame_sums<R, kFrameLanes>;
-    kernel<<<m_rows_grid, kFrameThreads, 0, m_stream>>>(view, partials, geo, d, out);
+    kernel<<<m_rows_grid, kFrameThreads, 0, m_stream>>>(view, partials, geo, d, frame_diagonal, out);
     check_launch();
   }
 
@@ -576,20 +578,21 @@ class System final : public DeviceElasticity::Impl {
     return reinterpret_cast<const void*>(ell_tangent_kernel(m_keep, m_lanes));
   }
 
-  // out = K d: the grouped or the coalesced sample pass, then the frame pass.
-  void enqueue_tangent(const R* d, R* out) {
+  // out = K d (+ D d with frame_diagonal): the grouped or the coalesced sample pass, then the
+  // frame pass.
+  void enqueue_tangent(const R* d, double* out, const double* frame_diagonal) {
     if (grouped) {
       const auto kernel = m_fibres ? &k_group_tangent<R, true> : &k_group_tangent<R, false>;
       kernel<<<m_group_blocks, kGroupThreads, 0, m_stream>>>(m_group_view, m_frame_view, d, m_group_partials.data(),
                                                              kSlotLanes);
       check_launch();
-      enqueue_frame_rows(m_group_view, m_group_partials.data(), m_geo.data(), d, out);
+      enqueue_frame_rows(m_group_view, m_group_partials.data(), m_geo.data(), d, frame_diagonal, out);
       return;
     }
     ell_tangent_kernel(m_keep, m_lanes)<<<m_blocks, kDenseThreads, m_ell_bytes, m_stream>>>(
         m_view, m_frame_view, d, m_partials.data(), kSlotLanes);
     check_launch();
-    enqueue_frame_rows(m_view, m_partials.data(), m_geo.data(), d, out);
+    enqueue_frame_rows(m_view, m_partials.data(), m_geo.data(), d, frame_diagonal, out);
   }
 
   // The launched coalesced tangent kernel for `keep` held ELL entries per lane (2, 4, else 8) and
@@ -651,7 +654,8 @@ class System final : public DeviceElasticity::Impl {
   DeviceBuffer<double> m_positions, m_orientations, m_diag;
   DeviceBuffer<double> m_prepare_sums;  // k_frame_columns -> k_frame_finish: [N][kPrepareSums]
   DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_partials, m_geo;
-  DeviceBuffer<R> m_grad, m_d, m_out;
+  DeviceBuffer<R> m_d;
+  DeviceBuffer<double> m_grad, m_out;
   // Reductions.
   DeviceBuffer<double> m_red_partials;
   DeviceBuffer<unsigned> m_counter;
@@ -682,7 +686,9 @@ void DeviceElasticity::set_state_on_device(const double* positions, const double
   m_impl->set_state_on_device(positions, orientations);
 }
 double DeviceElasticity::gradient_on_device(double* gradient) { return m_impl->gradient_on_device(gradient); }
-void DeviceElasticity::apply_tangent_on_device(const double* d, double* out) { m_impl->apply_tangent_on_device(d, out); }
+void DeviceElasticity::apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal) {
+  m_impl->apply_tangent_on_device(d, out, frame_diagonal);
+}
 const double* DeviceElasticity::diagonal_blocks_on_device() const { return m_impl->diagonal_blocks_on_device(); }
 void DeviceElasticity::set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) {
   m_impl->set_tangent_blocks(block_offsets, block_frames);

@@ -85,11 +85,12 @@ class DeviceElasticity {
   // pointer is a device array of doubles, the work is enqueued in order on stream() (a
   // cudaStream_t). set_state_on_device copies positions [N][3] and orientations [N][4];
   // gradient_on_device writes [N][6] and returns the energy (one scalar read); out = K d
-  // [N][6]; the diagonal blocks K_ii [N][36] are those of the last prepare().
+  // [N][6], plus D d with frame_diagonal [N][10] (t_i, then Q_i row-major; may be null), as
+  // Elasticity::apply_tangent; the diagonal blocks K_ii [N][36] are those of the last prepare().
   void* stream() const;
   void set_state_on_device(const double* positions, const double* orientations);
   double gradient_on_device(double* gradient);
-  void apply_tangent_on_device(const double* d, double* out);
+  void apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal = nullptr);
   const double* diagonal_blocks_on_device() const;
   // The elastic tangent's blocks between frames that share a sample, sum_s v B_a^T C[B_b]
   // (without the rotational geometric blocks), of the last prepare(), for the blocks (a, b) of the

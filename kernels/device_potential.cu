@@ -408,12 +408,13 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
     m.mapping.expand(d_reduced, m.expanded.data(), m.stream);
     d = m.expanded.data();
   }
-  if (m.elasticity)
-    m.elasticity->apply_tangent_on_device(d, out);
-  else
+  if (m.elasticity) {
+    m.elasticity->apply_tangent_on_device(d, out, m.diag.data());  // with the frame terms
+  } else {
     m.ops.fill(out, 0.0, dofs());
-  k_add_frame_diagonal<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.diag.data(), d, out);
-  check();
+    k_add_frame_diagonal<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.diag.data(), d, out);
+    check();
+  }
   m.shells.add_tangent(d, out, m.stream);
   m.mapping.reduce_product(d_reduced, out, m.stream);
 }

@@ -332,11 +332,14 @@ __global__ void __launch_bounds__(kDenseThreads, dense_blocks_per_sm<R>(Keep))
 // its slots l, l + Lanes, ... in vector loads, two slots per round, with no block barrier, and
 // sums them in slot order; an xor butterfly adds the lanes' sums, and lane 0 forms
 // out = K d (frame_row: the rotational geometric block geo, null for the force pass's gather,
-// where d is null too).
+// where d is null too) plus, where frame_diagonal [N][10] is set, D d with
+// D = diag(t_i I3, Q_i) (t_i, then Q_i row-major: the step's frame terms, as
+// Elasticity::apply_tangent takes them), in double.
 constexpr int kFrameThreads = 128;  // threads per block of k_frame_sums
 
 template <class R, int Lanes = 1>
-__global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* geo, const R* d, R* out) {
+__global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* geo, const R* d,
+                             const double* frame_diagonal, double* out) {
   static_assert(Lanes >= 1 && Lanes <= 32 && (Lanes & (Lanes - 1)) == 0, "Lanes: a power of two <= 32");
   const int lane = static_cast<int>(threadIdx.x) & (Lanes - 1);
   const unsigned lanes_mask =
@@ -365,8 +368,17 @@ __global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* ge
     if (lane != 0) continue;
     double dir[6] = {0, 0, 0, 0, 0, 0};
     if (d) load_six(d, i, dir);
+    double o[6];
 #pragma unroll
-    for (int k = 0; k < 6; ++k) out[6 * i + k] = static_cast<R>(frame_row(geo, dir, i, k, acc[k]));
+    for (int k = 0; k < 6; ++k) o[k] = frame_row(geo, dir, i, k, acc[k]);
+    if (frame_diagonal) {
+      const double* e = frame_diagonal + 10 * static_cast<size_t>(i);
+      const Vec3 qr = load_mat3(e + 1) * Vec3{dir[3], dir[4], dir[5]};
+      o[0] += e[0] * dir[0], o[1] += e[0] * dir[1], o[2] += e[0] * dir[2];
+      o[3] += qr.x, o[4] += qr.y, o[5] += qr.z;
+    }
+#pragma unroll
+    for (int k = 0; k < 6; ++k) out[6 * i + k] = o[k];
   }
 }
 
