@@ -2,13 +2,10 @@
 // states), and norm-wise relative differences.
 #pragma once
 
-#include "core/rotation.hpp"
-#include "elasticity_phases.hpp"
-#include "mechanics/elasticity.hpp"
 #include "support/fixtures.hpp"
 
-#include <algorithm>
 #include <cmath>
+#include <random>
 #include <vector>
 
 namespace fascia::test {

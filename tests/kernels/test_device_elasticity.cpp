@@ -13,6 +13,7 @@
 #include "device_elasticity.hpp"
 #include "integrate/simulation.hpp"
 #include "kernels_fixtures.hpp"
+#include "mechanics/elasticity.hpp"
 #include "sample_layout.hpp"
 
 #include <catch2/catch.hpp>

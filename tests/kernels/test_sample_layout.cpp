@@ -1,7 +1,9 @@
 // Host-side checks of the device layout (sample_layout.hpp) and of the kernels' per-thread bodies
 // (elasticity_phases.hpp) stepped through on the CPU in the device's order: no GPU needed.
+#include "elasticity_phases.hpp"
 #include "group_pass.hpp"
 #include "kernels_fixtures.hpp"
+#include "mechanics/elasticity.hpp"
 #include "sample_layout.hpp"
 
 #include <catch2/catch.hpp>
