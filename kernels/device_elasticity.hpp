@@ -1,6 +1,7 @@
 // CUDA backend of the elastic forces and tangent products (paper §3); the step that uses them is
-// kernels/device_potential.hpp with the one Newton and PCG (kernels/cuda_step.hpp). Host API: including this header needs no CUDA toolkit; the implementation lives in
-// device_elasticity.cu behind a pointer. Only built with FASCIA_WITH_CUDA = 1.
+// kernels/device_potential.hpp with the one Newton and PCG (kernels/cuda_step.hpp). Host API:
+// including this header needs no CUDA toolkit; the implementation lives in device_elasticity.cu
+// behind a pointer. Only built with FASCIA_WITH_CUDA = 1.
 //
 // Semantics follow the CPU reference fascia::Elasticity (engine/mechanics/elasticity.hpp): the
 // same energy, gradient dW/d(theta) [N][6] (forces are its negative), symmetric tangent product

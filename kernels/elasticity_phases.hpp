@@ -483,7 +483,7 @@ FASCIA_HD void unpack_prepare_sums(const double* sums, double* K, Mat3& Kr) {
 // gather and one first Piola stress per pair, a = R_i (p_s - x_i). `add(k, value)` receives each pair's terms in pair order,
 // k < 36 for K_ii[k] (row-major: column c of row r at 6 r + c, the column of the unit displacement
 // (c < 3) or rotation (c >= 3) along axis c % 3), 36 + 3 r + c for Kr[r][c]; without `with_K`
-// (plain CG without the diagonal blocks) only Kr's.
+// (a preparation without the diagonal blocks) only Kr's.
 template <class R, class Add>
 FASCIA_HD void frame_prepare_pairs(const ModelView<R>& m, const FrameView<R>& f, const R* F, int i, int part,
                                    int parts, bool with_K, Add&& add) {
