@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace fascia {
 
@@ -22,6 +23,23 @@ class TeamSize {
   ~TeamSize() { omp_set_num_threads(m_previous); }
   TeamSize(const TeamSize&) = delete;
   TeamSize& operator=(const TeamSize&) = delete;
+
+ private:
+  int m_previous;
+};
+
+// Makes every OpenMP region that starts in the scope inactive (one thread), which a team size
+// does not do for regions with a num_threads clause: CHOLMOD's supernodal numeric factorisation
+// asks for 4 threads in its loops over large supernodes (about 200 regions per factorisation of
+// the shipped scenes' tangents). The level limit is the process's: regions that other threads
+// start meanwhile (the rows' output thread) run on one thread too, for the factorisation's
+// milliseconds.
+class SerialRegions {
+ public:
+  SerialRegions() : m_previous(omp_get_max_active_levels()) { omp_set_max_active_levels(0); }
+  ~SerialRegions() { omp_set_max_active_levels(m_previous); }
+  SerialRegions(const SerialRegions&) = delete;
+  SerialRegions& operator=(const SerialRegions&) = delete;
 
  private:
   int m_previous;
@@ -98,7 +116,10 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
   }
   ++m_factorisations;
   m_shift = 0;
-  const TeamSize team(team_size());
+  const int threads = team_size();
+  const TeamSize team(threads);
+  std::optional<SerialRegions> serial;
+  if (threads == 1) serial.emplace();
   m_factor->factorize(reduced);
   if (m_factor->info() != Eigen::Success) {
     std::vector<double> diag(free);

@@ -1,6 +1,6 @@
 // The sparse Cholesky factorisation of the free-free block: solves against a dense reference,
 // keeps its symbolic analysis for patterns inside the analysed one, shifts indefinite matrices,
-// and leaves the caller's OpenMP team size unchanged.
+// and leaves the caller's OpenMP team size and nesting limit unchanged.
 #include "solve/sparse_cholesky.hpp"
 
 #include <Eigen/Dense>
@@ -100,4 +100,24 @@ TEST_CASE("a solve leaves the caller's OpenMP team size as it found it", "[solve
   omp_set_num_threads(before);
   REQUIRE(after == 3);
   REQUIRE(error <= 1e-13);  // cond <= 3 as above
+}
+
+TEST_CASE("a factorisation leaves the caller's OpenMP team size and nesting limit as it found them", "[solve]") {
+  // Small factors are factorised with every OpenMP region inactive (one thread, whatever a
+  // region's num_threads clause asks); the caller's settings come back afterwards.
+  const int n = 40;
+  const std::vector<std::uint8_t> fixed(n, 0);
+  const int threads_before = omp_get_max_threads(), levels_before = omp_get_max_active_levels();
+  omp_set_num_threads(3);
+  omp_set_max_active_levels(2);
+  SparseCholesky chol;
+  const Eigen::SparseMatrix<double> H = tridiagonal(n);
+  const bool factorised = chol.factorise(H, fixed.data());
+  const int threads_after = omp_get_max_threads(), levels_after = omp_get_max_active_levels();
+  omp_set_num_threads(threads_before);
+  omp_set_max_active_levels(levels_before);
+  REQUIRE(factorised);
+  CHECK(threads_after == 3);
+  CHECK(levels_after == 2);
+  CHECK(solve_error(chol, H, fixed) <= 1e-13);  // cond <= 3 as above
 }
