@@ -21,7 +21,7 @@ class CudaStep final : public StepBackend {
     m_potential.set_load_scale(1.0);
     m_potential.set_dynamic(start, dt, rayleigh_mass);
     m_state.upload(trial);
-    DeviceProblem problem(m_potential, settings.linear, m_factor.get(), m_stale, [&](const DeviceFrames& q) {
+    DeviceProblem problem(m_potential, settings.linear, m_factor.get(), m_kept, [&](const DeviceFrames& q) {
       factorising(q, 1.0);
       m_origin.start = start;
       m_origin.dt = dt;
@@ -39,7 +39,7 @@ class CudaStep final : public StepBackend {
     m_potential.set_static();
     m_state.upload(state);
     double load_factor = 1.0;
-    DeviceProblem problem(m_potential, settings.linear, m_factor.get(), m_stale, [&](const DeviceFrames& q) {
+    DeviceProblem problem(m_potential, settings.linear, m_factor.get(), m_kept, [&](const DeviceFrames& q) {
       factorising(q, load_factor);
       m_origin.start = State{};
       m_origin.dt = 0;
@@ -61,15 +61,17 @@ class CudaStep final : public StepBackend {
 
   ReusedTangent kept_tangent() const override {
     ReusedTangent t;
-    t.held = m_factor && m_factor->factorised() && !m_stale;
+    t.held = m_factor && m_factor->factorised() && !m_kept.stale;
     if (!t.held) return t;
     t.origin = m_origin;
     t.pattern = m_factor->fingerprint();
+    t.solves = m_kept.solves;
+    t.iterations = m_kept.iterations;
     return t;
   }
 
   bool restore_tangent(const ReusedTangent& tangent, const SimulationSettings& settings) override {
-    m_stale = true;
+    m_kept = KeptFactorisation{};
     if (!tangent.held) return true;
     if (!m_factor || tangent.pattern != m_factor->fingerprint()) return false;
     const TangentOrigin& o = tangent.origin;
@@ -83,8 +85,9 @@ class CudaStep final : public StepBackend {
     m_factor->factorise(m_potential);
     m_potential.set_load_scale(1.0);
     m_origin = o;
-    m_stale = !m_factor->factorised();
-    return m_factor->factorised();
+    if (!m_factor->factorised()) return false;
+    m_kept = KeptFactorisation{false, tangent.solves, tangent.iterations};
+    return true;
   }
 
  private:
@@ -101,7 +104,7 @@ class CudaStep final : public StepBackend {
   // iterations and steps as the CPU does (solve/factorised_solve.hpp), and a checkpoint records
   // where it was computed, so that a resumed run computes it again (restore_tangent).
   std::unique_ptr<DeviceCholesky> m_factor;
-  bool m_stale = true;
+  KeptFactorisation m_kept;
   TangentOrigin m_origin;
 };
 

@@ -28,15 +28,16 @@ class DeviceProblem {
   // @param linear      the settings Newton solves with (NewtonSettings::linear): the direct
   //                    cholmod method is refused (it runs on the CPU)
   // @param factor      the device factor for the cholmod preconditioner, kept by the caller
-  //                    between problems with its `stale` flag; null: pcg is preconditioned by
-  //                    block Jacobi whatever LinearSettings::preconditioner says.
+  //                    between problems with its state `kept` (solve/kept_factorisation.hpp);
+  //                    null: pcg is preconditioned by block Jacobi whatever
+  //                    LinearSettings::preconditioner says.
   // @param factorising called with the iterate before each factorisation (may be empty)
-  DeviceProblem(DevicePotential& potential, const LinearSettings& linear, DeviceCholesky* factor, bool& stale,
+  DeviceProblem(DevicePotential& potential, const LinearSettings& linear, DeviceCholesky* factor, KeptFactorisation& kept,
                 std::function<void(const DeviceFrames&)> factorising = {})
       : m_potential(potential),
         m_ops(potential.ops(), potential.dofs(), potential.fixed()),
         m_factor(factor),
-        m_stale(stale),
+        m_kept(kept),
         m_factorising(std::move(factorising)) {
     if (linear.method == LinearMethod::cholmod)
       throw std::invalid_argument("the device step solves with cg or pcg, not the direct cholmod");
@@ -73,9 +74,12 @@ class DeviceProblem {
         }
         bool factorised() const { return problem.m_factor->factorised(); }
         void solve(const Vector& r, Vector& z) const { problem.m_factor->solve(r.data(), z.data()); }
-        int refactorise_above(const LinearSettings& s) const { return problem.m_factor->refactorise_above(s); }
-      } kept{*this, q};
-      return pcg_with_kept_factorisation(m_ops, apply, kept, m_stale, linear, rhs, d);
+        const LinearSettings& settings;
+        bool stops_paying(const KeptFactorisation&, int iterations) const {
+          return iterations > problem.m_factor->refactorise_above(settings);
+        }
+      } kept{*this, q, linear};
+      return pcg_with_kept_factorisation(m_ops, apply, kept, m_kept, linear, rhs, d);
     }
     const PcgSettings pcg_settings = fascia::pcg_settings(linear);
     if (linear.method == LinearMethod::cg)
@@ -94,7 +98,7 @@ class DeviceProblem {
   DevicePotential& m_potential;
   DeviceVectorOps m_ops;
   DeviceCholesky* m_factor;
-  bool& m_stale;
+  KeptFactorisation& m_kept;
   std::function<void(const DeviceFrames&)> m_factorising;
 };
 

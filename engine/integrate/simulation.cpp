@@ -135,6 +135,8 @@ void Simulation::keep_tangent() {
   }
   m_reused.origin = m_impl->variational ? m_impl->variational->assembled_at() : m_impl->potential.assembled_at();
   m_reused.pattern = m_impl->linear.factorisation().pattern_fingerprint();
+  m_reused.solves = m_impl->linear.kept().solves;
+  m_reused.iterations = m_impl->linear.kept().iterations;
 }
 
 bool Simulation::restore_tangent(const ReusedTangent& tangent) {
@@ -159,7 +161,10 @@ bool Simulation::restore_tangent(const ReusedTangent& tangent) {
     potential.prepare_hessian(o.state);
     system = potential.system();
   }
-  const bool factorised = m_impl->linear.restore_factorisation(system);
+  KeptFactorisation served;
+  served.solves = tangent.solves;
+  served.iterations = tangent.iterations;
+  const bool factorised = m_impl->linear.restore_factorisation(system, served);
   m_loads.scale = 1.0;
   return factorised && m_impl->linear.factorisation().pattern_fingerprint() == tangent.pattern;
 }

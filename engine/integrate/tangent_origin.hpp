@@ -30,6 +30,9 @@ struct ReusedTangent {
   bool held = false;          // the next solve reuses a factorisation (else it factorises anew)
   TangentOrigin origin;       // where that factorisation's matrix was assembled
   std::uint64_t pattern = 0;  // SparseCholesky::pattern_fingerprint() of its analysis
+  // The solves and CG iterations it has served (solve/kept_factorisation.hpp: when it is renewed).
+  int solves = 0;
+  long long iterations = 0;
 };
 
 }  // namespace fascia

@@ -133,7 +133,7 @@ CheckpointWriter CheckpointWriter::create(long long file_id, const std::string& 
     fixed_dataset(g.get(), "counters", H5T_STD_I64LE, {4}, path);
     fixed_dataset(g.get(), "clock", H5T_IEEE_F64LE, {2}, path);
     create_state(g.get(), "", n, path);
-    fixed_dataset(g.get(), "tangent", H5T_STD_I64LE, {2}, path);
+    fixed_dataset(g.get(), "tangent", H5T_STD_I64LE, {4}, path);
     fixed_dataset(g.get(), "tangent_clock", H5T_IEEE_F64LE, {2}, path);
     create_state(g.get(), "tangent_start_", n, path);
     create_state(g.get(), "tangent_", n, path);
@@ -171,7 +171,7 @@ void CheckpointWriter::write(const Checkpoint& c) {
     write_data(slot.get(), "clock", H5T_NATIVE_DOUBLE, clock, m_path);
     write_state(slot.get(), "", c.state, n, m_path);
     const ReusedTangent& t = c.tangent;
-    long long tangent[2] = {t.held ? 1 : 0, 0};
+    long long tangent[4] = {t.held ? 1 : 0, 0, t.held ? t.solves : 0, t.held ? t.iterations : 0};
     std::memcpy(&tangent[1], &t.pattern, sizeof t.pattern);
     const double tangent_clock[2] = {t.origin.dt, t.origin.load_scale};
     write_data(slot.get(), "tangent", H5T_NATIVE_LLONG, tangent, m_path);
@@ -237,9 +237,9 @@ std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIde
                   "checkpoint of " + std::to_string(frames) + " frames");
   const std::size_t n = static_cast<std::size_t>(frames);
   c.state = read_state(slot.get(), "", n, path);
-  long long tangent[2] = {0, 0};
+  long long tangent[4] = {0, 0, 0, 0};
   double tangent_clock[2] = {0, 1};
-  read_data(slot.get(), "tangent", H5T_NATIVE_LLONG, {2}, tangent, path);
+  read_data(slot.get(), "tangent", H5T_NATIVE_LLONG, {4}, tangent, path);
   read_data(slot.get(), "tangent_clock", H5T_NATIVE_DOUBLE, {2}, tangent_clock, path);
   double controller[2] = {0, 0};
   long long counts[6] = {0, 0, 0, 0, 0, 0};
@@ -262,6 +262,8 @@ std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIde
   c.tangent.held = tangent[0] != 0;
   if (c.tangent.held) {
     std::memcpy(&c.tangent.pattern, &tangent[1], sizeof c.tangent.pattern);
+    c.tangent.solves = static_cast<int>(tangent[2]);
+    c.tangent.iterations = tangent[3];
     c.tangent.origin.dt = tangent_clock[0];
     c.tangent.origin.load_scale = tangent_clock[1];
     c.tangent.origin.start = read_state(slot.get(), "tangent_start_", n, path);

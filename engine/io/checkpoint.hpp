@@ -46,7 +46,7 @@
 
 namespace fascia {
 
-constexpr int kCheckpointFormat = 4;
+constexpr int kCheckpointFormat = 5;
 
 struct Checkpoint {
   long long sequence = 0;  // 1, 2, ... in the order written

@@ -4,9 +4,11 @@
 // direct_solve: the cholmod method, a factorisation per solve (the CPU's CHOLMOD).
 // pcg_with_kept_factorisation: pcg with the cholmod preconditioner, a factorisation kept from one
 // solve to the next (the CPU's CHOLMOD; on the CUDA backend the dense device factor of
-// kernels/device_cholesky.hpp). The factorisation is computed when stale, reused by later solves (Newton iterations and steps),
-// marked stale after a solve that took more than `refactorise_above` iterations, and computed
-// again at once when the reused one could not reach the tolerance within the cap.
+// kernels/device_cholesky.hpp). The factorisation is computed when stale, reused by later solves
+// (Newton iterations and steps), renewed before the next solve once the factorisation says it
+// stops paying (the CPU's rule: solve/kept_factorisation.hpp), and computed again at once when
+// the reused one could not reach the tolerance within the cap. The state between solves is a
+// KeptFactorisation, which a checkpoint keeps.
 //
 // Factorisation concept:
 //   LinearResult factorise();                 factorises H now: .factorised = true, .shifted and
@@ -14,11 +16,13 @@
 //                                             .message alone when it failed
 //   bool factorised() const;                  a factor is held
 //   void solve(const Vector& r, Vector& z);   z = F^{-1} r
-//   int refactorise_above(const LinearSettings&) const;   the iterations of one solve beyond which
-//                                             a new factorisation pays (its cost against the
-//                                             iterations it saves)
+//   bool stops_paying(const KeptFactorisation& kept, int iterations) const;
+//                                             after a solve of `iterations` that `kept` has
+//                                             counted: whether to renew the factorisation before
+//                                             the next solve
 #pragma once
 
+#include "solve/kept_factorisation.hpp"
 #include "solve/linear_solver.hpp"
 #include "solve/pcg.hpp"
 
@@ -55,17 +59,17 @@ LinearResult direct_solve(const Ops& ops, Apply&& apply, Factorisation& factor, 
 }
 
 template <class Ops, class Apply, class Factorisation>
-LinearResult pcg_with_kept_factorisation(const Ops& ops, Apply&& apply, Factorisation& factor, bool& stale,
+LinearResult pcg_with_kept_factorisation(const Ops& ops, Apply&& apply, Factorisation& factor, KeptFactorisation& kept,
                                          const LinearSettings& settings, const typename Ops::Vector& b,
                                          typename Ops::Vector& x) {
   using Vector = typename Ops::Vector;
   const PcgSettings pcg_settings = fascia::pcg_settings(settings);
   auto factorise = [&] {
     LinearResult f = factor.factorise();
-    if (factor.factorised()) stale = false;
+    if (factor.factorised()) kept = KeptFactorisation{false, 0, 0};
     return f;
   };
-  const bool was_stale = stale || !factor.factorised();
+  const bool was_stale = kept.stale || !factor.factorised();
   LinearResult fresh;
   if (was_stale) {
     fresh = factorise();
@@ -73,16 +77,20 @@ LinearResult pcg_with_kept_factorisation(const Ops& ops, Apply&& apply, Factoris
   }
   auto precondition = [&](const Vector& r, Vector& z) { factor.solve(r, z); };
   LinearResult r = pcg(ops, apply, precondition, pcg_settings, b, x);
+  int served = r.iterations;  // by the factorisation held now
   if (!r.converged && !was_stale && !settings.fixed_iterations) {
     const int spent = r.iterations;
     fresh = factorise();
     if (!factor.factorised()) return fresh;
     r = pcg(ops, apply, precondition, pcg_settings, b, x);
+    served = r.iterations;
     r.iterations += spent;
   }
   r.factorised = was_stale || fresh.factorised;
   r.shifted = fresh.shifted;
-  if (r.iterations > factor.refactorise_above(settings)) stale = true;
+  ++kept.solves;
+  kept.iterations += served;
+  if (factor.stops_paying(kept, served)) kept.stale = true;
   return r;
 }
 

@@ -52,7 +52,6 @@ LinearResult LinearSolver::factorise(const LinearSystem& system) {
     r.message = "CHOLMOD: tangent could not be factorised even with a diagonal shift";
     return r;
   }
-  m_stale = false;
   r.converged = true;
   if (m_cholesky->shift() > 0) {
     r.shifted = true;
@@ -63,12 +62,15 @@ LinearResult LinearSolver::factorise(const LinearSystem& system) {
   return r;
 }
 
-bool LinearSolver::reuses_factorisation() const { return !m_stale && m_cholesky->factorised(); }
+bool LinearSolver::reuses_factorisation() const { return !m_kept.stale && m_cholesky->factorised(); }
 
-bool LinearSolver::restore_factorisation(const LinearSystem& system) {
-  m_stale = true;
+bool LinearSolver::restore_factorisation(const LinearSystem& system, const KeptFactorisation& served) {
+  m_kept = KeptFactorisation{};
   factorise(system);
-  return m_cholesky->factorised();
+  if (!m_cholesky->factorised()) return false;
+  m_kept = served;
+  m_kept.stale = false;
+  return true;
 }
 
 LinearResult LinearSolver::solve(const LinearSystem& system, const LinearSettings& settings,
@@ -94,10 +96,12 @@ LinearResult LinearSolver::solve(const LinearSystem& system, const LinearSetting
     LinearResult factorise() { return solver.factorise(system); }
     bool factorised() const { return solver.m_cholesky->factorised(); }
     void solve(const std::vector<double>& r, std::vector<double>& z) const { solver.m_cholesky->solve(r, z); }
-    int refactorise_above(const LinearSettings& s) const { return s.refactorise_above; }
+    bool stops_paying(const KeptFactorisation& k, int iterations) const {
+      return fascia::stops_paying(k, iterations, kCholmodFactorisationCost);
+    }
   } kept{*this, system};
   if (settings.method == LinearMethod::cholmod) return direct_solve(ops, apply, kept, b, x);
-  return pcg_with_kept_factorisation(ops, apply, kept, m_stale, settings, b, x);
+  return pcg_with_kept_factorisation(ops, apply, kept, m_kept, settings, b, x);
 }
 
 }  // namespace fascia

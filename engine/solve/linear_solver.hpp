@@ -7,11 +7,12 @@
 //   pcg      PCG, matrix-free products, preconditioned by `preconditioner`:
 //              block_jacobi  the inverse 6x6 diagonal blocks (solve/block_jacobi.hpp)
 //              cholmod       a sparse Cholesky factorisation of the assembled H, kept from one
-//                            solve to the next (Newton iterations and steps) and refreshed when
-//                            a solve needed more than `refactorise_above` iterations
+//                            solve to the next (Newton iterations and steps) and renewed when it
+//                            stops paying (solve/kept_factorisation.hpp)
 //   cholmod  direct: assemble and factorise H at every solve (symbolic analysis kept)
 #pragma once
 
+#include "solve/kept_factorisation.hpp"
 #include "solve/linear_result.hpp"
 
 #include <Eigen/SparseCore>
@@ -42,13 +43,12 @@ struct LinearSettings {
   double tolerance = 1e-8;    // CG/PCG: stop when |r| <= tolerance |b|
   int max_iterations = 2000;  // CG/PCG cap
   bool fixed_iterations = false;  // run exactly max_iterations (the paper's benchmarks: 60)
-  // pcg + cholmod: refresh the factorisation after a solve that took more iterations. 30: with
-  // scenes/*.yaml on one CPU thread, 20 to 40 ran the pelvis fastest (1.33 s against 1.88 s with
-  // 10 and 1.55 s with 80 for its 30 steps); coupling, tool_pull, meshless_slab and liver took 16
-  // to 29 % less time than with 10, bone 12 % more, block_mesh the same. An assembled tangent of
-  // meshless tissues (about 20 frames per sample) costs hundreds of CG iterations' products.
-  int refactorise_above = 30;
 };
+
+// A CHOLMOD factorisation's cost (assembly and numeric factorisation) in CG iterations of the
+// solves it serves, for the renewal rule of solve/kept_factorisation.hpp: the shipped scenes
+// measure 54 (liver) to 149 (bone) on one thread of a 2-core VM, 70 for the pelvis.
+constexpr double kCholmodFactorisationCost = 100;
 
 // The system's operator H (size n = 6N), its 6x6 diagonal blocks and assembled form on demand.
 struct LinearSystem {
@@ -76,18 +76,21 @@ class LinearSolver {
   const SparseCholesky& factorisation() const { return *m_cholesky; }
 
   // pcg + cholmod: whether the next solve reuses the held factorisation (it is current, not
-  // stale). A checkpoint keeps where it was computed (integrate/tangent_origin.hpp).
+  // stale), and the solves it has served. A checkpoint keeps where it was computed
+  // (integrate/tangent_origin.hpp) and those counts.
   bool reuses_factorisation() const;
-  // Factorises `system` as the factorisation the next pcg + cholmod solves reuse: a resumed run
-  // factorises the matrix the interrupted run held, so that its solves are bitwise the same.
-  // Returns false when even the largest shift fails (the next solve factorises again).
-  bool restore_factorisation(const LinearSystem& system);
+  const KeptFactorisation& kept() const { return m_kept; }
+  // Factorises `system` as the factorisation the next pcg + cholmod solves reuse, having served
+  // `served` (solves and iterations): a resumed run factorises the matrix the interrupted run
+  // held, so that its solves and renewals are bitwise the same. Returns false when even the
+  // largest shift fails (the next solve factorises again).
+  bool restore_factorisation(const LinearSystem& system, const KeptFactorisation& served);
 
  private:
   LinearResult factorise(const LinearSystem& system);
 
   std::unique_ptr<SparseCholesky> m_cholesky;
-  bool m_stale = true;  // refactorise before the next pcg + cholmod solve
+  KeptFactorisation m_kept;  // pcg + cholmod: the held factorisation's state
 };
 
 }  // namespace fascia

@@ -1,6 +1,7 @@
 // CG, PCG (block-Jacobi or a reused sparse factorisation) and the CHOLMOD direct solve agree on
 // the same projected system; the reused factorisation keeps its symbolic analysis.
 #include "integrate/step_potential.hpp"
+#include "solve/kept_factorisation.hpp"
 #include "solve/linear_solver.hpp"
 #include "solve/sparse_cholesky.hpp"
 #include "support/finite_difference.hpp"
@@ -74,7 +75,6 @@ TEST_CASE("PCG reuses its factorisation at a new state and refreshes it when it 
   settings.method = LinearMethod::pcg;
   settings.preconditioner = Preconditioner::cholmod;
   settings.tolerance = 1e-10;
-  settings.refactorise_above = settings.max_iterations;  // keep the first factorisation throughout
   std::vector<double> g, x, hx(model.dof_count());
   for (unsigned seed = 1; seed <= 3; ++seed) {
     const State state = random_state(model, seed, 0.002, 0.05);
@@ -95,16 +95,40 @@ TEST_CASE("PCG reuses its factorisation at a new state and refreshes it when it 
       if (!model.fixed_dofs[k]) num += (hx[k] - g[k]) * (hx[k] - g[k]), den += g[k] * g[k];
     REQUIRE(std::sqrt(num / den) <= 1e-10 * (1 + 1e-6));
   }
+  // Three solves of a few iterations each repay a factorisation (kCholmodFactorisationCost):
+  // the first factorisation serves them all.
   REQUIRE(solver.factorisation().factorisations() == 1);
-  // A threshold of 0 iterations marks the factorisation stale after any solve that iterates.
-  settings.refactorise_above = 0;
-  const State state = random_state(model, 9, 0.002, 0.05);
-  potential.gradient(state, g);
-  potential.prepare_hessian(state);
-  for (size_t k = 0; k < g.size(); ++k) g[k] = model.fixed_dofs[k] ? 0.0 : -g[k];
-  REQUIRE(!solver.solve(potential.system(), settings, g, x).factorised);
-  REQUIRE(solver.solve(potential.system(), settings, g, x).factorised);
+  REQUIRE(solver.kept().solves == 3);
+  REQUIRE(!solver.kept().stale);
   REQUIRE(solver.factorisation().analyses() == 1);
+}
+
+TEST_CASE("a kept factorisation is renewed after the first solve that costs more than the mean", "[solve]") {
+  // Cost 20 iterations; solves of 2, 4, 6, ... iterations: after solve k the cycle has cost
+  // 20 + k (k + 1) over k solves, and solve k's 2k iterations exceed that mean first at k = 6
+  // (2k k > 20 + k (k + 1) where k^2 - k > 20: at k = 5 the two are equal, 50 and 50).
+  KeptFactorisation kept{false, 0, 0};
+  int renewed_after = 0;
+  for (int k = 1; k <= 10 && !kept.stale; ++k) {
+    ++kept.solves;
+    kept.iterations += 2 * k;
+    if (stops_paying(kept, 2 * k, 20.0)) {
+      kept.stale = true;
+      renewed_after = k;
+    }
+  }
+  CHECK(renewed_after == 6);
+  CHECK(kept.solves == 6);
+  CHECK(kept.iterations == 42);
+  // Solves that stay as costly as the first never renew it.
+  KeptFactorisation flat{false, 0, 0};
+  bool renewed = false;
+  for (int k = 1; k <= 1000; ++k) {
+    ++flat.solves;
+    flat.iterations += 40;
+    renewed = renewed || stops_paying(flat, 40, 20.0);
+  }
+  CHECK_FALSE(renewed);
 }
 
 TEST_CASE("CG in fixed-iteration mode runs exactly the requested iterations", "[solve]") {
