@@ -32,7 +32,7 @@
 //   void cg_direction(CgScalars& s, const Vector& r, const Vector& z, Vector& p) const;
 //       while running: rho' = r^T z, beta = rho' / rho, rho = rho', p = P z + beta p
 // (r^T z = r^T P z and p^T hp = p^T P hp, r and p being projected: P is applied where a
-// vector is written, in the same pass.)
+// vector is written; the device does it in the pass that writes it.)
 //   CgStatus cg_status(const CgScalars& s) const;    the status, on the host
 //   template <class Body> auto repeated(Body& body) const;
 //       an object whose run(count) calls body() count times in order (count <= 0: none); body
