@@ -227,7 +227,8 @@ LinearSystem StepPotential::system() {
     m_assembled_at.dt = m_dynamic ? m_dt : 0.0;
     m_assembled_at.load_scale = m_loads.scale;
     if (!m_assembler) m_assembler = std::make_unique<TangentAssembler>(m_model);
-    Eigen::SparseMatrix<double> H = m_assembler->assemble(m_elasticity->prepared_reference());
+    // The load and inertia blocks (every entry, so that the positions stay those of the last
+    // assembly), then the fields' entries, summed into the elastic tangent's pattern.
     std::vector<Eigen::Triplet<double>> t;
     for (int i = 0; i < n; ++i) {
       double block[36] = {0};
@@ -235,14 +236,11 @@ LinearSystem StepPotential::system() {
         for (int c = 0; c < 3; ++c) block[6 * (3 + r) + 3 + c] = m_load_blocks[9 * i + 3 * r + c];
       if (m_dynamic) inertia_block(i, block);
       for (int a = 0; a < 6; ++a)
-        for (int b = 0; b < 6; ++b)
-          if (block[6 * a + b] != 0) t.emplace_back(6 * i + a, 6 * i + b, block[6 * a + b]);
+        for (int b = 0; b < 6; ++b) t.emplace_back(6 * i + a, 6 * i + b, block[6 * a + b]);
     }
     for (const auto& field : m_fields) field->add_triplets(t);
     if (m_stabilised) m_stabilisation->add_triplets(t);
-    Eigen::SparseMatrix<double> extra(H.rows(), H.cols());
-    extra.setFromTriplets(t.begin(), t.end());
-    H += extra;
+    Eigen::SparseMatrix<double> H = m_assembler->assemble(m_elasticity->prepared_reference(), t);
     if (m_dynamic && m_beta > 0) H += (m_beta / m_dt) * assemble_tangent(m_start_elasticity->prepared_reference());
     if (!m_mapping.empty()) {
       const Eigen::SparseMatrix<double> P = m_mapping.projection(6 * n);

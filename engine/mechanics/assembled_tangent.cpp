@@ -12,10 +12,20 @@ constexpr int kParallelMin = 256;               // fewer samples: one thread
 
 }  // namespace
 
-TangentAssembler::TangentAssembler(const Model& model) {
+TangentAssembler::TangentAssembler(const Model& model) : m_model(model) { build_pattern({}); }
+
+void TangentAssembler::build_pattern(const std::vector<std::pair<int, int>>& extra) {
+  const Model& model = m_model;
   const int n = model.frame_count(), samples = model.sample_count();
   const NeighbourTable& nb = model.neighbours;
   const ReverseTable& rev = model.reverse;
+  m_extra_blocks = extra;
+  // Extra rows per column block, both ways round (the pattern stays symmetric).
+  std::vector<std::vector<int>> extra_rows(n);
+  for (const auto& [i, j] : extra) {
+    extra_rows[j].push_back(i);
+    extra_rows[i].push_back(j);
+  }
   // Block adjacency: frames i, j are coupled when a sample has both (the frame itself included);
   // the rows of column block j are the frames of j's samples, each marked once, sorted.
   std::vector<std::vector<int>> adjacency(n);
@@ -35,6 +45,11 @@ TangentAssembler::TangentAssembler(const Model& model) {
             rows.push_back(nb.frames[p]);
           }
       }
+      for (int i : extra_rows[j])
+        if (seen[i] != j) {
+          seen[i] = j;
+          rows.push_back(i);
+        }
       std::sort(rows.begin(), rows.end());
     }
   }
@@ -55,6 +70,8 @@ TangentAssembler::TangentAssembler(const Model& model) {
         for (int r = 0; r < 6; ++r) inner[at++] = 6 * i + r;
     }
   std::fill(m_matrix.valuePtr(), m_matrix.valuePtr() + outer.back(), 0.0);
+  m_other_rows.clear();
+  m_other_cols.clear();
   // Position k of frame i (row block) in column block j, for every (sample, a, b).
   m_pair_offsets.assign(samples + 1, 0);
   for (int s = 0; s < samples; ++s) {
@@ -73,7 +90,49 @@ TangentAssembler::TangentAssembler(const Model& model) {
   }
 }
 
-const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& elasticity) {
+bool TangentAssembler::locate(const Triplets& others) {
+  const std::size_t count = others.size();
+  bool same = m_other_rows.size() == count;
+  for (std::size_t k = 0; same && k < count; ++k)
+    same = others[k].row() == m_other_rows[k] && others[k].col() == m_other_cols[k];
+  if (same) return true;
+  m_other_rows.resize(count);
+  m_other_cols.resize(count);
+  m_other_position_of.resize(count);
+  m_other_positions.clear();
+  std::vector<int> distinct(static_cast<std::size_t>(m_matrix.nonZeros()), -1);  // position -> its index
+  const int* outer = m_matrix.outerIndexPtr();
+  const int* inner = m_matrix.innerIndexPtr();
+  bool inside = true;
+  for (std::size_t k = 0; k < count; ++k) {
+    const int r = others[k].row(), c = others[k].col();
+    m_other_rows[k] = r;
+    m_other_cols[k] = c;
+    const int* at = std::lower_bound(inner + outer[c], inner + outer[c + 1], r);
+    if (at == inner + outer[c + 1] || *at != r) {
+      inside = false;
+      continue;
+    }
+    const int position = static_cast<int>(at - inner);
+    if (distinct[position] < 0) {
+      distinct[position] = static_cast<int>(m_other_positions.size());
+      m_other_positions.push_back(position);
+    }
+    m_other_position_of[k] = distinct[position];
+  }
+  if (!inside) m_other_rows.clear();  // located again once the pattern holds them
+  return inside;
+}
+
+const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& elasticity, const Triplets& others) {
+  if (!locate(others)) {
+    std::vector<std::pair<int, int>> extra = m_extra_blocks;
+    for (const auto& t : others) extra.emplace_back(t.row() / 6, t.col() / 6);
+    std::sort(extra.begin(), extra.end());
+    extra.erase(std::unique(extra.begin(), extra.end()), extra.end());
+    build_pattern(extra);
+    locate(others);
+  }
   const Model& model = elasticity.model();
   const NeighbourTable& nb = model.neighbours;
   double* values = m_matrix.valuePtr();
@@ -94,7 +153,8 @@ const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& 
     double D[81];
     std::vector<Mat3> levers;
     std::vector<Vec3> gradients;
-    std::vector<double> dP;  // [k][6][9]: vec(dP) of the pair's 6 unit increments, v folded in
+    // [k][9][6]: W_b = v D^T B_b, row e = vec(dP)_e of the pair's 6 unit increments (the columns).
+    std::vector<double> W;
     std::vector<char> owned;
     for (int s = 0; s < samples; ++s) {
       const int begin = nb.offsets[s], k = nb.offsets[s + 1] - begin;
@@ -110,52 +170,69 @@ const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& 
       const double v = model.samples.volumes[s];
       levers.resize(k);
       gradients.resize(k);
-      dP.resize(54 * static_cast<size_t>(k));
+      W.resize(54 * static_cast<size_t>(k));
       for (int b = 0; b < k; ++b) {
         levers[b] = elasticity.lever(begin + b);
         gradients[b] = load3(&nb.weight_gradients[3 * (begin + b)]);
+        double* w = &W[54 * b];
         for (int c = 0; c < 6; ++c) {
           // dF of the unit increment c (eq. 11), then dP = D^T vec(dF): rows of D are vec(dP[E_k]).
           Vec3 dx{0, 0, 0}, dr{0, 0, 0};
           (c < 3 ? dx : dr) = Vec3{c % 3 == 0 ? 1.0 : 0.0, c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0};
           const Mat3 dF = pair_lever_differential(dx, dr, gradients[b], levers[b]);
-          double* out = &dP[54 * b + 9 * c];
-          for (int r = 0; r < 9; ++r) out[r] = 0;
+          double out[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
           for (int e = 0; e < 9; ++e) {
             const double f = v * dF.m[e / 3][e % 3];
             if (f == 0) continue;
             for (int r = 0; r < 9; ++r) out[r] += f * D[9 * e + r];
           }
+          for (int e = 0; e < 9; ++e) w[6 * e + c] = out[e];
         }
       }
       const int* slot = &m_pair_slots[m_pair_offsets[s]];
-      for (int b = 0; b < k; ++b)
+      for (int b = 0; b < k; ++b) {
+        const double* w = &W[54 * b];
         for (int a = 0; a <= b; ++a) {
           if (!owned[a] && !owned[b]) continue;
-          double block[6][6];  // block[c][r]: row r of frame a, column c of frame b
-          for (int c = 0; c < 6; ++c) {
-            Mat3 P;
-            for (int e = 0; e < 9; ++e) P.m[e / 3][e % 3] = dP[54 * b + 9 * c + e];
-            pair_lever_virtual_work(P, gradients[a], levers[a], block[c]);
-          }
-          if (a == b)  // a diagonal block: its lower triangle mirrored, so that K = K^T bitwise
+          // K_ab = B_a^T W_b (pair_lever_virtual_work of each column P = W_b[:, c], in its
+          // arithmetic): row r of frame a, column c of frame b, the columns side by side.
+          const Vec3& g = gradients[a];
+          const Mat3& M = levers[a];
+          double K[6][6];
+          for (int r = 0; r < 3; ++r)
             for (int c = 0; c < 6; ++c)
-              for (int r = 0; r < c; ++r) block[c][r] = block[r][c];
+              K[r][c] = w[6 * (3 * r) + c] * g.x + w[6 * (3 * r + 1) + c] * g.y + w[6 * (3 * r + 2) + c] * g.z;
+          for (int c = 0; c < 6; ++c) {
+            double tx = 0, ty = 0, tz = 0;  // axial(M P^T), P = W_b[:, c] as 3 x 3
+            for (int j = 0; j < 3; ++j) {
+              const double p0 = w[6 * j + c], p1 = w[6 * (3 + j) + c], p2 = w[6 * (6 + j) + c];
+              tx += M.m[1][j] * p2 - M.m[2][j] * p1;
+              ty += M.m[2][j] * p0 - M.m[0][j] * p2;
+              tz += M.m[0][j] * p1 - M.m[1][j] * p0;
+            }
+            K[3][c] = tx;
+            K[4][c] = ty;
+            K[5][c] = tz;
+          }
+          if (a == b)  // a diagonal block: its upper triangle mirrored, so that K = K^T bitwise
+            for (int c = 0; c < 6; ++c)
+              for (int r = 0; r < c; ++r) K[r][c] = K[c][r];
           if (owned[b]) {
             const int j = nb.frames[begin + b], row_block = slot[a * k + b];
             for (int c = 0; c < 6; ++c) {
               double* column = values + outer[6 * j + c] + 6 * row_block;
-              for (int r = 0; r < 6; ++r) column[r] += block[c][r];
+              for (int r = 0; r < 6; ++r) column[r] += K[r][c];
             }
           }
           if (owned[a] && a != b) {
             const int i = nb.frames[begin + a], row_block = slot[b * k + a];
             for (int r = 0; r < 6; ++r) {
               double* column = values + outer[6 * i + r] + 6 * row_block;
-              for (int c = 0; c < 6; ++c) column[c] += block[c][r];
+              for (int c = 0; c < 6; ++c) column[c] += K[r][c];
             }
           }
         }
+      }
     }
   }
   const std::vector<double>& blocks = elasticity.rotational_blocks();
@@ -168,6 +245,10 @@ const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& 
     for (int c = 0; c < 3; ++c)
       for (int r = 0; r < 3; ++r) values[outer[6 * i + 3 + c] + 6 * k + 3 + r] += blocks[9 * i + 3 * r + c];
   }
+  // The other terms: each position's triplets summed in their order, then added to K's entry.
+  m_other_sums.assign(m_other_positions.size(), 0.0);
+  for (std::size_t k = 0; k < others.size(); ++k) m_other_sums[m_other_position_of[k]] += others[k].value();
+  for (std::size_t u = 0; u < m_other_positions.size(); ++u) values[m_other_positions[u]] += m_other_sums[u];
   return m_matrix;
 }
 
