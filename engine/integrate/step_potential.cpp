@@ -226,7 +226,6 @@ LinearSystem StepPotential::system() {
     m_assembled_at.state = m_prepared;
     m_assembled_at.dt = m_dynamic ? m_dt : 0.0;
     m_assembled_at.load_scale = m_loads.scale;
-    if (!m_assembler) m_assembler = std::make_unique<TangentAssembler>(m_model);
     // The load and inertia blocks (every entry, so that the positions stay those of the last
     // assembly), then the fields' entries, summed into the elastic tangent's pattern.
     std::vector<Eigen::Triplet<double>> t;
@@ -240,6 +239,7 @@ LinearSystem StepPotential::system() {
     }
     for (const auto& field : m_fields) field->add_triplets(t);
     if (m_stabilised) m_stabilisation->add_triplets(t);
+    if (!m_assembler) m_assembler = std::make_unique<TangentAssembler>(m_model, t);
     Eigen::SparseMatrix<double> H = m_assembler->assemble(m_elasticity->prepared_reference(), t);
     if (m_dynamic && m_beta > 0) H += (m_beta / m_dt) * assemble_tangent(m_start_elasticity->prepared_reference());
     if (!m_mapping.empty()) {

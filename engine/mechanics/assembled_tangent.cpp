@@ -12,7 +12,17 @@ constexpr int kParallelMin = 256;               // fewer samples: one thread
 
 }  // namespace
 
-TangentAssembler::TangentAssembler(const Model& model) : m_model(model) { build_pattern({}); }
+TangentAssembler::TangentAssembler(const Model& model, const Triplets& others) : m_model(model) {
+  build_pattern(blocks_of({}, others));
+}
+
+std::vector<std::pair<int, int>> TangentAssembler::blocks_of(std::vector<std::pair<int, int>> known,
+                                                             const Triplets& others) {
+  for (const auto& t : others) known.emplace_back(t.row() / 6, t.col() / 6);
+  std::sort(known.begin(), known.end());
+  known.erase(std::unique(known.begin(), known.end()), known.end());
+  return known;
+}
 
 void TangentAssembler::build_pattern(const std::vector<std::pair<int, int>>& extra) {
   const Model& model = m_model;
@@ -79,14 +89,22 @@ void TangentAssembler::build_pattern(const std::vector<std::pair<int, int>>& ext
     m_pair_offsets[s + 1] = m_pair_offsets[s] + k * k;
   }
   m_pair_slots.resize(static_cast<size_t>(m_pair_offsets.back()));
-#pragma omp parallel for schedule(dynamic, 64) if (samples > kParallelMin)
-  for (int s = 0; s < samples; ++s) {
-    int* slot = &m_pair_slots[m_pair_offsets[s]];
-    for (int a = nb.offsets[s]; a < nb.offsets[s + 1]; ++a)
-      for (int b = nb.offsets[s]; b < nb.offsets[s + 1]; ++b) {
-        const auto& rows = adjacency[nb.frames[b]];
-        *slot++ = static_cast<int>(std::lower_bound(rows.begin(), rows.end(), nb.frames[a]) - rows.begin());
+  // Column block by column block: the positions of its rows in a frame-indexed table, read for
+  // every pair (s, b) of the column's frame and every a of s (slot a k + b of s).
+#pragma omp parallel if (samples > kParallelMin)
+  {
+    std::vector<int> position(n, -1);
+#pragma omp for schedule(dynamic, 16)
+    for (int j = 0; j < n; ++j) {
+      const std::vector<int>& rows = adjacency[j];
+      for (int q = 0; q < static_cast<int>(rows.size()); ++q) position[rows[q]] = q;
+      for (int r = rev.offsets[j]; r < rev.offsets[j + 1]; ++r) {
+        const int p = rev.pairs[r], s = rev.pair_samples[p];
+        const int begin = nb.offsets[s], k = nb.offsets[s + 1] - begin, b = p - begin;
+        int* slot = &m_pair_slots[m_pair_offsets[s]];
+        for (int a = 0; a < k; ++a) slot[a * k + b] = position[nb.frames[begin + a]];
       }
+    }
   }
 }
 
@@ -126,11 +144,7 @@ bool TangentAssembler::locate(const Triplets& others) {
 
 const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& elasticity, const Triplets& others) {
   if (!locate(others)) {
-    std::vector<std::pair<int, int>> extra = m_extra_blocks;
-    for (const auto& t : others) extra.emplace_back(t.row() / 6, t.col() / 6);
-    std::sort(extra.begin(), extra.end());
-    extra.erase(std::unique(extra.begin(), extra.end()), extra.end());
-    build_pattern(extra);
+    build_pattern(blocks_of(m_extra_blocks, others));
     locate(others);
   }
   const Model& model = elasticity.model();

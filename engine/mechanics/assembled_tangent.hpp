@@ -18,16 +18,19 @@ namespace fascia {
 // scatters values into it.
 class TangentAssembler {
  public:
-  explicit TangentAssembler(const Model& model);
+  using Triplets = std::vector<Eigen::Triplet<double>>;
+  // The pattern holds the blocks of `others` (the first assembly's other terms) from the start.
+  explicit TangentAssembler(const Model& model, const Triplets& others = {});
   // Call elasticity.prepare(state) first. Returns K + T, T the sum of `others` (duplicates summed
   // in their order, as Eigen's setFromTriplets), valid until the next call. Triplets whose 6x6
-  // blocks lie outside the pattern widen it (their blocks join it).
-  using Triplets = std::vector<Eigen::Triplet<double>>;
+  // blocks lie outside the pattern widen it (their blocks join it: the pattern is built again).
   const Eigen::SparseMatrix<double>& assemble(const Elasticity& elasticity, const Triplets& others = {});
 
  private:
   // The pattern of the elastic couplings and the blocks of `extra` ((row frame, column frame)).
   void build_pattern(const std::vector<std::pair<int, int>>& extra);
+  // `known` and the blocks of `others`, sorted, each once.
+  static std::vector<std::pair<int, int>> blocks_of(std::vector<std::pair<int, int>> known, const Triplets& others);
   // Positions of `others` in the pattern (m_other_*); false if one lies outside it.
   bool locate(const Triplets& others);
 
