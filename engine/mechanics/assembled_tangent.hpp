@@ -36,7 +36,7 @@ class TangentAssembler {
 
   const Model& m_model;
   Eigen::SparseMatrix<double> m_matrix;
-  std::vector<std::pair<int, int>> m_extra_blocks;  // blocks of earlier triplets outside the elastic couplings
+  std::vector<std::pair<int, int>> m_extra_blocks;  // the triplets' blocks the pattern was built with
   std::vector<int> m_pair_slots;  // per sample, per (a, b) neighbour pair: block row position k
   std::vector<int> m_pair_offsets;  // [S+1] into m_pair_slots
   // The located triplets: their rows and columns, the distinct positions they reach (in order of

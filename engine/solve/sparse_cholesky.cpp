@@ -83,61 +83,57 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
   }
   int free = 0;
   for (int k = 0; k < n; ++k) free += m_index[k] >= 0;
-  const int* h_outer = H.outerIndexPtr();
-  const int* h_inner = H.innerIndexPtr();
-  const double* h_values = H.valuePtr();
-  const bool same_source = m_analysed && H.isCompressed() && m_source_outer.size() == static_cast<size_t>(n + 1) &&
+  // A compressed view of H (the assembled tangents are compressed already).
+  Eigen::SparseMatrix<double> compressed;
+  const Eigen::SparseMatrix<double>* source = &H;
+  if (!H.isCompressed()) {
+    compressed = H;
+    compressed.makeCompressed();
+    source = &compressed;
+  }
+  const int* h_outer = source->outerIndexPtr();
+  const int* h_inner = source->innerIndexPtr();
+  const Eigen::Index h_nonzeros = source->nonZeros();
+  const bool same_source = m_analysed && m_source_outer.size() == static_cast<size_t>(n + 1) &&
                            std::equal(h_outer, h_outer + n + 1, m_source_outer.begin()) &&
-                           std::equal(h_inner, h_inner + H.nonZeros(), m_source_inner.begin(), m_source_inner.end());
-  if (same_source) {
-    // The pattern of H is that of the last factorisation: its entries go to the positions found
-    // then (each position receives at most one, added to zero as the triplets below are).
-    double* values = m_reduced.valuePtr();
-    std::fill(values, values + m_reduced.nonZeros(), 0.0);
-    for (std::size_t k = 0; k < m_scatter.size(); ++k)
-      if (m_scatter[k] >= 0) values[m_scatter[k]] += h_values[k];
-  } else {
-    // The lower triangle of the free-free block, with every diagonal entry present (the shift
-    // below writes there without changing the pattern) and every entry of the analysed pattern
-    // (assemblies leave out entries that happen to be zero, e.g. load blocks at rest): a matrix
-    // whose pattern is contained in the analysed one keeps that analysis.
+                           std::equal(h_inner, h_inner + h_nonzeros, m_source_inner.begin(), m_source_inner.end());
+  if (!same_source) {
+    // The pattern: the lower triangle of the free-free block, with every diagonal entry present
+    // (the shift below writes there without changing the pattern) and every entry of the
+    // analysed pattern (assemblies leave out entries that happen to be zero, e.g. load blocks at
+    // rest), so that a matrix whose pattern is contained in the analysed one keeps that analysis.
     std::vector<Eigen::Triplet<double>> t;
-    t.reserve(static_cast<size_t>(H.nonZeros()) / 2 + free + (m_analysed ? m_inner.size() : 0));
+    t.reserve(static_cast<size_t>(h_nonzeros) / 2 + free + (m_analysed ? m_inner.size() : 0));
     for (int k = 0; k < free; ++k) t.emplace_back(k, k, 0.0);
     if (m_analysed && static_cast<int>(m_outer.size()) == free + 1)
       for (int c = 0; c < free; ++c)
         for (int k = m_outer[c]; k < m_outer[c + 1]; ++k) t.emplace_back(m_inner[k], c, 0.0);
-    for (int c = 0; c < H.outerSize(); ++c)
-      for (Eigen::SparseMatrix<double>::InnerIterator it(H, c); it; ++it) {
-        const int r = m_index[it.row()], col = m_index[it.col()];
-        if (r >= 0 && col >= 0 && r >= col) t.emplace_back(r, col, it.value());
+    for (int c = 0; c < n; ++c)
+      for (int k = h_outer[c]; k < h_outer[c + 1]; ++k) {
+        const int r = m_index[h_inner[k]], col = m_index[c];
+        if (r >= 0 && col >= 0 && r >= col) t.emplace_back(r, col, 0.0);
       }
     m_reduced = Eigen::SparseMatrix<double>(free, free);
     m_reduced.setFromTriplets(t.begin(), t.end());
     m_reduced.makeCompressed();
-    // Where each entry of H went, for the next matrix of the same pattern.
-    m_source_outer.clear();
-    m_source_inner.clear();
-    m_scatter.clear();
-    if (H.isCompressed()) {
-      m_source_outer.assign(h_outer, h_outer + n + 1);
-      m_source_inner.assign(h_inner, h_inner + H.nonZeros());
-      m_scatter.assign(static_cast<size_t>(H.nonZeros()), -1);
-      const int* outer = m_reduced.outerIndexPtr();
-      const int* inner = m_reduced.innerIndexPtr();
-      for (int c = 0; c < n; ++c)
-        for (int k = h_outer[c]; k < h_outer[c + 1]; ++k) {
-          const int r = m_index[h_inner[k]], col = m_index[c];
-          if (r < 0 || col < 0 || r < col) continue;
-          m_scatter[k] = static_cast<int>(std::lower_bound(inner + outer[col], inner + outer[col + 1], r) - inner);
-        }
-    }
-    const std::vector<int> outer(m_reduced.outerIndexPtr(), m_reduced.outerIndexPtr() + free + 1);
-    const std::vector<int> inner(m_reduced.innerIndexPtr(), m_reduced.innerIndexPtr() + m_reduced.nonZeros());
-    if (!m_analysed || outer != m_outer || inner != m_inner) {
+    // Where each entry of H goes (-1: a fixed row or column, or the upper triangle).
+    m_source_outer.assign(h_outer, h_outer + n + 1);
+    m_source_inner.assign(h_inner, h_inner + h_nonzeros);
+    m_scatter.assign(static_cast<size_t>(h_nonzeros), -1);
+    const int* outer = m_reduced.outerIndexPtr();
+    const int* inner = m_reduced.innerIndexPtr();
+    for (int c = 0; c < n; ++c)
+      for (int k = h_outer[c]; k < h_outer[c + 1]; ++k) {
+        const int r = m_index[h_inner[k]], col = m_index[c];
+        if (r < 0 || col < 0 || r < col) continue;
+        m_scatter[k] = static_cast<int>(std::lower_bound(inner + outer[col], inner + outer[col + 1], r) - inner);
+      }
+    const std::vector<int> reduced_outer(outer, outer + free + 1);
+    const std::vector<int> reduced_inner(inner, inner + m_reduced.nonZeros());
+    if (!m_analysed || reduced_outer != m_outer || reduced_inner != m_inner) {
       m_factor->analyzePattern(m_reduced);
-      m_outer = outer;
-      m_inner = inner;
+      m_outer = reduced_outer;
+      m_inner = reduced_inner;
       m_analysed = true;
       ++m_analyses;
       std::uint64_t h = 14695981039346656037ull;
@@ -146,6 +142,12 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
       m_pattern_fingerprint = fnv1a(h, m_inner.data(), m_inner.size() * sizeof(int));
     }
   }
+  // The values: each entry of H at its position (each position receives at most one).
+  double* values = m_reduced.valuePtr();
+  std::fill(values, values + m_reduced.nonZeros(), 0.0);
+  const double* h_values = source->valuePtr();
+  for (std::size_t k = 0; k < m_scatter.size(); ++k)
+    if (m_scatter[k] >= 0) values[m_scatter[k]] += h_values[k];
   ++m_factorisations;
   m_shift = 0;
   const int threads = team_size();

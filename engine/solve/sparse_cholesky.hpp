@@ -50,8 +50,8 @@ class SparseCholesky {
   std::vector<int> m_outer, m_inner;               // pattern of the analysed reduced matrix
   Eigen::SparseMatrix<double> m_reduced;           // the last factorised lower free-free block
   // The pattern of the last H (compressed) and, per entry of H, its position in m_reduced's
-  // values (-1: a fixed row or column, or the upper triangle): a matrix of that pattern is
-  // scattered there directly.
+  // values (-1: a fixed row or column, or the upper triangle): found when H's pattern changes,
+  // and every factorisation's values are scattered through it.
   std::vector<int> m_source_outer, m_source_inner, m_scatter;
   bool m_analysed = false, m_factorised = false;
   double m_shift = 0;
