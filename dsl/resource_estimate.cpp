@@ -182,7 +182,7 @@ ObjectEstimate estimate_mesh_based(double cells, int nodes, double vertices, int
 // per byte of an ASCII mesh file.
 double mesh_file_bytes(double file_bytes) { return 8 * file_bytes; }
 
-double output_bytes(double rows, double values_per_row) { return 8 * rows * values_per_row; }
+double output_bytes(double rows, double bytes_per_row) { return rows * bytes_per_row; }
 
 double free_disk_bytes(const std::string& path) {
   std::error_code ec;

@@ -58,8 +58,8 @@ ObjectEstimate estimate_mesh_based(double cells, int nodes, double vertices, int
 // Memory to read a mesh file of `file_bytes` bytes (the parsed text, the importer's copies).
 double mesh_file_bytes(double file_bytes);
 
-// Bytes of an output file: `rows` preallocated rows of `values_per_row` doubles.
-double output_bytes(double rows, double values_per_row);
+// Bytes of an output file: `rows` preallocated rows of `bytes_per_row` bytes.
+double output_bytes(double rows, double bytes_per_row);
 
 // Free bytes on the file system holding `path` (its directory when it does not exist yet), or
 // < 0 when unknown.

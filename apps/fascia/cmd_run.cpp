@@ -141,7 +141,7 @@ class StepRecorder {
     // The fields' names, sizes and units, from an evaluation at rest.
     compute_fields(rest_state(m_built.model));
     for (const auto& [group, field] : m_fields)
-      layout.fields.push_back(FieldLayout{group, field->name, field->components, field->unit});
+      layout.fields.push_back(FieldLayout{group, field->name, field->components, field->unit, field->single});
     return layout;
   }
 

@@ -40,12 +40,13 @@ void check_output_space(const std::string& path, const dsl::SceneSpec& spec, con
                       dsl::ExitCode::too_large);
     return;
   }
-  // Values per row: a frame's position, orientation and fields (io/sample_fields.hpp: 25 values),
-  // a sample's or a surface vertex's position and fields (48 values, the stress and strain tensors
-  // included), and a few dozen observables, steps and times.
-  double values = 25.0 * built.stats.frames + (spec.output.samples ? 48.0 * built.stats.samples : 0.0) + 100;
-  for (const dsl::BuiltObject& o : built.objects) values += 48.0 * static_cast<double>(o.surface.vertex_frames.size());
-  const double need = dsl::output_bytes(static_cast<double>(rows), values);
+  // Bytes per row: a frame's position, orientation and kinematic fields (io/sample_fields.hpp: 25
+  // doubles), a sample's or a surface vertex's position, displacement and velocity (9 doubles) and
+  // strain and stress measures (40 floats at most), and a few dozen observables, steps and times.
+  constexpr double kFrameBytes = 25 * 8, kPointBytes = 9 * 8 + 40 * 4;
+  double bytes = kFrameBytes * built.stats.frames + (spec.output.samples ? kPointBytes * built.stats.samples : 0.0) + 800;
+  for (const dsl::BuiltObject& o : built.objects) bytes += kPointBytes * static_cast<double>(o.surface.vertex_frames.size());
+  const double need = dsl::output_bytes(static_cast<double>(rows), bytes);
   const double free = dsl::free_disk_bytes(path);
   if (free >= 0 && need > free)
     diagnostics.error(where, "the output '" + path + "' needs about " + dsl::bytes_text(need) + " for " +

@@ -22,24 +22,32 @@ void store(std::vector<double>& out, std::size_t index, const std::array<double,
   for (std::size_t k = 0; k < 3; ++k) out[3 * index + k] = v[k];
 }
 
+// A field of n particles, zero.
 Field make(const char* name, int components, const char* unit, std::size_t n) {
-  return Field{name, components, unit, std::vector<double>(n * static_cast<std::size_t>(components), 0.0)};
+  return Field{name, components, unit, std::vector<double>(n * static_cast<std::size_t>(components), 0.0), false};
+}
+
+// A strain or stress measure (stored in single precision), zero.
+Field measure(const char* name, int components, const char* unit, std::size_t n) {
+  Field f = make(name, components, unit, n);
+  f.single = true;
+  return f;
 }
 
 }  // namespace
 
 std::vector<Field> measure_fields(std::size_t n, bool fibres) {
   std::vector<Field> f;
-  f.push_back(make("green_strain", 9, "", n));
-  f.push_back(make("second_piola", 9, "Pa", n));
-  f.push_back(make("cauchy_stress", 9, "Pa", n));
-  f.push_back(make("green_strain_principal", 3, "", n));
-  f.push_back(make("second_piola_principal", 3, "Pa", n));
-  f.push_back(make("cauchy_principal", 3, "Pa", n));
-  f.push_back(make("second_piola_von_mises", 1, "Pa", n));
-  f.push_back(make("cauchy_von_mises", 1, "Pa", n));
-  f.push_back(make("strain_energy_density", 1, "J/m^3", n));
-  if (fibres) f.push_back(make("fibre_stretch", 1, "", n));
+  f.push_back(measure("green_strain", 9, "", n));
+  f.push_back(measure("second_piola", 9, "Pa", n));
+  f.push_back(measure("cauchy_stress", 9, "Pa", n));
+  f.push_back(measure("green_strain_principal", 3, "", n));
+  f.push_back(measure("second_piola_principal", 3, "Pa", n));
+  f.push_back(measure("cauchy_principal", 3, "Pa", n));
+  f.push_back(measure("second_piola_von_mises", 1, "Pa", n));
+  f.push_back(measure("cauchy_von_mises", 1, "Pa", n));
+  f.push_back(measure("strain_energy_density", 1, "J/m^3", n));
+  if (fibres) f.push_back(measure("fibre_stretch", 1, "", n));
   return f;
 }
 

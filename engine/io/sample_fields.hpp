@@ -25,11 +25,14 @@
 namespace fascia {
 
 // One per-particle field: values [n][components] (components 1, 3 or 9; 3 x 3 row-major).
+// `single`: stored in single precision (the strain and stress measures, whose accuracy the
+// Newton tolerance bounds far above float's 6e-8 rounding); kinematics are stored in double.
 struct Field {
   std::string name;
   int components = 1;
   std::string unit;  // SI, "" dimensionless
   std::vector<double> values;
+  bool single = false;
 };
 
 // The sample fields in the order listed above into `fields`; rotations are

@@ -101,7 +101,7 @@ void write_box(hid_t particles_group, const std::string& path) {
 Handle series_dataset(hid_t parent, const std::string& name, hid_t file_type, const std::vector<hsize_t>& shape,
                       hsize_t capacity, const std::string& path) {
   // Chunks of about 64 KiB or one row, whichever is larger (fewer chunks to preallocate).
-  hsize_t row_bytes = 8;
+  hsize_t row_bytes = H5Tget_size(file_type);
   for (hsize_t s : shape) row_bytes *= std::max<hsize_t>(s, 1);
   const hsize_t rows_per_chunk = std::max<hsize_t>(1, std::min<hsize_t>(1024, (hsize_t(64) << 10) / row_bytes));
   std::vector<hsize_t> dims{capacity}, maxdims{H5S_UNLIMITED}, chunk{rows_per_chunk};
@@ -173,8 +173,20 @@ struct Clock {
   std::string where;  // the first series' group
 };
 
-Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& shape, bool integer,
-                   const std::string& unit, hsize_t capacity, Clock& clock, const std::string& path) {
+// One time series of the layout: its group, element name, per-step shape, type and unit.
+struct SeriesPlan {
+  std::string group;  // "/particles/frames", "/observables"
+  std::string name;
+  std::vector<hsize_t> shape;
+  bool integer = false;
+  std::string unit;
+  bool single = false;  // float32 in the file (a double series otherwise)
+};
+
+// The series' values are written from native ints or doubles, which HDF5 converts to the file's
+// type (float32 for a single series).
+Series make_series(hid_t parent, const SeriesPlan& plan, hsize_t capacity, Clock& clock, const std::string& path) {
+  const std::string& name = plan.name;
   Series s;
   s.name = name;
   s.group = group(parent, name, path);
@@ -188,21 +200,14 @@ Series make_series(hid_t parent, const std::string& name, const std::vector<hsiz
                              H5P_DEFAULT),
               path, "link " + name + "/" + part, 0);
   }
-  s.value = series_dataset(s.group.get(), "value", integer ? H5T_STD_I32LE : H5T_IEEE_F64LE, shape, capacity, path);
-  if (!unit.empty()) write_text_attribute(s.value.get(), "unit", unit, path);
-  s.mem_type = integer ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE;
-  for (hsize_t d : shape) s.count *= d;
+  const hid_t file_type = plan.integer ? H5T_STD_I32LE : plan.single ? H5T_IEEE_F32LE : H5T_IEEE_F64LE;
+  s.value = series_dataset(s.group.get(), "value", file_type, plan.shape, capacity, path);
+  if (!plan.unit.empty()) write_text_attribute(s.value.get(), "unit", plan.unit, path);
+  s.mem_type = plan.integer ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE;
+  for (hsize_t d : plan.shape) s.count *= d;
   return s;
 }
 
-// One time series of the layout: its group, element name, per-step shape, type and unit.
-struct SeriesPlan {
-  std::string group;  // "/particles/frames", "/observables"
-  std::string name;
-  std::vector<hsize_t> shape;
-  bool integer = false;
-  std::string unit;
-};
 
 // File access for writing: metadata is written only by H5Fflush. With evictions enabled the
 // metadata cache may write a chunk index node that points past the end-of-allocation recorded on
@@ -284,7 +289,7 @@ std::vector<SeriesPlan> series_plan(const TrajectoryLayout& layout) {
     std::vector<hsize_t> shape{static_cast<hsize_t>(particle_count(layout, field.group))};
     if (field.components == 3) shape.push_back(3);
     if (field.components == 9) shape.insert(shape.end(), {3, 3});
-    plan.push_back({"/particles/" + field.group, field.name, shape, false, field.unit});
+    plan.push_back({"/particles/" + field.group, field.name, shape, false, field.unit, field.single});
   }
   for (const auto& [name, integer] : layout.observables) {
     std::string unit;
@@ -402,7 +407,7 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const TrajectoryHead
     Handle parent(checked(H5Gopen2(f, plan.group.c_str(), H5P_DEFAULT), path, "open " + plan.group), H5Gclose);
     if (m_impl->series.empty()) m_impl->clock.where = plan.group + "/" + plan.name;
     m_impl->series.push_back(
-        make_series(parent.get(), plan.name, plan.shape, plan.integer, plan.unit, capacity, m_impl->clock, path));
+        make_series(parent.get(), plan, capacity, m_impl->clock, path));
   }
   checked(H5Fflush(f, H5F_SCOPE_GLOBAL), path, "flush", 0);
 }
@@ -496,14 +501,19 @@ void TrajectoryWriter::append(const TrajectoryStep& step) {
     throw TrajectoryError(m_path + ": step has " + std::to_string(step.observables.size()) + " observables, layout " +
                           std::to_string(m_layout.observables.size()));
 
-  // Check everything before writing anything: a step is written whole or not at all.
+  // Check everything before writing anything: a step is written whole or not at all. A single
+  // field's values must also be finite in float32.
+  const std::size_t first_field = arrays.size() - m_layout.fields.size();
   for (std::size_t a = 0; a < arrays.size(); ++a) {
     const auto& [data, count] = arrays[a];
     if (!data && count) throw TrajectoryError(m_path + ": missing data in step " + std::to_string(step.step));
+    const bool single = a >= first_field && m_layout.fields[a - first_field].single;
+    const double largest = single ? static_cast<double>(std::numeric_limits<float>::max()) : std::numeric_limits<double>::max();
     for (std::size_t i = 0; i < count; ++i)
-      if (!std::isfinite(data[i]))
-        throw NonFiniteStep(m_path + ": refusing to write non-finite values of " + names[a] + " at step " +
-                            std::to_string(step.step));
+      if (!(std::abs(data[i]) <= largest))
+        throw NonFiniteStep(m_path + ": refusing to write " +
+                            (std::isfinite(data[i]) ? "values beyond float32's range" : "non-finite values") + " of " +
+                            names[a] + " at step " + std::to_string(step.step));
   }
   for (std::size_t i = 0; i < step.observables.size(); ++i)
     if (!std::isfinite(step.observables[i]))
@@ -594,7 +604,11 @@ std::vector<T> read_rows(hid_t file, const std::string& path, hid_t mem_type, hs
   count[0] = rows;
   double total = 1;
   for (hsize_t c : count) total *= static_cast<double>(c);
-  check_fits_file(ds.get(), total * sizeof(T), file_path, path);
+  // The stored elements' size (float32 fields hold 4 bytes each), at most the read type's.
+  Handle stored(H5Dget_type(ds.get()), H5Tclose);
+  const double element = stored.valid() ? static_cast<double>(std::min<std::size_t>(H5Tget_size(stored.get()), sizeof(T)))
+                                        : static_cast<double>(sizeof(T));
+  check_fits_file(ds.get(), total * element, file_path, path);
   std::vector<T> out(static_cast<std::size_t>(total));
   if (total == 0) return out;
   Handle fspace(H5Dget_space(ds.get()), H5Sclose);

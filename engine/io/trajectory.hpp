@@ -5,7 +5,8 @@
 //   /particles/samples/           box; position
 //   /particles/<surface>/         box; position (surface vertices); frames [V] (frame of each vertex)
 //   /particles/<group>/<field>/   per-particle fields of frames, samples or a surface (layout.fields):
-//                                 value [T][n], [T][n][3] or [T][n][3][3], with a unit attribute
+//                                 value [T][n], [T][n][3] or [T][n][3][3], with a unit attribute;
+//                                 float64, or float32 for a field marked single
 //   /connectivity/<surface>       [F][3|4] int, indices into /particles/<surface>/position
 //   /connectivity/frames, samples [n] int, 0..n-1 (vertex cells for XDMF point clouds)
 //   /observables/<name>/          step, time, value [T]
@@ -65,6 +66,7 @@ struct FieldLayout {
   std::string name;         // e.g. "displacement", "cauchy_stress"
   int components = 1;       // 1 scalar, 3 vector, 9 tensor (3 x 3)
   std::string unit;         // SI unit ("" dimensionless)
+  bool single = false;      // stored as float32 (written from doubles, read back as doubles)
 };
 
 struct TrajectoryLayout {

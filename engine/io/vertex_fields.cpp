@@ -157,14 +157,15 @@ std::vector<Field> surface_fields(const Model& model, const State& state, const 
   const SurfaceLayout& surface = *source.surface;
   const std::size_t V = surface.vertex_frames.size();
   std::vector<Field> out;
-  out.push_back(Field{"displacement", 3, "m", std::vector<double>(3 * V, 0.0)});
-  out.push_back(Field{"velocity", 3, "m/s", std::vector<double>(3 * V, 0.0)});
+  out.push_back(Field{"displacement", 3, "m", std::vector<double>(3 * V, 0.0), false});
+  out.push_back(Field{"velocity", 3, "m/s", std::vector<double>(3 * V, 0.0), false});
   const std::vector<Field> shell_measures =
       source.shell ? shell_frame_averages(model, *source.shell, state) : std::vector<Field>{};
   const std::vector<Field>& measures = source.shell ? shell_measures : frame_measures;
   const std::size_t first_measure = out.size();
   for (const Field& f : measures)
-    out.push_back(Field{f.name, f.components, f.unit, std::vector<double>(V * static_cast<std::size_t>(f.components), 0.0)});
+    out.push_back(
+        Field{f.name, f.components, f.unit, std::vector<double>(V * static_cast<std::size_t>(f.components), 0.0), f.single});
 
   // The measures packed per frame, [N][C] with C all their components, so that a vertex sums
   // one contiguous row per frame.

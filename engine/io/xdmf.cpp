@@ -16,9 +16,11 @@ std::string joined(const std::vector<std::size_t>& v) {
   return s;
 }
 
-// A <DataItem> holding row k of the dataset `source` ("file.h5:/path") of shape [t][shape...].
+// A <DataItem> holding row k of the dataset `source` ("file.h5:/path") of shape [t][shape...],
+// float64 or (single) float32.
 void row_item(std::ostringstream& out, XdmfDialect dialect, const std::string& source, std::size_t k, std::size_t t,
-              const std::vector<std::size_t>& shape, const char* indent) {
+              const std::vector<std::size_t>& shape, const char* indent, bool single) {
+  const char* precision = single ? "4" : "8";
   std::vector<std::size_t> dims{t}, start{k}, ones{1}, count{1};
   for (std::size_t s : shape) {
     dims.push_back(s);
@@ -28,7 +30,8 @@ void row_item(std::ostringstream& out, XdmfDialect dialect, const std::string& s
   }
   if (dialect == XdmfDialect::xdmf3) {
     // Xdmf3 heavy-data description: path|start:stride:count:dataspace.
-    out << indent << "<DataItem Dimensions=\"" << joined(count) << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
+    out << indent << "<DataItem Dimensions=\"" << joined(count) << "\" NumberType=\"Float\" Precision=\"" << precision
+        << "\" Format=\"HDF\">"
         << source << "|" << joined(start) << ":" << joined(ones) << ":" << joined(count) << ":" << joined(dims)
         << "</DataItem>\n";
     return;
@@ -36,7 +39,8 @@ void row_item(std::ostringstream& out, XdmfDialect dialect, const std::string& s
   out << indent << "<DataItem ItemType=\"HyperSlab\" Dimensions=\"" << joined(count) << "\" Type=\"HyperSlab\">\n"
       << indent << "  <DataItem Dimensions=\"3 " << dims.size() << "\" Format=\"XML\">" << joined(start) << " "
       << joined(ones) << " " << joined(count) << "</DataItem>\n"
-      << indent << "  <DataItem Dimensions=\"" << joined(dims) << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
+      << indent << "  <DataItem Dimensions=\"" << joined(dims) << "\" NumberType=\"Float\" Precision=\"" << precision
+      << "\" Format=\"HDF\">"
       << source << "</DataItem>\n"
       << indent << "</DataItem>\n";
 }
@@ -45,7 +49,7 @@ void row_item(std::ostringstream& out, XdmfDialect dialect, const std::string& s
 void geometry_and_fields(std::ostringstream& out, XdmfDialect dialect, const std::string& h5, const std::string& group,
                          const TrajectoryLayout& layout, std::size_t k, std::size_t t, std::size_t n) {
   out << "          <Geometry GeometryType=\"XYZ\">\n";
-  row_item(out, dialect, h5 + ":/particles/" + group + "/position/value", k, t, {n, 3}, "            ");
+  row_item(out, dialect, h5 + ":/particles/" + group + "/position/value", k, t, {n, 3}, "            ", false);
   out << "          </Geometry>\n";
   for (const FieldLayout& f : layout.fields) {
     if (f.group != group) continue;
@@ -54,7 +58,7 @@ void geometry_and_fields(std::ostringstream& out, XdmfDialect dialect, const std
     if (f.components == 3) shape.push_back(3);
     if (f.components == 9) shape.insert(shape.end(), {3, 3});
     out << "          <Attribute Name=\"" << f.name << "\" AttributeType=\"" << type << "\" Center=\"Node\">\n";
-    row_item(out, dialect, h5 + ":/particles/" + group + "/" + f.name + "/value", k, t, shape, "            ");
+    row_item(out, dialect, h5 + ":/particles/" + group + "/" + f.name + "/value", k, t, shape, "            ", f.single);
     out << "          </Attribute>\n";
   }
 }

@@ -26,7 +26,9 @@ TrajectoryLayout small_layout() {
   s.vertex_frames = {0, 1, 2};
   layout.surfaces.push_back(s);
   layout.observables = {{"elastic_energy", false}, {"newton_iterations", true}};
-  layout.fields = {{"samples", "cauchy_stress", 9, "Pa"}, {"slab", "displacement", 3, "m"}, {"frames", "speed", 1, "m/s"}};
+  layout.fields = {{"samples", "cauchy_stress", 9, "Pa", true},  // stored as float32
+                   {"slab", "displacement", 3, "m", false},
+                   {"frames", "speed", 1, "m/s", false}};
   layout.capacity = 2;  // the third step doubles the preallocated rows
   return layout;
 }
@@ -43,7 +45,7 @@ StepData data_for(int k) {
   for (int i = 0; i < 3; ++i) d.q.insert(d.q.end(), {1, 0, 0, 0.01 * k});
   for (int i = 0; i < 6; ++i) d.p.push_back(-k - 0.5 * i);
   d.surface = d.x;
-  for (int i = 0; i < 18; ++i) d.stress.push_back(1e3 * k + i);
+  for (int i = 0; i < 18; ++i) d.stress.push_back(1e3 * k + i + 0.1);  // rounded in float32
   for (int i = 0; i < 9; ++i) d.displacement.push_back(-0.01 * k * i);
   d.speed = {1.0 * k, 2.0 * k, 3.0 * k};
   d.observables = {0.5 * k, static_cast<double>(k + 2)};
@@ -87,6 +89,11 @@ TEST_CASE("trajectories round-trip through the H5MD layout", "[io]") {
     CHECK_THROWS_AS(writer.append(step_of(bad, 3)), TrajectoryError);
     CHECK(writer.steps_written() == 3);
     CHECK(writer.rows_allocated() == 4);
+    // So is a single field's value beyond float32's range (a double field's is written).
+    bad = data_for(3);
+    bad.stress[5] = 1e39;
+    CHECK_THROWS_WITH(writer.append(step_of(bad, 3)), Catch::Contains("beyond float32's range of samples/cauchy_stress"));
+    CHECK(writer.steps_written() == 3);
   }
   TrajectoryReader reader(path.string());
   CHECK(reader.step_count() == 3);
@@ -102,7 +109,10 @@ TEST_CASE("trajectories round-trip through the H5MD layout", "[io]") {
     CHECK(reader.particle_values("frames", "orientation", k) == data[k].q);
     CHECK(reader.particle_values("samples", "position", k) == data[k].p);
     CHECK(reader.particle_values("slab", "position", k) == data[k].surface);
-    CHECK(reader.particle_values("samples", "cauchy_stress", k) == data[k].stress);
+    std::vector<double> stored;  // the float32 values the file holds, read back as doubles
+    for (double v : data[k].stress) stored.push_back(static_cast<double>(static_cast<float>(v)));
+    CHECK(reader.particle_values("samples", "cauchy_stress", k) == stored);
+    CHECK(stored != data[k].stress);
     CHECK(reader.particle_values("slab", "displacement", k) == data[k].displacement);
     CHECK(reader.particle_values("frames", "speed", k) == data[k].speed);
   }
@@ -137,11 +147,16 @@ TEST_CASE("the XDMF sidecars select each written step's row, in both dialects", 
       CHECK_THAT(text, Catch::Contains("run.h5:/particles/samples/cauchy_stress/value|1 0 0 0:1 1 1 1:1 2 3 3:2 2 3 3<"));
       CHECK_THAT(text, Catch::Contains("run.h5:/particles/frames/speed/value|1 0:1 1:1 3:2 3<"));
       CHECK_THAT(text, !Catch::Contains("HyperSlab"));
+      // The float32 field is declared so; the others are doubles.
+      CHECK_THAT(text, Catch::Contains("Precision=\"4\" Format=\"HDF\">run.h5:/particles/samples/cauchy_stress/value|"));
+      CHECK_THAT(text, Catch::Contains("Precision=\"8\" Format=\"HDF\">run.h5:/particles/frames/speed/value|"));
     } else {
       CHECK_THAT(text, Catch::Contains("1 0 0 1 1 1 1 3 3</DataItem>"));
       CHECK_THAT(text, Catch::Contains("1 0 0 0 1 1 1 1 1 2 3 3</DataItem>"));
       CHECK_THAT(text, Catch::Contains("Dimensions=\"2 3 3\""));
       CHECK_THAT(text, !Catch::Contains("|"));
+      CHECK_THAT(text, Catch::Contains("Precision=\"4\" Format=\"HDF\">run.h5:/particles/samples/cauchy_stress/value<"));
+      CHECK_THAT(text, Catch::Contains("Precision=\"8\" Format=\"HDF\">run.h5:/particles/frames/speed/value<"));
     }
   }
   CHECK(xdmf_path_for("out/run.h5") == "out/run.xmf");
@@ -150,4 +165,30 @@ TEST_CASE("the XDMF sidecars select each written step's row, in both dialects", 
 
 TEST_CASE("writing to an impossible path is an I/O error", "[io]") {
   CHECK_THROWS_AS(TrajectoryWriter("/nonexistent/dir/run.h5", TrajectoryHeader{}, small_layout()), TrajectoryError);
+}
+
+TEST_CASE("a float32 field larger than half its file reads back", "[io]") {
+  // The reader checks that a read fits in the file by the stored elements' size: a one-row file
+  // whose float32 field is most of it holds fewer bytes than that field read as doubles.
+  const fs::path path = fs::temp_directory_path() / "fascia_test_single_field.h5";
+  TrajectoryLayout layout;
+  layout.frames = 1;
+  layout.samples = 20000;
+  layout.fields = {{"samples", "cauchy_stress", 9, "Pa", true}};
+  layout.capacity = 1;
+  std::vector<double> x(3, 0.0), q{1, 0, 0, 0}, p(3 * 20000, 0.0), stress(9 * 20000);
+  for (std::size_t i = 0; i < stress.size(); ++i) stress[i] = 0.5 * static_cast<double>(i);
+  {
+    TrajectoryWriter writer(path.string(), TrajectoryHeader{}, layout);
+    TrajectoryStep s;
+    s.frame_positions = x.data();
+    s.frame_orientations = q.data();
+    s.sample_positions = p.data();
+    s.fields = {stress.data()};
+    writer.append(s);
+  }
+  REQUIRE(fs::file_size(path) < 2 * sizeof(float) * stress.size());
+  TrajectoryReader reader(path.string());
+  CHECK(reader.particle_values("samples", "cauchy_stress", 0) == stress);
+  fs::remove(path);
 }

@@ -109,6 +109,14 @@ def test_run_writes_a_complete_h5md_file(fascia_bin, root, tmp_path):
         assert np.allclose(x1[jaws, 0] - x0[jaws, 0], 1e-3, rtol=1e-6)
         cmd = f["parameters/command_line"][()]
         assert b"run.duration=50ms" in (cmd if isinstance(cmd, bytes) else cmd.encode())
+        # Kinematics are stored in double, the strain and stress measures in single precision.
+        for group in ("samples", "slab"):
+            for name in ("position", "displacement", "velocity"):
+                assert f[f"particles/{group}/{name}/value"].dtype == np.float64
+            for name in ("green_strain", "cauchy_stress", "cauchy_principal", "cauchy_von_mises",
+                         "strain_energy_density"):
+                assert f[f"particles/{group}/{name}/value"].dtype == np.float32
+        assert f["particles/frames/orientation/value"].dtype == np.float64
 
 
 def test_info_summarises_a_run(fascia_bin, root, tmp_path):
