@@ -40,7 +40,7 @@ struct Cusolver {
   decltype(&cublasCreate_v2) blas_create = nullptr;
   decltype(&cublasDestroy_v2) blas_destroy = nullptr;
   decltype(&cublasSetStream_v2) blas_set_stream = nullptr;
-  decltype(&cublasDsymv_v2) symv = nullptr;
+  decltype(&cublasSsymv_v2) symv = nullptr;
   decltype(&cublasDtrsm_v2) trsm = nullptr;
   decltype(&cublasDsyrk_v2) syrk = nullptr;
   std::string error;  // why they could not be loaded; empty when loaded
@@ -74,7 +74,7 @@ const Cusolver& cusolver() {
     load(c.blas_create, "cublasCreate_v2");
     load(c.blas_destroy, "cublasDestroy_v2");
     load(c.blas_set_stream, "cublasSetStream_v2");
-    load(c.symv, "cublasDsymv_v2");
+    load(c.symv, "cublasSsymv_v2");
     load(c.trsm, "cublasDtrsm_v2");
     load(c.syrk, "cublasDsyrk_v2");
     return c;
@@ -146,6 +146,22 @@ __global__ void k_restore_shifted(const std::uint8_t* fixed, const double* diag,
   A[j * n + j] = fixed[j] ? 1.0 : diag[j] + tau * fmax(fabs(diag[j]), floor);
 }
 
+// The lower triangle of A (n x n, column-major) in single precision into S, of A's layout.
+__global__ void k_lower_to_single(const double* A, float* S, long long n) {
+  const long long j = blockIdx.y, i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (i >= j && i < n) S[j * n + i] = static_cast<float>(A[j * n + i]);
+}
+
+__global__ void k_to_single(const double* x, float* y, long long n) {
+  const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (i < n) y[i] = static_cast<float>(x[i]);
+}
+
+__global__ void k_to_double(const float* x, double* y, long long n) {
+  const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (i < n) y[i] = static_cast<double>(x[i]);
+}
+
 __global__ void k_unit_diagonal(double* A, long long n) {
   const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
   if (i < n) A[i * n + i] = 1.0;
@@ -167,6 +183,7 @@ struct DeviceCholesky::Impl {
   std::vector<int> hub_frame;
   DeviceBuffer<int> colour, owner, block_offsets, block_rows, block_frames;
   DeviceBuffer<double> A, W, diag, work, probe, product, blocks;  // W: L^{-1}
+  DeviceBuffer<float> single_r, single_z;  // a solve's r and z in single precision
   DeviceBuffer<int> info;
   cusolverDnHandle_t handle = nullptr;
   cublasHandle_t blas = nullptr;
@@ -199,6 +216,8 @@ struct DeviceCholesky::Impl {
     diag.resize(static_cast<size_t>(n));
     probe.resize(static_cast<size_t>(n));
     product.resize(static_cast<size_t>(n));
+    single_r.resize(static_cast<size_t>(n));
+    single_z.resize(static_cast<size_t>(n));
     info.resize(1);
     FASCIA_CUSOLVER(cusolver().create(&handle));
     FASCIA_CUSOLVER(cusolver().set_stream(handle, ops.stream()));
@@ -217,13 +236,26 @@ struct DeviceCholesky::Impl {
     // And the product of a solve, which the PCG iterations record as a CUDA graph (stream
     // capture): whatever cuBLAS sets up at its first call is set up here, outside a capture.
     FASCIA_CUDA(cudaMemsetAsync(probe.data(), 0, sizeof(double) * static_cast<size_t>(n), ops.stream()));
-    const double one = 1.0, zero = 0.0;
-    FASCIA_CUBLAS(cusolver().symv(blas, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), &one, A.data(),
-                                  static_cast<int>(n), probe.data(), 1, &zero, product.data(), 1));
+    product_with_inverse(probe.data(), product.data());
   }
   ~Impl() {
     if (handle) cusolver().destroy(handle);
     if (blas) cusolver().blas_destroy(blas);
+  }
+
+  // H^{-1} in single precision: the lower triangle in W's memory (W is needed only while
+  // inverting), in A's layout.
+  float* inverse() { return reinterpret_cast<float*>(W.data()); }
+
+  // z = H^{-1} r in single precision: r rounded, cuBLAS's Ssymv, z widened (enqueued).
+  void product_with_inverse(const double* r, double* z) {
+    const cudaStream_t stream = ops.stream();
+    k_to_single<<<blocks_for(n), kThreads, 0, stream>>>(r, single_r.data(), n);
+    const float one = 1.0f, zero = 0.0f;
+    FASCIA_CUBLAS(cusolver().symv(blas, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), &one, inverse(), static_cast<int>(n),
+                                  single_r.data(), 1, &zero, single_z.data(), 1));
+    k_to_double<<<blocks_for(n), kThreads, 0, stream>>>(single_z.data(), z, n);
+    FASCIA_CUDA(cudaGetLastError());
   }
 
   // potrf on A (H = L L^T); true when positive definite, and then A's lower triangle becomes
@@ -256,6 +288,8 @@ struct DeviceCholesky::Impl {
       FASCIA_CUBLAS(cusolver().syrk(blas, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_T, r1, r1 - r0, &one, W.data() + r0, order,
                                     &beta, A.data(), order));
     }
+    k_lower_to_single<<<dim3(blocks_for(n), static_cast<unsigned>(n)), kThreads, 0, stream>>>(A.data(), inverse(), n);
+    FASCIA_CUDA(cudaGetLastError());
     return true;
   }
   int read_info(const char* what) {
@@ -361,11 +395,6 @@ LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
   return r;
 }
 
-void DeviceCholesky::solve(const double* r, double* z) const {
-  Impl& m = *m_impl;
-  const double one = 1.0, zero = 0.0;
-  FASCIA_CUBLAS(cusolver().symv(m.blas, CUBLAS_FILL_MODE_LOWER, static_cast<int>(m.n), &one, m.A.data(),
-                                static_cast<int>(m.n), r, 1, &zero, z, 1));
-}
+void DeviceCholesky::solve(const double* r, double* z) const { m_impl->product_with_inverse(r, z); }
 
 }  // namespace fascia::gpu

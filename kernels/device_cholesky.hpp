@@ -6,10 +6,12 @@
 // device, and coloured products for the rest (integrate/tangent_probing.hpp: 6 per colour; one
 // colour for a tissue alone, a few tens with shells and rigid bodies), factorised by cuSOLVER's
 // potrf (H = L L^T) and inverted from the factor by cuBLAS, W = L^{-1} (trsm with the identity)
-// then H^{-1} = W^T W (syrk); the preconditioner is then cuBLAS's symmetric product (symv) with
-// the lower triangle of H^{-1}, one pass over n^2/2 numbers at the device's memory bandwidth
-// (where potrs's two triangular solves, sequential by blocks, took 1.7 ms at 11,460 DOFs on an
-// H100, and a product with both triangles 0.37 ms). The inverse costs about 2n^3 flops more per
+// then H^{-1} = W^T W (syrk); the preconditioner is then cuBLAS's symmetric product (Ssymv) with
+// the lower triangle of H^{-1} rounded to single precision, one pass over n^2/2 floats at the
+// device's memory bandwidth (where potrs's two triangular solves, sequential by blocks, took 1.7
+// ms at 11,460 DOFs on an H100, and a product with both triangles in double 0.37 ms). The
+// rounding (relative 6e-8 per entry and per sum) perturbs the preconditioner, not the system PCG
+// solves: its residuals and tolerances stay in double. The inverse costs about 2n^3 flops more per
 // factorisation (76 ms at 10,962 DOFs on an H100, potrf 17 ms), which the tens to hundreds of CG
 // iterations each factorisation serves repay. Dense, because the scenes' reduced tangents are
 // small (2,148 DOFs for the pelvis, 10,962 with its finest fasciae: 1 GB, about n^3/3 = 4e11
