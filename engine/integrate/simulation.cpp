@@ -131,18 +131,23 @@ void Simulation::keep_tangent() {
                   linear.preconditioner == Preconditioner::cholmod && m_impl->linear.reuses_factorisation();
   if (!m_reused.held) {
     m_reused = ReusedTangent{};
+    m_reused.shift_step = m_impl->linear.factorisation().shift_step();
     return;
   }
   m_reused.origin = m_impl->variational ? m_impl->variational->assembled_at() : m_impl->potential.assembled_at();
   m_reused.pattern = m_impl->linear.factorisation().pattern_fingerprint();
   m_reused.solves = m_impl->linear.kept().solves;
   m_reused.iterations = m_impl->linear.kept().iterations;
+  m_reused.shift_step = m_impl->linear.factorisation().shift_step();
 }
 
 bool Simulation::restore_tangent(const ReusedTangent& tangent) {
   m_reused = tangent;
-  if (!tangent.held) return true;
-  if (m_impl->backend) return m_impl->backend->restore_tangent(tangent, m_settings);
+  if (m_impl->backend) return !tangent.held || m_impl->backend->restore_tangent(tangent, m_settings);
+  if (!tangent.held) {
+    m_impl->linear.restore_shift(tangent.shift_step);
+    return true;
+  }
   const TangentOrigin& o = tangent.origin;
   if (o.state.frame_count() != m_model.frame_count())
     throw std::invalid_argument("restored tangent origin has " + std::to_string(o.state.frame_count()) +
@@ -164,7 +169,7 @@ bool Simulation::restore_tangent(const ReusedTangent& tangent) {
   KeptFactorisation served;
   served.solves = tangent.solves;
   served.iterations = tangent.iterations;
-  const bool factorised = m_impl->linear.restore_factorisation(system, served);
+  const bool factorised = m_impl->linear.restore_factorisation(system, served, tangent.shift_step);
   m_loads.scale = 1.0;
   return factorised && m_impl->linear.factorisation().pattern_fingerprint() == tangent.pattern;
 }

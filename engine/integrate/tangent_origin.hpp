@@ -33,6 +33,9 @@ struct ReusedTangent {
   // The solves and CG iterations it has served (solve/kept_factorisation.hpp: when it is renewed).
   int solves = 0;
   long long iterations = 0;
+  // The shift step of the last factorisation (SparseCholesky::shift_step(), held or not; -1:
+  // unshifted or none): where the next factorisation's search for a shift starts.
+  int shift_step = -1;
 };
 
 }  // namespace fascia

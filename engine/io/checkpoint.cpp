@@ -5,6 +5,7 @@
 #include "io/hdf5_read.hpp"
 #include "io/hdf5_text.hpp"
 #include "io/trajectory.hpp"
+#include "solve/diagonal_shifts.hpp"
 
 #include <hdf5.h>
 #include <unistd.h>
@@ -133,7 +134,7 @@ CheckpointWriter CheckpointWriter::create(long long file_id, const std::string& 
     fixed_dataset(g.get(), "counters", H5T_STD_I64LE, {4}, path);
     fixed_dataset(g.get(), "clock", H5T_IEEE_F64LE, {2}, path);
     create_state(g.get(), "", n, path);
-    fixed_dataset(g.get(), "tangent", H5T_STD_I64LE, {4}, path);
+    fixed_dataset(g.get(), "tangent", H5T_STD_I64LE, {5}, path);
     fixed_dataset(g.get(), "tangent_clock", H5T_IEEE_F64LE, {2}, path);
     create_state(g.get(), "tangent_start_", n, path);
     create_state(g.get(), "tangent_", n, path);
@@ -171,7 +172,7 @@ void CheckpointWriter::write(const Checkpoint& c) {
     write_data(slot.get(), "clock", H5T_NATIVE_DOUBLE, clock, m_path);
     write_state(slot.get(), "", c.state, n, m_path);
     const ReusedTangent& t = c.tangent;
-    long long tangent[4] = {t.held ? 1 : 0, 0, t.held ? t.solves : 0, t.held ? t.iterations : 0};
+    long long tangent[5] = {t.held ? 1 : 0, 0, t.held ? t.solves : 0, t.held ? t.iterations : 0, t.shift_step};
     std::memcpy(&tangent[1], &t.pattern, sizeof t.pattern);
     const double tangent_clock[2] = {t.origin.dt, t.origin.load_scale};
     write_data(slot.get(), "tangent", H5T_NATIVE_LLONG, tangent, m_path);
@@ -237,9 +238,11 @@ std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIde
                   "checkpoint of " + std::to_string(frames) + " frames");
   const std::size_t n = static_cast<std::size_t>(frames);
   c.state = read_state(slot.get(), "", n, path);
-  long long tangent[4] = {0, 0, 0, 0};
+  long long tangent[5] = {0, 0, 0, 0, -1};
   double tangent_clock[2] = {0, 1};
-  read_data(slot.get(), "tangent", H5T_NATIVE_LLONG, {4}, tangent, path);
+  read_data(slot.get(), "tangent", H5T_NATIVE_LLONG, {5}, tangent, path);
+  if (tangent[4] < -1 || tangent[4] >= kShiftSteps)
+    fail(path, "tangent shift step " + std::to_string(tangent[4]) + " (corrupt)");
   read_data(slot.get(), "tangent_clock", H5T_NATIVE_DOUBLE, {2}, tangent_clock, path);
   double controller[2] = {0, 0};
   long long counts[6] = {0, 0, 0, 0, 0, 0};
@@ -260,6 +263,7 @@ std::optional<Checkpoint> read_checkpoint(const std::string& path, CheckpointIde
     c.history.previous = read_state(slot.get(), "history_", n, path);
   }
   c.tangent.held = tangent[0] != 0;
+  c.tangent.shift_step = static_cast<int>(tangent[4]);
   if (c.tangent.held) {
     std::memcpy(&c.tangent.pattern, &tangent[1], sizeof c.tangent.pattern);
     c.tangent.solves = static_cast<int>(tangent[2]);

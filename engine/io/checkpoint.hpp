@@ -5,7 +5,9 @@
 //   /checkpoint/slot_0, slot_1    counters int64 [4]: sequence, step, rows, finished;
 //                                 clock float64 [2]: time, dt (s);
 //                                 positions [N][3], orientations [N][4], velocities [N][6];
-//                                 tangent int64 [2]: held, pattern fingerprint (bits of a uint64);
+//                                 tangent int64 [5]: held, pattern fingerprint (bits of a uint64),
+//                                 the held factorisation's solves and CG iterations, and the
+//                                 last factorisation's shift step (-1: none);
 //                                 tangent_clock float64 [2]: dt (s), load factor;
 //                                 tangent_start_{positions,orientations,velocities},
 //                                 tangent_{positions,orientations,velocities} as the state
@@ -46,7 +48,7 @@
 
 namespace fascia {
 
-constexpr int kCheckpointFormat = 5;
+constexpr int kCheckpointFormat = 6;
 
 struct Checkpoint {
   long long sequence = 0;  // 1, 2, ... in the order written

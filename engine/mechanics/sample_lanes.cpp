@@ -1,20 +1,12 @@
 #include "mechanics/sample_lanes.hpp"
 
+#include "core/target_clones.hpp"
 #include "mechanics/frame_sample.hpp"
 
 #include <algorithm>
 
 // The lane loops below are written for the compiler's vectoriser (#pragma omp simd over kLanes
-// contiguous doubles). The default x86-64 target has only SSE2 (2 doubles per instruction); on
-// GCC the kernel is also compiled for x86-64-v3 (AVX2 + FMA, 4 doubles) and the loader picks the
-// clone the CPU supports, so one binary runs everywhere and uses AVX2 where it exists. Builds with
-// FASCIA_NATIVE (-march=native) need no clones.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__AVX2__) && \
-    !defined(FASCIA_NO_CLONES)
-#define FASCIA_LANE_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#else
-#define FASCIA_LANE_CLONES
-#endif
+// contiguous doubles), compiled for SSE2 and AVX2 + FMA (core/target_clones.hpp).
 
 namespace fascia {
 namespace {
@@ -53,7 +45,7 @@ void generic_lanes(const Model& model, const double* F, const MaterialCache* cac
   }
 }
 
-FASCIA_LANE_CLONES
+FASCIA_CLONES
 void pair_products_kernel(const int* __restrict block_slots, const std::uint8_t* __restrict generic,
                           const int* __restrict slot_frames, const double* __restrict slot_data,
                           const double* __restrict block_data, const double* __restrict d,
@@ -127,7 +119,7 @@ void pair_products_kernel(const int* __restrict block_slots, const std::uint8_t*
 }
 
 // out_i = sum of frame i's share records + [t_i dx_i, (G_i + Q_i) dr_i] (SampleLanes::gather).
-FASCIA_LANE_CLONES
+FASCIA_CLONES
 void frame_sums_kernel(const int* __restrict frame_offsets, const int* __restrict frame_entries,
                        const double* __restrict shares, const double* __restrict d, const double* __restrict G,
                        const double* __restrict extra, double* __restrict out, int first, int last) {

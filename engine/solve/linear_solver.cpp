@@ -62,10 +62,13 @@ LinearResult LinearSolver::factorise(const LinearSystem& system) {
   return r;
 }
 
+void LinearSolver::restore_shift(int shift_step) { m_cholesky->set_first_shift_step(std::max(-1, shift_step - 1)); }
+
 bool LinearSolver::reuses_factorisation() const { return !m_kept.stale && m_cholesky->factorised(); }
 
-bool LinearSolver::restore_factorisation(const LinearSystem& system, const KeptFactorisation& served) {
+bool LinearSolver::restore_factorisation(const LinearSystem& system, const KeptFactorisation& served, int shift_step) {
   m_kept = KeptFactorisation{};
+  m_cholesky->set_first_shift_step(shift_step);
   factorise(system);
   if (!m_cholesky->factorised()) return false;
   m_kept = served;

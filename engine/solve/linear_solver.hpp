@@ -81,10 +81,13 @@ class LinearSolver {
   bool reuses_factorisation() const;
   const KeptFactorisation& kept() const { return m_kept; }
   // Factorises `system` as the factorisation the next pcg + cholmod solves reuse, having served
-  // `served` (solves and iterations): a resumed run factorises the matrix the interrupted run
-  // held, so that its solves and renewals are bitwise the same. Returns false when even the
-  // largest shift fails (the next solve factorises again).
-  bool restore_factorisation(const LinearSystem& system, const KeptFactorisation& served);
+  // `served` (solves and iterations), with the shift step it had: a resumed run factorises the
+  // matrix the interrupted run held, so that its solves and renewals are bitwise the same.
+  // Returns false when even the largest shift fails (the next solve factorises again).
+  bool restore_factorisation(const LinearSystem& system, const KeptFactorisation& served, int shift_step);
+  // A resumed run holding no factorisation: the next factorisation searches for a shift from
+  // where the interrupted run's would, after a last factorisation of shift step `shift_step`.
+  void restore_shift(int shift_step);
 
  private:
   LinearResult factorise(const LinearSystem& system);

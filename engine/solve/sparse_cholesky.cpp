@@ -1,10 +1,16 @@
 #include "solve/sparse_cholesky.hpp"
 
+#include "core/target_clones.hpp"
+#include "solve/diagonal_shifts.hpp"
+
 #include <omp.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <optional>
+#include <stdexcept>
+#include <string>
 
 namespace fascia {
 
@@ -45,6 +51,54 @@ class SerialRegions {
   int m_previous;
 };
 
+// y = L^{-T} L^{-1} y for a supernodal LL^T factor (cholmod.h's layout: supernode k holds
+// columns super[k] .. super[k+1] - 1, its rows are s[pi[k]] .. s[pi[k+1] - 1], the first nscol
+// of them its columns, and its values are the column-major nsrow x nscol block at x + px[k]).
+// Per supernode, y's entries at its rows are gathered into t [nsrow], each column j updates the
+// rows below it with one contiguous product (an axpy forward, a dot product backward), and the
+// entries are put back: the columns' part into y, and forward the rows below them added in.
+// CHOLMOD's solve makes the same two sweeps with BLAS calls per supernode and column block,
+// whose overhead exceeds the arithmetic on the shipped scenes' factors (tens of columns per
+// supernode); these loops run in AVX2 where the CPU has it (core/target_clones.hpp).
+FASCIA_CLONES void supernodal_solve(const cholmod_factor& L, double* y, double* t) {
+  const int* super = static_cast<const int*>(L.super);
+  const int* pi = static_cast<const int*>(L.pi);
+  const int* px = static_cast<const int*>(L.px);
+  const int* rows = static_cast<const int*>(L.s);
+  const double* x = static_cast<const double*>(L.x);
+  const int nsuper = static_cast<int>(L.nsuper);
+  for (int k = 0; k < nsuper; ++k) {  // y = L^{-1} y
+    const int nscol = super[k + 1] - super[k], nsrow = pi[k + 1] - pi[k];
+    const double* block = x + px[k];
+    const int* r = rows + pi[k];
+    for (int i = 0; i < nscol; ++i) t[i] = y[r[i]];
+    for (int i = nscol; i < nsrow; ++i) t[i] = 0.0;
+    for (int j = 0; j < nscol; ++j) {
+      const double* col = block + static_cast<std::ptrdiff_t>(j) * nsrow;
+      const double v = t[j] / col[j];
+      t[j] = v;
+#pragma omp simd
+      for (int i = j + 1; i < nsrow; ++i) t[i] -= col[i] * v;
+    }
+    for (int i = 0; i < nscol; ++i) y[r[i]] = t[i];
+    for (int i = nscol; i < nsrow; ++i) y[r[i]] += t[i];
+  }
+  for (int k = nsuper - 1; k >= 0; --k) {  // y = L^{-T} y
+    const int nscol = super[k + 1] - super[k], nsrow = pi[k + 1] - pi[k];
+    const double* block = x + px[k];
+    const int* r = rows + pi[k];
+    for (int i = 0; i < nsrow; ++i) t[i] = y[r[i]];
+    for (int j = nscol - 1; j >= 0; --j) {
+      const double* col = block + static_cast<std::ptrdiff_t>(j) * nsrow;
+      double sum = 0.0;
+#pragma omp simd reduction(+ : sum)
+      for (int i = j + 1; i < nsrow; ++i) sum += col[i] * t[i];
+      t[j] = (t[j] - sum) / col[j];
+    }
+    for (int i = 0; i < nscol; ++i) y[r[i]] = t[i];
+  }
+}
+
 std::uint64_t fnv1a(std::uint64_t h, const void* data, std::size_t bytes) {
   const auto* p = static_cast<const unsigned char*>(data);
   for (std::size_t i = 0; i < bytes; ++i) {
@@ -55,6 +109,11 @@ std::uint64_t fnv1a(std::uint64_t h, const void* data, std::size_t bytes) {
 }
 
 }  // namespace
+
+class SparseCholesky::Factor : public Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> {
+ public:
+  const cholmod_factor* factor() const { return m_cholmodFactor; }
+};
 
 SparseCholesky::SparseCholesky() : m_factor(std::make_unique<Factor>()) {
   cholmod_common& c = m_factor->cholmod();
@@ -149,30 +208,46 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
   for (std::size_t k = 0; k < m_scatter.size(); ++k)
     if (m_scatter[k] >= 0) values[m_scatter[k]] += h_values[k];
   ++m_factorisations;
-  m_shift = 0;
   const int threads = team_size();
   const TeamSize team(threads);
   std::optional<SerialRegions> serial;
   if (threads == 1) serial.emplace();
-  m_factor->factorize(m_reduced);
-  if (m_factor->info() != Eigen::Success) {
-    std::vector<double> diag(free);
-    double mean = 0;
-    for (int k = 0; k < free; ++k) mean += (diag[k] = std::abs(m_reduced.coeff(k, k)));
-    mean = free > 0 ? mean / free : 1.0;
-    for (double& d : diag) d = std::max(d, 1e-12 * mean);
-    for (double tau = 1e-6; tau <= 1e3 * (1 + 1e-12); tau *= 10) {
-      Eigen::SparseMatrix<double> shifted = m_reduced;
-      for (int k = 0; k < free; ++k) shifted.coeffRef(k, k) += tau * diag[k];
-      m_factor->factorize(shifted);
-      if (m_factor->info() == Eigen::Success) {
-        m_shift = tau;
-        break;
+  // |H_ii|, floored at 1e-12 of their mean: D of the shifts (found at the first shifted try).
+  std::vector<double> diag;
+  m_factorised = false;
+  for (int step = m_first_shift_step; step < kShiftSteps && !m_factorised; ++step) {
+    if (step < 0) {
+      m_factor->factorize(m_reduced);
+    } else {
+      if (diag.empty()) {
+        diag.resize(static_cast<std::size_t>(free));
+        double mean = 0;
+        for (int k = 0; k < free; ++k) mean += (diag[k] = std::abs(m_reduced.coeff(k, k)));
+        mean = free > 0 ? mean / free : 1.0;
+        for (double& d : diag) d = std::max(d, 1e-12 * mean);
       }
+      Eigen::SparseMatrix<double> shifted = m_reduced;
+      for (int k = 0; k < free; ++k) shifted.coeffRef(k, k) += kShifts[step] * diag[k];
+      m_factor->factorize(shifted);
     }
+    m_factorised = m_factor->info() == Eigen::Success;
+    if (m_factorised) m_shift_step = step;
   }
-  m_factorised = m_factor->info() == Eigen::Success;
+  if (!m_factorised) m_shift_step = -1;
+  m_shift = m_shift_step < 0 ? 0.0 : kShifts[m_shift_step];
+  m_first_shift_step = std::max(-1, m_shift_step - 1);
   return m_factorised;
+}
+
+void SparseCholesky::set_first_shift_step(int k) {
+  if (k < -1 || k >= kShiftSteps)
+    throw std::invalid_argument("shift step " + std::to_string(k) + " outside -1 .. " + std::to_string(kShiftSteps - 1));
+  m_first_shift_step = k;
+}
+
+bool SparseCholesky::supernodal() const {
+  const cholmod_factor* L = m_factor->factor();
+  return L && L->is_super;
 }
 
 int SparseCholesky::team_size() const {
@@ -186,11 +261,22 @@ void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x)
   Eigen::VectorXd rhs(free);
   for (int k = 0; k < n; ++k)
     if (m_index[k] >= 0) rhs[m_index[k]] = b[k];
-  const TeamSize team(team_size());
-  const Eigen::VectorXd sol = m_factor->solve(rhs);
   x.assign(n, 0.0);
+  const cholmod_factor* L = m_factor->factor();
+  const int threads = team_size();
+  if (L && L->is_super && L->is_ll && L->xtype == CHOLMOD_REAL && threads == 1) {
+    // L L^T = P H_ff P^T with P's rows Perm: y = P rhs, swept, then x = P^T y.
+    const int* perm = static_cast<const int*>(L->Perm);
+    std::vector<double> y(static_cast<std::size_t>(free)), t(static_cast<std::size_t>(free));
+    for (int k = 0; k < free; ++k) y[k] = rhs[perm[k]];
+    supernodal_solve(*L, y.data(), t.data());
+    for (int k = 0; k < free; ++k) rhs[perm[k]] = y[k];
+  } else {
+    const TeamSize team(threads);
+    rhs = m_factor->solve(rhs).eval();
+  }
   for (int k = 0; k < n; ++k)
-    if (m_index[k] >= 0) x[k] = sol[m_index[k]];
+    if (m_index[k] >= 0) x[k] = rhs[m_index[k]];
 }
 
 }  // namespace fascia

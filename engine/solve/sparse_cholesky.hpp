@@ -6,8 +6,12 @@
 // sparsity pattern of H stay the same, which they do across the Newton iterations and steps of
 // one model; only the numeric factorisation is repeated. A matrix that is not positive definite
 // (away from equilibrium the geometric stiffness can make H indefinite) is factorised as
-// H + tau diag|H| with tau = 1e-6, 1e-5, ..., 1e3 until it succeeds (modified Newton: the solve
-// is still a descent direction).
+// H + tau diag|H| with the shifts tau = 1e-6, 1e-5, ..., 1e3 (solve/diagonal_shifts.hpp) tried
+// in turn until one succeeds (modified Newton: the solve is still a descent direction). The
+// first tried is one decade below the last factorisation's shift (none after none or 1e-6): a
+// run's tangents change little between factorisations, so one that needed a shift needs about
+// the same again, found in one or two numeric factorisations instead of one per decade from
+// none; and the shift falls a decade per factorisation while the smaller one succeeds.
 #pragma once
 
 #include <Eigen/CholmodSupport>
@@ -29,11 +33,20 @@ class SparseCholesky {
   // Factorises the free-free block of H (n x n, both triangles or the lower one; fixed: [n] or
   // null). Returns false when even the largest shift fails.
   bool factorise(const Eigen::SparseMatrix<double>& H, const std::uint8_t* fixed);
-  // x = (H_ff + tau D)^{-1} b on the free DOFs, zero at fixed ones; [n] each.
+  // x = (H_ff + tau D)^{-1} b on the free DOFs, zero at fixed ones; [n] each. A supernodal
+  // factor of fewer than kSerialNonzeros nonzeros is swept here, supernode by supernode; a larger
+  // one by CHOLMOD's solve, whose BLAS calls per supernode (multithreaded) then pay.
   void solve(const std::vector<double>& b, std::vector<double>& x) const;
 
   bool factorised() const { return m_factorised; }
+  bool supernodal() const;  // CHOLMOD chose a supernodal factor (solve() sweeps a small one itself)
   double shift() const { return m_shift; }          // tau of the last factorisation (0: none)
+  // The shifts as steps k of kShifts (-1: unshifted; solve/diagonal_shifts.hpp): the last
+  // factorisation's, and the one the next factorisation tries first. A resumed run sets the
+  // latter to repeat the shifts of the run it continues (integrate/tangent_origin.hpp).
+  int shift_step() const { return m_shift_step; }
+  int first_shift_step() const { return m_first_shift_step; }
+  void set_first_shift_step(int k);
   int analyses() const { return m_analyses; }       // symbolic analyses so far
   // FNV-1a (64 bits) of the analysed pattern and free-DOF mask: two factorisations of one matrix
   // are bitwise equal when this agrees (the ordering follows the pattern; 0: none analysed).
@@ -41,7 +54,7 @@ class SparseCholesky {
   int factorisations() const { return m_factorisations; }
 
  private:
-  using Factor = Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower>;
+  class Factor;  // CHOLMOD's factorisation, with its factor's arrays readable (sparse_cholesky.cpp)
   // OpenMP team for CHOLMOD and OpenBLAS on the analysed factor: one below kSerialNonzeros.
   int team_size() const;
   std::unique_ptr<Factor> m_factor;
@@ -55,6 +68,7 @@ class SparseCholesky {
   std::vector<int> m_source_outer, m_source_inner, m_scatter;
   bool m_analysed = false, m_factorised = false;
   double m_shift = 0;
+  int m_shift_step = -1, m_first_shift_step = -1;
   std::uint64_t m_pattern_fingerprint = 0;
   int m_analyses = 0, m_factorisations = 0;
 };

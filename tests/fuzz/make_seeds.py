@@ -90,7 +90,7 @@ def trajectory(path, frames=2, rows=2):
                             ("environment", "{}"), ("version", "0.1.0")):
             f["parameters/" + name] = text(value)
         c = group(f, "checkpoint")
-        c.attrs["format"] = np.int32(5)  # kCheckpointFormat
+        c.attrs["format"] = np.int32(6)  # kCheckpointFormat
         c.attrs["frames"] = np.int32(frames)
         c["scene"] = text("scene")
         c["build"] = text("build")
@@ -99,7 +99,7 @@ def trajectory(path, frames=2, rows=2):
             s = group(c, slot)
             s["counters"] = np.array([1, 1, rows, 1], dtype="<i8")
             s["clock"] = np.array([0.01, 0.01])
-            s["tangent"] = np.array([1, 0, 3, 20], dtype="<i8")  # a kept tangent (3 solves, 20 iterations served): its two states follow
+            s["tangent"] = np.array([1, 0, 3, 20, 2], dtype="<i8")  # a kept tangent (3 solves, 20 iterations served, shift step 2): its two states follow
             s["tangent_clock"] = np.array([0.01, 1.0])
             s["controller"] = np.array([0.01, 0.0])  # step size, after a rejection
             s["controller_counts"] = np.array([1, 0, 0, 0, 0, 0], dtype="<i8")

@@ -1,6 +1,7 @@
 // Checkpoints in the trajectory file: round trip, the resume of a trajectory after its kept rows,
 // and atomicity under SIGKILL at arbitrary instants of a checkpoint write.
 #include "io/checkpoint.hpp"
+#include "solve/diagonal_shifts.hpp"
 #include "io/trajectory.hpp"
 
 #include <catch2/catch.hpp>
@@ -47,6 +48,7 @@ Checkpoint checkpoint_for(long long sequence) {
   c.progress = AdvanceProgress{7 * sequence, 31 * sequence, sequence, 2 * sequence};
   // Every other checkpoint holds a reused factorisation's origin (two states apart from c.state).
   c.tangent.held = sequence % 2 == 1;
+  c.tangent.shift_step = static_cast<int>(sequence % 4) - 1;  // kept whether a factorisation is held or not
   if (c.tangent.held) {
     c.tangent.pattern = 0xfedcba9876543210ull + static_cast<std::uint64_t>(sequence);  // all 64 bits kept
     c.tangent.origin.dt = 0.005 * static_cast<double>(sequence);
@@ -91,6 +93,7 @@ void check_is(const Checkpoint& read, long long sequence) {
   CHECK(read.history.previous.velocities == expected.history.previous.velocities);
   CHECK(read.tangent.held == expected.tangent.held);
   CHECK(read.tangent.pattern == expected.tangent.pattern);
+  CHECK(read.tangent.shift_step == expected.tangent.shift_step);
   CHECK(read.tangent.origin.dt == expected.tangent.origin.dt);
   CHECK(read.tangent.origin.load_scale == expected.tangent.origin.load_scale);
   for (const auto& [a, b] : {std::pair{&read.tangent.origin.start, &expected.tangent.origin.start},
@@ -161,6 +164,15 @@ TEST_CASE("checkpoints round-trip and the last committed one is read", "[io][che
     checkpoints.write(checkpoint_for(4));
   }
   check_is(*read_checkpoint(path.string()), 4);
+  // A shift step outside the shifts is refused as corrupt.
+  {
+    TrajectoryWriter writer(path.string(), frames_layout(), 1);
+    CheckpointWriter checkpoints = CheckpointWriter::open(writer.file_id(), path.string());
+    Checkpoint bad = checkpoint_for(5);
+    bad.tangent.shift_step = kShiftSteps;
+    checkpoints.write(bad);
+  }
+  CHECK_THROWS_WITH(read_checkpoint(path.string()), Catch::Contains("tangent shift step 10 (corrupt)"));
   fs::remove(path);
 }
 

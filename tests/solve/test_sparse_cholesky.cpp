@@ -1,14 +1,17 @@
 // The sparse Cholesky factorisation of the free-free block: solves against a dense reference,
 // keeps its symbolic analysis for patterns inside the analysed one, refactorises a matrix of the
-// last pattern as a fresh factorisation would, shifts indefinite matrices,
+// last pattern as a fresh factorisation would, shifts indefinite matrices (from a decade below
+// the last shift),
 // and leaves the caller's OpenMP team size and nesting limit unchanged.
 #include "solve/sparse_cholesky.hpp"
+#include "solve/diagonal_shifts.hpp"
 
 #include <Eigen/Dense>
 #include <catch2/catch.hpp>
 #include <omp.h>
 
 #include <cmath>
+#include <stdexcept>
 #include <vector>
 
 using namespace fascia;
@@ -53,7 +56,45 @@ double solve_error(const SparseCholesky& chol, const Eigen::SparseMatrix<double>
   return err;
 }
 
+// Frames on a side x side grid, 6 DOFs each, coupled to their 4 neighbours by dense 6 x 6
+// blocks of entries in [-0.1, 0.1], with 6 + (k mod 5) on the diagonal: every row's
+// off-diagonal entries sum to at most 4 * 6 * 0.1 = 2.4 < 6, so cond <= (11 + 2.4) / (6 - 2.4)
+// < 4 (Gershgorin). A fill-reducing ordering of a 2D grid leaves dense separators: CHOLMOD
+// factorises it supernodally.
+Eigen::SparseMatrix<double> block_grid(int side) {
+  const int frames = side * side, n = 6 * frames;
+  std::vector<Eigen::Triplet<double>> t;
+  for (int k = 0; k < n; ++k) t.emplace_back(k, k, 6.0 + k % 5);
+  auto couple = [&](int a, int b) {
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 6; ++j) {
+        const double v = 0.1 * std::sin(1.0 + 7 * a + 3 * b + 6 * i + j);
+        t.emplace_back(6 * a + i, 6 * b + j, v);
+        t.emplace_back(6 * b + j, 6 * a + i, v);
+      }
+  };
+  for (int r = 0; r < side; ++r)
+    for (int c = 0; c < side; ++c) {
+      if (c + 1 < side) couple(r * side + c, r * side + c + 1);
+      if (r + 1 < side) couple(r * side + c, (r + 1) * side + c);
+    }
+  Eigen::SparseMatrix<double> m(n, n);
+  m.setFromTriplets(t.begin(), t.end());
+  return m;
+}
+
 }  // namespace
+
+TEST_CASE("a supernodal factor solves as a dense Cholesky does", "[solve]") {
+  const Eigen::SparseMatrix<double> H = block_grid(12);
+  std::vector<std::uint8_t> fixed(H.rows(), 0);
+  for (int k = 0; k < 6; ++k) fixed[k] = fixed[300 + k] = 1;
+  SparseCholesky chol;
+  REQUIRE(chol.factorise(H, fixed.data()));
+  REQUIRE(chol.supernodal());
+  // cond < 4: accurate to a few eps of |x| (about 0.3 here); 1e-13.
+  CHECK(solve_error(chol, H, fixed) <= 1e-13);
+}
 
 TEST_CASE("the factorisation keeps its analysis while the pattern stays inside the analysed one", "[solve]") {
   const int n = 30;
@@ -109,6 +150,42 @@ TEST_CASE("an indefinite matrix is factorised with a diagonal shift", "[solve]")
   SparseCholesky chol;
   REQUIRE(chol.factorise(H, nullptr));
   REQUIRE(chol.shift() > 0);
+}
+
+TEST_CASE("the first shift tried is a decade below the last factorisation's", "[solve]") {
+  Eigen::SparseMatrix<double> H = tridiagonal(6);
+  H.coeffRef(3, 3) = -1.0;  // a shift of at least 1 |H_33| = 1 is needed
+  SparseCholesky chol;
+  REQUIRE(chol.factorise(H, nullptr));
+  const int k = chol.shift_step();
+  REQUIRE(k >= 6);
+  CHECK(chol.shift() == std::pow(10.0, k - 6));
+  CHECK(chol.first_shift_step() == k - 1);
+  // The same matrix again: the decade below fails, the last one serves.
+  REQUIRE(chol.factorise(H, nullptr));
+  CHECK(chol.shift_step() == k);
+  // A positive definite matrix: the shift falls a decade per factorisation, down to none.
+  const Eigen::SparseMatrix<double> spd = tridiagonal(6);
+  for (int step = k - 1; step >= -1; --step) {
+    REQUIRE(chol.factorise(spd, nullptr));
+    CHECK(chol.shift_step() == step);
+  }
+  CHECK(chol.shift() == 0);
+  // A factorisation told to start where another's shift was (a resumed run) repeats it bit for
+  // bit, whatever it would find from no shift.
+  REQUIRE(chol.factorise(H, nullptr));
+  REQUIRE(chol.shift_step() == k);
+  SparseCholesky resumed;
+  resumed.set_first_shift_step(k);
+  REQUIRE(resumed.factorise(H, nullptr));
+  CHECK(resumed.shift_step() == k);
+  std::vector<double> b(6), x, y;
+  for (int i = 0; i < 6; ++i) b[i] = std::cos(1.0 + i);
+  chol.solve(b, x);
+  resumed.solve(b, y);
+  CHECK(x == y);
+  CHECK_THROWS_AS(resumed.set_first_shift_step(kShiftSteps), std::invalid_argument);
+  CHECK_THROWS_AS(resumed.set_first_shift_step(-2), std::invalid_argument);
 }
 
 TEST_CASE("a solve leaves the caller's OpenMP team size as it found it", "[solve]") {
