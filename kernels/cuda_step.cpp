@@ -3,7 +3,9 @@
 #include "device_problem.hpp"
 #include "integrate/simulation.hpp"
 #include "mechanics/rotation_stabilisation.hpp"
+#include "solve/diagonal_shifts.hpp"
 
+#include <algorithm>
 #include <iostream>
 
 namespace fascia::gpu {
@@ -62,6 +64,7 @@ class CudaStep final : public StepBackend {
   ReusedTangent kept_tangent() const override {
     ReusedTangent t;
     t.held = m_factor && m_factor->factorised() && !m_kept.stale;
+    t.shift_step = m_factor ? m_factor->shift_step() : -1;
     if (!t.held) return t;
     t.origin = m_origin;
     t.pattern = m_factor->fingerprint();
@@ -72,8 +75,12 @@ class CudaStep final : public StepBackend {
 
   bool restore_tangent(const ReusedTangent& tangent, const SimulationSettings& settings) override {
     m_kept = KeptFactorisation{};
-    if (!tangent.held) return true;
+    if (!tangent.held) {
+      if (m_factor) m_factor->set_first_shift_step(first_shift_step(tangent.shift_step));
+      return true;
+    }
     if (!m_factor || tangent.pattern != m_factor->fingerprint()) return false;
+    m_factor->set_first_shift_step(std::max(0, tangent.shift_step));
     const TangentOrigin& o = tangent.origin;
     if (settings.integrator == Integrator::static_equilibrium)
       m_potential.set_static();

@@ -2,6 +2,7 @@
 
 #include "device_buffers.cuh"
 #include "integrate/tangent_probing.hpp"
+#include "solve/diagonal_shifts.hpp"
 
 #include <cublas_v2.h>
 #include <cusolverDn.h>
@@ -185,6 +186,7 @@ struct DeviceCholesky::Impl {
   DeviceBuffer<double> A, W, diag, work, probe, product, blocks;  // W: L^{-1}
   DeviceBuffer<float> single_r, single_z;  // a solve's r and z in single precision
   DeviceBuffer<int> info;
+  int shift_step = -1, first_shift_step = 0;  // as SparseCholesky's
   cusolverDnHandle_t handle = nullptr;
   cublasHandle_t blas = nullptr;
   int lwork = 0;
@@ -359,40 +361,55 @@ LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
 
   LinearResult r;
   r.factorised = true;
-  r.converged = true;
-  if (m.invert()) {
-    m.factorised = true;
-    return r;
-  }
-  // Shifts as SparseCholesky: tau diag|H| with |H_ii| floored at 1e-12 of their mean.
-  std::vector<double> diag(static_cast<size_t>(n));
-  std::vector<std::uint8_t> fixed(static_cast<size_t>(n));
-  FASCIA_CUDA(cudaMemcpyAsync(diag.data(), m.diag.data(), sizeof(double) * diag.size(), cudaMemcpyDeviceToHost, stream));
-  FASCIA_CUDA(cudaMemcpyAsync(fixed.data(), m.fixed, fixed.size(), cudaMemcpyDeviceToHost, stream));
-  FASCIA_CUDA(cudaStreamSynchronize(stream));
-  double mean = 0;
-  int free = 0;
-  for (size_t k = 0; k < diag.size(); ++k)
-    if (!fixed[k]) {
-      mean += std::abs(diag[k]);
-      ++free;
+  // Shifts as SparseCholesky: tau diag|H| with |H_ii| floored at 1e-12 of their mean, searched
+  // from a decade below the last factorisation's.
+  double mean = -1;  // found at the first shifted try
+  m.shift_step = -1;
+  for (int step = -1; step < kShiftSteps && !m.factorised; step = step < 0 ? m.first_shift_step : step + 1) {
+    if (step >= 0) {
+      if (mean < 0) {
+        std::vector<double> diag(static_cast<size_t>(n));
+        std::vector<std::uint8_t> fixed(static_cast<size_t>(n));
+        FASCIA_CUDA(cudaMemcpyAsync(diag.data(), m.diag.data(), sizeof(double) * diag.size(), cudaMemcpyDeviceToHost, stream));
+        FASCIA_CUDA(cudaMemcpyAsync(fixed.data(), m.fixed, fixed.size(), cudaMemcpyDeviceToHost, stream));
+        FASCIA_CUDA(cudaStreamSynchronize(stream));
+        double sum = 0;
+        int free = 0;
+        for (size_t k = 0; k < diag.size(); ++k)
+          if (!fixed[k]) {
+            sum += std::abs(diag[k]);
+            ++free;
+          }
+        mean = free > 0 ? sum / free : 1.0;
+      }
+      k_restore_shifted<<<blocks_for(n), kThreads, 0, stream>>>(m.fixed, m.diag.data(), kShifts[step], 1e-12 * mean,
+                                                                m.A.data(), n);
+      FASCIA_CUDA(cudaGetLastError());
     }
-  mean = free > 0 ? mean / free : 1.0;
-  for (double tau = 1e-6; tau <= 1e3 * (1 + 1e-12); tau *= 10) {
-    k_restore_shifted<<<blocks_for(n), kThreads, 0, stream>>>(m.fixed, m.diag.data(), tau, 1e-12 * mean, m.A.data(), n);
-    FASCIA_CUDA(cudaGetLastError());
     if (m.invert()) {
       m.factorised = true;
-      r.shifted = true;
-      std::ostringstream msg;
-      msg << "device Cholesky: tangent not positive definite, shifted by " << tau << " diag(H)";
-      r.message = msg.str();
-      return r;
+      m.shift_step = step;
     }
   }
-  r.converged = false;
-  r.message = "device Cholesky: tangent could not be factorised even with a diagonal shift";
+  m.first_shift_step = fascia::first_shift_step(m.shift_step);
+  r.converged = m.factorised;
+  if (!m.factorised) {
+    r.message = "device Cholesky: tangent could not be factorised even with a diagonal shift";
+  } else if (m.shift_step >= 0) {
+    r.shifted = true;
+    std::ostringstream msg;
+    msg << "device Cholesky: tangent not positive definite, shifted by " << kShifts[m.shift_step] << " diag(H)";
+    r.message = msg.str();
+  }
   return r;
+}
+
+int DeviceCholesky::shift_step() const { return m_impl->shift_step; }
+
+void DeviceCholesky::set_first_shift_step(int k) {
+  if (k < 0 || k >= kShiftSteps)
+    throw std::invalid_argument("shift step " + std::to_string(k) + " outside 0 .. " + std::to_string(kShiftSteps - 1));
+  m_impl->first_shift_step = k;
 }
 
 void DeviceCholesky::solve(const double* r, double* z) const { m_impl->product_with_inverse(r, z); }

@@ -19,9 +19,10 @@
 // triangular solves on a GPU walk level by level. A model whose dense factor would not fit is refused (refusal()):
 // the device then preconditions by block Jacobi.
 //
-// Not positive definite: shifted like the CPU's, H + tau diag|H| for tau = 1e-6, 1e-5, ... 1e3
-// (the strict upper triangle, which potrf and syrk leave untouched, restores the lower one
-// between tries).
+// Not positive definite: shifted like the CPU's, H + tau diag|H| for tau = 1e-6, 1e-5, ... 1e3,
+// tried after an unshifted try from a decade below the last factorisation's shift
+// (solve/diagonal_shifts.hpp; the strict upper triangle, which potrf and syrk leave untouched,
+// restores the lower one between tries).
 // cuSOLVER's and cuBLAS's kernels for the model's order are loaded when the object is made (an
 // inversion of the identity and a product), not in the first step.
 // Fixed DOFs are identity rows and columns. All work is enqueued on the stream of `ops`; a
@@ -61,6 +62,10 @@ class DeviceCholesky {
   // failed.
   LinearResult factorise(DevicePotential& potential);
   bool factorised() const;
+  // The last factorisation's shift step (-1: unshifted or none), and the first shifted step the
+  // next one tries (a resumed run's: as SparseCholesky's).
+  int shift_step() const;
+  void set_first_shift_step(int k);
   // z = H^{-1} r (device arrays of 6N; z's fixed DOFs equal r's). Enqueued only: no read back.
   void solve(const double* r, double* z) const;
   // Probe products per factorisation (6 per colour).

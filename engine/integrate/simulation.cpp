@@ -143,7 +143,7 @@ void Simulation::keep_tangent() {
 
 bool Simulation::restore_tangent(const ReusedTangent& tangent) {
   m_reused = tangent;
-  if (m_impl->backend) return !tangent.held || m_impl->backend->restore_tangent(tangent, m_settings);
+  if (m_impl->backend) return m_impl->backend->restore_tangent(tangent, m_settings);
   if (!tangent.held) {
     m_impl->linear.restore_shift(tangent.shift_step);
     return true;

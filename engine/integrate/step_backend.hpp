@@ -34,10 +34,11 @@ class StepBackend {
   // Elastic energy of every force field at state (J).
   virtual double elastic_energy(const State& state) = 0;
   // The factorisation the next solve reuses (pcg + cholmod), as a checkpoint keeps it; held =
-  // false when there is none.
+  // false when there is none (shift_step is the last factorisation's either way).
   virtual ReusedTangent kept_tangent() const = 0;
   // Computes the factorisation of `tangent` (from kept_tangent() of an earlier run of the same
-  // scene) as the one the next solves reuse. False where it cannot be repeated exactly.
+  // scene) as the one the next solves reuse; one not held sets where the next factorisation's
+  // shift search starts. False where it cannot be repeated exactly.
   virtual bool restore_tangent(const ReusedTangent& tangent, const SimulationSettings& settings) = 0;
 };
 

@@ -1,11 +1,13 @@
 #include "solve/linear_solver.hpp"
 
 #include "solve/block_jacobi.hpp"
+#include "solve/diagonal_shifts.hpp"
 #include "solve/factorised_solve.hpp"
 #include "solve/pcg.hpp"
 #include "solve/sparse_cholesky.hpp"
 #include "solve/vector_ops.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -62,13 +64,13 @@ LinearResult LinearSolver::factorise(const LinearSystem& system) {
   return r;
 }
 
-void LinearSolver::restore_shift(int shift_step) { m_cholesky->set_first_shift_step(std::max(-1, shift_step - 1)); }
+void LinearSolver::restore_shift(int shift_step) { m_cholesky->set_first_shift_step(first_shift_step(shift_step)); }
 
 bool LinearSolver::reuses_factorisation() const { return !m_kept.stale && m_cholesky->factorised(); }
 
 bool LinearSolver::restore_factorisation(const LinearSystem& system, const KeptFactorisation& served, int shift_step) {
   m_kept = KeptFactorisation{};
-  m_cholesky->set_first_shift_step(shift_step);
+  m_cholesky->set_first_shift_step(std::max(0, shift_step));
   factorise(system);
   if (!m_cholesky->factorised()) return false;
   m_kept = served;

@@ -215,7 +215,7 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
   // |H_ii|, floored at 1e-12 of their mean: D of the shifts (found at the first shifted try).
   std::vector<double> diag;
   m_factorised = false;
-  for (int step = m_first_shift_step; step < kShiftSteps && !m_factorised; ++step) {
+  for (int step = -1; step < kShiftSteps && !m_factorised; step = step < 0 ? m_first_shift_step : step + 1) {
     if (step < 0) {
       m_factor->factorize(m_reduced);
     } else {
@@ -235,13 +235,13 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
   }
   if (!m_factorised) m_shift_step = -1;
   m_shift = m_shift_step < 0 ? 0.0 : kShifts[m_shift_step];
-  m_first_shift_step = std::max(-1, m_shift_step - 1);
+  m_first_shift_step = fascia::first_shift_step(m_shift_step);
   return m_factorised;
 }
 
 void SparseCholesky::set_first_shift_step(int k) {
-  if (k < -1 || k >= kShiftSteps)
-    throw std::invalid_argument("shift step " + std::to_string(k) + " outside -1 .. " + std::to_string(kShiftSteps - 1));
+  if (k < 0 || k >= kShiftSteps)
+    throw std::invalid_argument("shift step " + std::to_string(k) + " outside 0 .. " + std::to_string(kShiftSteps - 1));
   m_first_shift_step = k;
 }
 

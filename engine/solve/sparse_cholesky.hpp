@@ -6,12 +6,9 @@
 // sparsity pattern of H stay the same, which they do across the Newton iterations and steps of
 // one model; only the numeric factorisation is repeated. A matrix that is not positive definite
 // (away from equilibrium the geometric stiffness can make H indefinite) is factorised as
-// H + tau diag|H| with the shifts tau = 1e-6, 1e-5, ..., 1e3 (solve/diagonal_shifts.hpp) tried
-// in turn until one succeeds (modified Newton: the solve is still a descent direction). The
-// first tried is one decade below the last factorisation's shift (none after none or 1e-6): a
-// run's tangents change little between factorisations, so one that needed a shift needs about
-// the same again, found in one or two numeric factorisations instead of one per decade from
-// none; and the shift falls a decade per factorisation while the smaller one succeeds.
+// H + tau diag|H| with the shifts tau = 1e-6, 1e-5, ..., 1e3 tried in turn until one succeeds
+// (modified Newton: the solve is still a descent direction), from a decade below the last
+// factorisation's shift (solve/diagonal_shifts.hpp).
 #pragma once
 
 #include <Eigen/CholmodSupport>
@@ -42,8 +39,8 @@ class SparseCholesky {
   bool supernodal() const;  // CHOLMOD chose a supernodal factor (solve() sweeps a small one itself)
   double shift() const { return m_shift; }          // tau of the last factorisation (0: none)
   // The shifts as steps k of kShifts (-1: unshifted; solve/diagonal_shifts.hpp): the last
-  // factorisation's, and the one the next factorisation tries first. A resumed run sets the
-  // latter to repeat the shifts of the run it continues (integrate/tangent_origin.hpp).
+  // factorisation's, and the first shifted one the next factorisation tries (0 .. 9). A resumed
+  // run sets the latter to repeat the shifts of the run it continues (integrate/tangent_origin.hpp).
   int shift_step() const { return m_shift_step; }
   int first_shift_step() const { return m_first_shift_step; }
   void set_first_shift_step(int k);
@@ -68,7 +65,7 @@ class SparseCholesky {
   std::vector<int> m_source_outer, m_source_inner, m_scatter;
   bool m_analysed = false, m_factorised = false;
   double m_shift = 0;
-  int m_shift_step = -1, m_first_shift_step = -1;
+  int m_shift_step = -1, m_first_shift_step = 0;
   std::uint64_t m_pattern_fingerprint = 0;
   int m_analyses = 0, m_factorisations = 0;
 };
