@@ -362,11 +362,11 @@ LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
   LinearResult r;
   r.factorised = true;
   // Shifts as SparseCholesky: tau diag|H| with |H_ii| floored at 1e-12 of their mean, searched
-  // from a decade below the last factorisation's.
+  // from the last factorisation's (solve/diagonal_shifts.hpp). A try after a successful one
+  // restores H too: the inversion writes H^{-1} into the lower triangle only.
   double mean = -1;  // found at the first shifted try
-  m.shift_step = -1;
-  for (int step = -1; step < kShiftSteps && !m.factorised; step = step < 0 ? m.first_shift_step : step + 1) {
-    if (step >= 0) {
+  const int step = search_shift(m.first_shift_step, [&](int k) {
+    if (k >= 0) {
       if (mean < 0) {
         std::vector<double> diag(static_cast<size_t>(n));
         std::vector<std::uint8_t> fixed(static_cast<size_t>(n));
@@ -382,15 +382,14 @@ LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
           }
         mean = free > 0 ? sum / free : 1.0;
       }
-      k_restore_shifted<<<blocks_for(n), kThreads, 0, stream>>>(m.fixed, m.diag.data(), kShifts[step], 1e-12 * mean,
+      k_restore_shifted<<<blocks_for(n), kThreads, 0, stream>>>(m.fixed, m.diag.data(), kShifts[k], 1e-12 * mean,
                                                                 m.A.data(), n);
       FASCIA_CUDA(cudaGetLastError());
     }
-    if (m.invert()) {
-      m.factorised = true;
-      m.shift_step = step;
-    }
-  }
+    return m.invert();
+  });
+  m.factorised = step < kShiftSteps;
+  m.shift_step = m.factorised ? step : -1;
   m.first_shift_step = fascia::first_shift_step(m.shift_step);
   r.converged = m.factorised;
   if (!m.factorised) {

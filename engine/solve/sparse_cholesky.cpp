@@ -214,26 +214,25 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
   if (threads == 1) serial.emplace();
   // |H_ii|, floored at 1e-12 of their mean: D of the shifts (found at the first shifted try).
   std::vector<double> diag;
-  m_factorised = false;
-  for (int step = -1; step < kShiftSteps && !m_factorised; step = step < 0 ? m_first_shift_step : step + 1) {
-    if (step < 0) {
+  const int step = search_shift(m_first_shift_step, [&](int k) {
+    if (k < 0) {
       m_factor->factorize(m_reduced);
     } else {
       if (diag.empty()) {
         diag.resize(static_cast<std::size_t>(free));
         double mean = 0;
-        for (int k = 0; k < free; ++k) mean += (diag[k] = std::abs(m_reduced.coeff(k, k)));
+        for (int i = 0; i < free; ++i) mean += (diag[i] = std::abs(m_reduced.coeff(i, i)));
         mean = free > 0 ? mean / free : 1.0;
         for (double& d : diag) d = std::max(d, 1e-12 * mean);
       }
       Eigen::SparseMatrix<double> shifted = m_reduced;
-      for (int k = 0; k < free; ++k) shifted.coeffRef(k, k) += kShifts[step] * diag[k];
+      for (int i = 0; i < free; ++i) shifted.coeffRef(i, i) += kShifts[k] * diag[i];
       m_factor->factorize(shifted);
     }
-    m_factorised = m_factor->info() == Eigen::Success;
-    if (m_factorised) m_shift_step = step;
-  }
-  if (!m_factorised) m_shift_step = -1;
+    return m_factor->info() == Eigen::Success;
+  });
+  m_factorised = step < kShiftSteps && m_factor->info() == Eigen::Success;
+  m_shift_step = m_factorised ? step : -1;
   m_shift = m_shift_step < 0 ? 0.0 : kShifts[m_shift_step];
   m_first_shift_step = fascia::first_shift_step(m_shift_step);
   return m_factorised;

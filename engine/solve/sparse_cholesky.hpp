@@ -6,8 +6,8 @@
 // sparsity pattern of H stay the same, which they do across the Newton iterations and steps of
 // one model; only the numeric factorisation is repeated. A matrix that is not positive definite
 // (away from equilibrium the geometric stiffness can make H indefinite) is factorised as
-// H + tau diag|H| with the shifts tau = 1e-6, 1e-5, ..., 1e3 tried in turn until one succeeds
-// (modified Newton: the solve is still a descent direction), from a decade below the last
+// H + tau diag|H| with the smallest of the shifts tau = 1e-6, 1e-5, ..., 1e3 that succeeds
+// (modified Newton: the solve is still a descent direction), searched from the last
 // factorisation's shift (solve/diagonal_shifts.hpp).
 #pragma once
 

@@ -184,6 +184,22 @@ TEST_CASE("after an unshifted try the first shift tried is a decade below the la
   chol.solve(b, x);
   resumed.solve(b, y);
   CHECK(x == y);
+  // Whatever the last shift, the search finds the smallest one that succeeds, as a fresh
+  // factorisation's does: down from the last one (H_33 = 0.25 and 0.2 need smaller shifts than
+  // -1) and up (-1 after them), and none for a positive definite matrix.
+  SparseCholesky kept;
+  for (const double h33 : {-1.0, 0.25, 0.2, -1.0, 0.26, 4.0, -1.0, 0.2}) {
+    Eigen::SparseMatrix<double> M = tridiagonal(6);
+    M.coeffRef(3, 3) = h33;
+    SparseCholesky fresh;
+    REQUIRE(kept.factorise(M, nullptr));
+    REQUIRE(fresh.factorise(M, nullptr));
+    INFO("H_33 = " << h33);
+    CHECK(kept.shift_step() == fresh.shift_step());
+    kept.solve(b, x);
+    fresh.solve(b, y);
+    CHECK(x == y);
+  }
   CHECK_THROWS_AS(resumed.set_first_shift_step(kShiftSteps), std::invalid_argument);
   CHECK_THROWS_AS(resumed.set_first_shift_step(-1), std::invalid_argument);
 }
