@@ -5,7 +5,6 @@
 #include "mechanics/rotation_stabilisation.hpp"
 #include "solve/diagonal_shifts.hpp"
 
-#include <algorithm>
 #include <iostream>
 
 namespace fascia::gpu {
@@ -76,11 +75,11 @@ class CudaStep final : public StepBackend {
   bool restore_tangent(const ReusedTangent& tangent, const SimulationSettings& settings) override {
     m_kept = KeptFactorisation{};
     if (!tangent.held) {
-      if (m_factor) m_factor->set_first_shift_step(first_shift_step(tangent.shift_step));
+      if (m_factor) m_factor->set_first_shift_step(resumed_first_shift_step(tangent.shift_step, false));
       return true;
     }
     if (!m_factor || tangent.pattern != m_factor->fingerprint()) return false;
-    m_factor->set_first_shift_step(std::max(0, tangent.shift_step));
+    m_factor->set_first_shift_step(resumed_first_shift_step(tangent.shift_step, true));
     const TangentOrigin& o = tangent.origin;
     if (settings.integrator == Integrator::static_equilibrium)
       m_potential.set_static();

@@ -406,8 +406,7 @@ LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
 int DeviceCholesky::shift_step() const { return m_impl->shift_step; }
 
 void DeviceCholesky::set_first_shift_step(int k) {
-  if (k < 0 || k >= kShiftSteps)
-    throw std::invalid_argument("shift step " + std::to_string(k) + " outside 0 .. " + std::to_string(kShiftSteps - 1));
+  require_shifted_step(k);
   m_impl->first_shift_step = k;
 }
 

@@ -10,6 +10,9 @@
 // per decade from the smallest.
 #pragma once
 
+#include <stdexcept>
+#include <string>
+
 namespace fascia {
 
 constexpr int kShiftSteps = 10;
@@ -17,6 +20,17 @@ constexpr double kShifts[kShiftSteps] = {1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1e0
 
 // The first shifted step tried after a factorisation whose step was `last`.
 constexpr int first_shift_step(int last) { return last > 0 ? last - 1 : 0; }
+
+// The first shifted step of a resumed run's next factorisation, the interrupted run's last one
+// having been of step `last`: that step itself where the factorisation is held (it is computed
+// again, with the same tries), else the one after it.
+constexpr int resumed_first_shift_step(int last, bool held) { return held ? (last > 0 ? last : 0) : first_shift_step(last); }
+
+// Refuses (std::invalid_argument) a first shifted step outside 0 .. kShiftSteps - 1.
+inline void require_shifted_step(int k) {
+  if (k < 0 || k >= kShiftSteps)
+    throw std::invalid_argument("shift step " + std::to_string(k) + " outside 0 .. " + std::to_string(kShiftSteps - 1));
+}
 
 // The smallest step at which attempt(step) (a numeric factorisation of that shift, -1 unshifted;
 // true when it succeeds) succeeds, searched as above from the shifted step `first`; kShiftSteps

@@ -7,7 +7,6 @@
 #include "solve/sparse_cholesky.hpp"
 #include "solve/vector_ops.hpp"
 
-#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -64,13 +63,15 @@ LinearResult LinearSolver::factorise(const LinearSystem& system) {
   return r;
 }
 
-void LinearSolver::restore_shift(int shift_step) { m_cholesky->set_first_shift_step(first_shift_step(shift_step)); }
+void LinearSolver::restore_shift(int shift_step) {
+  m_cholesky->set_first_shift_step(resumed_first_shift_step(shift_step, false));
+}
 
 bool LinearSolver::reuses_factorisation() const { return !m_kept.stale && m_cholesky->factorised(); }
 
 bool LinearSolver::restore_factorisation(const LinearSystem& system, const KeptFactorisation& served, int shift_step) {
   m_kept = KeptFactorisation{};
-  m_cholesky->set_first_shift_step(std::max(0, shift_step));
+  m_cholesky->set_first_shift_step(resumed_first_shift_step(shift_step, true));
   factorise(system);
   if (!m_cholesky->factorised()) return false;
   m_kept = served;

@@ -9,8 +9,6 @@
 #include <cmath>
 #include <cstddef>
 #include <optional>
-#include <stdexcept>
-#include <string>
 
 namespace fascia {
 
@@ -239,8 +237,7 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
 }
 
 void SparseCholesky::set_first_shift_step(int k) {
-  if (k < 0 || k >= kShiftSteps)
-    throw std::invalid_argument("shift step " + std::to_string(k) + " outside 0 .. " + std::to_string(kShiftSteps - 1));
+  require_shifted_step(k);
   m_first_shift_step = k;
 }
 
