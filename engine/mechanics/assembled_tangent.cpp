@@ -1,5 +1,7 @@
 #include "mechanics/assembled_tangent.hpp"
 
+#include "core/target_clones.hpp"
+
 #include <omp.h>
 
 #include <algorithm>
@@ -9,6 +11,93 @@ namespace fascia {
 namespace {
 
 constexpr int kParallelMin = 256;               // fewer samples: one thread
+
+// A pair's 9 x 6 matrix W_b = v D^T B_b is stored as 9 rows of kRowStride doubles, its 6
+// columns and 2 zeros: two 4-double vectors per row for the block products below.
+constexpr int kPairRows = 9;
+constexpr int kRowStride = 8;
+
+struct SamplePairs {
+  std::vector<Mat3> levers;    // [k] the pairs' levers M (elasticity.lever)
+  std::vector<Vec3> gradients;  // [k] the pairs' weight gradients g, 1/m
+};
+
+// Adds sample s's blocks K_ab = B_a^T W_b (a <= b, a and b its k neighbour pairs) to the matrix:
+// in column frame j_b where owned[b], and transposed in column frame j_a where owned[a] (a != b).
+// D: [81] the sample's material matrix d^2 psi / dF^2 (row e: vec(dP[E_e])); v: its volume, m^3;
+// frames: [k] its neighbour frames; slot: [k k] block row positions (m_pair_slots); W: scratch of
+// kPairRows kRowStride k doubles. The arithmetic of a block does not depend on the owner, so a
+// block whose frames have different owners adds the same bits in both places.
+FASCIA_CLONES void add_sample_blocks(const double* D, double v, const SamplePairs& pairs, int k, const char* owned,
+                                     const int* frames, const int* slot, double* W, const int* outer,
+                                     double* values) {
+  for (int b = 0; b < k; ++b) {
+    double* w = &W[kPairRows * kRowStride * b];
+    for (int c = 0; c < 6; ++c) {
+      // dF of the unit increment c (eq. 11), then dP = D^T vec(dF): rows of D are vec(dP[E_e]).
+      Vec3 dx{0, 0, 0}, dr{0, 0, 0};
+      (c < 3 ? dx : dr) = Vec3{c % 3 == 0 ? 1.0 : 0.0, c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0};
+      const Mat3 dF = pair_lever_differential(dx, dr, pairs.gradients[b], pairs.levers[b]);
+      double out[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+      for (int e = 0; e < 9; ++e) {
+        const double f = v * dF.m[e / 3][e % 3];
+        if (f == 0) continue;
+        for (int r = 0; r < 9; ++r) out[r] += f * D[9 * e + r];
+      }
+      for (int e = 0; e < 9; ++e) w[kRowStride * e + c] = out[e];
+    }
+    for (int e = 0; e < 9; ++e) w[kRowStride * e + 6] = w[kRowStride * e + 7] = 0;
+  }
+  for (int b = 0; b < k; ++b) {
+    const double* w = &W[kPairRows * kRowStride * b];
+    for (int a = 0; a <= b; ++a) {
+      if (!owned[a] && !owned[b]) continue;
+      // K_ab = B_a^T W_b, row by row across the 6 (+ 2) columns c of W_b, P_c = W_b[:, c] as
+      // 3 x 3: rows 0-2 are P_c g (the force part), rows 3-5 axial(M P_c^T) (the torque part).
+      const Vec3& g = pairs.gradients[a];
+      const Mat3& M = pairs.levers[a];
+      alignas(32) double K[6][kRowStride];
+      for (int r = 0; r < 3; ++r) {
+        const double* p0 = w + kRowStride * (3 * r);
+#pragma omp simd
+        for (int c = 0; c < kRowStride; ++c)
+          K[r][c] = p0[c] * g.x + p0[kRowStride + c] * g.y + p0[2 * kRowStride + c] * g.z;
+      }
+#pragma omp simd
+      for (int c = 0; c < kRowStride; ++c) K[3][c] = K[4][c] = K[5][c] = 0;
+      for (int j = 0; j < 3; ++j) {
+        const double* p0 = w + kRowStride * j;        // P[0][j] of each column
+        const double* p1 = w + kRowStride * (3 + j);  // P[1][j]
+        const double* p2 = w + kRowStride * (6 + j);  // P[2][j]
+        const double m0 = M.m[0][j], m1 = M.m[1][j], m2 = M.m[2][j];
+#pragma omp simd
+        for (int c = 0; c < kRowStride; ++c) {
+          K[3][c] += m1 * p2[c] - m2 * p1[c];
+          K[4][c] += m2 * p0[c] - m0 * p2[c];
+          K[5][c] += m0 * p1[c] - m1 * p0[c];
+        }
+      }
+      if (a == b)  // a diagonal block: its upper triangle mirrored, so that K = K^T bitwise
+        for (int c = 0; c < 6; ++c)
+          for (int r = 0; r < c; ++r) K[r][c] = K[c][r];
+      if (owned[b]) {
+        const int row_block = slot[a * k + b];
+        for (int c = 0; c < 6; ++c) {
+          double* column = values + outer[6 * frames[b] + c] + 6 * row_block;
+          for (int r = 0; r < 6; ++r) column[r] += K[r][c];
+        }
+      }
+      if (owned[a] && a != b) {
+        const int row_block = slot[b * k + a];
+        for (int r = 0; r < 6; ++r) {
+          double* column = values + outer[6 * frames[a] + r] + 6 * row_block;
+#pragma omp simd
+          for (int c = 0; c < 6; ++c) column[c] += K[r][c];
+        }
+      }
+    }
+  }
+}
 
 }  // namespace
 
@@ -164,10 +253,8 @@ const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& 
     const int thread = omp_get_thread_num(), threads = omp_get_num_threads();
     const int own_begin = static_cast<int>(static_cast<long long>(frames) * thread / threads);
     const int own_end = static_cast<int>(static_cast<long long>(frames) * (thread + 1) / threads);
+    SamplePairs pairs;
     double D[81];
-    std::vector<Mat3> levers;
-    std::vector<Vec3> gradients;
-    // [k][9][6]: W_b = v D^T B_b, row e = vec(dP)_e of the pair's 6 unit increments (the columns).
     std::vector<double> W;
     std::vector<char> owned;
     for (int s = 0; s < samples; ++s) {
@@ -181,72 +268,15 @@ const Eigen::SparseMatrix<double>& TangentAssembler::assemble(const Elasticity& 
       }
       if (!any) continue;
       elasticity.material_matrix(s, D);
-      const double v = model.samples.volumes[s];
-      levers.resize(k);
-      gradients.resize(k);
-      W.resize(54 * static_cast<size_t>(k));
+      pairs.levers.resize(k);
+      pairs.gradients.resize(k);
       for (int b = 0; b < k; ++b) {
-        levers[b] = elasticity.lever(begin + b);
-        gradients[b] = load3(&nb.weight_gradients[3 * (begin + b)]);
-        double* w = &W[54 * b];
-        for (int c = 0; c < 6; ++c) {
-          // dF of the unit increment c (eq. 11), then dP = D^T vec(dF): rows of D are vec(dP[E_k]).
-          Vec3 dx{0, 0, 0}, dr{0, 0, 0};
-          (c < 3 ? dx : dr) = Vec3{c % 3 == 0 ? 1.0 : 0.0, c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0};
-          const Mat3 dF = pair_lever_differential(dx, dr, gradients[b], levers[b]);
-          double out[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-          for (int e = 0; e < 9; ++e) {
-            const double f = v * dF.m[e / 3][e % 3];
-            if (f == 0) continue;
-            for (int r = 0; r < 9; ++r) out[r] += f * D[9 * e + r];
-          }
-          for (int e = 0; e < 9; ++e) w[6 * e + c] = out[e];
-        }
+        pairs.levers[b] = elasticity.lever(begin + b);
+        pairs.gradients[b] = load3(&nb.weight_gradients[3 * (begin + b)]);
       }
-      const int* slot = &m_pair_slots[m_pair_offsets[s]];
-      for (int b = 0; b < k; ++b) {
-        const double* w = &W[54 * b];
-        for (int a = 0; a <= b; ++a) {
-          if (!owned[a] && !owned[b]) continue;
-          // K_ab = B_a^T W_b (pair_lever_virtual_work of each column P = W_b[:, c], in its
-          // arithmetic): row r of frame a, column c of frame b, the columns side by side.
-          const Vec3& g = gradients[a];
-          const Mat3& M = levers[a];
-          double K[6][6];
-          for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 6; ++c)
-              K[r][c] = w[6 * (3 * r) + c] * g.x + w[6 * (3 * r + 1) + c] * g.y + w[6 * (3 * r + 2) + c] * g.z;
-          for (int c = 0; c < 6; ++c) {
-            double tx = 0, ty = 0, tz = 0;  // axial(M P^T), P = W_b[:, c] as 3 x 3
-            for (int j = 0; j < 3; ++j) {
-              const double p0 = w[6 * j + c], p1 = w[6 * (3 + j) + c], p2 = w[6 * (6 + j) + c];
-              tx += M.m[1][j] * p2 - M.m[2][j] * p1;
-              ty += M.m[2][j] * p0 - M.m[0][j] * p2;
-              tz += M.m[0][j] * p1 - M.m[1][j] * p0;
-            }
-            K[3][c] = tx;
-            K[4][c] = ty;
-            K[5][c] = tz;
-          }
-          if (a == b)  // a diagonal block: its upper triangle mirrored, so that K = K^T bitwise
-            for (int c = 0; c < 6; ++c)
-              for (int r = 0; r < c; ++r) K[r][c] = K[c][r];
-          if (owned[b]) {
-            const int j = nb.frames[begin + b], row_block = slot[a * k + b];
-            for (int c = 0; c < 6; ++c) {
-              double* column = values + outer[6 * j + c] + 6 * row_block;
-              for (int r = 0; r < 6; ++r) column[r] += K[r][c];
-            }
-          }
-          if (owned[a] && a != b) {
-            const int i = nb.frames[begin + a], row_block = slot[b * k + a];
-            for (int r = 0; r < 6; ++r) {
-              double* column = values + outer[6 * i + r] + 6 * row_block;
-              for (int c = 0; c < 6; ++c) column[c] += K[r][c];
-            }
-          }
-        }
-      }
+      W.resize(static_cast<size_t>(kPairRows) * kRowStride * k);
+      add_sample_blocks(D, model.samples.volumes[s], pairs, k, owned.data(), &nb.frames[begin],
+                        &m_pair_slots[m_pair_offsets[s]], W.data(), outer, values);
     }
   }
   const std::vector<double>& blocks = elasticity.rotational_blocks();
