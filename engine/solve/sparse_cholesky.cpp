@@ -51,13 +51,16 @@ class SerialRegions {
 
 // y = L^{-T} L^{-1} y for a supernodal LL^T factor (cholmod.h's layout: supernode k holds
 // columns super[k] .. super[k+1] - 1, its rows are s[pi[k]] .. s[pi[k+1] - 1], the first nscol
-// of them its columns, and its values are the column-major nsrow x nscol block at x + px[k]).
-// Per supernode, y's entries at its rows are gathered into t [nsrow], each column j updates the
-// rows below it with one contiguous product (an axpy forward, a dot product backward), and the
-// entries are put back: the columns' part into y, and forward the rows below them added in.
-// CHOLMOD's solve makes the same two sweeps with BLAS calls per supernode and column block,
-// whose overhead exceeds the arithmetic on the shipped scenes' factors (tens of columns per
-// supernode); these loops run in AVX2 where the CPU has it (core/target_clones.hpp).
+// of them its columns, and its values are the column-major nsrow x nscol block at x + px[k]: a
+// lower triangle T over a rectangle B of m = nsrow - nscol rows). Per supernode, y's entries at
+// its rows are gathered into t [nsrow], and the sweeps run in two parts: forward, T's columns
+// (short axpys within the triangle), then B's product with the columns' solution, four columns
+// per pass over the m rows; backward, B^T's product with the rows below, four dot products per
+// pass, then T's columns. The entries are put back: the columns' part into y, and forward the
+// rows below them added in. CHOLMOD's solve makes the same sweeps with BLAS calls per supernode
+// and column block, whose overhead exceeds the arithmetic on the shipped scenes' factors (tens of
+// columns per supernode); these loops run in AVX2 where the CPU has it
+// (core/target_clones.hpp).
 FASCIA_CLONES void supernodal_solve(const cholmod_factor& L, double* y, double* t) {
   const int* super = static_cast<const int*>(L.super);
   const int* pi = static_cast<const int*>(L.pi);
@@ -66,32 +69,70 @@ FASCIA_CLONES void supernodal_solve(const cholmod_factor& L, double* y, double* 
   const double* x = static_cast<const double*>(L.x);
   const int nsuper = static_cast<int>(L.nsuper);
   for (int k = 0; k < nsuper; ++k) {  // y = L^{-1} y
-    const int nscol = super[k + 1] - super[k], nsrow = pi[k + 1] - pi[k];
+    const int nscol = super[k + 1] - super[k], nsrow = pi[k + 1] - pi[k], m = nsrow - nscol;
     const double* block = x + px[k];
     const int* r = rows + pi[k];
     for (int i = 0; i < nscol; ++i) t[i] = y[r[i]];
-    for (int i = nscol; i < nsrow; ++i) t[i] = 0.0;
-    for (int j = 0; j < nscol; ++j) {
+    for (int j = 0; j < nscol; ++j) {  // T
       const double* col = block + static_cast<std::ptrdiff_t>(j) * nsrow;
       const double v = t[j] / col[j];
       t[j] = v;
 #pragma omp simd
-      for (int i = j + 1; i < nsrow; ++i) t[i] -= col[i] * v;
+      for (int i = j + 1; i < nscol; ++i) t[i] -= col[i] * v;
+    }
+    double* u = t + nscol;  // B t, then subtracted from y's rows below
+#pragma omp simd
+    for (int i = 0; i < m; ++i) u[i] = 0.0;
+    int j = 0;
+    for (; j + 4 <= nscol; j += 4) {
+      const double* c0 = block + static_cast<std::ptrdiff_t>(j) * nsrow + nscol;
+      const double *c1 = c0 + nsrow, *c2 = c1 + nsrow, *c3 = c2 + nsrow;
+      const double v0 = t[j], v1 = t[j + 1], v2 = t[j + 2], v3 = t[j + 3];
+#pragma omp simd
+      for (int i = 0; i < m; ++i) u[i] += c0[i] * v0 + c1[i] * v1 + c2[i] * v2 + c3[i] * v3;
+    }
+    for (; j < nscol; ++j) {
+      const double* c0 = block + static_cast<std::ptrdiff_t>(j) * nsrow + nscol;
+      const double v0 = t[j];
+#pragma omp simd
+      for (int i = 0; i < m; ++i) u[i] += c0[i] * v0;
     }
     for (int i = 0; i < nscol; ++i) y[r[i]] = t[i];
-    for (int i = nscol; i < nsrow; ++i) y[r[i]] += t[i];
+    for (int i = 0; i < m; ++i) y[r[nscol + i]] -= u[i];
   }
   for (int k = nsuper - 1; k >= 0; --k) {  // y = L^{-T} y
-    const int nscol = super[k + 1] - super[k], nsrow = pi[k + 1] - pi[k];
+    const int nscol = super[k + 1] - super[k], nsrow = pi[k + 1] - pi[k], m = nsrow - nscol;
     const double* block = x + px[k];
     const int* r = rows + pi[k];
     for (int i = 0; i < nsrow; ++i) t[i] = y[r[i]];
-    for (int j = nscol - 1; j >= 0; --j) {
-      const double* col = block + static_cast<std::ptrdiff_t>(j) * nsrow;
+    const double* u = t + nscol;  // the rows below: final
+    int j = 0;
+    for (; j + 4 <= nscol; j += 4) {
+      const double* c0 = block + static_cast<std::ptrdiff_t>(j) * nsrow + nscol;
+      const double *c1 = c0 + nsrow, *c2 = c1 + nsrow, *c3 = c2 + nsrow;
+      double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+#pragma omp simd reduction(+ : s0, s1, s2, s3)
+      for (int i = 0; i < m; ++i) {
+        s0 += c0[i] * u[i];
+        s1 += c1[i] * u[i];
+        s2 += c2[i] * u[i];
+        s3 += c3[i] * u[i];
+      }
+      t[j] -= s0, t[j + 1] -= s1, t[j + 2] -= s2, t[j + 3] -= s3;
+    }
+    for (; j < nscol; ++j) {
+      const double* c0 = block + static_cast<std::ptrdiff_t>(j) * nsrow + nscol;
+      double s0 = 0.0;
+#pragma omp simd reduction(+ : s0)
+      for (int i = 0; i < m; ++i) s0 += c0[i] * u[i];
+      t[j] -= s0;
+    }
+    for (int jj = nscol - 1; jj >= 0; --jj) {  // T^T
+      const double* col = block + static_cast<std::ptrdiff_t>(jj) * nsrow;
       double sum = 0.0;
 #pragma omp simd reduction(+ : sum)
-      for (int i = j + 1; i < nsrow; ++i) sum += col[i] * t[i];
-      t[j] = (t[j] - sum) / col[j];
+      for (int i = jj + 1; i < nscol; ++i) sum += col[i] * t[i];
+      t[jj] = (t[jj] - sum) / col[jj];
     }
     for (int i = 0; i < nscol; ++i) y[r[i]] = t[i];
   }
