@@ -47,14 +47,12 @@ Elasticity::Elasticity(const Model& model, int threads)
   m_chunk.resize((s_count + kChunk - 1) / kChunk);
 }
 
-void Elasticity::compute_rotations(const State& state) { rotation_matrices(state, m_rotations); }
-
 double Elasticity::energy(const State& state) {
-  compute_rotations(state);
+  rotation_matrices(state, m_energy_rotations);  // the prepared rotations stay
   const int s_count = m_model.sample_count();
   const int chunks = static_cast<int>(m_chunk.size());
   const double* x = state.positions.data();
-  const double* R = m_rotations.data();
+  const double* R = m_energy_rotations.data();
 #pragma omp parallel for schedule(static) num_threads(m_threads) if (chunks > 1)
   for (int c = 0; c < chunks; ++c) {
     double sum = 0;
@@ -72,7 +70,9 @@ double Elasticity::energy(const State& state) {
 }
 
 double Elasticity::prepare(const State& state) {
-  compute_rotations(state);
+  if (m_prepared.valid && state.positions == m_prepared.positions && state.orientations == m_prepared.orientations)
+    return m_prepared.energy;
+  rotation_matrices(state, m_rotations);
   const int s_count = m_model.sample_count();
   const int chunks = static_cast<int>(m_chunk.size());
   const double* x = state.positions.data();
@@ -135,40 +135,16 @@ double Elasticity::prepare(const State& state) {
   }
   double w = 0;
   for (double c : m_chunk) w += c;
+  m_prepared.valid = true;
+  m_prepared.positions = state.positions;
+  m_prepared.orientations = state.orientations;
+  m_prepared.energy = w;
   return w;
 }
 
 double Elasticity::gradient(const State& state, double* gradient) {
-  compute_rotations(state);
-  const int s_count = m_model.sample_count();
-  const int chunks = static_cast<int>(m_chunk.size());
-  const double* x = state.positions.data();
-  const double* R = m_rotations.data();
-  const NeighbourTable& nb = m_model.neighbours;
-#pragma omp parallel for schedule(static) num_threads(m_threads) if (chunks > 1)
-  for (int c = 0; c < chunks; ++c) {
-    double sum = 0;
-    std::vector<Vec3> a(m_max_pairs);
-    const int end = std::min(s_count, (c + 1) * kChunk);
-    for (int s = c * kChunk; s < end; ++s) {
-      const Mat3 F = deformation_gradient_and_offsets(nb, s, x, R, a.data());
-      const Material& mat = m_model.materials[m_model.samples.materials[s]];
-      const double v = m_model.samples.volumes[s];
-      MaterialCache cache;
-      double psi = 0;
-      const Mat3 vP = v * energy_and_first_piola(mat, F, cache, psi);
-      sum += v * psi;
-      for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-        const Mat3 Ri = load_mat3(R + 9 * nb.frames[p]);
-        const Vec3 g = load3(&nb.weight_gradients[3 * p]);
-        pair_lever_virtual_work(vP, g, pair_lever(a[p - nb.offsets[s]], g, nb.weights[p], Ri), &m_pair[6 * p]);
-      }
-    }
-    m_chunk[c] = sum;
-  }
+  const double w = prepare(state);  // the pair shares of the gradient are prepare's
   gather(gradient);
-  double w = 0;
-  for (double c : m_chunk) w += c;
   return w;
 }
 

@@ -64,14 +64,19 @@ class Elasticity final : public VolumetricElasticity {
   const std::vector<double>& rotational_blocks() const { return m_frame_blocks; }
 
  private:
-  void compute_rotations(const State& state);
   void gather(double* out) const;  // out_i = sum of m_pair over the frame's pairs
 
   const Model& m_model;
   int m_threads;
   int m_max_pairs = 0;  // largest neighbour count of a sample
   PairTableView m_table;
-  std::vector<double> m_rotations;     // [N][9]
+  std::vector<double> m_rotations;     // [N][9] at the prepared state
+  std::vector<double> m_energy_rotations;  // [N][9] energy()'s
+  struct Prepared {
+    bool valid = false;
+    std::vector<double> positions, orientations;  // the prepared state's
+    double energy = 0;                            // W there, J
+  } m_prepared;
   std::vector<double> m_offsets;       // [P][3] a_p = R_i l_p
   std::vector<double> m_F;             // [S][9]
   std::vector<double> m_P;             // [S][9]

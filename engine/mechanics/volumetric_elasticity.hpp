@@ -29,10 +29,12 @@ class VolumetricElasticity {
 
   // W in J; +inf if a neo-Hookean sample is inverted.
   virtual double energy(const State& state) = 0;
-  // W and its gradient, written (not added) to gradient [N][6].
+  // W and its gradient, written (not added) to gradient [N][6]. It may prepare `state` as
+  // prepare() does (the CPU's Elasticity does: its gradient is part of that work).
   virtual double gradient(const State& state, double* gradient) = 0;
   // Precomputes what the tangent products at `state` reuse; returns W. apply_tangent and
-  // tangent_diagonal_blocks use the state of the last prepare().
+  // tangent_diagonal_blocks use the state last prepared: call prepare() after any gradient() at
+  // another state.
   virtual double prepare(const State& state) = 0;
   // out = (K + D) d, d and out [N][6], K the symmetric Hessian of theta -> W(q (+) theta) at
   // theta = 0, D = diag(t_i I3, Q_i) from frame_diagonal [N][10] (t_i, then Q_i row-major), or
