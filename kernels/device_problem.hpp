@@ -74,6 +74,7 @@ class DeviceProblem {
         }
         bool factorised() const { return problem.m_factor->factorised(); }
         void solve(const Vector& r, Vector& z) const { problem.m_factor->solve(r.data(), z.data()); }
+        bool shifted() const { return problem.m_factor->shift_step() >= 0; }
         const LinearSettings& settings;
         bool stops_paying(const KeptFactorisation&, int iterations) const {
           return iterations > problem.m_factor->refactorise_above(settings);

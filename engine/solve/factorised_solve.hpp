@@ -8,7 +8,12 @@
 // (Newton iterations and steps), renewed before the next solve once the factorisation says it
 // stops paying (the CPU's rule: solve/kept_factorisation.hpp), and computed again at once when
 // the reused one could not reach the tolerance within the cap. The state between solves is a
-// KeptFactorisation, which a checkpoint keeps.
+// KeptFactorisation, which a checkpoint keeps. Where H is indefinite (PCG meets non-positive
+// curvature) and the factor is of a shifted H + tau diag|H|, the solve returns that matrix's
+// step F^{-1} b instead of CG's truncated iterate: the modified Newton step (Nocedal & Wright,
+// Numerical Optimization, 2nd ed., §3.4), a descent direction since F is positive definite, and
+// the step direct_solve takes (a truncated iterate of a few CG iterations moves the state only a
+// little along the negative curvature per Newton iteration).
 //
 // Factorisation concept:
 //   LinearResult factorise();                 factorises H now: .factorised = true, .shifted and
@@ -16,6 +21,7 @@
 //                                             .message alone when it failed
 //   bool factorised() const;                  a factor is held
 //   void solve(const Vector& r, Vector& z);   z = F^{-1} r
+//   bool shifted() const;                     the factor held is of H + tau diag|H|, tau > 0
 //   bool stops_paying(const KeptFactorisation& kept, int iterations) const;
 //                                             after a solve of `iterations` that `kept` has
 //                                             counted: whether to renew the factorisation before
@@ -85,6 +91,14 @@ LinearResult pcg_with_kept_factorisation(const Ops& ops, Apply&& apply, Factoris
     r = pcg(ops, apply, precondition, pcg_settings, b, x);
     served = r.iterations;
     r.iterations += spent;
+  }
+  if (r.negative_curvature && factor.shifted()) {  // the modified Newton step
+    Vector rhs;
+    ops.copy(b, rhs);
+    ops.project(rhs);
+    factor.solve(rhs, x);
+    ops.project(x);
+    r.message = "non-positive curvature in CG; the step of the shifted tangent's factor";
   }
   r.factorised = was_stale || fresh.factorised;
   r.shifted = fresh.shifted;

@@ -102,6 +102,7 @@ LinearResult LinearSolver::solve(const LinearSystem& system, const LinearSetting
     LinearResult factorise() { return solver.factorise(system); }
     bool factorised() const { return solver.m_cholesky->factorised(); }
     void solve(const std::vector<double>& r, std::vector<double>& z) const { solver.m_cholesky->solve(r, z); }
+    bool shifted() const { return solver.m_cholesky->shift() > 0; }
     bool stops_paying(const KeptFactorisation& k, int iterations) const {
       return fascia::stops_paying(k, iterations, kCholmodFactorisationCost);
     }

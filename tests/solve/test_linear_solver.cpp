@@ -183,4 +183,21 @@ TEST_CASE("an indefinite tangent makes CHOLMOD shift, and CG truncate at negativ
   const LinearResult cg = solver.solve(system, settings, b, x);
   REQUIRE(cg.negative_curvature);
   REQUIRE(dot(b, x) > 0);  // still a descent direction for Newton (x solves against -g = b)
+
+  // PCG with the shifted factorisation meets the negative curvature too, and returns the
+  // shifted matrix's step F^{-1} b, F = H + tau diag|H| (the modified Newton step), as the
+  // direct solve does.
+  settings.method = LinearMethod::pcg;
+  settings.preconditioner = Preconditioner::cholmod;
+  LinearSolver kept;
+  const LinearResult modified = kept.solve(system, settings, b, x);
+  REQUIRE(modified.negative_curvature);
+  REQUIRE(modified.shifted);
+  const double tau = kept.factorisation().shift();
+  REQUIRE(tau > 1);  // the smallest shift that makes -1 + tau positive
+  for (int k = 0; k < 6; ++k) {
+    const double expected = b[k] / (diag[k] + tau * std::abs(diag[k]));
+    CHECK(std::abs(x[k] - expected) <= 4e-16 * std::abs(expected));  // one division, rounded
+  }
+  REQUIRE(dot(b, x) > 0);
 }
