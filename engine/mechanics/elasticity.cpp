@@ -1,5 +1,7 @@
 #include "mechanics/elasticity.hpp"
 
+#include "core/target_clones.hpp"
+
 #include "mechanics/frame_sample.hpp"
 
 #include <cmath>
@@ -26,6 +28,59 @@ Mat3 deformation_gradient_and_offsets(const NeighbourTable& nb, int s, const dou
     F += outer(load3(x + 3 * i) + ap, load3(&nb.weight_gradients[3 * p])) + nb.weights[p] * Ri;
   }
   return F;
+}
+
+// Where prepare() writes: per sample F, P [S][9] and the material cache [S]; per pair a_p [P][3],
+// the pair's share of the gradient [P][6] and its rotational geometric block [P][6]; the lanes.
+struct PreparedArrays {
+  double* F;
+  double* P;
+  MaterialCache* cache;
+  double* offsets;
+  double* pair;
+  double* pair_blocks;
+  SampleLanes* lanes;
+};
+
+// Prepares sample s at positions x [N][3] and rotations R [N][9] (a: scratch of its pair count):
+// F, P and the cache, the lanes' sample and levers, and per pair a_p, the share of the gradient
+// and the rotational geometric block. Returns v psi, J. The Mat3 arithmetic is inlined into a
+// clone for AVX2 + FMA (core/target_clones.hpp).
+FASCIA_CLONES __attribute__((flatten)) double prepare_sample(const Model& model, int s, const double* x,
+                                                             const double* R, Vec3* a, const PreparedArrays& out) {
+  const NeighbourTable& nb = model.neighbours;
+  const Mat3 F = deformation_gradient_and_offsets(nb, s, x, R, a);
+  const Material& mat = model.materials[model.samples.materials[s]];
+  const double v = model.samples.volumes[s];
+  double psi = 0;
+  const Mat3 P = energy_and_first_piola(mat, F, out.cache[s], psi);
+  store_mat3(&out.F[9 * s], F);
+  store_mat3(&out.P[9 * s], P);
+  out.lanes->set_sample(s, mat, v, F, out.cache[s]);
+  const Mat3 vP = v * P;
+  for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
+    const Mat3 Ri = load_mat3(R + 9 * nb.frames[p]);
+    const Vec3 g = load3(&nb.weight_gradients[3 * p]);
+    const Vec3 ap = a[p - nb.offsets[s]];
+    store3(&out.offsets[3 * p], ap);
+    const Mat3 M = pair_lever(ap, g, nb.weights[p], Ri);
+    out.lanes->set_lever(s, p - nb.offsets[s], M);
+    // Pair buffer: energy gradient share (columns 0-5) ...
+    pair_lever_virtual_work(vP, g, M, &out.pair[6 * p]);
+    // ... and the pair's rotational geometric block, which with B = M (v P)^T is
+    // sym(B) - tr(B) I (pair_rotational_geometric_block: B = w R (vP)^T + a (vP g)^T),
+    // 6 values xx yy zz yz xz xy.
+    const Mat3 B = M * transpose(vP);
+    const double tr = B.m[0][0] + B.m[1][1] + B.m[2][2];
+    double* q = &out.pair_blocks[6 * p];
+    q[0] = B.m[0][0] - tr;
+    q[1] = B.m[1][1] - tr;
+    q[2] = B.m[2][2] - tr;
+    q[3] = 0.5 * (B.m[1][2] + B.m[2][1]);
+    q[4] = 0.5 * (B.m[0][2] + B.m[2][0]);
+    q[5] = 0.5 * (B.m[0][1] + B.m[1][0]);
+  }
+  return v * psi;
 }
 
 }  // namespace
@@ -77,46 +132,14 @@ double Elasticity::prepare(const State& state) {
   const int chunks = static_cast<int>(m_chunk.size());
   const double* x = state.positions.data();
   const double* R = m_rotations.data();
-  const NeighbourTable& nb = m_model.neighbours;
+  const PreparedArrays arrays{m_F.data(),       m_P.data(),    m_cache.data(),     m_offsets.data(),
+                              m_pair.data(),    m_pair_blocks.data(), &m_lanes};
 #pragma omp parallel for schedule(static) num_threads(m_threads) if (chunks > 1)
   for (int c = 0; c < chunks; ++c) {
     double sum = 0;
     std::vector<Vec3> a(m_max_pairs);
     const int end = std::min(s_count, (c + 1) * kChunk);
-    for (int s = c * kChunk; s < end; ++s) {
-      const Mat3 F = deformation_gradient_and_offsets(nb, s, x, R, a.data());
-      const Material& mat = m_model.materials[m_model.samples.materials[s]];
-      const double v = m_model.samples.volumes[s];
-      double psi = 0;
-      const Mat3 P = energy_and_first_piola(mat, F, m_cache[s], psi);
-      sum += v * psi;
-      store_mat3(&m_F[9 * s], F);
-      store_mat3(&m_P[9 * s], P);
-      m_lanes.set_sample(s, mat, v, F, m_cache[s]);
-      const Mat3 vP = v * P;
-      for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
-        const Mat3 Ri = load_mat3(R + 9 * nb.frames[p]);
-        const Vec3 g = load3(&nb.weight_gradients[3 * p]);
-        const Vec3 ap = a[p - nb.offsets[s]];
-        store3(&m_offsets[3 * p], ap);
-        const Mat3 M = pair_lever(ap, g, nb.weights[p], Ri);
-        m_lanes.set_lever(s, p - nb.offsets[s], M);
-        // Pair buffer: energy gradient share (columns 0-5) ...
-        pair_lever_virtual_work(vP, g, M, &m_pair[6 * p]);
-        // ... and the pair's rotational geometric block, which with B = M (v P)^T is
-        // sym(B) - tr(B) I (pair_rotational_geometric_block: B = w R (vP)^T + a (vP g)^T),
-        // 6 values xx yy zz yz xz xy.
-        const Mat3 B = M * transpose(vP);
-        const double tr = B.m[0][0] + B.m[1][1] + B.m[2][2];
-        double* q = &m_pair_blocks[6 * p];
-        q[0] = B.m[0][0] - tr;
-        q[1] = B.m[1][1] - tr;
-        q[2] = B.m[2][2] - tr;
-        q[3] = 0.5 * (B.m[1][2] + B.m[2][1]);
-        q[4] = 0.5 * (B.m[0][2] + B.m[2][0]);
-        q[5] = 0.5 * (B.m[0][1] + B.m[1][0]);
-      }
-    }
+    for (int s = c * kChunk; s < end; ++s) sum += prepare_sample(m_model, s, x, R, a.data(), arrays);
     m_chunk[c] = sum;
   }
   // The rotational geometric blocks, summed per frame through the reverse table.
