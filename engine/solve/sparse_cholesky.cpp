@@ -174,9 +174,12 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
   if (mask != m_fixed || static_cast<int>(m_index.size()) != n) {
     m_fixed = mask;
     m_index.assign(n, -1);
-    int free = 0;
+    m_free_dofs.clear();
     for (int k = 0; k < n; ++k)
-      if (!mask[k]) m_index[k] = free++;
+      if (!mask[k]) {
+        m_index[k] = static_cast<int>(m_free_dofs.size());
+        m_free_dofs.push_back(k);
+      }
     m_analysed = false;
   }
   int free = 0;
@@ -293,25 +296,34 @@ int SparseCholesky::team_size() const {
 
 void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x) const {
   const int n = static_cast<int>(m_index.size());
+  const cholmod_factor* L = m_factor->factor();
+  const int threads = team_size();
+  if (L && L->is_super && L->is_ll && L->xtype == CHOLMOD_REAL && threads == 1) {
+    // L L^T = P H_ff P^T with P's rows Perm: y_k = b at the DOF of free index Perm[k], swept,
+    // then put back there; fixed DOFs zero. The scratch is the thread's, kept between solves.
+    const int free = static_cast<int>(m_free_dofs.size());
+    const int* perm = static_cast<const int*>(L->Perm);
+    thread_local std::vector<double> y, t;
+    y.resize(static_cast<std::size_t>(free));
+    t.resize(static_cast<std::size_t>(free));
+    for (int k = 0; k < free; ++k) y[k] = b[m_free_dofs[perm[k]]];
+    supernodal_solve(*L, y.data(), t.data());
+    x.resize(n);
+    for (int k = 0; k < n; ++k)
+      if (m_index[k] < 0) x[k] = 0.0;
+    for (int k = 0; k < free; ++k) x[m_free_dofs[perm[k]]] = y[k];
+    return;
+  }
   int free = 0;
   for (int k = 0; k < n; ++k) free += m_index[k] >= 0;
   Eigen::VectorXd rhs(free);
   for (int k = 0; k < n; ++k)
     if (m_index[k] >= 0) rhs[m_index[k]] = b[k];
-  x.assign(n, 0.0);
-  const cholmod_factor* L = m_factor->factor();
-  const int threads = team_size();
-  if (L && L->is_super && L->is_ll && L->xtype == CHOLMOD_REAL && threads == 1) {
-    // L L^T = P H_ff P^T with P's rows Perm: y = P rhs, swept, then x = P^T y.
-    const int* perm = static_cast<const int*>(L->Perm);
-    std::vector<double> y(static_cast<std::size_t>(free)), t(static_cast<std::size_t>(free));
-    for (int k = 0; k < free; ++k) y[k] = rhs[perm[k]];
-    supernodal_solve(*L, y.data(), t.data());
-    for (int k = 0; k < free; ++k) rhs[perm[k]] = y[k];
-  } else {
+  {
     const TeamSize team(threads);
     rhs = m_factor->solve(rhs).eval();
   }
+  x.assign(n, 0.0);
   for (int k = 0; k < n; ++k)
     if (m_index[k] >= 0) x[k] = rhs[m_index[k]];
 }

@@ -56,6 +56,7 @@ class SparseCholesky {
   int team_size() const;
   std::unique_ptr<Factor> m_factor;
   std::vector<int> m_index;                        // [n] free index of each DOF, -1 if fixed
+  std::vector<int> m_free_dofs;                    // [free] the DOF of each free index
   std::vector<std::uint8_t> m_fixed;               // the mask m_index was built from
   std::vector<int> m_outer, m_inner;               // pattern of the analysed reduced matrix
   Eigen::SparseMatrix<double> m_reduced;           // the last factorised lower free-free block
