@@ -204,7 +204,8 @@ double ShellForceField::add_gradient(const State& state, double* gradient) {
   const int t_count = element_count();
 #pragma omp parallel for schedule(static) num_threads(m_threads)
   for (int t = 0; t < t_count; ++t)
-    m_element_energies[t] = element_gradient(m_elements[t], m_moduli, state, &m_element_gradients[kShellElementDofs * t]);
+    m_element_energies[t] =
+        element_gradient(m_elements[t], m_moduli, state, &m_element_gradients[kShellElementDofs * t]);
   double w = 0;
   for (int t = 0; t < t_count; ++t) {  // serial scatter: deterministic
     w += m_element_energies[t];
@@ -220,7 +221,8 @@ void ShellForceField::prepare(const State& state) {
 #pragma omp parallel for schedule(static) num_threads(m_threads)
   for (int t = 0; t < t_count; ++t) {
     double g[kShellElementDofs];
-    element_hessian(m_elements[t], m_moduli, state, g, &m_hessians[static_cast<size_t>(t) * kShellElementDofs * kShellElementDofs]);
+    element_hessian(m_elements[t], m_moduli, state, g,
+                    &m_hessians[static_cast<size_t>(t) * kShellElementDofs * kShellElementDofs]);
   }
   // Assemble the node blocks: each block gathers its elements' 6x6 blocks in element order,
   // stored column-major (the product's inner loop then runs over contiguous rows).
