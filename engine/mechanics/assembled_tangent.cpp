@@ -22,7 +22,7 @@ struct SamplePairs {
   std::vector<Vec3> gradients;  // [k] the pairs' weight gradients g, 1/m
 };
 
-// Adds sample s's blocks K_ab = B_a^T W_b (a <= b, a and b its k neighbour pairs) to the matrix:
+// Adds a sample's blocks K_ab = B_a^T W_b (a <= b, a and b its k neighbour pairs) to the matrix:
 // in column frame j_b where owned[b], and transposed in column frame j_a where owned[a] (a != b).
 // D: [81] the sample's material matrix d^2 psi / dF^2 (row e: vec(dP[E_e])); v: its volume, m^3;
 // frames: [k] its neighbour frames; slot: [k k] block row positions (m_pair_slots); W: scratch of
