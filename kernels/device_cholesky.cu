@@ -375,9 +375,9 @@ LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
         FASCIA_CUDA(cudaStreamSynchronize(stream));
         double sum = 0;
         int free = 0;
-        for (size_t k = 0; k < diag.size(); ++k)
-          if (!fixed[k]) {
-            sum += std::abs(diag[k]);
+        for (size_t i = 0; i < diag.size(); ++i)
+          if (!fixed[i]) {
+            sum += std::abs(diag[i]);
             ++free;
           }
         mean = free > 0 ? sum / free : 1.0;

@@ -132,8 +132,8 @@ double Elasticity::prepare(const State& state) {
   const int chunks = static_cast<int>(m_chunk.size());
   const double* x = state.positions.data();
   const double* R = m_rotations.data();
-  const PreparedArrays arrays{m_F.data(),       m_P.data(),    m_cache.data(),     m_offsets.data(),
-                              m_pair.data(),    m_pair_blocks.data(), &m_lanes};
+  const PreparedArrays arrays{m_F.data(),    m_P.data(),           m_cache.data(), m_offsets.data(),
+                              m_pair.data(), m_pair_blocks.data(), &m_lanes};
 #pragma omp parallel for schedule(static) num_threads(m_threads) if (chunks > 1)
   for (int c = 0; c < chunks; ++c) {
     double sum = 0;

@@ -182,8 +182,7 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
       }
     m_analysed = false;
   }
-  int free = 0;
-  for (int k = 0; k < n; ++k) free += m_index[k] >= 0;
+  const int free = static_cast<int>(m_free_dofs.size());
   // A compressed view of H (the assembled tangents are compressed already).
   Eigen::SparseMatrix<double> compressed;
   const Eigen::SparseMatrix<double>* source = &H;
@@ -295,13 +294,12 @@ int SparseCholesky::team_size() const {
 }
 
 void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x) const {
-  const int n = static_cast<int>(m_index.size());
+  const int n = static_cast<int>(m_index.size()), free = static_cast<int>(m_free_dofs.size());
   const cholmod_factor* L = m_factor->factor();
   const int threads = team_size();
   if (L && L->is_super && L->is_ll && L->xtype == CHOLMOD_REAL && threads == 1) {
     // L L^T = P H_ff P^T with P's rows Perm: y_k = b at the DOF of free index Perm[k], swept,
     // then put back there; fixed DOFs zero. The scratch is the thread's, kept between solves.
-    const int free = static_cast<int>(m_free_dofs.size());
     const int* perm = static_cast<const int*>(L->Perm);
     thread_local std::vector<double> y, t;
     y.resize(static_cast<std::size_t>(free));
@@ -314,18 +312,14 @@ void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x)
     for (int k = 0; k < free; ++k) x[m_free_dofs[perm[k]]] = y[k];
     return;
   }
-  int free = 0;
-  for (int k = 0; k < n; ++k) free += m_index[k] >= 0;
   Eigen::VectorXd rhs(free);
-  for (int k = 0; k < n; ++k)
-    if (m_index[k] >= 0) rhs[m_index[k]] = b[k];
+  for (int k = 0; k < free; ++k) rhs[k] = b[m_free_dofs[k]];
   {
     const TeamSize team(threads);
     rhs = m_factor->solve(rhs).eval();
   }
   x.assign(n, 0.0);
-  for (int k = 0; k < n; ++k)
-    if (m_index[k] >= 0) x[k] = rhs[m_index[k]];
+  for (int k = 0; k < free; ++k) x[m_free_dofs[k]] = rhs[k];
 }
 
 }  // namespace fascia
