@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 using namespace fascia;
@@ -93,6 +94,16 @@ TEST_CASE("trajectories round-trip through the H5MD layout", "[io]") {
     bad = data_for(3);
     bad.stress[5] = 1e39;
     CHECK_THROWS_WITH(writer.append(step_of(bad, 3)), Catch::Contains("beyond float32's range of samples/cauchy_stress"));
+    // Non-finite values in a single field and infinities in a double one are named as such.
+    bad = data_for(3);
+    bad.stress[2] = std::nan("");
+    CHECK_THROWS_WITH(writer.append(step_of(bad, 3)), Catch::Contains("non-finite values of samples/cauchy_stress"));
+    bad = data_for(3);
+    bad.stress[7] = -std::numeric_limits<double>::infinity();
+    CHECK_THROWS_WITH(writer.append(step_of(bad, 3)), Catch::Contains("non-finite values of samples/cauchy_stress"));
+    bad = data_for(3);
+    bad.p.back() = std::numeric_limits<double>::infinity();
+    CHECK_THROWS_WITH(writer.append(step_of(bad, 3)), Catch::Contains("non-finite values of samples/position"));
     CHECK(writer.steps_written() == 3);
   }
   TrajectoryReader reader(path.string());
