@@ -130,6 +130,8 @@ class StepRecorder {
       if (source.shell) ++shell;
       m_sources.push_back(source);
     }
+    m_averaged.assign(static_cast<std::size_t>(built.model.frame_count()), 0);
+    for (const SurfaceSource& source : m_sources) mark_surface_frames(source, m_averaged);
   }
 
   TrajectoryLayout layout() {
@@ -219,7 +221,7 @@ class StepRecorder {
     rotation_matrices(state, m_field_rotations);
     m_frame_fields = frame_fields(model, state, m_field_rotations);
     sample_fields(model, state, m_field_rotations, m_sample_fields);
-    const std::vector<Field> averages = frame_averages(model, m_sample_fields);
+    const std::vector<Field> averages = frame_averages(model, m_sample_fields, &m_averaged);
     m_surface_fields.clear();
     for (const SurfaceSource& source : m_sources)
       m_surface_fields.push_back(surface_fields(model, state, m_field_rotations, source, averages));
@@ -234,6 +236,7 @@ class StepRecorder {
   const dsl::BuiltScene& m_built;
   bool m_samples;
   std::vector<SurfaceSource> m_sources;
+  std::vector<unsigned char> m_averaged;  // [N] the frames whose sample averages a surface shows
   std::vector<double> m_field_rotations;
   std::vector<Field> m_frame_fields, m_sample_fields;
   std::vector<std::vector<Field>> m_surface_fields;

@@ -36,7 +36,17 @@ StressMeasures shell_membrane_measures(const ShellElementRest& e, const Shell& s
   return m;
 }
 
-std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& samples) {
+void mark_surface_frames(const SurfaceSource& source, std::vector<unsigned char>& frames) {
+  if (source.shell) return;
+  if (source.skin) {
+    for (int i : source.skin->frames) frames[static_cast<std::size_t>(i)] = 1;
+  } else {
+    for (int i : source.surface->vertex_frames) frames[static_cast<std::size_t>(i)] = 1;
+  }
+}
+
+std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& samples,
+                                  const std::vector<unsigned char>* frames) {
   const long n = static_cast<long>(model.frame_count());
   std::vector<Field> out = measure_fields(static_cast<std::size_t>(n), has_fibres(model));
   std::vector<const Field*> sources(out.size(), nullptr);
@@ -62,10 +72,18 @@ std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& 
     at[f] = C;
     C += static_cast<std::size_t>(out[f].components);
   }
+  // Only the samples of the frames averaged are packed.
+  std::vector<unsigned char> used(frames ? S : 0, 0);
+  if (frames)
+    for (long il = 0; il < n; ++il)
+      if ((*frames)[static_cast<std::size_t>(il)])
+        for (int k = rev.offsets[static_cast<std::size_t>(il)]; k < rev.offsets[static_cast<std::size_t>(il) + 1]; ++k)
+          used[static_cast<std::size_t>(rev.pair_samples[static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)])])] = 1;
   std::vector<double> packed(S * C);
 #pragma omp parallel for schedule(static)
   for (long sl = 0; sl < static_cast<long>(S); ++sl) {
     const std::size_t s = static_cast<std::size_t>(sl);
+    if (frames && !used[s]) continue;
     for (std::size_t f = 0; f < out.size(); ++f) {
       if (!sources[f] || f == fibre) continue;
       const std::size_t c = static_cast<std::size_t>(out[f].components);
@@ -81,6 +99,7 @@ std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& 
 #pragma omp for schedule(dynamic, 64)
     for (long il = 0; il < n; ++il) {
       const std::size_t i = static_cast<std::size_t>(il);
+      if (frames && !(*frames)[i]) continue;
       double weight = 0, weight_fibred = 0;
       for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
         const std::size_t q = static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)]);

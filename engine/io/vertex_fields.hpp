@@ -38,8 +38,14 @@ struct SurfaceSource {
 // psi = mu tr(E2^2) + lambda*/2 tr(E2)^2 per rest volume.
 StressMeasures shell_membrane_measures(const ShellElementRest& e, const Shell& shell, const double* x);
 
-// The measure fields of `samples` (sample_fields) averaged to every frame, [N][components] each.
-std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& samples);
+// The measure fields of `samples` (sample_fields) averaged to the frames, [N][components] each:
+// every frame, or where `frames` ([N]) is non-zero, the other frames' values zero.
+std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& samples,
+                                  const std::vector<unsigned char>* frames = nullptr);
+
+// Marks in `frames` ([N]) the frames whose averages surface_fields reads for this surface: its
+// skin's frames, or its vertices' own; none for a shell surface (its measures are the shell's).
+void mark_surface_frames(const SurfaceSource& source, std::vector<unsigned char>& frames);
 
 // Fields at the surface's vertices: displacement, velocity, then the measures of `frame_measures`
 // (frame_averages) in its order, or the shell's membrane measures for a shell surface.

@@ -10,6 +10,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+
 using namespace fascia;
 
 namespace {
@@ -180,4 +182,44 @@ TEST_CASE("sample fields kept from another state are overwritten to the fields o
     CHECK(kept[f].name == fresh[f].name);
     CHECK(kept[f].values == fresh[f].values);
   }
+}
+
+TEST_CASE("averages over the frames a surface shows are those of the averages over every frame", "[io]") {
+  // A surface reads the averages of its vertices' frames (mark_surface_frames): averaged over
+  // those frames alone, its fields are bitwise those from averages over every frame, and the
+  // frames not marked stay zero.
+  const MaterialLaw law = GENERATE(MaterialLaw::stvk, MaterialLaw::hgo);
+  const Model model = test::small_box_model(CellType::tetrahedron, law);
+  const State s = test::random_state(model, 3, 0.002, 0.3);
+  std::vector<double> R;
+  rotation_matrices(s, R);
+  std::vector<Field> samples;
+  sample_fields(model, s, R, samples);
+  SurfaceLayout surface;
+  surface.name = "corner";
+  surface.vertex_frames = {0, 2, 5};
+  surface.faces = {0, 1, 2};
+  SurfaceSource source;
+  source.surface = &surface;
+  std::vector<unsigned char> marked(static_cast<std::size_t>(model.frame_count()), 0);
+  mark_surface_frames(source, marked);
+  CHECK(std::count(marked.begin(), marked.end(), 1) == 3);
+  const std::vector<Field> every = frame_averages(model, samples), some = frame_averages(model, samples, &marked);
+  REQUIRE(every.size() == some.size());
+  for (std::size_t f = 0; f < every.size(); ++f) {
+    INFO(every[f].name);
+    const std::size_t c = static_cast<std::size_t>(every[f].components);
+    for (std::size_t i = 0; i < marked.size(); ++i)
+      for (std::size_t j = 0; j < c; ++j)
+        CHECK(some[f].values[c * i + j] == (marked[i] ? every[f].values[c * i + j] : 0.0));
+  }
+  const std::vector<Field> a = surface_fields(model, s, R, source, every), b = surface_fields(model, s, R, source, some);
+  REQUIRE(a.size() == b.size());
+  for (std::size_t f = 0; f < a.size(); ++f) CHECK(a[f].values == b[f].values);
+  // A shell's surface takes its measures from the shell: no frame is marked for it.
+  Shell shell;
+  source.shell = &shell;
+  std::vector<unsigned char> none(marked.size(), 0);
+  mark_surface_frames(source, none);
+  CHECK(std::count(none.begin(), none.end(), 1) == 0);
 }
