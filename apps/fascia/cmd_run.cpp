@@ -120,15 +120,19 @@ class StepRecorder {
     // Shells are in model.shells in the order of the shell objects.
     int shell = 0;
     for (const dsl::BuiltObject& o : built.objects) {
-      SurfaceSource source;
-      source.surface = &o.surface;
-      if (o.skinned) source.skin = &o.skin;
+      const Shell* object_shell = nullptr;
       for (const ObjectInfo& info : built.model.objects) {
         if (info.kind == ObjectKind::shell && info.name == o.name)
-          source.shell = &built.model.shells[static_cast<std::size_t>(shell)];
+          object_shell = &built.model.shells[static_cast<std::size_t>(shell)];
       }
-      if (source.shell) ++shell;
-      m_sources.push_back(source);
+      SurfaceSource source;
+      if (object_shell) {
+        source = shell_surface_source(built.model, o.surface, *object_shell);
+        ++shell;
+      }
+      source.surface = &o.surface;
+      if (o.skinned) source.skin = &o.skin;
+      m_sources.push_back(std::move(source));
     }
     m_averaged.assign(static_cast<std::size_t>(built.model.frame_count()), 0);
     for (const SurfaceSource& source : m_sources) mark_surface_frames(source, m_averaged);

@@ -4,6 +4,8 @@
 #include "mechanics/shell.hpp"
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 namespace fascia {
 
@@ -139,10 +141,15 @@ std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& 
 
 namespace {
 
-// Per frame, the area-weighted average of the shell's membrane measures over its triangles.
-std::vector<Field> shell_frame_averages(const Model& model, const Shell& shell, const State& state) {
+// Per frame, the area-weighted average of the shell's membrane measures over its triangles
+// (rest elements `elements`).
+std::vector<Field> shell_frame_averages(const Model& model, const Shell& shell,
+                                        const std::vector<ShellElementRest>& elements, const State& state) {
   const std::size_t n = static_cast<std::size_t>(model.frame_count());
   const std::size_t triangles = shell.triangles.size() / 3;
+  if (elements.size() != triangles)
+    throw std::invalid_argument("shell surface: " + std::to_string(elements.size()) + " rest elements for " +
+                                std::to_string(triangles) + " triangles (make the source with shell_surface_source)");
   std::vector<Field> per_triangle = measure_fields(triangles);
   std::vector<double> area(triangles), weight(n, 0.0);
   // Triangles are independent (their principal values are most of a row's shell work): in
@@ -150,8 +157,7 @@ std::vector<Field> shell_frame_averages(const Model& model, const Shell& shell, 
 #pragma omp parallel for schedule(static)
   for (long tl = 0; tl < static_cast<long>(triangles); ++tl) {
     const std::size_t t = static_cast<std::size_t>(tl);
-    const int* v = &shell.triangles[3 * t];
-    const ShellElementRest e = make_shell_element(model.frame_rest_positions.data(), v[0], v[1], v[2], shell);
+    const ShellElementRest& e = elements[t];
     set_measures(per_triangle, 0, t, shell_membrane_measures(e, shell, state.positions.data()));
     area[t] = e.area;
   }
@@ -171,6 +177,19 @@ std::vector<Field> shell_frame_averages(const Model& model, const Shell& shell, 
 
 }  // namespace
 
+SurfaceSource shell_surface_source(const Model& model, const SurfaceLayout& surface, const Shell& shell) {
+  SurfaceSource source;
+  source.surface = &surface;
+  source.shell = &shell;
+  const std::size_t triangles = shell.triangles.size() / 3;
+  source.shell_elements.reserve(triangles);
+  for (std::size_t t = 0; t < triangles; ++t) {
+    const int* v = &shell.triangles[3 * t];
+    source.shell_elements.push_back(make_shell_element(model.frame_rest_positions.data(), v[0], v[1], v[2], shell));
+  }
+  return source;
+}
+
 std::vector<Field> surface_fields(const Model& model, const State& state, const std::vector<double>& rotations,
                                   const SurfaceSource& source, const std::vector<Field>& frame_measures) {
   const SurfaceLayout& surface = *source.surface;
@@ -179,7 +198,7 @@ std::vector<Field> surface_fields(const Model& model, const State& state, const 
   out.push_back(Field{"displacement", 3, "m", std::vector<double>(3 * V, 0.0), false});
   out.push_back(Field{"velocity", 3, "m/s", std::vector<double>(3 * V, 0.0), false});
   const std::vector<Field> shell_measures =
-      source.shell ? shell_frame_averages(model, *source.shell, state) : std::vector<Field>{};
+      source.shell ? shell_frame_averages(model, *source.shell, source.shell_elements, state) : std::vector<Field>{};
   const std::vector<Field>& measures = source.shell ? shell_measures : frame_measures;
   const std::size_t first_measure = out.size();
   for (const Field& f : measures)

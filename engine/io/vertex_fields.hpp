@@ -26,7 +26,12 @@ struct SurfaceSource {
   const SurfaceLayout* surface = nullptr;
   const NeighbourTable* skin = nullptr;  // skinned surfaces (meshless, rigid): a row per vertex; null: vertex = frame
   const Shell* shell = nullptr;          // shell objects: measures from the shell's membrane
+  std::vector<ShellElementRest> shell_elements;  // the shell's triangles' rest elements (shell_surface_source)
 };
+
+// The source of a shell object's surface: the shell, and its triangles' rest elements
+// (make_shell_element), made once for all the rows that the source serves.
+SurfaceSource shell_surface_source(const Model& model, const SurfaceLayout& surface, const Shell& shell);
 
 // Membrane strain and stress of a shell triangle (rest element e: make_shell_element of its frames;
 // frame positions x [N][3]), as 3 x 3

@@ -130,12 +130,15 @@ TEST_CASE("a stretched shell has the plane-stress membrane strain and stress", "
   surface.name = "shell";
   surface.faces = mesh.triangles;
   for (int v = 0; v < mesh.vertex_count(); ++v) surface.vertex_frames.push_back(v);
-  SurfaceSource source;
-  source.surface = &surface;
-  source.shell = &shell;
+  SurfaceSource source = shell_surface_source(model, surface, shell);
   std::vector<double> R;
   rotation_matrices(s, R);
   const std::vector<Field> vertices = surface_fields(model, s, R, source, {});
+  // A shell source without its rest elements is refused, not read past its end.
+  SurfaceSource bare;
+  bare.surface = &surface;
+  bare.shell = &shell;
+  CHECK_THROWS_WITH(surface_fields(model, s, R, bare, {}), Catch::Contains("shell_surface_source"));
   for (double x : field(vertices, "green_strain_principal").values) CHECK((x == Approx(e).epsilon(1e-12) || std::abs(x) < 1e-14));
   for (double x : field(vertices, "strain_energy_density").values) CHECK(x == Approx(m.energy_density).epsilon(1e-10));
 }
