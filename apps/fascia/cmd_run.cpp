@@ -152,27 +152,13 @@ class StepRecorder {
   }
 
   TrajectoryStep record(const State& state, const StepReport& report) {
-    const Model& model = m_built.model;
     TrajectoryStep step;
     step.step = report.step;
     step.time = report.time;
     step.frame_positions = state.positions.data();
     step.frame_orientations = state.orientations.data();
-    if (m_samples) {
-      rotation_matrices(state, m_rotations);
-      const PairTableView view{model.neighbours.offsets.data(), model.neighbours.frames.data(),
-                               model.neighbours.weights.data(), model.neighbours.weight_gradients.data(),
-                               model.neighbours.rest_offsets.data()};
-      m_sample_positions.resize(3 * static_cast<std::size_t>(model.sample_count()));
-#pragma omp parallel for schedule(static)
-      for (int s = 0; s < model.sample_count(); ++s) {
-        const Vec3 p = sample_position(view, s, state.positions.data(), m_rotations.data());
-        m_sample_positions[3 * static_cast<std::size_t>(s)] = p.x;
-        m_sample_positions[3 * static_cast<std::size_t>(s) + 1] = p.y;
-        m_sample_positions[3 * static_cast<std::size_t>(s) + 2] = p.z;
-      }
-      step.sample_positions = m_sample_positions.data();
-    }
+    compute_fields(state);  // the rotations, the fields and the samples' positions
+    if (m_samples) step.sample_positions = m_sample_positions.data();
     // Mesh-based objects: surface vertices are frames. Meshless objects: surface vertices are
     // carried by the frames like samples, eq. (3), with their own weights.
     m_surfaces.resize(m_built.objects.size());
@@ -182,13 +168,12 @@ class StepRecorder {
       std::vector<double>& out = m_surfaces[o];
       out.resize(3 * frames.size());
       if (object.skinned) {
-        if (!m_samples) rotation_matrices(state, m_rotations);
         const NeighbourTable& t = object.skin;
         const PairTableView view{t.offsets.data(), t.frames.data(), t.weights.data(), t.weight_gradients.data(),
                                  t.rest_offsets.data()};
 #pragma omp parallel for schedule(static)
         for (std::size_t v = 0; v < frames.size(); ++v) {
-          const Vec3 p = sample_position(view, static_cast<int>(v), state.positions.data(), m_rotations.data());
+          const Vec3 p = sample_position(view, static_cast<int>(v), state.positions.data(), m_field_rotations.data());
           out[3 * v] = p.x;
           out[3 * v + 1] = p.y;
           out[3 * v + 2] = p.z;
@@ -200,7 +185,6 @@ class StepRecorder {
       }
       step.surface_positions.push_back(out.data());
     }
-    compute_fields(state);
     for (const auto& entry : m_fields) step.fields.push_back(entry.second->values.data());
     step.observables = {report.elastic_energy,
                         report.kinetic_energy,
@@ -224,7 +208,7 @@ class StepRecorder {
     const Model& model = m_built.model;
     rotation_matrices(state, m_field_rotations);
     m_frame_fields = frame_fields(model, state, m_field_rotations);
-    sample_fields(model, state, m_field_rotations, m_sample_fields);
+    sample_fields(model, state, m_field_rotations, m_sample_fields, m_samples ? &m_sample_positions : nullptr);
     const std::vector<Field> averages = frame_averages(model, m_sample_fields, &m_averaged);
     m_surface_fields.clear();
     for (const SurfaceSource& source : m_sources)
@@ -245,7 +229,7 @@ class StepRecorder {
   std::vector<Field> m_frame_fields, m_sample_fields;
   std::vector<std::vector<Field>> m_surface_fields;
   std::vector<std::pair<std::string, const Field*>> m_fields;
-  std::vector<double> m_rotations, m_sample_positions;
+  std::vector<double> m_sample_positions;
   std::vector<std::vector<double>> m_surfaces;
 };
 

@@ -72,7 +72,7 @@ bool has_fibres(const Model& model) {
 }
 
 void sample_fields(const Model& model, const State& state, const std::vector<double>& rotations,
-                   std::vector<Field>& f) {
+                   std::vector<Field>& f, std::vector<double>* positions) {
   const std::size_t n = static_cast<std::size_t>(model.sample_count());
   const bool fibres = has_fibres(model);
   constexpr std::size_t kKinematic = 2;  // displacement, velocity; then the measures
@@ -84,25 +84,30 @@ void sample_fields(const Model& model, const State& state, const std::vector<dou
   }
 
   const NeighbourTable& t = model.neighbours;
-  const PairTableView view{t.offsets.data(), t.frames.data(), t.weights.data(), t.weight_gradients.data(),
-                           t.rest_offsets.data()};
   const double* x = state.positions.data();
   const double* R = rotations.data();
+  if (positions) positions->resize(3 * n);
+  double* p_out = positions ? positions->data() : nullptr;
 #pragma omp parallel for schedule(static)
   for (long sl = 0; sl < static_cast<long>(n); ++sl) {
-    const int s = static_cast<int>(sl);
-    const std::size_t si = static_cast<std::size_t>(s);
-    const Vec3 p = sample_position(view, s, x, R);
-    store(f[0].values, si, p - load3(&model.samples.rest_positions[3 * si]));
-    Vec3 v{0, 0, 0};
+    const std::size_t si = static_cast<std::size_t>(sl);
+    // One pass over the sample's pairs: with a = R_i l and y = x_i + a, the position
+    // p = sum w y (sample_position), F = sum y g^T + w R_i (sample_deformation_gradient) and the
+    // velocity v = sum w (v_i + omega_i x a), each summed in pair order as those functions do.
+    Vec3 p{0, 0, 0}, v{0, 0, 0};
+    Mat3 F = zero3();
     for (int q = t.offsets[si]; q < t.offsets[si + 1]; ++q) {
-      const std::size_t i = static_cast<std::size_t>(t.frames[static_cast<std::size_t>(q)]);
-      const Vec3 a = load_mat3(R + 9 * i) * load3(&t.rest_offsets[3 * static_cast<std::size_t>(q)]);
-      v += t.weights[static_cast<std::size_t>(q)] *
-           (load3(&state.velocities[6 * i]) + cross(load3(&state.velocities[6 * i + 3]), a));
+      const std::size_t qi = static_cast<std::size_t>(q);
+      const std::size_t i = static_cast<std::size_t>(t.frames[qi]);
+      const Mat3 Ri = load_mat3(R + 9 * i);
+      const Vec3 a = Ri * load3(&t.rest_offsets[3 * qi]), y = load3(x + 3 * i) + a;
+      p += t.weights[qi] * y;
+      F += outer(y, load3(&t.weight_gradients[3 * qi])) + t.weights[qi] * Ri;
+      v += t.weights[qi] * (load3(&state.velocities[6 * i]) + cross(load3(&state.velocities[6 * i + 3]), a));
     }
+    if (p_out) store3(p_out + 3 * si, p);
+    store(f[0].values, si, p - load3(&model.samples.rest_positions[3 * si]));
     store(f[1].values, si, v);
-    const Mat3 F = sample_deformation_gradient(view, s, x, R);
     set_measures(f, kKinematic, si, stress_measures(model.materials[static_cast<std::size_t>(model.samples.materials[si])], F));
   }
 }

@@ -38,8 +38,9 @@ struct Field {
 // The sample fields in the order listed above into `fields`; rotations are
 // rotation_matrices(state) ([N][9]). Every value is written: fields of this model's layout are
 // overwritten in place (a caller keeping them across rows allocates them once), others replaced.
+// `positions`, when given: the samples' positions p_s [S][3] (m), eq. (3), resized.
 void sample_fields(const Model& model, const State& state, const std::vector<double>& rotations,
-                   std::vector<Field>& fields);
+                   std::vector<Field>& fields, std::vector<double>* positions = nullptr);
 
 // The frame fields in the order listed above.
 std::vector<Field> frame_fields(const Model& model, const State& state, const std::vector<double>& rotations);

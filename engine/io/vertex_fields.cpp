@@ -77,10 +77,12 @@ std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& 
   // Only the samples of the frames averaged are packed.
   std::vector<unsigned char> used(frames ? S : 0, 0);
   if (frames)
-    for (long il = 0; il < n; ++il)
-      if ((*frames)[static_cast<std::size_t>(il)])
-        for (int k = rev.offsets[static_cast<std::size_t>(il)]; k < rev.offsets[static_cast<std::size_t>(il) + 1]; ++k)
-          used[static_cast<std::size_t>(rev.pair_samples[static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)])])] = 1;
+    for (std::size_t i = 0; i < static_cast<std::size_t>(n); ++i)
+      if ((*frames)[i])
+        for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
+          const std::size_t q = static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)]);
+          used[static_cast<std::size_t>(rev.pair_samples[q])] = 1;
+        }
   std::vector<double> packed(S * C);
 #pragma omp parallel for schedule(static)
   for (long sl = 0; sl < static_cast<long>(S); ++sl) {

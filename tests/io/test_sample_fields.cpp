@@ -7,6 +7,7 @@
 #include "../support/fixtures.hpp"
 #include "../support/shell_fixtures.hpp"
 #include "io/boundary_surface.hpp"
+#include "mechanics/frame_sample.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -216,7 +217,8 @@ TEST_CASE("averages over the frames a surface shows are those of the averages ov
       for (std::size_t j = 0; j < c; ++j)
         CHECK(some[f].values[c * i + j] == (marked[i] ? every[f].values[c * i + j] : 0.0));
   }
-  const std::vector<Field> a = surface_fields(model, s, R, source, every), b = surface_fields(model, s, R, source, some);
+  const std::vector<Field> a = surface_fields(model, s, R, source, every);
+  const std::vector<Field> b = surface_fields(model, s, R, source, some);
   REQUIRE(a.size() == b.size());
   for (std::size_t f = 0; f < a.size(); ++f) CHECK(a[f].values == b[f].values);
   // A shell's surface takes its measures from the shell: no frame is marked for it.
@@ -225,4 +227,37 @@ TEST_CASE("averages over the frames a surface shows are those of the averages ov
   std::vector<unsigned char> none(marked.size(), 0);
   mark_surface_frames(source, none);
   CHECK(std::count(none.begin(), none.end(), 1) == 0);
+}
+
+TEST_CASE("sample fields give the samples' positions of eq. (3) and their displacements", "[io]") {
+  const Model model = test::small_box_model(CellType::tetrahedron, MaterialLaw::neo_hookean);
+  const State s = test::random_state(model, 4, 0.002, 0.3);
+  std::vector<double> R;
+  rotation_matrices(s, R);
+  std::vector<Field> fields;
+  std::vector<double> positions;
+  sample_fields(model, s, R, fields, &positions);
+  REQUIRE(positions.size() == 3 * static_cast<std::size_t>(model.sample_count()));
+  const NeighbourTable& t = model.neighbours;
+  const PairTableView view{t.offsets.data(), t.frames.data(), t.weights.data(), t.weight_gradients.data(),
+                           t.rest_offsets.data()};
+  const std::vector<double>& u = field(fields, "displacement").values;
+  for (int k = 0; k < model.sample_count(); ++k) {
+    const std::size_t at = 3 * static_cast<std::size_t>(k);
+    const Vec3 p = sample_position(view, k, s.positions.data(), R.data());
+    // The same sums in the same order: bitwise.
+    CHECK(positions[at] == p.x);
+    CHECK(positions[at + 1] == p.y);
+    CHECK(positions[at + 2] == p.z);
+    CHECK(u[at] == p.x - model.samples.rest_positions[at]);
+  }
+  // F as sample_deformation_gradient gives it: the Green strain of the fields, bitwise.
+  const std::vector<double>& E = field(fields, "green_strain").values;
+  for (int k = 0; k < model.sample_count(); ++k) {
+    const std::size_t sk = static_cast<std::size_t>(k);
+    const Material& material = model.materials[static_cast<std::size_t>(model.samples.materials[sk])];
+    const StressMeasures m =
+        stress_measures(material, sample_deformation_gradient(view, k, s.positions.data(), R.data()));
+    for (std::size_t e = 0; e < 9; ++e) CHECK(E[9 * sk + e] == m.green_strain.m[e / 3][e % 3]);
+  }
 }
