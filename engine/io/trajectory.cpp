@@ -308,24 +308,23 @@ std::vector<SeriesPlan> series_plan(const TrajectoryLayout& layout) {
   return plan;
 }
 
-// The non-finite values of v[n] (IEEE 754 binary64, little-endian: the high word second).
-std::uint32_t non_finite_doubles(const double* v, std::size_t n) {
+// The non-finite values of v[n] (IEEE 754 binary32 or binary64, little-endian): those whose
+// exponent field is all ones, tested on the 32-bit word that holds it (a double's high word).
+template <class T>
+std::uint32_t non_finite(const T* v, std::size_t n) {
+  static_assert(sizeof(T) == 4 || sizeof(T) == 8, "binary32 or binary64");
+  constexpr std::uint32_t exponent = sizeof(T) == 8 ? 0x7ff00000u : 0x7f800000u;
   std::uint32_t count = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    std::uint64_t bits;
-    std::memcpy(&bits, v + i, sizeof bits);
-    count += (static_cast<std::uint32_t>(bits >> 32) & 0x7ff00000u) == 0x7ff00000u;
-  }
-  return count;
-}
-
-// The non-finite values of v[n] (binary32).
-std::uint32_t non_finite_floats(const float* v, std::size_t n) {
-  std::uint32_t count = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    std::uint32_t bits;
-    std::memcpy(&bits, v + i, sizeof bits);
-    count += (bits & 0x7fffffffu) > 0x7f7fffffu;
+    std::uint32_t word;
+    if constexpr (sizeof(T) == 8) {
+      std::uint64_t bits;
+      std::memcpy(&bits, v + i, sizeof bits);
+      word = static_cast<std::uint32_t>(bits >> 32);
+    } else {
+      std::memcpy(&word, v + i, sizeof word);
+    }
+    count += (word & exponent) == exponent;
   }
   return count;
 }
@@ -547,9 +546,8 @@ void TrajectoryWriter::append(const TrajectoryStep& step) {
                           std::to_string(m_layout.observables.size()));
 
   // Check everything before writing anything: a step is written whole or not at all. A single
-  // field is rounded to float here and its floats must be finite. Both tests count on the bits, in
-  // 32-bit integer lanes that vectorise on any x86-64: a double is not finite where the exponent
-  // field of its high word is all ones, a float where its bits without the sign exceed FLT_MAX's.
+  // field is rounded to float here and its floats must be finite. The tests count on the bits
+  // (non_finite), in 32-bit integer lanes that vectorise on any x86-64.
   const std::size_t first_field = arrays.size() - m_layout.fields.size();
   m_impl->rounded.resize(m_layout.fields.size());
   for (std::size_t a = 0; a < arrays.size(); ++a) {
@@ -560,13 +558,13 @@ void TrajectoryWriter::append(const TrajectoryStep& step) {
       std::vector<float>& rounded = m_impl->rounded[a - first_field];  // a non-finite double rounds to one
       rounded.resize(count);
       for (std::size_t i = 0; i < count; ++i) rounded[i] = static_cast<float>(data[i]);
-      accepted = non_finite_floats(rounded.data(), count) == 0;
+      accepted = non_finite(rounded.data(), count) == 0;
     } else {
-      accepted = non_finite_doubles(data, count) == 0;
+      accepted = non_finite(data, count) == 0;
     }
     if (!accepted)
       throw NonFiniteStep(m_path + ": refusing to write " +
-                          (non_finite_doubles(data, count) == 0 ? "values beyond float32's range" : "non-finite values") +
+                          (non_finite(data, count) == 0 ? "values beyond float32's range" : "non-finite values") +
                           " of " + names[a] + " at step " + std::to_string(step.step));
   }
   for (std::size_t i = 0; i < step.observables.size(); ++i)
