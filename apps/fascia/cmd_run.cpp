@@ -448,7 +448,7 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   // io/checkpoint.hpp), and HDF5 is entered from one thread only. A row is written while the next
   // is formed in the other recorder: the writer holds one job at most, so a recorder is reused
   // only after its row is written. The output thread holds four: a row of the pelvis at 56 k
-  // samples (about 20 MB) takes longer than a device step that reuses its factorisation, and the
+  // samples (about 13 MB) takes longer than a device step that reuses its factorisation, and the
   // rows catch up during the next one that factorises; each job holds a copy of a step's state
   // (the frames', about 0.1 MB at 56 k samples).
   const int step_threads = omp_get_max_threads();
