@@ -4,6 +4,7 @@
 #include "mechanics/shell.hpp"
 
 #include <cmath>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -74,33 +75,27 @@ std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& 
     at[f] = C;
     C += static_cast<std::size_t>(out[f].components);
   }
-  // Only the samples of the frames averaged are packed.
-  std::vector<unsigned char> used(frames ? S : 0, 0);
-  if (frames)
-    for (std::size_t i = 0; i < static_cast<std::size_t>(n); ++i)
-      if ((*frames)[i])
-        for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
-          const std::size_t q = static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)]);
-          used[static_cast<std::size_t>(rev.pair_samples[q])] = 1;
-        }
-  std::vector<double> packed(S * C);
+  // Every sample is packed, in parallel (marking only the samples of the frames averaged would be
+  // a serial pass over their pairs); the buffer is left uninitialised, so that its pages are
+  // first touched by the threads that fill them, not zeroed by one.
+  const std::unique_ptr<double[]> packed(new double[S * C]);
 #pragma omp parallel for schedule(static)
   for (long sl = 0; sl < static_cast<long>(S); ++sl) {
     const std::size_t s = static_cast<std::size_t>(sl);
-    if (frames && !used[s]) continue;
     for (std::size_t f = 0; f < out.size(); ++f) {
       if (!sources[f] || f == fibre) continue;
       const std::size_t c = static_cast<std::size_t>(out[f].components);
       for (std::size_t j = 0; j < c; ++j) packed[C * s + at[f] + j] = sources[f]->values[c * s + j];
     }
   }
-  // Each frame gathers its pairs (the reverse table) in their fixed order: frames in parallel.
+  // Each frame gathers its pairs (the reverse table) in their fixed order: frames in parallel, in
+  // chunks of 8 (a meshless frame carries hundreds of pairs, and the frames not averaged none).
   // The fibre stretch averages the samples that have fibres only: a frame that a ligament shares
   // with an isotropic organ shows the ligament's stretch, not a blend with 0.
 #pragma omp parallel
   {
     std::vector<double> row(C);
-#pragma omp for schedule(dynamic, 64)
+#pragma omp for schedule(dynamic, 8)
     for (long il = 0; il < n; ++il) {
       const std::size_t i = static_cast<std::size_t>(il);
       if (frames && !(*frames)[i]) continue;
