@@ -167,7 +167,6 @@ struct Series {
   std::string name;
   Handle group, value;
   hid_t mem_type = H5T_NATIVE_DOUBLE;
-  bool single = false;    // float32 in the file: rounded from the doubles before the write
   std::size_t count = 1;  // values per step
 };
 
@@ -210,7 +209,6 @@ Series make_series(hid_t parent, const SeriesPlan& plan, hsize_t capacity, Clock
   s.value = series_dataset(s.group.get(), "value", file_type, plan.shape, capacity, path);
   if (!plan.unit.empty()) write_text_attribute(s.value.get(), "unit", plan.unit, path);
   s.mem_type = plan.integer ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE;
-  s.single = plan.single;
   for (hsize_t d : plan.shape) s.count *= d;
   return s;
 }
@@ -265,7 +263,6 @@ Series open_series(hid_t file, const SeriesPlan& plan, const std::string& path) 
   dims.erase(dims.begin());
   if (dims != plan.shape) fail(path, where + " has another shape than this run's (a different scene?)");
   s.mem_type = plan.integer ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE;
-  s.single = plan.single;
   for (hsize_t d : plan.shape) s.count *= d;
   return s;
 }
@@ -586,12 +583,11 @@ void TrajectoryWriter::append(const TrajectoryStep& step) {
   const std::size_t particles = arrays.size();
   for (std::size_t i = 0; i < particles; ++i) {
     Series& s = m_impl->series[i];
-    if (!s.single) {
+    if (i >= first_field && m_layout.fields[i - first_field].single)  // its floats, rounded above
+      write_row(s.value.get(), H5T_NATIVE_FLOAT, m_impl->rounded[i - first_field].data(), row, m_path,
+                s.name + "/value");
+    else
       write_series(s, arrays[i].first);
-      continue;
-    }
-    write_row(s.value.get(), H5T_NATIVE_FLOAT, m_impl->rounded[i - first_field].data(), row, m_path,
-              s.name + "/value");
   }
   for (std::size_t i = 0; i < step.observables.size(); ++i) {
     Series& s = m_impl->series[particles + i];
