@@ -5,14 +5,15 @@
 // H is recovered into a dense n x n matrix from its elastic blocks, formed sample by sample on the
 // device, and coloured products for the rest (integrate/tangent_probing.hpp: 6 per colour; one
 // colour for a tissue alone, a few tens with shells and rigid bodies), factorised by cuSOLVER's
-// potrf (H = L L^T) and inverted from the factor by cuBLAS, W = L^{-1} (trsm with the identity)
-// then H^{-1} = W^T W (syrk); the preconditioner is then cuBLAS's symmetric product (Ssymv) with
+// potrf (H = L L^T) and inverted from the factor by cuBLAS, W = L^{-1} (recursively by halves:
+// triangular products, trmm, and trsm with the identity on blocks of 1024) then H^{-1} = W^T W
+// (syrk); the preconditioner is then cuBLAS's symmetric product (Ssymv) with
 // the lower triangle of H^{-1} rounded to single precision, one pass over n^2/2 floats at the
 // device's memory bandwidth (where potrs's two triangular solves, sequential by blocks, took 1.7
 // ms at 11,460 DOFs on an H100, and a product with both triangles in double 0.37 ms). The
 // rounding (relative 6e-8 per entry and per sum) perturbs the preconditioner, not the system PCG
-// solves: its residuals and tolerances stay in double. The inverse costs about 2n^3 flops more per
-// factorisation (76 ms at 10,962 DOFs on an H100, potrf 17 ms), which the tens to hundreds of CG
+// solves: its residuals and tolerances stay in double. The inverse costs about 2n^3/3 flops more per
+// factorisation (29 ms at 10,962 DOFs on an H200, potrf 15 ms), which the tens to hundreds of CG
 // iterations each factorisation serves repay. Dense, because the scenes' reduced tangents are
 // small (2,148 DOFs for the pelvis, 10,962 with its finest fasciae: 1 GB, about n^3/3 = 4e11
 // flops per factorisation) while their sparse factors have deep elimination trees that
@@ -43,10 +44,10 @@ namespace fascia::gpu {
 
 class DeviceCholesky {
  public:
-  // The largest dense factor the device keeps: n <= 32,768 DOFs (8 GiB, and as much for L^{-1}),
-  // both within half the free device memory; cuSOLVER and cuBLAS (libcusolver, libcublas) must
-  // load. Empty when a model of
-  // `dofs` DOFs can be factorised now, else the reason.
+  // The largest dense factor the device keeps: n <= 32,768 DOFs (8 GiB, as much for L^{-1} and a
+  // quarter of that for the inversion's panel), all within half the free device memory; cuSOLVER
+  // and cuBLAS (libcusolver, libcublas) must load. Empty when a model of `dofs` DOFs can be
+  // factorised now, else the reason.
   static std::string refusal(long long dofs);
 
   // The factor of potential's Hessian (the potential must outlive this object); sets its tangent
