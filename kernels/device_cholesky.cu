@@ -372,7 +372,7 @@ int DeviceCholesky::products() const { return 6 * m_impl->colours; }
 std::uint64_t DeviceCholesky::fingerprint() const { return m_impl->fingerprint; }
 
 int DeviceCholesky::refactorise_above(const LinearSettings&) const {
-  return std::max(kMinRefactoriseAbove, static_cast<int>((products() + m_impl->n / 20) / 8));
+  return std::max(kMinRefactoriseAbove, static_cast<int>((products() + m_impl->n / 40) / 8));
 }
 
 LinearResult DeviceCholesky::factorise(DevicePotential& potential) {

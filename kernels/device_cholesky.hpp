@@ -75,7 +75,7 @@ class DeviceCholesky {
   // (solve/factorised_solve.hpp): an eighth of its cost in tangent products, at least 10 (the
   // CPU's LinearSettings::refactorise_above weighs the CPU's costs). A factorisation costs
   // products() tangent products, the blocks (one pass over the pairs of each sample) and the
-  // inversion, about n/20 products (an H100: 2.7 ms at 2,148 DOFs, 93 ms at 10,962, against a
+  // inversion, about n/40 products (an H200: 2.4 ms at 2,148 DOFs, 44 ms at 10,962, against a
   // product of 50 and 150 us); a CG iteration one product and one product with H^{-1}. Renewing
   // pays when the iterations it saves over the solves that follow (about ten: a few steps' Newton
   // iterations) exceed its cost.
