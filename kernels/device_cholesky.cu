@@ -182,10 +182,11 @@ constexpr int kInversePanel = 1024;
 namespace {
 
 // The leading half of a block of order m > kInversePanel that invert_lower splits: m / 2 rounded up
-// to a multiple of 128 (cuBLAS's tiles), so m - split_order(m) <= split_order(m).
+// to a multiple of 128 (cuBLAS's tiles); the trailing part has at most one row more.
 int split_order(int m) { return (m / 2 + 127) / 128 * 128; }
 
-// Values of the panel L21 W11 for inverting L of order n: that of the first split, the largest.
+// Values of the panel L21 W11 for inverting L of order n: that of the first split, the largest
+// (the splits below it are of blocks of at most about half the order).
 size_t inverse_scratch(long long n) {
   if (n <= kInversePanel) return 1;
   const long long m1 = split_order(static_cast<int>(n));
