@@ -132,7 +132,7 @@ StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
     }
     // Where the dense factor does not fit, pcg is preconditioned by block Jacobi.
     const bool factorises = DeviceProblem::factorises(linear);
-    const std::string dense = factorises ? DeviceCholesky::refusal(model.dof_count()) : std::string();
+    const std::string dense = factorises ? DeviceCholesky::refusal(model.dof_count(), model.pair_count()) : std::string();
     if (!dense.empty()) std::cerr << "fascia: note: the device preconditions pcg by block Jacobi: " << dense << "\n";
     return std::make_unique<CudaStep>(model, loads, options, factorises && dense.empty());
   };

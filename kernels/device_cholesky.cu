@@ -215,7 +215,7 @@ struct DeviceCholesky::Impl {
 
   explicit Impl(DevicePotential& potential)
       : ops(potential.ops()), fixed(potential.fixed()), n(potential.model().dof_count()) {
-    const std::string why = DeviceCholesky::refusal(n);
+    const std::string why = DeviceCholesky::refusal(n, potential.model().pair_count());
     if (!why.empty()) throw std::invalid_argument(why);
     const TangentProbing t = tangent_probing(potential.model());
     potential.set_tangent_blocks(t.block_offsets, t.block_frames);
@@ -342,11 +342,12 @@ struct DeviceCholesky::Impl {
   }
 };
 
-std::string DeviceCholesky::refusal(long long dofs) {
+std::string DeviceCholesky::refusal(long long dofs, long long pairs) {
   if (!cusolver().error.empty()) return cusolver().error;
   std::ostringstream why;
   // A and W, and the inversion's panel (n^2 / 4 values)
   const double bytes = 18.0 * static_cast<double>(dofs) * static_cast<double>(dofs);
+  const double columns = 432.0 * static_cast<double>(pairs);
   if (dofs > kMaxDenseDofs) {
     why << "the dense device factor of " << dofs << " DOFs (" << bytes / (1 << 30) << " GiB with its inverse) exceeds the "
         << kMaxDenseDofs << " DOFs the device factorises";
@@ -354,8 +355,9 @@ std::string DeviceCholesky::refusal(long long dofs) {
   }
   size_t free = 0, total = 0;
   FASCIA_CUDA(cudaMemGetInfo(&free, &total));
-  if (bytes > 0.5 * static_cast<double>(free)) {
-    why << "the dense device factor of " << dofs << " DOFs needs " << bytes / (1 << 30) << " GiB, more than half the "
+  if (bytes + columns > 0.5 * static_cast<double>(free)) {
+    why << "the dense device factor of " << dofs << " DOFs needs " << (bytes + columns) / (1 << 30)
+        << " GiB (with the material columns of " << pairs << " sample pairs), more than half the "
         << static_cast<double>(free) / (1 << 30) << " GiB free on the device";
     return why.str();
   }

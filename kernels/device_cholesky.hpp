@@ -45,10 +45,12 @@ namespace fascia::gpu {
 class DeviceCholesky {
  public:
   // The largest dense factor the device keeps: n <= 32,768 DOFs (8 GiB, as much for L^{-1} and a
-  // quarter of that for the inversion's panel), all within half the free device memory; cuSOLVER
-  // and cuBLAS (libcusolver, libcublas) must load. Empty when a model of `dofs` DOFs can be
-  // factorised now, else the reason.
-  static std::string refusal(long long dofs);
+  // quarter of that for the inversion's panel), all within half the free device memory with the
+  // pairs' material columns the elastic blocks are formed from (432 bytes per sample pair:
+  // DeviceElasticity::set_tangent_blocks); cuSOLVER and cuBLAS (libcusolver, libcublas) must load.
+  // Empty when a model of `dofs` DOFs and `pairs` sample pairs can be factorised now, else the
+  // reason.
+  static std::string refusal(long long dofs, long long pairs);
 
   // The factor of potential's Hessian (the potential must outlive this object); sets its tangent
   // block pattern (DevicePotential::set_tangent_blocks).

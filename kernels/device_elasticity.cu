@@ -342,8 +342,11 @@ class System final : public DeviceElasticity::Impl {
 
   void tangent_blocks_on_device(double* blocks) override {
     if (m_block_count == 0) return;
+    k_pair_columns<R><<<grid_for(m_p, kThreads), kThreads, 0, m_stream>>>(m_view, m_frame_view, m_pair_columns.data());
+    check_launch();
     k_tangent_blocks<R><<<grid_for(m_block_count, kThreads), kThreads, 0, m_stream>>>(
-        m_view, m_frame_view, m_block_count, m_contribution_offsets.data(), m_contributions.data(), blocks);
+        m_view, m_frame_view, m_block_count, m_contribution_offsets.data(), m_contributions.data(),
+        m_pair_columns.data(), blocks);
     check_launch();
   }
 
@@ -387,6 +390,7 @@ class System final : public DeviceElasticity::Impl {
     }
     m_contribution_offsets.upload(counts);
     m_contributions.upload(contributions);
+    m_pair_columns.resize(static_cast<size_t>(kPairColumns) * static_cast<size_t>(m_p));
   }
 
   double time_tangent_ms(int repeats) override {
@@ -638,6 +642,7 @@ class System final : public DeviceElasticity::Impl {
   // The tangent blocks' pattern and each block's pairs (tangent_blocks_on_device).
   int m_block_count = 0;
   DeviceBuffer<int> m_contribution_offsets, m_contributions;
+  DeviceBuffer<double> m_pair_columns;  // k_pair_columns: [P][kPairColumns]
   DeviceBuffer<R> m_weights, m_gradients, m_volumes, m_sample_rest, m_frame_rest;
   DeviceBuffer<Material> m_materials;
   DeviceBuffer<int> m_block_samples, m_block_slots, m_slot_frames, m_slot_pair_offsets, m_slot_pairs,

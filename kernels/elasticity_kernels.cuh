@@ -151,16 +151,54 @@ __global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, R* F_out, R* cac
 
 // ---- assembled tangent blocks ----
 
+// A pair's columns of the material tangent, v C[B_p e_c] for the 6 unit increments e_c of its
+// frame (eq. 11, 22-24): [P][kPairColumns] doubles, column c's dP (3 x 3 row-major) at 9 c. One
+// thread per pair, from the sample's state of the last preparation.
+constexpr int kPairColumns = 54;
+
+template <class R>
+FASCIA_HD EllPair<R> block_pair(const ModelView<R>& m, const FrameView<R>& f, int q, const Vec3T<R>& ps) {
+  const EllEntry<R> en{m.frame_of[q], 0, m.weights[q],
+                       Vec3T<R>{m.gradients[3LL * q], m.gradients[3LL * q + 1], m.gradients[3LL * q + 2]}};
+  return ell_pair_of(en, f.levers, ps);
+}
+
+template <class R>
+__global__ void k_pair_columns(ModelView<R> m, FrameView<R> f, double* columns) {
+  const int q = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x);
+  if (q >= m.pairs) return;
+  const int s = m.pair_samples[q];
+  const Vec3T<R> ps{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
+                    sample_value(f.sample_state, m.samples, 2, s)};
+  const EllPair<R> pair = block_pair(m, f, q, ps);
+  Mat3T<R> F;
+  MaterialCacheT<R> cache;
+  const Material& mat = m.materials[m.sample_materials[s]];
+  ell_sample_material(m, f.sample_state, s, mat, F, cache);
+  const double v = static_cast<double>(sample_value(f.sample_state, m.samples, 3, s));
+  const Vec3T<R> zero{R(0), R(0), R(0)};
+  double* out = columns + static_cast<long long>(kPairColumns) * q;
+#pragma unroll
+  for (int c = 0; c < 6; ++c) {
+    const Vec3T<R> e{R(c % 3 == 0), R(c % 3 == 1), R(c % 3 == 2)};
+    const Mat3T<R> dP =
+        pk1_differential(mat, F, cache, pair_lever_differential(c < 3 ? e : zero, c < 3 ? zero : e, pair.g, pair.M));
+#pragma unroll
+    for (int r = 0; r < 3; ++r)
+#pragma unroll
+      for (int k = 0; k < 3; ++k) out[9 * c + 3 * r + k] = v * static_cast<double>(dP.m[r][k]);
+  }
+}
+
 // The elastic tangent's blocks between frames that share a sample, sum_s v B_a^T C[B_b] (eq. 11,
 // 21-26, without the rotational geometric blocks), written into blocks [B][36] (H entry
 // (6a + r, 6b + c) of block p at 36 p + 6 r + c). One thread per block sums the block's terms in
 // the fixed order of its list (contributions [C][2]: the pairs (p_a, p_b) of one sample with
-// frames a and b, over [contribution_offsets[p], contribution_offsets[p + 1])), forming
-// C[B_b e_c] for the 6 components c from the sample's state for each: no atomics, the same bits on
-// every run.
+// frames a and b, over [contribution_offsets[p], contribution_offsets[p + 1])), each
+// B_a^T (v C[B_b e_c]) from p_b's columns (k_pair_columns): no atomics, the same bits on every run.
 template <class R>
 __global__ void k_tangent_blocks(ModelView<R> m, FrameView<R> f, int block_count, const int* contribution_offsets,
-                                 const int* contributions, double* blocks) {
+                                 const int* contributions, const double* columns, double* blocks) {
   const int p = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x);
   if (p >= block_count) return;
   double acc[36] = {};
@@ -168,27 +206,19 @@ __global__ void k_tangent_blocks(ModelView<R> m, FrameView<R> f, int block_count
     const int pa = contributions[2LL * k], pb = contributions[2LL * k + 1], s = m.pair_samples[pa];
     const Vec3T<R> ps{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
                       sample_value(f.sample_state, m.samples, 2, s)};
-    auto pair = [&](int q) {
-      const EllEntry<R> en{m.frame_of[q], 0, m.weights[q],
-                           Vec3T<R>{m.gradients[3LL * q], m.gradients[3LL * q + 1], m.gradients[3LL * q + 2]}};
-      return ell_pair_of(en, f.levers, ps);
-    };
-    const EllPair<R> qa = pair(pa), qb = pair(pb);
-    Mat3T<R> F;
-    MaterialCacheT<R> cache;
-    const Material& mat = m.materials[m.sample_materials[s]];
-    ell_sample_material(m, f.sample_state, s, mat, F, cache);
-    const double v = static_cast<double>(sample_value(f.sample_state, m.samples, 3, s));
-    const Vec3T<R> zero{R(0), R(0), R(0)};
+    const EllPair<R> qa = block_pair(m, f, pa, ps);
+    Mat3 M;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) M.m[r][c] = static_cast<double>(qa.M.m[r][c]);
+    const Vec3 g{static_cast<double>(qa.g.x), static_cast<double>(qa.g.y), static_cast<double>(qa.g.z)};
+    double col[kPairColumns];
+    load_aligned<kPairColumns>(columns + static_cast<long long>(kPairColumns) * pb, col);
 #pragma unroll
     for (int c = 0; c < 6; ++c) {
-      const Vec3T<R> e{R(c % 3 == 0), R(c % 3 == 1), R(c % 3 == 2)};
-      const Mat3T<R> dP =
-          pk1_differential(mat, F, cache, pair_lever_differential(c < 3 ? e : zero, c < 3 ? zero : e, qb.g, qb.M));
-      R out[6];
-      pair_lever_virtual_work(dP, qa.g, qa.M, out);
+      double out[6];
+      pair_lever_virtual_work(ldm(col + 9 * c), g, M, out);
 #pragma unroll
-      for (int r = 0; r < 6; ++r) acc[6 * r + c] += v * static_cast<double>(out[r]);
+      for (int r = 0; r < 6; ++r) acc[6 * r + c] += out[r];
     }
   }
   for (int e = 0; e < 36; ++e) blocks[36LL * p + e] = acc[e];
