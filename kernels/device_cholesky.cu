@@ -106,29 +106,35 @@ __global__ void k_probe(const int* colour, const std::uint8_t* fixed, int c, int
 
 // The entries of the product of colour c, component k, less the assembled blocks' share
 // (probe_value), into column-major A (n rows): entry (r, c) at A[c n + r].
-__global__ void k_scatter(const int* colour, const int* owner_c, int hub_frame_c, const std::uint8_t* fixed,
-                          const int* block_offsets, const int* block_frames, const double* blocks, int c, int k,
-                          const double* out, double* A, long long n) {
+__global__ void k_scatter(const int* owner_c, int hub_frame_c, const std::uint8_t* fixed,
+                          const int* colour_block_offsets, const int* colour_block_frames, const int* colour_blocks,
+                          const double* blocks, int colours, int c, int k, const double* out, double* A, long long n) {
   const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
   if (i >= n) return;
   bool mirror = false;
   const long long col = probe_column(owner_c, hub_frame_c, fixed, k, static_cast<int>(i), mirror);
   if (col < 0) return;
-  const double v = probe_value(out[i], colour, fixed, block_offsets, block_frames, blocks, c, k, static_cast<int>(i));
+  const double v = probe_value(out[i], fixed, colour_block_offsets, colour_block_frames, colour_blocks, blocks, colours,
+                               c, k, static_cast<int>(i));
   A[col * n + i] = v;
   if (mirror) A[i * n + col] = v;
 }
 
-// A += the assembled blocks [B][36] (rows of block p: frame block_rows[p]) between free DOFs.
-// One thread per entry.
+// A += the assembled blocks [B][36] (rows of block p: frame block_rows[p]) between free DOFs: each
+// block (a, b) with b < a at its place and transposed at (b, a), the diagonal blocks once (the
+// blocks with b > a hold no values: tangent_probing.hpp). One thread per entry.
 __global__ void k_add_blocks(const int* block_rows, const int* block_frames, const double* blocks,
                              const std::uint8_t* fixed, long long entries, double* A, long long n) {
   const long long t = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
   if (t >= entries) return;
   const long long p = t / 36;
+  const int a = block_rows[p], b = block_frames[p];
+  if (b > a) return;
   const int e = static_cast<int>(t - 36 * p);
-  const long long i = 6LL * block_rows[p] + e / 6, j = 6LL * block_frames[p] + e % 6;
-  if (!fixed[i] && !fixed[j]) A[j * n + i] += blocks[t];
+  const long long i = 6LL * a + e / 6, j = 6LL * b + e % 6;
+  if (fixed[i] || fixed[j]) return;
+  A[j * n + i] += blocks[t];
+  if (a != b) A[i * n + j] += blocks[t];
 }
 
 // Keeps the diagonal, sets identity rows and columns at fixed DOFs (their entries are zero).
@@ -202,7 +208,7 @@ struct DeviceCholesky::Impl {
   int colours = 0;
   std::uint64_t fingerprint = 14695981039346656037ull;
   std::vector<int> hub_frame;
-  DeviceBuffer<int> colour, owner, block_offsets, block_rows, block_frames;
+  DeviceBuffer<int> colour, owner, block_rows, block_frames, colour_block_offsets, colour_block_frames, colour_blocks;
   DeviceBuffer<double> A, W, diag, work, probe, product, blocks;  // W: L^{-1}
   DeviceBuffer<double> panel;  // L21 W11 of invert_lower's largest split: inverse_scratch(n) values
   DeviceBuffer<float> single_r, single_z;  // a solve's r and z in single precision
@@ -230,9 +236,11 @@ struct DeviceCholesky::Impl {
     std::vector<int> rows;
     for (int a = 0; a + 1 < static_cast<int>(t.block_offsets.size()); ++a)
       rows.insert(rows.end(), static_cast<size_t>(t.block_offsets[static_cast<size_t>(a) + 1] - t.block_offsets[static_cast<size_t>(a)]), a);
-    block_offsets.upload(t.block_offsets);
     block_rows.upload(rows);
     block_frames.upload(t.block_frames);
+    colour_block_offsets.upload(t.colour_block_offsets);
+    colour_block_frames.upload(t.colour_block_frames);
+    colour_blocks.upload(t.colour_blocks);
     blocks.resize(36 * t.block_frames.size());
     A.resize(static_cast<size_t>(n) * static_cast<size_t>(n));
     W.resize(static_cast<size_t>(n) * static_cast<size_t>(n));
@@ -391,9 +399,9 @@ LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
       k_probe<<<blocks_for(n), kThreads, 0, stream>>>(m.colour.data(), m.fixed, c, k, m.probe.data(), n);
       potential.apply(m.probe.data(), m.product.data());
       k_scatter<<<blocks_for(n), kThreads, 0, stream>>>(
-          m.colour.data(), m.owner.data() + static_cast<size_t>(c) * static_cast<size_t>(n / 6),
-          m.hub_frame[static_cast<size_t>(c)], m.fixed, m.block_offsets.data(), m.block_frames.data(), m.blocks.data(), c, k,
-          m.product.data(), m.A.data(), n);
+          m.owner.data() + static_cast<size_t>(c) * static_cast<size_t>(n / 6), m.hub_frame[static_cast<size_t>(c)],
+          m.fixed, m.colour_block_offsets.data(), m.colour_block_frames.data(), m.colour_blocks.data(), m.blocks.data(),
+          m.colours, c, k, m.product.data(), m.A.data(), n);
     }
   if (entries > 0)
     k_add_blocks<<<blocks_for(entries), kThreads, 0, stream>>>(m.block_rows.data(), m.block_frames.data(), m.blocks.data(),

@@ -351,7 +351,8 @@ class System final : public DeviceElasticity::Impl {
   }
 
   // Each block's terms, the pairs (p_a, p_b) of the samples of frames a and b, in the order of
-  // frame a's pairs (the reverse table: increasing sample).
+  // frame a's pairs (the reverse table: increasing sample); none for the blocks with b > a, the
+  // transposes of (b, a), which are written as zero (device_elasticity.hpp).
   void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) override {
     std::vector<int> offsets(m_offsets.size()), frames(m_frames.size()), rev_offsets(m_rev_offsets.size()),
         rev_pairs(m_rev_pairs.size()), pair_samples(m_pair_samples.size());
@@ -376,7 +377,8 @@ class System final : public DeviceElasticity::Impl {
     for (int a = 0; a < m_n; ++a) {
       const int first = block_offsets[static_cast<size_t>(a)], last = block_offsets[static_cast<size_t>(a) + 1];
       if (first == last) continue;
-      for (int p = first; p < last; ++p) position[static_cast<size_t>(block_frames[static_cast<size_t>(p)])] = p;
+      for (int p = first; p < last; ++p)
+        if (block_frames[static_cast<size_t>(p)] <= a) position[static_cast<size_t>(block_frames[static_cast<size_t>(p)])] = p;
       each_term(a, [&](int p, int, int) { ++counts[static_cast<size_t>(p) + 1]; });
       for (int p = first; p < last; ++p) counts[static_cast<size_t>(p) + 1] += counts[static_cast<size_t>(p)];
       contributions.resize(2 * static_cast<size_t>(counts[static_cast<size_t>(last)]));

@@ -192,8 +192,8 @@ __global__ void k_pair_columns(ModelView<R> m, FrameView<R> f, double* columns) 
 
 // The elastic tangent's blocks between frames that share a sample, sum_s v B_a^T C[B_b] (eq. 11,
 // 21-26, without the rotational geometric blocks), written into blocks [B][36] (H entry
-// (6a + r, 6b + c) of block p at 36 p + 6 r + c). One thread per block sums the block's terms in
-// the fixed order of its list (contributions [C][2]: the pairs (p_a, p_b) of one sample with
+// (6a + r, 6b + c) of block p at 36 p + 6 r + c; a block without terms, b > a, as zero). One
+// thread per block sums the block's terms in the fixed order of its list (contributions [C][2]: the pairs (p_a, p_b) of one sample with
 // frames a and b, over [contribution_offsets[p], contribution_offsets[p + 1])), each
 // B_a^T (v C[B_b e_c]) from p_b's columns (k_pair_columns): no atomics, the same bits on every run.
 template <class R>

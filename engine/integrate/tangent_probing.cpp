@@ -141,6 +141,27 @@ TangentProbing tangent_probing(const Model& model, int hub_degree) {
     t.block_frames.insert(t.block_frames.end(), row.begin(), row.end());
     t.block_offsets.push_back(static_cast<int>(t.block_frames.size()));
   }
+
+  // Each row's blocks by the colour of their column frame (counting sort, stable in j).
+  const size_t colours = static_cast<size_t>(t.colours);
+  t.colour_block_offsets.assign(static_cast<size_t>(n) * colours + 1, 0);
+  for (int f = 0; f < n; ++f)
+    for (int p = t.block_offsets[static_cast<size_t>(f)]; p < t.block_offsets[static_cast<size_t>(f) + 1]; ++p) {
+      const int j = t.block_frames[static_cast<size_t>(p)];
+      ++t.colour_block_offsets[static_cast<size_t>(f) * colours + static_cast<size_t>(t.colour[static_cast<size_t>(j)]) + 1];
+    }
+  for (size_t e = 1; e < t.colour_block_offsets.size(); ++e) t.colour_block_offsets[e] += t.colour_block_offsets[e - 1];
+  t.colour_block_frames.resize(t.block_frames.size());
+  t.colour_blocks.resize(t.block_frames.size());
+  std::vector<int> next(t.colour_block_offsets.begin(), t.colour_block_offsets.end() - 1);
+  for (int f = 0; f < n; ++f)
+    for (int p = t.block_offsets[static_cast<size_t>(f)]; p < t.block_offsets[static_cast<size_t>(f) + 1]; ++p) {
+      const int j = t.block_frames[static_cast<size_t>(p)];
+      const size_t e = static_cast<size_t>(
+          next[static_cast<size_t>(f) * colours + static_cast<size_t>(t.colour[static_cast<size_t>(j)])]++);
+      t.colour_block_frames[e] = j;
+      t.colour_blocks[e] = j <= f ? p : -(assembled_block(t.block_offsets.data(), t.block_frames.data(), j, f) + 1);
+    }
   return t;
 }
 

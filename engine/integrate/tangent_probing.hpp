@@ -46,9 +46,17 @@ struct TangentProbing {
   // The assembled blocks, CSR over block rows: row frame a holds the blocks (a, b) for
   // b = block_frames[p], p in [block_offsets[a], block_offsets[a + 1]), increasing b. Each block is
   // 6x6 row-major, H entry (6a + r, 6b + c) at 36 p + 6 r + c. Frames a and b are unknowns that
-  // share a sample (a == b included).
+  // share a sample (a == b included). The pattern is symmetric, and only the blocks with b <= a
+  // hold values (H is symmetric: block (a, b) for b > a is the transpose of (b, a)).
   std::vector<int> block_offsets;  // [N+1]
   std::vector<int> block_frames;   // [B]
+  // Row f's blocks whose column frame j has colour c, for probe_value: CSR over (f, c), entries
+  // [colour_block_offsets[f colours + c], colour_block_offsets[f colours + c + 1]) in increasing j,
+  // each with its frame j and where its values lie: colour_blocks p >= 0 for block (f, j) = p
+  // (j <= f), -(q + 1) for block (j, f) = q transposed (j > f).
+  std::vector<int> colour_block_offsets;  // [N colours + 1]
+  std::vector<int> colour_block_frames;   // [B]
+  std::vector<int> colour_blocks;         // [B]
 };
 
 // The colouring and the block pattern of model's step tangent (frames mapped to rigid bodies are
@@ -79,13 +87,17 @@ FASCIA_HD long long probe_column(const int* owner_c, int hub_frame_c, const std:
 
 // The value of H at (i, probe_column) from entry i of the product H e(c, k): the entry less the
 // assembled blocks' share of it, row i's entries in the columns that e(c, k) sets.
-// blocks: the assembled blocks (TangentProbing), [B][36].
-FASCIA_HD double probe_value(double product_i, const int* colour, const std::uint8_t* fixed, const int* block_offsets,
-                             const int* block_frames, const double* blocks, int c, int k, int i) {
+// colour_block_offsets, colour_block_frames, colour_blocks: TangentProbing's, of `colours`
+// colours; blocks: the assembled blocks (TangentProbing), [B][36].
+FASCIA_HD double probe_value(double product_i, const std::uint8_t* fixed, const int* colour_block_offsets,
+                             const int* colour_block_frames, const int* colour_blocks, const double* blocks, int colours,
+                             int c, int k, int i) {
   const int f = i / 6, r = i % 6;
-  for (int p = block_offsets[f]; p < block_offsets[f + 1]; ++p) {
-    const int j = block_frames[p];
-    if (colour[j] == c && !fixed[6 * j + k]) product_i -= blocks[36LL * p + 6 * r + k];
+  const long long at = static_cast<long long>(f) * colours + c;
+  for (int e = colour_block_offsets[at]; e < colour_block_offsets[at + 1]; ++e) {
+    if (fixed[6 * colour_block_frames[e] + k]) continue;
+    const int p = colour_blocks[e];
+    product_i -= p >= 0 ? blocks[36LL * p + 6 * r + k] : blocks[36LL * (-p - 1) + 6 * k + r];
   }
   return product_i;
 }

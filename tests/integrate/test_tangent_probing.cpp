@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 using namespace fascia;
 using namespace fascia::test;
@@ -22,16 +23,20 @@ using namespace fascia::test;
 namespace {
 
 // The assembled blocks of t from the elastic tangent K (6N x 6N) at the state: K's blocks (a, b)
-// (their rotational geometric part included: the rest of H is read from the products whatever the
-// blocks hold on the diagonal).
+// with b <= a (their rotational geometric part included: the rest of H is read from the products
+// whatever the blocks hold on the diagonal); the blocks with b > a, which hold no values, are NaN,
+// so that a rule reading them fails.
 std::vector<double> assembled_blocks(const TangentProbing& t, const Eigen::MatrixXd& K) {
-  std::vector<double> blocks(36 * t.block_frames.size());
+  std::vector<double> blocks(36 * t.block_frames.size(), std::numeric_limits<double>::quiet_NaN());
   for (int a = 0; a < t.frames; ++a)
-    for (int p = t.block_offsets[static_cast<size_t>(a)]; p < t.block_offsets[static_cast<size_t>(a) + 1]; ++p)
+    for (int p = t.block_offsets[static_cast<size_t>(a)]; p < t.block_offsets[static_cast<size_t>(a) + 1]; ++p) {
+      const int b = t.block_frames[static_cast<size_t>(p)];
+      if (b > a) continue;
       for (int r = 0; r < 6; ++r)
         for (int c = 0; c < 6; ++c)
           blocks[36 * static_cast<size_t>(p) + 6 * static_cast<size_t>(r) + static_cast<size_t>(c)] =
-              K(6 * a + r, 6 * t.block_frames[static_cast<size_t>(p)] + c);
+              K(6 * a + r, 6 * b + c);
+    }
   return blocks;
 }
 
@@ -50,20 +55,27 @@ Eigen::MatrixXd probe(const TangentProbing& t, const std::vector<double>& blocks
         const long long col = probe_column(&t.owner[static_cast<size_t>(c) * static_cast<size_t>(t.frames)],
                                            t.hub_frame[static_cast<size_t>(c)], system.fixed, k, i, mirror);
         if (col < 0) continue;
-        const double v = probe_value(out[static_cast<size_t>(i)], t.colour.data(), system.fixed, t.block_offsets.data(),
-                                     t.block_frames.data(), blocks.data(), c, k, i);
+        const double v = probe_value(out[static_cast<size_t>(i)], system.fixed, t.colour_block_offsets.data(),
+                                     t.colour_block_frames.data(), t.colour_blocks.data(), blocks.data(), t.colours, c,
+                                     k, i);
         A(i, col) = v;
         if (mirror) A(col, i) = v;
       }
     }
+  // Each block (a, b) with b < a at its place and transposed, the diagonal blocks once.
   for (int a = 0; a < t.frames; ++a)
-    for (int p = t.block_offsets[static_cast<size_t>(a)]; p < t.block_offsets[static_cast<size_t>(a) + 1]; ++p)
+    for (int p = t.block_offsets[static_cast<size_t>(a)]; p < t.block_offsets[static_cast<size_t>(a) + 1]; ++p) {
+      const int b = t.block_frames[static_cast<size_t>(p)];
+      if (b > a) continue;
       for (int r = 0; r < 6; ++r)
         for (int c = 0; c < 6; ++c) {
-          const int i = 6 * a + r, j = 6 * t.block_frames[static_cast<size_t>(p)] + c;
-          if (!system.fixed[i] && !system.fixed[j])
-            A(i, j) += blocks[36 * static_cast<size_t>(p) + 6 * static_cast<size_t>(r) + static_cast<size_t>(c)];
+          const int i = 6 * a + r, j = 6 * b + c;
+          if (system.fixed[i] || system.fixed[j]) continue;
+          const double v = blocks[36 * static_cast<size_t>(p) + 6 * static_cast<size_t>(r) + static_cast<size_t>(c)];
+          A(i, j) += v;
+          if (a != b) A(j, i) += v;
         }
+    }
   for (int i = 0; i < n; ++i)
     if (system.fixed[i]) A(i, i) = 1;
   return A;
