@@ -344,7 +344,7 @@ class System final : public DeviceElasticity::Impl {
     if (m_block_count == 0) return;
     k_pair_columns<R><<<grid_for(m_p, kThreads), kThreads, 0, m_stream>>>(m_view, m_frame_view, m_pair_columns.data());
     check_launch();
-    k_tangent_blocks<R><<<grid_for(m_block_count, kThreads), kThreads, 0, m_stream>>>(
+    k_tangent_blocks<R><<<grid_for(6LL * m_block_count, kThreads), kThreads, 0, m_stream>>>(
         m_view, m_frame_view, m_block_count, m_contribution_offsets.data(), m_contributions.data(),
         m_pair_columns.data(), blocks);
     check_launch();
