@@ -7,8 +7,8 @@
 // colour for a tissue alone, a few tens with shells and rigid bodies), factorised by cuSOLVER's
 // potrf (H = L L^T) and inverted from the factor by cuBLAS, W = L^{-1} (recursively by halves:
 // triangular products, trmm, and trsm with the identity on blocks of 1024) then H^{-1} = W^T W
-// (syrk); the preconditioner is then cuBLAS's symmetric product (Ssymv) with
-// the lower triangle of H^{-1} rounded to single precision, one pass over n^2/2 floats at the
+// (syrk); the preconditioner is then cuBLAS's symmetric product (Ssymv) with the lower triangle
+// of H^{-1} rounded to single precision, one pass over n^2/2 floats at the
 // device's memory bandwidth (where potrs's two triangular solves, sequential by blocks, took 1.7
 // ms at 11,460 DOFs on an H100, and a product with both triangles in double 0.37 ms). The
 // rounding (relative 6e-8 per entry and per sum) perturbs the preconditioner, not the system PCG

@@ -99,9 +99,9 @@ class DeviceElasticity {
   // [B]; the pattern of integrate/tangent_probing.hpp), into blocks [B][36] (device memory,
   // written, row-major). A block's samples are summed in a fixed order. Only the blocks with b <= a
   // are formed (the tangent is symmetric: block (a, b) for b > a is the transpose of (b, a)); the
-  // others are written as zero. set_tangent_blocks
-  // allocates the pairs' material columns, 54 doubles per pair (432 bytes; 0.73 GB at 1.7 M
-  // pairs), which tangent_blocks_on_device forms first.
+  // others are written as zero. set_tangent_blocks allocates the pairs' material columns, 54
+  // doubles per pair (432 bytes; 0.73 GB at 1.7 M pairs), which tangent_blocks_on_device forms
+  // first.
   void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames);
   void tangent_blocks_on_device(double* blocks);
 
