@@ -99,25 +99,23 @@ void cublas_check(cublasStatus_t s, const char* what) {
 
 unsigned blocks_for(long long n) { return static_cast<unsigned>((n + kThreads - 1) / kThreads); }
 
-__global__ void k_probe(const int* colour, const std::uint8_t* fixed, int c, int k, double* e, long long n) {
+__global__ void k_probe(const std::uint8_t* fixed, int body, int k, double* e, long long n) {
   const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
-  if (i < n) e[i] = probe_entry(colour, fixed, c, k, static_cast<int>(i));
+  if (i < n) e[i] = probe_entry(fixed, body, k, static_cast<int>(i));
 }
 
-// The entries of the product of colour c, component k, less the assembled blocks' share
-// (probe_value), into column-major A (n rows): entry (r, c) at A[c n + r].
-__global__ void k_scatter(const int* owner_c, int hub_frame_c, const std::uint8_t* fixed,
-                          const int* colour_block_offsets, const int* colour_block_frames, const int* colour_blocks,
-                          const double* blocks, int colours, int c, int k, const double* out, double* A, long long n) {
+// The entries of the product of body frame `body`, component k, less the assembled blocks' share
+// (probe_value), into column-major A (n rows; entry (r, c) at A[c n + r]): the body's column and,
+// transposed, its row.
+__global__ void k_scatter(const std::uint8_t* fixed, const int* body_blocks_c, const double* blocks, int body, int k,
+                          const double* out, double* A, long long n) {
   const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
   if (i >= n) return;
-  bool mirror = false;
-  const long long col = probe_column(owner_c, hub_frame_c, fixed, k, static_cast<int>(i), mirror);
+  const long long col = probe_column(fixed, body, k, static_cast<int>(i));
   if (col < 0) return;
-  const double v = probe_value(out[i], fixed, colour_block_offsets, colour_block_frames, colour_blocks, blocks, colours,
-                               c, k, static_cast<int>(i));
+  const double v = probe_value(out[i], fixed, body_blocks_c, blocks, body, k, static_cast<int>(i));
   A[col * n + i] = v;
-  if (mirror) A[i * n + col] = v;
+  A[i * n + col] = v;
 }
 
 // A += the assembled blocks [B][36] (rows of block p: frame block_rows[p]) between free DOFs: each
@@ -205,10 +203,9 @@ struct DeviceCholesky::Impl {
   const VectorOps& ops;
   const std::uint8_t* fixed;
   long long n = 0;
-  int colours = 0;
   std::uint64_t fingerprint = 14695981039346656037ull;
-  std::vector<int> hub_frame;
-  DeviceBuffer<int> colour, owner, block_rows, block_frames, colour_block_offsets, colour_block_frames, colour_blocks;
+  std::vector<int> bodies;  // the probed frames (TangentProbing::bodies)
+  DeviceBuffer<int> block_rows, block_frames, body_blocks;
   DeviceBuffer<double> A, W, diag, work, probe, product, blocks;  // W: L^{-1}
   DeviceBuffer<double> panel;  // L21 W11 of invert_lower's largest split: inverse_scratch(n) values
   DeviceBuffer<float> single_r, single_z;  // a solve's r and z in single precision
@@ -224,23 +221,19 @@ struct DeviceCholesky::Impl {
     const std::string why = DeviceCholesky::refusal(n, potential.model().pair_count());
     if (!why.empty()) throw std::invalid_argument(why);
     const TangentProbing t = tangent_probing(potential.model());
-    potential.set_tangent_blocks(t.block_offsets, t.block_frames);
-    colours = t.colours;
-    hub_frame = t.hub_frame;
-    for (int c : t.colour) {
-      fingerprint ^= static_cast<std::uint64_t>(static_cast<std::uint32_t>(c));
-      fingerprint *= 1099511628211ull;
-    }
-    colour.upload(t.colour);
-    owner.upload(t.owner);
+    potential.set_tangent_blocks(t.block_offsets, t.block_frames, t.diagonal_blocks);
+    bodies = t.bodies;
+    for (const std::vector<int>* list : {&t.bodies, &t.block_frames})
+      for (int c : *list) {
+        fingerprint ^= static_cast<std::uint64_t>(static_cast<std::uint32_t>(c));
+        fingerprint *= 1099511628211ull;
+      }
+    body_blocks.upload(t.body_blocks);
     std::vector<int> rows;
     for (int a = 0; a + 1 < static_cast<int>(t.block_offsets.size()); ++a)
       rows.insert(rows.end(), static_cast<size_t>(t.block_offsets[static_cast<size_t>(a) + 1] - t.block_offsets[static_cast<size_t>(a)]), a);
     block_rows.upload(rows);
     block_frames.upload(t.block_frames);
-    colour_block_offsets.upload(t.colour_block_offsets);
-    colour_block_frames.upload(t.colour_block_frames);
-    colour_blocks.upload(t.colour_blocks);
     blocks.resize(36 * t.block_frames.size());
     A.resize(static_cast<size_t>(n) * static_cast<size_t>(n));
     W.resize(static_cast<size_t>(n) * static_cast<size_t>(n));
@@ -378,7 +371,7 @@ DeviceCholesky::~DeviceCholesky() = default;
 
 bool DeviceCholesky::factorised() const { return m_impl->factorised; }
 
-int DeviceCholesky::products() const { return 6 * m_impl->colours; }
+int DeviceCholesky::products() const { return 6 * static_cast<int>(m_impl->bodies.size()); }
 
 std::uint64_t DeviceCholesky::fingerprint() const { return m_impl->fingerprint; }
 
@@ -394,14 +387,12 @@ LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
   FASCIA_CUDA(cudaMemsetAsync(m.A.data(), 0, sizeof(double) * static_cast<size_t>(n) * static_cast<size_t>(n), stream));
   const long long entries = static_cast<long long>(m.blocks.size());
   if (entries > 0) potential.tangent_blocks(m.blocks.data());
-  for (int c = 0; c < m.colours; ++c)
+  for (size_t c = 0; c < m.bodies.size(); ++c)
     for (int k = 0; k < 6; ++k) {
-      k_probe<<<blocks_for(n), kThreads, 0, stream>>>(m.colour.data(), m.fixed, c, k, m.probe.data(), n);
+      k_probe<<<blocks_for(n), kThreads, 0, stream>>>(m.fixed, m.bodies[c], k, m.probe.data(), n);
       potential.apply(m.probe.data(), m.product.data());
-      k_scatter<<<blocks_for(n), kThreads, 0, stream>>>(
-          m.owner.data() + static_cast<size_t>(c) * static_cast<size_t>(n / 6), m.hub_frame[static_cast<size_t>(c)],
-          m.fixed, m.colour_block_offsets.data(), m.colour_block_frames.data(), m.colour_blocks.data(), m.blocks.data(),
-          m.colours, c, k, m.product.data(), m.A.data(), n);
+      k_scatter<<<blocks_for(n), kThreads, 0, stream>>>(m.fixed, m.body_blocks.data() + c * static_cast<size_t>(n / 6),
+                                                        m.blocks.data(), m.bodies[c], k, m.product.data(), m.A.data(), n);
     }
   if (entries > 0)
     k_add_blocks<<<blocks_for(entries), kThreads, 0, stream>>>(m.block_rows.data(), m.block_frames.data(), m.blocks.data(),

@@ -2,12 +2,12 @@
 // the CPU's CHOLMOD factor (solve/sparse_cholesky.hpp), for the pcg preconditioner of that name
 // (solve/factorised_solve.hpp).
 //
-// H is recovered into a dense n x n matrix from its elastic blocks, formed sample by sample on the
-// device, and coloured products for the rest (integrate/tangent_probing.hpp: 6 per colour; one
-// colour for a tissue alone, a few tens with shells and rigid bodies), factorised by cuSOLVER's
-// potrf (H = L L^T) and inverted from the factor by cuBLAS, W = L^{-1} (recursively by halves:
-// triangular products, trmm, and trsm with the identity on blocks of 1024) then H^{-1} = W^T W
-// (syrk); the preconditioner is then cuBLAS's symmetric product (Ssymv) with the lower triangle
+// H is recovered into a dense n x n matrix from its blocks between unknowns, assembled on the
+// device from the samples, the shell triangles and the frame terms, and six products per rigid
+// body for the bodies' rows and columns (integrate/tangent_probing.hpp; none without bodies),
+// factorised by cuSOLVER's potrf (H = L L^T) and inverted from the factor by cuBLAS, W = L^{-1}
+// (recursively by halves: triangular products, trmm, and trsm with the identity on blocks of 1024)
+// then H^{-1} = W^T W (syrk); the preconditioner is then cuBLAS's symmetric product (Ssymv) with the lower triangle
 // of H^{-1} rounded to single precision, one pass over n^2/2 floats at the
 // device's memory bandwidth (where potrs's two triangular solves, sequential by blocks, took 1.7
 // ms at 11,460 DOFs on an H100, and a product with both triangles in double 0.37 ms). The
@@ -59,7 +59,7 @@ class DeviceCholesky {
   DeviceCholesky(const DeviceCholesky&) = delete;
   DeviceCholesky& operator=(const DeviceCholesky&) = delete;
 
-  // Recovers the Hessian H that potential.prepare_hessian prepared from its elastic blocks
+  // Recovers the Hessian H that potential.prepare_hessian prepared from its assembled blocks
   // (DevicePotential::tangent_blocks) and its products (DevicePotential::apply), and factorises
   // it. .factorised = true; .shifted and .message when shifted; .message alone when every shift
   // failed.
@@ -71,7 +71,7 @@ class DeviceCholesky {
   void set_first_shift_step(int k);
   // z = H^{-1} r (device arrays of 6N; z's fixed DOFs equal r's). Enqueued only: no read back.
   void solve(const double* r, double* z) const;
-  // Probe products per factorisation (6 per colour).
+  // Probe products per factorisation (6 per rigid body).
   int products() const;
   // The iterations of one PCG solve beyond which the kept factorisation is renewed
   // (solve/factorised_solve.hpp): an eighth of its cost in tangent products, at least 10 (the
@@ -82,7 +82,8 @@ class DeviceCholesky {
   // pays when the iterations it saves over the solves that follow (about ten: a few steps' Newton
   // iterations) exceed its cost.
   int refactorise_above(const LinearSettings& settings) const;
-  // A fingerprint of the colouring (FNV-1a): equal for one model and build.
+  // A fingerprint of the probed bodies and the block pattern (FNV-1a): equal for one model and
+  // build.
   std::uint64_t fingerprint() const;
 
   struct Impl;

@@ -85,7 +85,8 @@ struct DeviceElasticity::Impl {
   virtual void set_state_on_device(const double* positions, const double* orientations) = 0;
   virtual double gradient_on_device(double* g) = 0;
   virtual void apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal) = 0;
-  virtual void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) = 0;
+  virtual void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
+                                  const std::vector<int>& diagonal_blocks) = 0;
   virtual void tangent_blocks_on_device(double* blocks) = 0;
   virtual const double* diagonal_blocks_on_device() const = 0;
   virtual double time_tangent_ms(int repeats) = 0;
@@ -348,12 +349,17 @@ class System final : public DeviceElasticity::Impl {
         m_view, m_frame_view, m_block_count, m_contribution_offsets.data(), m_contributions.data(),
         m_pair_columns.data(), blocks);
     check_launch();
+    k_add_rotational_geometric<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
+        m_n, m_diagonal_blocks.data(), m_geo.data(), blocks);
+    check_launch();
   }
 
   // Each block's terms, the pairs (p_a, p_b) of the samples of frames a and b, in the order of
   // frame a's pairs (the reverse table: increasing sample); none for the blocks with b > a, the
   // transposes of (b, a), which are written as zero (device_elasticity.hpp).
-  void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) override {
+  void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
+                          const std::vector<int>& diagonal_blocks) override {
+    m_diagonal_blocks.upload(diagonal_blocks);
     std::vector<int> offsets(m_offsets.size()), frames(m_frames.size()), rev_offsets(m_rev_offsets.size()),
         rev_pairs(m_rev_pairs.size()), pair_samples(m_pair_samples.size());
     m_offsets.download(offsets.data());
@@ -644,6 +650,7 @@ class System final : public DeviceElasticity::Impl {
   // The tangent blocks' pattern and each block's pairs (tangent_blocks_on_device).
   int m_block_count = 0;
   DeviceBuffer<int> m_contribution_offsets, m_contributions;
+  DeviceBuffer<int> m_diagonal_blocks;  // [N] each frame's block (a, a), -1: none
   DeviceBuffer<double> m_pair_columns;  // k_pair_columns: [P][kPairColumns]
   DeviceBuffer<R> m_weights, m_gradients, m_volumes, m_sample_rest, m_frame_rest;
   DeviceBuffer<Material> m_materials;
@@ -697,8 +704,9 @@ void DeviceElasticity::apply_tangent_on_device(const double* d, double* out, con
   m_impl->apply_tangent_on_device(d, out, frame_diagonal);
 }
 const double* DeviceElasticity::diagonal_blocks_on_device() const { return m_impl->diagonal_blocks_on_device(); }
-void DeviceElasticity::set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) {
-  m_impl->set_tangent_blocks(block_offsets, block_frames);
+void DeviceElasticity::set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
+                                          const std::vector<int>& diagonal_blocks) {
+  m_impl->set_tangent_blocks(block_offsets, block_frames, diagonal_blocks);
 }
 void DeviceElasticity::tangent_blocks_on_device(double* blocks) { m_impl->tangent_blocks_on_device(blocks); }
 bool DeviceElasticity::group_samples() const { return m_impl->grouped; }

@@ -93,16 +93,17 @@ class DeviceElasticity {
   double gradient_on_device(double* gradient);
   void apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal = nullptr);
   const double* diagonal_blocks_on_device() const;
-  // The elastic tangent's blocks between frames that share a sample, sum_s v B_a^T C[B_b]
-  // (without the rotational geometric blocks), of the last prepare(), for the blocks (a, b) of the
-  // pattern set by set_tangent_blocks (host CSR over rows a: block_offsets [N+1], block_frames
-  // [B]; the pattern of integrate/tangent_probing.hpp), into blocks [B][36] (device memory,
-  // written, row-major). A block's samples are summed in a fixed order. Only the blocks with b <= a
-  // are formed (the tangent is symmetric: block (a, b) for b > a is the transpose of (b, a)); the
-  // others are written as zero. set_tangent_blocks allocates the pairs' material columns, 54
-  // doubles per pair (432 bytes; 0.73 GB at 1.7 M pairs), which tangent_blocks_on_device forms
-  // first.
-  void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames);
+  // The elastic tangent's blocks between frames that share a sample, sum_s v B_a^T C[B_b], and on
+  // the diagonal blocks (a, a) the rotational geometric blocks, of the last prepare(), for the
+  // blocks (a, b) of the pattern set by set_tangent_blocks (host CSR over rows a: block_offsets
+  // [N+1], block_frames [B]; diagonal_blocks [N] each frame's block (a, a), -1: none; the pattern
+  // of integrate/tangent_probing.hpp), into blocks [B][36] (device memory, written, row-major). A
+  // block's samples are summed in a fixed order. Only the blocks with b <= a are formed (the
+  // tangent is symmetric: block (a, b) for b > a is the transpose of (b, a)); the others are
+  // written as zero. set_tangent_blocks allocates the pairs' material columns, 54 doubles per pair
+  // (432 bytes; 0.73 GB at 1.7 M pairs), which tangent_blocks_on_device forms first.
+  void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
+                          const std::vector<int>& diagonal_blocks);
   void tangent_blocks_on_device(double* blocks);
 
   // Whether the launched tangent product runs the grouped pass (mesh-based models whose samples

@@ -100,6 +100,18 @@ __global__ void k_add_frame_diagonal(int n, const double* diag, const double* d,
   o[3] += qr.x, o[4] += qr.y, o[5] += qr.z;
 }
 
+// blocks[p] += the frame diagonal of frame i (k_frame_diagonal's [t_i I3, Q_i]), p =
+// diagonal_blocks[i] (-1: none).
+__global__ void k_add_frame_blocks(int n, const int* diagonal_blocks, const double* diag, double* blocks) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n || diagonal_blocks[i] < 0) return;
+  double* B = blocks + 36LL * diagonal_blocks[i];
+  const double* e = diag + 10 * i;
+  for (int k = 0; k < 3; ++k) B[7 * k] += e[0];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) B[6 * (3 + r) + 3 + c] += e[1 + 3 * r + c];
+}
+
 // The diagonal blocks of H [N][36]: the elastic block (null: none) plus the frame diagonal.
 __global__ void k_diagonal_blocks(int n, const double* elastic, const double* diag, double* blocks) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -296,6 +308,7 @@ struct DevicePotential::Impl {
   DeviceBuffer<double> load_f, load_C, masses, inertia0, inertia, start_x, start_q, start_v, diag, minv, scratch, blocks;
   DeviceBuffer<double> expanded, full_g;  // rigid mapping: d with mapped frames filled in, unreduced gradient
   DeviceBuffer<std::uint8_t> fixed;
+  DeviceBuffer<int> diagonal_blocks;  // [N] each frame's block (a, a) of the tangent block pattern, -1: none
 };
 
 DevicePotential::DevicePotential(const Model& model, const ExternalLoads& loads, const DeviceOptions& options)
@@ -419,17 +432,25 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
   m.mapping.reduce_product(d_reduced, out, m.stream);
 }
 
-void DevicePotential::set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames) {
-  m_impl->block_count = static_cast<long long>(block_frames.size());
-  if (m_impl->elasticity) m_impl->elasticity->set_tangent_blocks(block_offsets, block_frames);
+void DevicePotential::set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
+                                         const std::vector<int>& diagonal_blocks) {
+  Impl& m = *m_impl;
+  m.block_count = static_cast<long long>(block_frames.size());
+  m.diagonal_blocks.upload(diagonal_blocks);
+  if (m.elasticity) m.elasticity->set_tangent_blocks(block_offsets, block_frames, diagonal_blocks);
+  m.shells.set_tangent_blocks(block_offsets, block_frames);
 }
 
 void DevicePotential::tangent_blocks(double* blocks) {
   Impl& m = *m_impl;
+  const int n = m_model.frame_count();
   if (m.elasticity)
     m.elasticity->tangent_blocks_on_device(blocks);
   else
     m.ops.fill(blocks, 0.0, 36 * m.block_count);
+  m.shells.add_tangent_blocks(blocks, m.stream);
+  k_add_frame_blocks<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.diagonal_blocks.data(), m.diag.data(), blocks);
+  check();
 }
 
 const double* DevicePotential::preconditioner() const {

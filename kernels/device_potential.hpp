@@ -62,11 +62,14 @@ class DevicePotential {
   void prepare_hessian(const DeviceFrames& q, bool preconditioner = true);
   // out = H d (unprojected), with H prepared by prepare_hessian.
   void apply(const double* d, double* out);
-  // The elastic blocks of the Hessian prepared by prepare_hessian for the block pattern set by
-  // set_tangent_blocks (host CSR: block_offsets [N+1], block_frames [B];
-  // DeviceElasticity::tangent_blocks_on_device) into blocks [B][36], a device array (zero
-  // without samples).
-  void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames);
+  // The blocks of the Hessian prepared by prepare_hessian for the block pattern set by
+  // set_tangent_blocks (integrate/tangent_probing.hpp: host CSR block_offsets [N+1], block_frames
+  // [B], and each frame's diagonal block or -1) into blocks [B][36], a device array: the
+  // elasticity's (DeviceElasticity::tangent_blocks_on_device), the shells' (DeviceShells::
+  // add_tangent_blocks) and the frame terms on the diagonal blocks, each block (a, b) with b <= a
+  // (the others zero).
+  void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
+                          const std::vector<int>& diagonal_blocks);
   void tangent_blocks(double* blocks);
   // Inverse 6x6 diagonal blocks of H [N][36] (block Jacobi; fixed DOFs identity rows), or null
   // before prepare_hessian.

@@ -95,6 +95,22 @@ __global__ void k_shell_blocks(int frames, const int* frame_ids, const int* offs
   }
 }
 
+// blocks[p] += sum of its terms' node blocks H_t(node_a, node_b), block p = block_ids[k]; one thread
+// per block entry (k, r, c), its terms in list order.
+__global__ void k_shell_tangent_blocks(int touched, const int* block_ids, const int* offsets, const int* terms,
+                                       const double* hessians, double* blocks) {
+  const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  const int k = static_cast<int>(i / 36), e = static_cast<int>(i % 36), r = e / 6, c = e % 6;
+  if (k >= touched) return;
+  double s = 0;
+  for (int j = offsets[k]; j < offsets[k + 1]; ++j) {
+    const int term = terms[j], t = term / 9, a = term / 3 % 3, b = term % 3;
+    s += hessians[static_cast<long long>(t) * kShellElementDofs * kShellElementDofs +
+                  kShellElementDofs * (6 * a + r) + 6 * b + c];
+  }
+  blocks[36LL * block_ids[k] + e] += s;
+}
+
 }  // namespace
 
 double DeviceShells::energy(const double* x, const double* q, const VectorOps& ops) {
@@ -131,6 +147,13 @@ void DeviceShells::add_tangent(const double* d, double* out, cudaStream_t stream
   check();
   k_shell_gather<<<grid(m_frames), kThreads, 0, stream>>>(m_frames, m_frame_ids.data(), m_offsets.data(),
                                                           m_entries.data(), m_values.data(), out);
+  check();
+}
+
+void DeviceShells::add_tangent_blocks(double* blocks, cudaStream_t stream) const {
+  if (m_touched_blocks == 0) return;
+  k_shell_tangent_blocks<<<grid(36 * m_touched_blocks), kThreads, 0, stream>>>(
+      m_touched_blocks, m_block_ids.data(), m_block_offsets.data(), m_block_terms.data(), m_hessians.data(), blocks);
   check();
 }
 

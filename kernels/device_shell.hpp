@@ -5,7 +5,8 @@
 // One thread per triangle evaluates the body; a second pass sums each frame's element terms in a
 // fixed order (its (triangle, node) entries in triangle order), so that results are deterministic
 // without atomics. The prepared Hessians are kept per triangle ([T][18][18]); the tangent
-// product multiplies them per triangle and sums per frame like the gradient.
+// product multiplies them per triangle and sums per frame like the gradient, and the tangent's
+// blocks sum them per block of a pattern, again in triangle order.
 #pragma once
 
 #include "device_buffers.cuh"
@@ -35,6 +36,12 @@ class DeviceShells {
   void add_tangent(const double* d, double* out, cudaStream_t stream);
   // blocks += the shells' 6x6 diagonal blocks of the prepared Hessians.
   void add_diagonal_blocks(double* blocks, cudaStream_t stream) const;
+  // The block pattern of add_tangent_blocks (integrate/tangent_probing.hpp: host CSR over rows
+  // a, block_offsets [N+1], block_frames [B]).
+  void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames);
+  // blocks [B][36] += the prepared Hessians' blocks (a, b) with b <= a of the pattern, between two
+  // nodes of a triangle (a == b: one node's diagonal block).
+  void add_tangent_blocks(double* blocks, cudaStream_t stream) const;
 
  private:
   int m_triangles = 0, m_frames = 0;
@@ -43,6 +50,11 @@ class DeviceShells {
   // Frames touched by shells: m_frame_ids [F], their entries [m_offsets[f], m_offsets[f + 1]) in
   // m_entries = 3 t + local node, in triangle order.
   DeviceBuffer<int> m_frame_ids, m_offsets, m_entries;
+  // The pattern's blocks that triangles touch: m_block_ids [K], their terms [m_block_offsets[k],
+  // m_block_offsets[k + 1]) in m_block_terms = 9 t + 3 node_a + node_b, in triangle order.
+  int m_touched_blocks = 0;
+  std::vector<int> m_nodes;  // [T][3] each triangle's frames (host)
+  DeviceBuffer<int> m_block_ids, m_block_offsets, m_block_terms;
   DeviceBuffer<double> m_values;    // [T][18] per-triangle gradients or products
   DeviceBuffer<double> m_energies;  // [T]
   DeviceBuffer<double> m_hessians;  // [T][18][18]

@@ -223,6 +223,19 @@ __global__ void k_tangent_blocks(ModelView<R> m, FrameView<R> f, int block_count
   for (int r = 0; r < 6; ++r) blocks[36LL * p + 6 * r + c] = acc[r];
 }
 
+// blocks[p] += the rotational geometric block Kr of frame i (geo [N][9], row-major) in its rotation
+// rows and columns, p = diagonal_blocks[i] (-1: none). One thread per frame.
+template <class R>
+__global__ void k_add_rotational_geometric(int frames, const int* diagonal_blocks, const R* geo, double* blocks) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= frames || diagonal_blocks[i] < 0) return;
+  double* B = blocks + 36LL * diagonal_blocks[i];
+#pragma unroll
+  for (int r = 0; r < 3; ++r)
+#pragma unroll
+    for (int c = 0; c < 3; ++c) B[6 * (3 + r) + 3 + c] += static_cast<double>(geo[9LL * i + 3 * r + c]);
+}
+
 // ---- tangent product ----
 
 // The slot sums of block b's outputs [6][stride] in slot-major order (the coalesced pass):

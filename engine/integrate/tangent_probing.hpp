@@ -1,24 +1,22 @@
 // Recovering the step tangent H (6N x 6N, of the reduced potential of step_potential.hpp) from its
-// elastic blocks, assembled per sample, and a few products H e for the rest (Curtis, Powell & Reid
-// 1974; Coleman & More 1983).
+// blocks between frames that are unknowns, assembled term by term, and a few products H e for the
+// rigid bodies (Curtis, Powell & Reid 1974; Coleman & More 1983).
 //
-// The elasticity (eq. 18) couples every two frames that share a sample: with a meshless tissue's
-// dozen frames per sample, each frame meets a hundred others, and a colouring of that graph needs
-// hundreds of colours. Its blocks between frames that are unknowns (not mapped to a rigid body),
-// v_s B_a^T D_s B_b summed over the samples of frames a and b, are instead assembled sample by
-// sample into a block-sparse matrix (the "assembled blocks"). What they leave of H (the
-// diagonal frame terms, shell triangles, a rigid body's couplings through the frames it carries)
-// couples few frames: the columns of frames that no row couples to twice in that rest are probed
-// together, one product per colour and per DOF component, and each entry of a product, less the
-// assembled blocks' share of it, is returned to the one column of its colour that its row couples
-// to. The assembled blocks are then added.
+// Between two unknowns a and b that are not rigid bodies, H_ab is the sum of the terms that hold
+// both: the elasticity's samples (eq. 18, v_s B_a^T D_s B_b and, for a == b, the rotational
+// geometric block), the shells' triangles, and for a == b the frame terms (inertia, damping,
+// loads). These are assembled into a block-sparse matrix (the "assembled blocks"): one block per
+// two unknowns that share a sample or a triangle, and one per unknown on the diagonal.
 //
-// A rigid body's frame takes the couplings of every frame attached to it (the rigid mapping),
-// which makes it a hub coupled to hundreds of frames. A hub is probed alone and its rows are
-// taken from its columns by symmetry, so that its neighbours need not all have distinct colours.
+// A rigid body's frame also takes, through the rigid mapping, the terms of every frame carried by
+// it (J^T H J and the mapping's geometric term): it couples to every unknown that shares a sample
+// or a triangle with one of those frames. Each body's six columns are read from six products, one
+// per DOF component, each entry less the assembled blocks' share of it; its rows are taken from its
+// columns by symmetry. The assembled blocks are then added. Between unknowns that are not bodies
+// nothing is left to probe, so a model without rigid bodies needs no product.
 //
-// The host builds the colouring and the block pattern once per model; the per-entry rules below
-// (FASCIA_HD) are what the device runs and what the host test checks against the assembled tangent.
+// The host builds the pattern once per model; the per-entry rules below (FASCIA_HD) are what the
+// device runs and what the host test checks against the assembled tangent.
 #pragma once
 
 #include "core/config.hpp"
@@ -29,77 +27,47 @@
 
 namespace fascia {
 
-// A frame coupled outside the assembled blocks to more than this many times the median number of
-// frames that such a frame couples to (of the frames coupled to any other) is probed alone (a
-// hub): the colour count of the other frames then follows the shells' neighbourhoods, not the
-// bodies' attachments.
-inline constexpr int kProbeHubFactor = 4;
-
 struct TangentProbing {
   int frames = 0;
-  int colours = 0;
-  std::vector<int> colour;     // [N] probe colour of each frame; -1: not probed (mapped to a rigid body)
-  std::vector<int> hub_frame;  // [colours] the frame a hub colour probes, -1 for the other colours
-  std::vector<int> owner;      // [colours][N] the frame of colour c that frame r couples to outside the
-                               // assembled blocks, -1: none (and -1 in every hub frame's row: hub rows
-                               // come from hub columns)
+  // The frames probed: the rigid bodies that carry frames (the frames mapped to them), ascending.
+  std::vector<int> bodies;
   // The assembled blocks, CSR over block rows: row frame a holds the blocks (a, b) for
   // b = block_frames[p], p in [block_offsets[a], block_offsets[a + 1]), increasing b. Each block is
   // 6x6 row-major, H entry (6a + r, 6b + c) at 36 p + 6 r + c. Frames a and b are unknowns that
-  // share a sample (a == b included). The pattern is symmetric, and only the blocks with b <= a
-  // hold values (H is symmetric: block (a, b) for b > a is the transpose of (b, a)).
+  // share a sample or a shell triangle, or a == b. The pattern is symmetric, and only the blocks
+  // with b <= a hold values (H is symmetric: block (a, b) for b > a is the transpose of (b, a)).
   std::vector<int> block_offsets;  // [N+1]
   std::vector<int> block_frames;   // [B]
-  // Row f's blocks whose column frame j has colour c, for probe_value: CSR over (f, c), entries
-  // [colour_block_offsets[f colours + c], colour_block_offsets[f colours + c + 1]) in increasing j,
-  // each with its frame j and where its values lie: colour_blocks p >= 0 for block (f, j) = p
-  // (j <= f), -(q + 1) for block (j, f) = q transposed (j > f).
-  std::vector<int> colour_block_offsets;  // [N colours + 1]
-  std::vector<int> colour_block_frames;   // [B]
-  std::vector<int> colour_blocks;         // [B]
+  std::vector<int> diagonal_blocks;  // [N] the block (a, a), -1 for frames mapped to a body
+  // Where row frame f's block with body c lies, for probe_value: [bodies][N], p + 1 for block
+  // (f, body) = p (body <= f), -(q + 1) for block (body, f) = q transposed (body > f), 0: none.
+  std::vector<int> body_blocks;
 };
 
-// The colouring and the block pattern of model's step tangent (frames mapped to rigid bodies are
-// not unknowns); frames coupled to more than hub_degree frames outside the blocks are hubs (0:
-// kProbeHubFactor times the median).
-TangentProbing tangent_probing(const Model& model, int hub_degree = 0);
+// The pattern and the bodies of model's step tangent (frames mapped to rigid bodies are not
+// unknowns).
+TangentProbing tangent_probing(const Model& model);
 
-// The probe vector of colour c and component k (0..5) at DOF i: 1 on DOF k of the colour's
-// frames, 0 elsewhere and on fixed DOFs.
-FASCIA_HD double probe_entry(const int* colour, const std::uint8_t* fixed, int c, int k, int i) {
-  return (i % 6 == k && colour[i / 6] == c && !fixed[i]) ? 1.0 : 0.0;
+// The probe vector of body frame `body` and component k (0..5) at DOF i: 1 on the body's DOF k
+// unless it is fixed, 0 elsewhere.
+FASCIA_HD double probe_entry(const std::uint8_t* fixed, int body, int k, int i) {
+  return (i == 6 * body + k && !fixed[i]) ? 1.0 : 0.0;
 }
 
-// Where entry i of the product H e(c, k) belongs in H (column-major, n rows): the column of its
-// row's frame of colour c, or -1 (a fixed row, a hub's row of another colour, no coupled frame).
-// A hub colour's product is the hub's column, stored as its row as well (mirror = true).
-FASCIA_HD long long probe_column(const int* owner_c, int hub_frame_c, const std::uint8_t* fixed, int k, int i,
-                                 bool& mirror) {
-  mirror = false;
-  if (fixed[i]) return -1;
-  if (hub_frame_c >= 0) {
-    mirror = true;
-    return 6LL * hub_frame_c + k;
-  }
-  const int j = owner_c[i / 6];
-  return j >= 0 ? 6LL * j + k : -1;
+// Where entry i of the product H e(body, k) belongs in H: column 6 body + k, and its transpose
+// (the body's row); -1 at fixed rows.
+FASCIA_HD long long probe_column(const std::uint8_t* fixed, int body, int k, int i) {
+  return fixed[i] ? -1 : 6LL * body + k;
 }
 
-// The value of H at (i, probe_column) from entry i of the product H e(c, k): the entry less the
-// assembled blocks' share of it, row i's entries in the columns that e(c, k) sets.
-// colour_block_offsets, colour_block_frames, colour_blocks: TangentProbing's, of `colours`
-// colours; blocks: the assembled blocks (TangentProbing), [B][36].
-FASCIA_HD double probe_value(double product_i, const std::uint8_t* fixed, const int* colour_block_offsets,
-                             const int* colour_block_frames, const int* colour_blocks, const double* blocks, int colours,
-                             int c, int k, int i) {
-  const int f = i / 6, r = i % 6;
-  const long long at = static_cast<long long>(f) * colours + c;
-  for (int e = colour_block_offsets[at]; e < colour_block_offsets[at + 1]; ++e) {
-    if (fixed[6 * colour_block_frames[e] + k]) continue;
-    const int p = colour_blocks[e];
-    product_i -= p >= 0 ? blocks[36LL * p + 6 * r + k] : blocks[36LL * (-p - 1) + 6 * k + r];
-  }
-  return product_i;
+// The value of H at (i, 6 body + k) from entry i of the product H e(body, k): the entry less the
+// assembled blocks' share of it. body_blocks_c: TangentProbing::body_blocks of this body, [N];
+// blocks: the assembled blocks, [B][36].
+FASCIA_HD double probe_value(double product_i, const std::uint8_t* fixed, const int* body_blocks_c,
+                             const double* blocks, int body, int k, int i) {
+  const int e = body_blocks_c[i / 6], r = i % 6;
+  if (e == 0 || fixed[6 * body + k]) return product_i;
+  return product_i - (e > 0 ? blocks[36LL * (e - 1) + 6 * r + k] : blocks[36LL * (-e - 1) + 6 * k + r]);
 }
 
 // The position p of block (a, b) among the assembled blocks, -1 when it is not one (a binary
