@@ -24,10 +24,6 @@ namespace {
 
 constexpr long long kMaxDenseDofs = 32768;  // two matrices of 8 GiB; a factorisation of ~4e13 flops
 constexpr int kThreads = 256;
-// The fewest iterations of a solve that renew the factor: below, the scenes' solves (tens of
-// iterations) would renew it at almost every Newton iteration. bench scenes on an H100:
-// tool_strike 3.6 ms per step with 10, 6.7 with 30; bone, meshless_slab alike.
-constexpr int kMinRefactoriseAbove = 10;
 
 // cuSOLVER and cuBLAS are loaded when a factorisation is first asked for, not at program start:
 // the libraries and what they load (cuSPARSE, nvJitLink) are 1 GB, which every run would otherwise
@@ -375,9 +371,7 @@ int DeviceCholesky::products() const { return 6 * static_cast<int>(m_impl->bodie
 
 std::uint64_t DeviceCholesky::fingerprint() const { return m_impl->fingerprint; }
 
-int DeviceCholesky::refactorise_above(const LinearSettings&) const {
-  return std::max(kMinRefactoriseAbove, static_cast<int>((products() + m_impl->n / 40) / 8));
-}
+double DeviceCholesky::cost() const { return products() + static_cast<double>(m_impl->n) / 40.0; }
 
 LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
   Impl& m = *m_impl;

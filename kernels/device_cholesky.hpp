@@ -73,15 +73,12 @@ class DeviceCholesky {
   void solve(const double* r, double* z) const;
   // Probe products per factorisation (6 per rigid body).
   int products() const;
-  // The iterations of one PCG solve beyond which the kept factorisation is renewed
-  // (solve/factorised_solve.hpp): an eighth of its cost in tangent products, at least 10 (the
-  // CPU's LinearSettings::refactorise_above weighs the CPU's costs). A factorisation costs
-  // products() tangent products, the blocks (one pass over the pairs of each sample) and the
-  // inversion, about n/40 products (an H200: 2.4 ms at 2,148 DOFs, 44 ms at 10,962, against a
-  // product of 50 and 150 us); a CG iteration one product and one product with H^{-1}. Renewing
-  // pays when the iterations it saves over the solves that follow (about ten: a few steps' Newton
-  // iterations) exceed its cost.
-  int refactorise_above(const LinearSettings& settings) const;
+  // A factorisation's cost in CG iterations, for the renewal rule of solve/kept_factorisation.hpp:
+  // products() tangent products and the factorisation with its inverse, about n/40 products (an
+  // H200: 2.4 ms at 2,148 DOFs, 44 ms at 10,962, against a product of 50 and 150 us); a CG
+  // iteration costs one product and one product with H^{-1}. bench scenes on an H200 (pelvis at
+  // three resolutions) measures the same time with n/80.
+  double cost() const;
   // A fingerprint of the probed bodies and the block pattern (FNV-1a): equal for one model and
   // build.
   std::uint64_t fingerprint() const;

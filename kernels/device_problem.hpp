@@ -75,11 +75,10 @@ class DeviceProblem {
         bool factorised() const { return problem.m_factor->factorised(); }
         void solve(const Vector& r, Vector& z) const { problem.m_factor->solve(r.data(), z.data()); }
         bool shifted() const { return problem.m_factor->shift_step() >= 0; }
-        const LinearSettings& settings;
-        bool stops_paying(const KeptFactorisation&, int iterations) const {
-          return iterations > problem.m_factor->refactorise_above(settings);
+        bool stops_paying(const KeptFactorisation& k, int iterations) const {
+          return fascia::stops_paying(k, iterations, problem.m_factor->cost());
         }
-      } kept{*this, q, linear};
+      } kept{*this, q};
       return pcg_with_kept_factorisation(m_ops, apply, kept, m_kept, linear, rhs, d);
     }
     const PcgSettings pcg_settings = fascia::pcg_settings(linear);

@@ -8,8 +8,8 @@
 // replacement rule of an ageing machine. A fresh factorisation's solves take few iterations, and
 // more as the tangent moves away from it; solves that stay as costly as the first never renew it.
 // Counted in iterations, not timed, so that runs repeat bit for bit; a checkpoint keeps the
-// counts. (The device's factor renews after a solve of more iterations than a fixed share of its
-// cost: kernels/device_cholesky.hpp.)
+// counts. Each factorisation states its cost c: CHOLMOD's (solve/linear_solver.hpp) and the
+// device's (kernels/device_cholesky.hpp).
 #pragma once
 
 namespace fascia {
