@@ -88,3 +88,21 @@ TEST_CASE("von Mises and principal values of known tensors", "[material]") {
   CHECK(std::isnan(s.cauchy.m[0][0]));
   CHECK(std::isnan(principal_values(s.cauchy)[0]));
 }
+
+TEST_CASE("principal values of rotated diagonal tensors, with eigenvalues apart and nearly repeated", "[material]") {
+  // Q diag(l) Q^T formed in double moves the eigenvalues by a few eps max|l| (Weyl); the closed
+  // form adds about eps max|l| / gap where the eigenvalues are apart by gap >= 1e-3 max|l|, the
+  // iterative solver closer ones to rounding: 1e-12 of max|l| bounds both with room.
+  const double gaps[] = {2.0, 1e-2, 2e-3, 9e-4, 1e-6, 1e-10, 0.0};
+  int k = 0;
+  for (const double gap : gaps)
+    for (const double scale : {1e-6, 1.0, 3e4}) {
+      const Mat3 Q = rotation_matrix(quat_exp(Vec3{0.3 + 0.1 * k, -1.1 + 0.07 * k, 0.7 - 0.05 * k}));
+      ++k;
+      const double l[3] = {scale * (1.5 + gap), scale * 1.5, -0.4 * scale};
+      const Mat3 D{{{l[1], 0, 0}, {0, l[2], 0}, {0, 0, l[0]}}};
+      const auto p = principal_values(Q * D * transpose(Q));
+      CAPTURE(gap, scale);
+      for (int i = 0; i < 3; ++i) CHECK(std::abs(p[i] - l[i]) <= 1e-12 * 1.5 * scale * (1 + gap));
+    }
+}
