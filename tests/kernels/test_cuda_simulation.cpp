@@ -152,7 +152,7 @@ TEST_CASE("a beam study row on the CUDA backend equals the CPU row", "[gpu]") {
 
 TEST_CASE("a CUDA run restored from its checkpoint continues bit for bit", "[gpu][resume]") {
   // `fascia run --backend cuda --resume` (docs/hpc.md): the whole step on the device (cuda_step.hpp)
-  // restored at step 3 from what a checkpoint keeps. With the default cholmod preconditioner the
+  // restored from what a checkpoint keeps. With the default cholmod preconditioner the
   // device keeps its factorisation across steps and the checkpoint records where it was computed
   // (Simulation::restore_tangent computes it again); with block Jacobi only the state carries.
   // The continued steps equal the uninterrupted run's bit for bit: the device's summation order
@@ -175,10 +175,21 @@ TEST_CASE("a CUDA run restored from its checkpoint continues bit for bit", "[gpu
   settings.step_backend = cuda_step_factory();
   const std::vector<PrescribedMotion> motions{pull_free_end(model)};
   REQUIRE(Simulation(model, gravity(), settings, motions).on_step_backend());
-  const ResumeComparison c = compare_resume(model, gravity(), motions, settings, 3, 8);
-  CHECK(c.held == (preconditioner == Preconditioner::cholmod));
-  CHECK(c.cg_resumed == c.cg_full);
-  CHECK(c.resumed.positions == c.full.positions);  // bitwise
-  CHECK(c.resumed.orientations == c.full.orientations);
-  CHECK(c.resumed.velocities == c.full.velocities);
+  // Restored at steps 2 to 5: whether the factorisation is held there or renewed before the next
+  // solve follows the renewal rule; with cholmod, backward Euler holds it at some of them (these
+  // static steps end with it renewed: restored, they factorise first as the full run does).
+  int held = 0;
+  for (int split = 2; split <= 5; ++split) {
+    const ResumeComparison c = compare_resume(model, gravity(), motions, settings, split, 8);
+    INFO("restored at step " << split);
+    held += c.held;
+    CHECK(c.cg_resumed == c.cg_full);
+    CHECK(c.resumed.positions == c.full.positions);  // bitwise
+    CHECK(c.resumed.orientations == c.full.orientations);
+    CHECK(c.resumed.velocities == c.full.velocities);
+  }
+  std::printf("[resume %s, pcg + %s] factorisation held at %d of 4 restore steps\n", to_string(integrator),
+              to_string(preconditioner), held);
+  if (preconditioner == Preconditioner::block_jacobi) CHECK(held == 0);
+  if (preconditioner == Preconditioner::cholmod && integrator == Integrator::backward_euler) CHECK(held > 0);
 }
