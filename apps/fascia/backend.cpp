@@ -3,6 +3,7 @@
 #if FASCIA_WITH_CUDA
 #include "cuda_elasticity.hpp"
 #include "cuda_step.hpp"
+#include "device_sample_fields.hpp"
 #endif
 
 #include <iostream>
@@ -41,6 +42,7 @@ int resolve_backend(const char* command, const BackendOptions& options, Backend&
   device.precision = options.precision == "single" ? gpu::Precision::single_precision : gpu::Precision::double_precision;
   backend.elasticity = gpu::cuda_elasticity_factory(device);
   backend.step = gpu::cuda_step_factory(device);
+  backend.sample_fields = gpu::device_sample_fields_factory();
   backend.provenance = {{"backend", "cuda"}, {"gpu", info.name}, {"precision", options.precision}};
   backend.description = "cuda (" + info.name + ", " + options.precision + ")";
   return kOk;

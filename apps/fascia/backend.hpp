@@ -2,11 +2,12 @@
 // cuda, `fascia run` runs the whole step on the device (kernels/cuda_step.hpp) where that covers
 // the scene; elsewhere, and in `fascia study`, the CUDA kernels (kernels/cuda_elasticity.hpp)
 // evaluate the volumetric energy, forces and tangent products behind the CPU engine's Newton
-// solver (docs/gpu.md).
+// solver (docs/gpu.md); the output rows' sample fields are computed on the device too.
 #pragma once
 
 #include "commands.hpp"
 #include "integrate/step_backend.hpp"
+#include "io/sample_fields.hpp"
 #include "mechanics/volumetric_elasticity.hpp"
 
 #include <nlohmann/json.hpp>
@@ -26,6 +27,7 @@ void add_backend_options(CLI::App& command, BackendOptions& options);
 struct Backend {
   ElasticityFactory elasticity;  // empty for cpu
   StepBackendFactory step;       // cuda: the whole step on the device where it covers the scene
+  SampleFieldsFactory sample_fields;  // cuda: the output rows' sample fields on the device
   nlohmann::json provenance;     // {"backend", and for cuda "gpu", "precision"}
   std::string description;       // for logs: "cpu" or "cuda (NVIDIA H200, double)"
 };

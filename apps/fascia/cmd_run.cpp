@@ -116,7 +116,9 @@ const std::vector<std::pair<std::string, bool>>& observable_layout() {
 // Everything one output step needs, computed from the simulation state.
 class StepRecorder {
  public:
-  StepRecorder(const dsl::BuiltScene& built, bool samples) : m_built(built), m_samples(samples) {
+  // device: where the sample fields are computed (null: here, sample_fields).
+  StepRecorder(const dsl::BuiltScene& built, bool samples, SampleFieldsDevice* device)
+      : m_built(built), m_samples(samples), m_device(device) {
     // Shells are in model.shells in the order of the shell objects.
     int shell = 0;
     for (const dsl::BuiltObject& o : built.objects) {
@@ -208,7 +210,11 @@ class StepRecorder {
     const Model& model = m_built.model;
     rotation_matrices(state, m_field_rotations);
     m_frame_fields = frame_fields(model, state, m_field_rotations);
-    sample_fields(model, state, m_field_rotations, m_sample_fields, m_samples ? &m_sample_positions : nullptr);
+    std::vector<double>* positions = m_samples ? &m_sample_positions : nullptr;
+    if (m_device)
+      m_device->compute(state, m_field_rotations, m_sample_fields, positions);
+    else
+      sample_fields(model, state, m_field_rotations, m_sample_fields, positions);
     const std::vector<Field> averages = frame_averages(model, m_sample_fields, &m_averaged);
     m_surface_fields.clear();
     for (const SurfaceSource& source : m_sources)
@@ -223,6 +229,7 @@ class StepRecorder {
 
   const dsl::BuiltScene& m_built;
   bool m_samples;
+  SampleFieldsDevice* m_device;
   std::vector<SurfaceSource> m_sources;
   std::vector<unsigned char> m_averaged;  // [N] the frames whose sample averages a surface shows
   std::vector<double> m_field_rotations;
@@ -390,8 +397,13 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
       std::cerr << "fascia: the step runs on the CPU with the volumetric elasticity on the device: "
                 << simulation.step_backend_refusal() << "\n";
   }
+  // The sample fields on the device with --backend cuda (one for both recorders: rows are formed
+  // on one thread).
+  std::unique_ptr<SampleFieldsDevice> device_fields;
+  if (backend.sample_fields && built.model.sample_count() > 0) device_fields = backend.sample_fields(built.model);
   // Two recorders, used in turn: a row is formed in one while the previous one's is written.
-  std::array<StepRecorder, 2> recorders{StepRecorder(built, out_spec.samples), StepRecorder(built, out_spec.samples)};
+  std::array<StepRecorder, 2> recorders{StepRecorder(built, out_spec.samples, device_fields.get()),
+                                        StepRecorder(built, out_spec.samples, device_fields.get())};
   TrajectoryLayout layout = recorders[0].layout();
   // Rows to preallocate: the initial state, every output step, and one written on a stop. All
   // of them up front: growing datasets later is the one write a kill could corrupt.

@@ -1,7 +1,6 @@
 #include "io/sample_fields.hpp"
 
-#include "material/stress_measures.hpp"
-#include "mechanics/frame_sample.hpp"
+#include "io/sample_point.hpp"
 
 namespace fascia {
 
@@ -11,15 +10,6 @@ void store(std::vector<double>& out, std::size_t index, const Vec3& v) {
   out[3 * index] = v.x;
   out[3 * index + 1] = v.y;
   out[3 * index + 2] = v.z;
-}
-
-void store(std::vector<double>& out, std::size_t index, const Mat3& a) {
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) out[9 * index + static_cast<std::size_t>(3 * r + c)] = a.m[r][c];
-}
-
-void store(std::vector<double>& out, std::size_t index, const std::array<double, 3>& v) {
-  for (std::size_t k = 0; k < 3; ++k) out[3 * index + k] = v[k];
 }
 
 // A field of n particles, zero.
@@ -52,17 +42,10 @@ std::vector<Field> measure_fields(std::size_t n, bool fibres) {
 }
 
 void set_measures(std::vector<Field>& fields, std::size_t first, std::size_t i, const StressMeasures& m) {
-  Field* f = fields.data() + first;
-  store(f[0].values, i, m.green_strain);
-  store(f[1].values, i, m.second_piola);
-  store(f[2].values, i, m.cauchy);
-  store(f[3].values, i, principal_values(m.green_strain));
-  store(f[4].values, i, principal_values(m.second_piola));
-  store(f[5].values, i, principal_values(m.cauchy));
-  f[6].values[i] = von_mises(m.second_piola);
-  f[7].values[i] = von_mises(m.cauchy);
-  f[8].values[i] = m.energy_density;
-  if (fields.size() > first + 9) f[9].values[i] = m.fibre_stretch;
+  put_measures(m, fields.size() > first + 9, static_cast<int>(first), [&](int field, int c, double v) {
+    Field& f = fields[static_cast<std::size_t>(field)];
+    f.values[static_cast<std::size_t>(f.components) * i + static_cast<std::size_t>(c)] = v;
+  });
 }
 
 bool has_fibres(const Model& model) {
@@ -71,44 +54,40 @@ bool has_fibres(const Model& model) {
   return false;
 }
 
+void prepare_sample_fields(const Model& model, std::vector<Field>& f) {
+  const std::size_t n = static_cast<std::size_t>(model.sample_count());
+  const bool fibres = has_fibres(model);
+  if (f.size() == kSampleMeasures + measure_fields(0, fibres).size() && f[0].values.size() == 3 * n) return;
+  f.clear();
+  f.push_back(make("displacement", 3, "m", n));
+  f.push_back(make("velocity", 3, "m/s", n));
+  for (Field& m : measure_fields(n, fibres)) f.push_back(std::move(m));
+}
+
+SampleTableView sample_table_view(const Model& model) {
+  const NeighbourTable& t = model.neighbours;
+  return {t.offsets.data(), t.frames.data(), t.weights.data(), t.weight_gradients.data(), t.rest_offsets.data()};
+}
+
 void sample_fields(const Model& model, const State& state, const std::vector<double>& rotations,
                    std::vector<Field>& f, std::vector<double>* positions) {
   const std::size_t n = static_cast<std::size_t>(model.sample_count());
   const bool fibres = has_fibres(model);
-  constexpr std::size_t kKinematic = 2;  // displacement, velocity; then the measures
-  if (f.size() != kKinematic + measure_fields(0, fibres).size() || f[0].values.size() != 3 * n) {
-    f.clear();
-    f.push_back(make("displacement", 3, "m", n));
-    f.push_back(make("velocity", 3, "m/s", n));
-    for (Field& m : measure_fields(n, fibres)) f.push_back(std::move(m));
-  }
-
-  const NeighbourTable& t = model.neighbours;
-  const double* x = state.positions.data();
-  const double* R = rotations.data();
+  prepare_sample_fields(model, f);
+  const SampleTableView t = sample_table_view(model);
   if (positions) positions->resize(3 * n);
   double* p_out = positions ? positions->data() : nullptr;
 #pragma omp parallel for schedule(static)
   for (long sl = 0; sl < static_cast<long>(n); ++sl) {
     const std::size_t si = static_cast<std::size_t>(sl);
-    // One pass over the sample's pairs: with a = R_i l and y = x_i + a, the position
-    // p = sum w y (sample_position), F = sum y g^T + w R_i (sample_deformation_gradient) and the
-    // velocity v = sum w (v_i + omega_i x a), each summed in pair order as those functions do.
-    Vec3 p{0, 0, 0}, v{0, 0, 0};
-    Mat3 F = zero3();
-    for (int q = t.offsets[si]; q < t.offsets[si + 1]; ++q) {
-      const std::size_t qi = static_cast<std::size_t>(q);
-      const std::size_t i = static_cast<std::size_t>(t.frames[qi]);
-      const Mat3 Ri = load_mat3(R + 9 * i);
-      const Vec3 a = Ri * load3(&t.rest_offsets[3 * qi]), y = load3(x + 3 * i) + a;
-      p += t.weights[qi] * y;
-      F += outer(y, load3(&t.weight_gradients[3 * qi])) + t.weights[qi] * Ri;
-      v += t.weights[qi] * (load3(&state.velocities[6 * i]) + cross(load3(&state.velocities[6 * i + 3]), a));
-    }
+    const Vec3 p = sample_point(
+        t, static_cast<int>(sl), state.positions.data(), rotations.data(), state.velocities.data(),
+        load3(&model.samples.rest_positions[3 * si]), model.materials[static_cast<std::size_t>(model.samples.materials[si])],
+        fibres, [&](int field, int c, double v) {
+          Field& out = f[static_cast<std::size_t>(field)];
+          out.values[static_cast<std::size_t>(out.components) * si + static_cast<std::size_t>(c)] = v;
+        });
     if (p_out) store3(p_out + 3 * si, p);
-    store(f[0].values, si, p - load3(&model.samples.rest_positions[3 * si]));
-    store(f[1].values, si, v);
-    set_measures(f, kKinematic, si, stress_measures(model.materials[static_cast<std::size_t>(model.samples.materials[si])], F));
   }
 }
 

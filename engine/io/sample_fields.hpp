@@ -19,6 +19,8 @@
 #include "material/stress_measures.hpp"
 #include "model/state.hpp"
 
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -38,9 +40,28 @@ struct Field {
 // The sample fields in the order listed above into `fields`; rotations are
 // rotation_matrices(state) ([N][9]). Every value is written: fields of this model's layout are
 // overwritten in place (a caller keeping them across rows allocates them once), others replaced.
-// `positions`, when given: the samples' positions p_s [S][3] (m), eq. (3), resized.
+// `positions`, when given: the samples' positions p_s [S][3] (m), eq. (3), resized. Each sample's
+// values come from sample_point.hpp.
 void sample_fields(const Model& model, const State& state, const std::vector<double>& rotations,
                    std::vector<Field>& fields, std::vector<double>* positions = nullptr);
+
+// Makes `fields` the sample fields of the model's layout (zero) unless they are already.
+void prepare_sample_fields(const Model& model, std::vector<Field>& fields);
+
+// The model's neighbour table as sample_point.hpp reads it.
+struct SampleTableView;
+SampleTableView sample_table_view(const Model& model);
+
+// The sample fields computed elsewhere than on this thread's CPU cores (the CUDA device:
+// kernels/device_sample_fields.hpp), by the same per-sample code: sample_fields' contract.
+class SampleFieldsDevice {
+ public:
+  virtual ~SampleFieldsDevice() = default;
+  virtual void compute(const State& state, const std::vector<double>& rotations, std::vector<Field>& fields,
+                       std::vector<double>* positions) = 0;
+};
+// Makes one for a model (which outlives it).
+using SampleFieldsFactory = std::function<std::unique_ptr<SampleFieldsDevice>(const Model& model)>;
 
 // The frame fields in the order listed above.
 std::vector<Field> frame_fields(const Model& model, const State& state, const std::vector<double>& rotations);
