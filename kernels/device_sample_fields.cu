@@ -2,6 +2,7 @@
 
 #include "device_buffers.cuh"
 #include "io/sample_point.hpp"
+#include "io/vertex_fields.hpp"
 
 #include <type_traits>
 
@@ -37,6 +38,41 @@ __global__ void k_sample_fields(SampleInputs in, const double* x, const double* 
   store3(positions + 3LL * s, p);
 }
 
+constexpr int kMaxColumns = 48;  // the measure fields' components: 39, 40 with fibres
+
+// The frame averages' columns: component c of measure field f reads the samples' values at
+// in_base + in_stride s (the fields of k_sample_fields) and writes the frames' at
+// out_base + out_stride i; `fibre`: the fibre stretch (its samples with fibres only).
+struct AverageColumns {
+  int count;
+  long long in_base[kMaxColumns], out_base[kMaxColumns];
+  int in_stride[kMaxColumns], out_stride[kMaxColumns];
+  bool fibre[kMaxColumns];
+};
+
+// One thread per frame and column: the frame's average (frame_average.hpp) where mask[i] (null:
+// every frame) and its weight is positive, else 0.
+__global__ void k_frame_averages(FrameAverageView v, int frames, const unsigned char* mask, AverageColumns columns,
+                                 const double* samples, double* out) {
+  const long long t = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  const int i = static_cast<int>(t / columns.count), j = static_cast<int>(t % columns.count);
+  if (i >= frames) return;
+  double sum = 0;
+  if (!mask || mask[i]) {
+    double weight = 0, weight_fibred = 0;
+    frame_average_weights(v, i, weight, weight_fibred);
+    const bool fibre = columns.fibre[j];
+    const double w = fibre ? weight_fibred : weight;
+    if (w > 0)
+      for (int k = v.offsets[i]; k < v.offsets[i + 1]; ++k) {
+        const int q = v.pairs[k], s = v.pair_samples[q];
+        if (!fibre || fibred(v, s))
+          sum += pair_share(v, q, s, w) * samples[columns.in_base[j] + static_cast<long long>(columns.in_stride[j]) * s];
+      }
+  }
+  out[columns.out_base[j] + static_cast<long long>(columns.out_stride[j]) * i] = sum;
+}
+
 }  // namespace
 
 static_assert(std::is_trivially_copyable_v<Material>, "materials are copied to the device as bytes");
@@ -48,6 +84,13 @@ struct DeviceSampleFields::Impl {
   DeviceBuffer<double> weights, weight_gradients, rest_offsets, rest_positions, x, R, velocities, out, positions;
   DeviceBuffer<Material> materials;
   SampleInputs inputs{};
+  // The frame averages: the reverse table, each material's fibres, the frames to average, the
+  // output; and the columns of the last compute()'s fields.
+  DeviceBuffer<int> rev_offsets, rev_pairs, pair_samples;
+  DeviceBuffer<unsigned char> fibred_material, mask;
+  DeviceBuffer<double> volumes, averages;
+  FieldColumns columns{};
+  size_t field_count = 0;
 
   explicit Impl(const Model& m) : model(m) {
     FASCIA_CUDA(cudaStreamCreateWithFlags(&stream, cudaStreamNonBlocking));
@@ -74,6 +117,12 @@ struct DeviceSampleFields::Impl {
                           sample_materials.data(),
                           materials.data(),
                           has_fibres(model)};
+    rev_offsets.upload(model.reverse.offsets);
+    rev_pairs.upload(model.reverse.pairs);
+    pair_samples.upload(model.reverse.pair_samples);
+    fibred_material.upload(fibred_materials(model));
+    volumes.upload(model.samples.volumes);
+    mask.resize(static_cast<size_t>(n));
   }
   ~Impl() {
     if (stream) cudaStreamDestroy(stream);
@@ -95,13 +144,14 @@ void DeviceSampleFields::compute(const State& state, const std::vector<double>& 
   const size_t n = static_cast<size_t>(m.model.frame_count()), samples = static_cast<size_t>(m.model.sample_count());
   if (samples == 0) return;
   if (fields.size() > kMaxFields) throw std::logic_error("DeviceSampleFields: more sample fields than it places");
-  FieldColumns columns{};
+  FieldColumns& columns = m.columns;
   long long at = 0;
   for (size_t f = 0; f < fields.size(); ++f) {
     columns.components[f] = fields[f].components;
     columns.base[f] = at;
     at += static_cast<long long>(fields[f].values.size());
   }
+  m.field_count = fields.size();
   m.out.resize(static_cast<size_t>(at));
   m.up(m.x, state.positions, 3 * n);
   m.up(m.R, rotations, 9 * n);
@@ -118,6 +168,47 @@ void DeviceSampleFields::compute(const State& state, const std::vector<double>& 
                                 cudaMemcpyDeviceToHost, m.stream));
   }
   FASCIA_CUDA(cudaStreamSynchronize(m.stream));
+}
+
+std::vector<Field> DeviceSampleFields::frame_averages(const std::vector<unsigned char>* frames) {
+  Impl& m = *m_impl;
+  const int n = m.model.frame_count();
+  std::vector<Field> out = measure_fields(static_cast<size_t>(n), has_fibres(m.model));
+  if (m.field_count != kSampleMeasures + out.size())
+    throw std::logic_error("DeviceSampleFields::frame_averages: no sample fields computed");
+  AverageColumns columns{};
+  long long at = 0;
+  for (size_t f = 0; f < out.size(); ++f) {
+    const int sample_field = kSampleMeasures + static_cast<int>(f);
+    for (int c = 0; c < out[f].components; ++c) {
+      if (columns.count == kMaxColumns) throw std::logic_error("DeviceSampleFields: more measure columns than it places");
+      const int j = columns.count++;
+      columns.in_base[j] = m.columns.base[sample_field] + c;
+      columns.in_stride[j] = m.columns.components[sample_field];
+      columns.out_base[j] = at + c;
+      columns.out_stride[j] = out[f].components;
+      columns.fibre[j] = out[f].name == "fibre_stretch";
+    }
+    at += static_cast<long long>(out[f].values.size());
+  }
+  m.averages.resize(static_cast<size_t>(at));
+  if (frames)
+    FASCIA_CUDA(cudaMemcpyAsync(m.mask.data(), frames->data(), frames->size(), cudaMemcpyHostToDevice, m.stream));
+  const FrameAverageView view{m.rev_offsets.data(), m.rev_pairs.data(),        m.pair_samples.data(),
+                              m.weights.data(),     m.volumes.data(),          m.sample_materials.data(),
+                              m.fibred_material.data()};
+  const long long threads = static_cast<long long>(n) * columns.count;
+  k_frame_averages<<<static_cast<unsigned>((threads + kThreads - 1) / kThreads), kThreads, 0, m.stream>>>(
+      view, n, frames ? m.mask.data() : nullptr, columns, m.out.data(), m.averages.data());
+  FASCIA_CUDA(cudaGetLastError());
+  at = 0;
+  for (Field& f : out) {
+    FASCIA_CUDA(cudaMemcpyAsync(f.values.data(), m.averages.data() + at, sizeof(double) * f.values.size(),
+                                cudaMemcpyDeviceToHost, m.stream));
+    at += static_cast<long long>(f.values.size());
+  }
+  FASCIA_CUDA(cudaStreamSynchronize(m.stream));
+  return out;
 }
 
 SampleFieldsFactory device_sample_fields_factory() {

@@ -3,6 +3,8 @@
 // average and write them. Per row the frames' state goes up (positions, rotations, velocities:
 // 18 doubles per frame) and the fields come down (45 doubles per sample, 46 with fibres, and the
 // positions), on the object's own stream: rows are formed on the output thread, beside the step.
+// The frames' averages of the measures (vertex_fields.hpp, frame_averages) are formed there too,
+// one thread per frame and component, by io/frame_average.hpp.
 #pragma once
 
 #include "io/sample_fields.hpp"
@@ -18,6 +20,7 @@ class DeviceSampleFields final : public SampleFieldsDevice {
   ~DeviceSampleFields() override;
   void compute(const State& state, const std::vector<double>& rotations, std::vector<Field>& fields,
                std::vector<double>* positions) override;
+  std::vector<Field> frame_averages(const std::vector<unsigned char>* frames) override;
 
   struct Impl;
 

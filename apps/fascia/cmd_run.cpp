@@ -215,7 +215,8 @@ class StepRecorder {
       m_device->compute(state, m_field_rotations, m_sample_fields, positions);
     else
       sample_fields(model, state, m_field_rotations, m_sample_fields, positions);
-    const std::vector<Field> averages = frame_averages(model, m_sample_fields, &m_averaged);
+    const std::vector<Field> averages =
+        m_device ? m_device->frame_averages(&m_averaged) : frame_averages(model, m_sample_fields, &m_averaged);
     m_surface_fields.clear();
     for (const SurfaceSource& source : m_sources)
       m_surface_fields.push_back(surface_fields(model, state, m_field_rotations, source, averages));

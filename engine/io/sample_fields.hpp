@@ -59,6 +59,8 @@ class SampleFieldsDevice {
   virtual ~SampleFieldsDevice() = default;
   virtual void compute(const State& state, const std::vector<double>& rotations, std::vector<Field>& fields,
                        std::vector<double>* positions) = 0;
+  // vertex_fields.hpp's frame_averages of the fields of the last compute().
+  virtual std::vector<Field> frame_averages(const std::vector<unsigned char>* frames) = 0;
 };
 // Makes one for a model (which outlives it).
 using SampleFieldsFactory = std::function<std::unique_ptr<SampleFieldsDevice>(const Model& model)>;

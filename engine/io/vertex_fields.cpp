@@ -48,6 +48,18 @@ void mark_surface_frames(const SurfaceSource& source, std::vector<unsigned char>
   }
 }
 
+std::vector<unsigned char> fibred_materials(const Model& model) {
+  std::vector<unsigned char> f;
+  for (const Material& m : model.materials) f.push_back(m.law == MaterialLaw::hgo ? 1 : 0);
+  return f;
+}
+
+FrameAverageView frame_average_view(const Model& model, const std::vector<unsigned char>& fibred_material) {
+  return {model.reverse.offsets.data(), model.reverse.pairs.data(),    model.reverse.pair_samples.data(),
+          model.neighbours.weights.data(), model.samples.volumes.data(), model.samples.materials.data(),
+          fibred_material.data()};
+}
+
 std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& samples,
                                   const std::vector<unsigned char>* frames) {
   const long n = static_cast<long>(model.frame_count());
@@ -56,11 +68,8 @@ std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& 
   for (std::size_t f = 0; f < out.size(); ++f)
     for (const Field& field : samples)
       if (field.name == out[f].name) sources[f] = &field;
-  const NeighbourTable& t = model.neighbours;
-  const ReverseTable& rev = model.reverse;
-  auto fibred = [&](std::size_t s) {
-    return model.materials[static_cast<std::size_t>(model.samples.materials[s])].law == MaterialLaw::hgo;
-  };
+  const std::vector<unsigned char> fibred_material = fibred_materials(model);
+  const FrameAverageView view = frame_average_view(model, fibred_material);
   // The sources packed per sample, [S][C] with C the components of every field but the fibre
   // stretch (which averages other samples), so that a frame sums one contiguous row per pair.
   const std::size_t S = static_cast<std::size_t>(model.sample_count());
@@ -100,20 +109,13 @@ std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& 
       const std::size_t i = static_cast<std::size_t>(il);
       if (frames && !(*frames)[i]) continue;
       double weight = 0, weight_fibred = 0;
-      for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
-        const std::size_t q = static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)]);
-        const std::size_t s = static_cast<std::size_t>(rev.pair_samples[q]);
-        const double w = std::abs(t.weights[q]) * model.samples.volumes[s];
-        weight += w;
-        if (fibred(s)) weight_fibred += w;
-      }
+      frame_average_weights(view, static_cast<int>(i), weight, weight_fibred);
       if (weight > 0) {
         std::fill(row.begin(), row.end(), 0.0);
-        for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
-          const std::size_t q = static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)]);
-          const std::size_t s = static_cast<std::size_t>(rev.pair_samples[q]);
-          const double w = std::abs(t.weights[q]) * model.samples.volumes[s] / weight;
-          const double* in = &packed[C * s];
+        for (int k = view.offsets[i]; k < view.offsets[i + 1]; ++k) {
+          const int q = view.pairs[k], s = view.pair_samples[q];
+          const double w = pair_share(view, q, s, weight);
+          const double* in = &packed[C * static_cast<std::size_t>(s)];
           for (std::size_t j = 0; j < C; ++j) row[j] += w * in[j];
         }
         for (std::size_t f = 0; f < out.size(); ++f) {
@@ -124,10 +126,9 @@ std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& 
       }
       if (fibre < out.size() && weight_fibred > 0) {
         double sum = 0;
-        for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
-          const std::size_t q = static_cast<std::size_t>(rev.pairs[static_cast<std::size_t>(k)]);
-          const std::size_t s = static_cast<std::size_t>(rev.pair_samples[q]);
-          if (fibred(s)) sum += std::abs(t.weights[q]) * model.samples.volumes[s] / weight_fibred * sources[fibre]->values[s];
+        for (int k = view.offsets[i]; k < view.offsets[i + 1]; ++k) {
+          const int q = view.pairs[k], s = view.pair_samples[q];
+          if (fibred(view, s)) sum += pair_share(view, q, s, weight_fibred) * sources[fibre]->values[static_cast<std::size_t>(s)];
         }
         out[fibre].values[i] = sum;
       }

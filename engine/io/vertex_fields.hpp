@@ -14,6 +14,7 @@
 //    Bending stresses vanish on the mid-surface and are not included.
 #pragma once
 
+#include "io/frame_average.hpp"
 #include "io/sample_fields.hpp"
 #include "io/trajectory.hpp"
 #include "material/stress_measures.hpp"
@@ -44,9 +45,15 @@ SurfaceSource shell_surface_source(const Model& model, const SurfaceLayout& surf
 StressMeasures shell_membrane_measures(const ShellElementRest& e, const Shell& shell, const double* x);
 
 // The measure fields of `samples` (sample_fields) averaged to the frames, [N][components] each:
-// every frame, or where `frames` ([N]) is non-zero, the other frames' values zero.
+// every frame, or where `frames` ([N]) is non-zero, the other frames' values zero. Each frame's
+// weights and pair shares are frame_average.hpp's.
 std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& samples,
                                   const std::vector<unsigned char>* frames = nullptr);
+
+// Per material, 1 where its law has fibres; and the model's tables as frame_average.hpp reads them
+// (fibred_material: the former, which must outlive the view).
+std::vector<unsigned char> fibred_materials(const Model& model);
+FrameAverageView frame_average_view(const Model& model, const std::vector<unsigned char>& fibred_material);
 
 // Marks in `frames` ([N]) the frames whose averages surface_fields reads for this surface: its
 // skin's frames, or its vertices' own; none for a shell surface (its measures are the shell's).

@@ -1,11 +1,13 @@
-// The sample fields of an output row on the device (kernels/device_sample_fields.hpp) against the
-// host's (io/sample_fields.hpp) for the three laws, and a compressed sample whose Cauchy stress
-// and principal values are NaN alike.
+// The sample fields of an output row and their frame averages on the device
+// (kernels/device_sample_fields.hpp) against the host's (io/sample_fields.hpp,
+// io/vertex_fields.hpp) for the three laws, and an inverted sample whose Cauchy stress and
+// principal values are NaN alike.
 //
 // Bound: both run io/sample_point.hpp on the same doubles; the compilers contract and order the
 // floating-point operations differently (fused multiply-adds), a few ulps per operation on values
 // formed by a few hundred operations from O(1) terms: 1e-12 of each field's largest value.
 #include "device_sample_fields.hpp"
+#include "io/vertex_fields.hpp"
 #include "kernels_fixtures.hpp"
 
 #include <catch2/catch.hpp>
@@ -52,7 +54,24 @@ TEST_CASE("device sample fields equal the host's", "[gpu]") {
     REQUIRE(device[f].name == host[f].name);
     worst = std::max(worst, check(host[f].name, device[f].values, host[f].values));
   }
-  std::printf("[device sample fields %s] %d samples, %zu fields, largest difference %.2e of a field's largest value\n",
+  // The frames' averages of the measures, of every frame and of every third one.
+  std::vector<unsigned char> some(static_cast<size_t>(model.frame_count()), 0);
+  for (size_t i = 0; i < some.size(); i += 3) some[i] = 1;
+  const std::vector<unsigned char>* masks[2] = {nullptr, &some};
+  for (const std::vector<unsigned char>* mask : masks) {
+    const std::vector<Field> a = frame_averages(model, host, mask), b = fields.frame_averages(mask);
+    REQUIRE(a.size() == b.size());
+    for (size_t f = 0; f < a.size(); ++f) {
+      REQUIRE(b[f].name == a[f].name);
+      worst = std::max(worst, check("frame " + a[f].name, b[f].values, a[f].values));
+      if (mask)
+        for (size_t i = 0; i < some.size(); ++i)
+          if (!some[i])
+            for (int c = 0; c < b[f].components; ++c) REQUIRE(b[f].values[i * static_cast<size_t>(b[f].components) + static_cast<size_t>(c)] == 0.0);
+    }
+  }
+  std::printf("[device sample fields %s] %d samples, %zu fields and their frame averages, largest difference %.2e of a "
+              "field's largest value\n",
               to_string(law), model.sample_count(), host.size(), worst);
 }
 
