@@ -50,27 +50,49 @@ struct AverageColumns {
   bool fibre[kMaxColumns];
 };
 
-// One thread per frame and column: the frame's average (frame_average.hpp) where mask[i] (null:
-// every frame) and its weight is positive, else 0.
+// One warp per frame: the frame's average (frame_average.hpp's weights and pair shares) of every
+// column where mask[i] (null: every frame) and its weight is positive, else 0. Lane l takes the
+// frame's pairs l, l + 32, ... and sums every column's shares; an xor butterfly then adds the
+// lanes' sums (the same order on every run).
 __global__ void k_frame_averages(FrameAverageView v, int frames, const unsigned char* mask, AverageColumns columns,
                                  const double* samples, double* out) {
-  const long long t = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
-  const int i = static_cast<int>(t / columns.count), j = static_cast<int>(t % columns.count);
-  if (i >= frames) return;
-  double sum = 0;
-  if (!mask || mask[i]) {
-    double weight = 0, weight_fibred = 0;
-    frame_average_weights(v, i, weight, weight_fibred);
-    const bool fibre = columns.fibre[j];
-    const double w = fibre ? weight_fibred : weight;
-    if (w > 0)
-      for (int k = v.offsets[i]; k < v.offsets[i + 1]; ++k) {
-        const int q = v.pairs[k], s = v.pair_samples[q];
-        if (!fibre || fibred(v, s))
-          sum += pair_share(v, q, s, w) * samples[columns.in_base[j] + static_cast<long long>(columns.in_stride[j]) * s];
-      }
+  const int i = static_cast<int>((blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x) / 32);
+  const int lane = static_cast<int>(threadIdx.x % 32);
+  if (i >= frames) return;  // the warp's lanes alike
+  const bool on = !mask || mask[i];
+  double weight = 0, weight_fibred = 0;
+  if (on)
+    for (int k = v.offsets[i] + lane; k < v.offsets[i + 1]; k += 32) {
+      const int q = v.pairs[k], s = v.pair_samples[q];
+      const double w = fabs(v.weights[q]) * v.volumes[s];
+      weight += w;
+      if (fibred(v, s)) weight_fibred += w;
+    }
+  for (int o = 16; o > 0; o >>= 1) {
+    weight += __shfl_xor_sync(0xffffffffu, weight, o);
+    weight_fibred += __shfl_xor_sync(0xffffffffu, weight_fibred, o);
   }
-  out[columns.out_base[j] + static_cast<long long>(columns.out_stride[j]) * i] = sum;
+  double sum[kMaxColumns];
+#pragma unroll
+  for (int j = 0; j < kMaxColumns; ++j) sum[j] = 0;
+  if (on && weight > 0)
+    for (int k = v.offsets[i] + lane; k < v.offsets[i + 1]; k += 32) {
+      const int q = v.pairs[k], s = v.pair_samples[q];
+      const double share = pair_share(v, q, s, weight);
+      const double fibre_share = weight_fibred > 0 && fibred(v, s) ? pair_share(v, q, s, weight_fibred) : 0.0;
+#pragma unroll
+      for (int j = 0; j < kMaxColumns; ++j)
+        if (j < columns.count)
+          sum[j] += (columns.fibre[j] ? fibre_share : share) *
+                    samples[columns.in_base[j] + static_cast<long long>(columns.in_stride[j]) * s];
+    }
+#pragma unroll
+  for (int j = 0; j < kMaxColumns; ++j) {
+    if (j >= columns.count) break;
+    double t = sum[j];
+    for (int o = 16; o > 0; o >>= 1) t += __shfl_xor_sync(0xffffffffu, t, o);
+    if (lane == j % 32) out[columns.out_base[j] + static_cast<long long>(columns.out_stride[j]) * i] = t;
+  }
 }
 
 }  // namespace
@@ -197,7 +219,7 @@ std::vector<Field> DeviceSampleFields::frame_averages(const std::vector<unsigned
   const FrameAverageView view{m.rev_offsets.data(), m.rev_pairs.data(),        m.pair_samples.data(),
                               m.weights.data(),     m.volumes.data(),          m.sample_materials.data(),
                               m.fibred_material.data()};
-  const long long threads = static_cast<long long>(n) * columns.count;
+  const long long threads = 32LL * n;  // a warp per frame
   k_frame_averages<<<static_cast<unsigned>((threads + kThreads - 1) / kThreads), kThreads, 0, m.stream>>>(
       view, n, frames ? m.mask.data() : nullptr, columns, m.out.data(), m.averages.data());
   FASCIA_CUDA(cudaGetLastError());

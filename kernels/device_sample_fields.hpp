@@ -4,7 +4,7 @@
 // 18 doubles per frame) and the fields come down (45 doubles per sample, 46 with fibres, and the
 // positions), on the object's own stream: rows are formed on the output thread, beside the step.
 // The frames' averages of the measures (vertex_fields.hpp, frame_averages) are formed there too,
-// one thread per frame and component, by io/frame_average.hpp.
+// a warp per frame, with io/frame_average.hpp's weights and pair shares.
 #pragma once
 
 #include "io/sample_fields.hpp"

@@ -1,7 +1,7 @@
 // A frame's average of its samples' values (vertex_fields.hpp, frame_averages): each sample of the
-// frame's pairs weighted by |w_is| v_s over the frame's sum of them, the pairs in the reverse
-// table's order. FASCIA_HD: the host's frame_averages and the device's
-// (kernels/device_sample_fields.hpp) run this code.
+// frame's pairs weighted by |w_is| v_s over the frame's sum of them. FASCIA_HD: the host's
+// frame_averages (the pairs in the reverse table's order) and the device's
+// (kernels/device_sample_fields.hpp: a warp's lanes take the pairs in turn) run this code.
 #pragma once
 
 #include "core/config.hpp"
