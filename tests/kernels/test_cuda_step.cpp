@@ -105,6 +105,19 @@ double relative_difference(const std::vector<double>& a, const std::vector<doubl
   return den > 0 ? std::sqrt(num / den) : std::sqrt(num);
 }
 
+// Both potentials set alike: a backward-Euler step of 10 ms (Rayleigh mass 0.8) from a random
+// start, or static.
+void set_step(const Model& model, StepPotential& cpu, DevicePotential& dev, bool dynamic) {
+  if (!dynamic) {
+    cpu.set_static();
+    dev.set_static();
+    return;
+  }
+  const State start = random_state(model, 7, 0.002, 0.2, 0.4);
+  cpu.set_dynamic(start, 0.01, 0.8, 0.0);
+  dev.set_dynamic(start, 0.01, 0.8);
+}
+
 }  // namespace
 
 TEST_CASE("device potential equals StepPotential: value, gradient, Hessian product, preconditioner", "[gpu]") {
@@ -186,16 +199,9 @@ TEST_CASE("device tangent blocks equal the CPU's assembled step tangent between 
   const bool dynamic = GENERATE(false, true);
   const Model model = test_model(kind);
   const ExternalLoads loads = all_loads(model);
-  const State start = random_state(model, 7, 0.002, 0.2, 0.4);
   StepPotential cpu(model, loads, 1);
   DevicePotential dev(model, loads);
-  if (dynamic) {
-    cpu.set_dynamic(start, 0.01, 0.8, 0.0);
-    dev.set_dynamic(start, 0.01, 0.8);
-  } else {
-    cpu.set_static();
-    dev.set_static();
-  }
+  set_step(model, cpu, dev, dynamic);
   State state = random_state(model, 11, 0.001, 0.1, 0.4);
   RigidMapping(model).sync(state);
   DeviceFrames q = dev.make_state();
@@ -242,16 +248,9 @@ TEST_CASE("device Cholesky factor solves the step tangent as CHOLMOD does", "[gp
   const Kind kind = GENERATE(Kind::tissue, Kind::rigid, Kind::coupled);
   const Model model = test_model(kind);
   const ExternalLoads loads = all_loads(model);
-  const State start = random_state(model, 7, 0.002, 0.2, 0.4);
   StepPotential cpu(model, loads, 1);
   DevicePotential dev(model, loads);
-  if (dynamic) {
-    cpu.set_dynamic(start, 0.01, 0.8, 0.0);
-    dev.set_dynamic(start, 0.01, 0.8);
-  } else {
-    cpu.set_static();
-    dev.set_static();
-  }
+  set_step(model, cpu, dev, dynamic);
   DeviceCholesky factor(dev);
   DeviceFrames q = dev.make_state();
   // Two states: the kept factor, refactorised at the second, must solve with that state's tangent.
