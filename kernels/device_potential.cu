@@ -100,16 +100,20 @@ __global__ void k_add_frame_diagonal(int n, const double* diag, const double* d,
   o[3] += qr.x, o[4] += qr.y, o[5] += qr.z;
 }
 
+// B [36] += a frame's diagonal e [10] (k_frame_diagonal's t_i, then Q_i row-major): t_i I3 on the
+// translations, Q_i on the rotations.
+__device__ void add_frame_block(const double* e, double* B) {
+  for (int k = 0; k < 3; ++k) B[7 * k] += e[0];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) B[6 * (3 + r) + 3 + c] += e[1 + 3 * r + c];
+}
+
 // blocks[p] += the frame diagonal of frame i (k_frame_diagonal's [t_i I3, Q_i]), p =
 // diagonal_blocks[i] (-1: none).
 __global__ void k_add_frame_blocks(int n, const int* diagonal_blocks, const double* diag, double* blocks) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n || diagonal_blocks[i] < 0) return;
-  double* B = blocks + 36LL * diagonal_blocks[i];
-  const double* e = diag + 10 * i;
-  for (int k = 0; k < 3; ++k) B[7 * k] += e[0];
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) B[6 * (3 + r) + 3 + c] += e[1 + 3 * r + c];
+  add_frame_block(diag + 10 * i, blocks + 36LL * diagonal_blocks[i]);
 }
 
 // The diagonal blocks of H [N][36]: the elastic block (null: none) plus the frame diagonal.
@@ -118,10 +122,7 @@ __global__ void k_diagonal_blocks(int n, const double* elastic, const double* di
   if (i >= n) return;
   double* B = blocks + 36 * i;
   for (int k = 0; k < 36; ++k) B[k] = elastic ? elastic[36 * i + k] : 0.0;
-  const double* e = diag + 10 * i;
-  for (int k = 0; k < 3; ++k) B[7 * k] += e[0];
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) B[6 * (3 + r) + 3 + c] += e[1 + 3 * r + c];
+  add_frame_block(diag + 10 * i, B);
 }
 
 // Inverse 6x6 diagonal blocks as the CPU's block Jacobi (engine/solve/linear_solver.cpp): fixed

@@ -61,13 +61,7 @@ __global__ void k_frame_averages(FrameAverageView v, int frames, const unsigned 
   if (i >= frames) return;  // the warp's lanes alike
   const bool on = !mask || mask[i];
   double weight = 0, weight_fibred = 0;
-  if (on)
-    for (int k = v.offsets[i] + lane; k < v.offsets[i + 1]; k += 32) {
-      const int q = v.pairs[k], s = v.pair_samples[q];
-      const double w = fabs(v.weights[q]) * v.volumes[s];
-      weight += w;
-      if (fibred(v, s)) weight_fibred += w;
-    }
+  if (on) frame_average_weights(v, i, lane, 32, weight, weight_fibred);
   for (int o = 16; o > 0; o >>= 1) {
     weight += __shfl_xor_sync(0xffffffffu, weight, o);
     weight_fibred += __shfl_xor_sync(0xffffffffu, weight_fibred, o);

@@ -25,11 +25,13 @@ struct FrameAverageView {
 // Whether sample s's law has fibres.
 FASCIA_HD bool fibred(const FrameAverageView& v, int s) { return v.fibred_material[v.sample_materials[s]] != 0; }
 
-// Frame i's sums of |w_is| v_s over its pairs: of all of them, and of those whose samples have
-// fibres (the fibre stretch averages these only).
-FASCIA_HD void frame_average_weights(const FrameAverageView& v, int i, double& weight, double& weight_fibred) {
+// Frame i's sums of |w_is| v_s over its pairs first, first + stride, ... (the host: all of them,
+// first 0 and stride 1; a device warp: lane l's, then the lanes' sums added): of all of them, and
+// of those whose samples have fibres (the fibre stretch averages these only).
+FASCIA_HD void frame_average_weights(const FrameAverageView& v, int i, int first, int stride, double& weight,
+                                     double& weight_fibred) {
   weight = 0, weight_fibred = 0;
-  for (int k = v.offsets[i]; k < v.offsets[i + 1]; ++k) {
+  for (int k = v.offsets[i] + first; k < v.offsets[i + 1]; k += stride) {
     const int q = v.pairs[k], s = v.pair_samples[q];
     const double w = std::fabs(v.weights[q]) * v.volumes[s];
     weight += w;

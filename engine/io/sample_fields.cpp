@@ -12,6 +12,12 @@ void store(std::vector<double>& out, std::size_t index, const Vec3& v) {
   out[3 * index + 2] = v.z;
 }
 
+// The model's neighbour table as sample_point.hpp reads it.
+SampleTableView sample_table_view(const Model& model) {
+  const NeighbourTable& t = model.neighbours;
+  return {t.offsets.data(), t.frames.data(), t.weights.data(), t.weight_gradients.data(), t.rest_offsets.data()};
+}
+
 // A field of n particles, zero.
 Field make(const char* name, int components, const char* unit, std::size_t n) {
   return Field{name, components, unit, std::vector<double>(n * static_cast<std::size_t>(components), 0.0), false};
@@ -62,11 +68,6 @@ void prepare_sample_fields(const Model& model, std::vector<Field>& f) {
   f.push_back(make("displacement", 3, "m", n));
   f.push_back(make("velocity", 3, "m/s", n));
   for (Field& m : measure_fields(n, fibres)) f.push_back(std::move(m));
-}
-
-SampleTableView sample_table_view(const Model& model) {
-  const NeighbourTable& t = model.neighbours;
-  return {t.offsets.data(), t.frames.data(), t.weights.data(), t.weight_gradients.data(), t.rest_offsets.data()};
 }
 
 void sample_fields(const Model& model, const State& state, const std::vector<double>& rotations,

@@ -48,10 +48,6 @@ void sample_fields(const Model& model, const State& state, const std::vector<dou
 // Makes `fields` the sample fields of the model's layout (zero) unless they are already.
 void prepare_sample_fields(const Model& model, std::vector<Field>& fields);
 
-// The model's neighbour table as sample_point.hpp reads it.
-struct SampleTableView;
-SampleTableView sample_table_view(const Model& model);
-
 // The sample fields computed elsewhere than on this thread's CPU cores (the CUDA device:
 // kernels/device_sample_fields.hpp), by the same per-sample code: sample_fields' contract.
 class SampleFieldsDevice {

@@ -54,11 +54,17 @@ std::vector<unsigned char> fibred_materials(const Model& model) {
   return f;
 }
 
+namespace {
+
+// The model's tables as frame_average.hpp reads them (fibred_material: fibred_materials(model),
+// which must outlive the view).
 FrameAverageView frame_average_view(const Model& model, const std::vector<unsigned char>& fibred_material) {
   return {model.reverse.offsets.data(), model.reverse.pairs.data(),    model.reverse.pair_samples.data(),
           model.neighbours.weights.data(), model.samples.volumes.data(), model.samples.materials.data(),
           fibred_material.data()};
 }
+
+}  // namespace
 
 std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& samples,
                                   const std::vector<unsigned char>* frames) {
@@ -109,7 +115,7 @@ std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& 
       const std::size_t i = static_cast<std::size_t>(il);
       if (frames && !(*frames)[i]) continue;
       double weight = 0, weight_fibred = 0;
-      frame_average_weights(view, static_cast<int>(i), weight, weight_fibred);
+      frame_average_weights(view, static_cast<int>(i), 0, 1, weight, weight_fibred);
       if (weight > 0) {
         std::fill(row.begin(), row.end(), 0.0);
         for (int k = view.offsets[i]; k < view.offsets[i + 1]; ++k) {

@@ -50,10 +50,8 @@ StressMeasures shell_membrane_measures(const ShellElementRest& e, const Shell& s
 std::vector<Field> frame_averages(const Model& model, const std::vector<Field>& samples,
                                   const std::vector<unsigned char>* frames = nullptr);
 
-// Per material, 1 where its law has fibres; and the model's tables as frame_average.hpp reads them
-// (fibred_material: the former, which must outlive the view).
+// Per material, 1 where its law has fibres (FrameAverageView::fibred_material).
 std::vector<unsigned char> fibred_materials(const Model& model);
-FrameAverageView frame_average_view(const Model& model, const std::vector<unsigned char>& fibred_material);
 
 // Marks in `frames` ([N]) the frames whose averages surface_fields reads for this surface: its
 // skin's frames, or its vertices' own; none for a shell surface (its measures are the shell's).
