@@ -37,7 +37,6 @@ struct Cusolver {
   decltype(&cublasCreate_v2) blas_create = nullptr;
   decltype(&cublasDestroy_v2) blas_destroy = nullptr;
   decltype(&cublasSetStream_v2) blas_set_stream = nullptr;
-  decltype(&cublasSsymv_v2) symv = nullptr;
   decltype(&cublasDtrsm_v2) trsm = nullptr;
   decltype(&cublasDtrmm_v2) trmm = nullptr;
   decltype(&cublasDsyrk_v2) syrk = nullptr;
@@ -72,7 +71,6 @@ const Cusolver& cusolver() {
     load(c.blas_create, "cublasCreate_v2");
     load(c.blas_destroy, "cublasDestroy_v2");
     load(c.blas_set_stream, "cublasSetStream_v2");
-    load(c.symv, "cublasSsymv_v2");
     load(c.trsm, "cublasDtrsm_v2");
     load(c.trmm, "cublasDtrmm_v2");
     load(c.syrk, "cublasDsyrk_v2");
@@ -149,20 +147,93 @@ __global__ void k_restore_shifted(const std::uint8_t* fixed, const double* diag,
   A[j * n + j] = fixed[j] ? 1.0 : diag[j] + tau * fmax(fabs(diag[j]), floor);
 }
 
-// The lower triangle of A (n x n, column-major) in single precision into S, of A's layout.
-__global__ void k_lower_to_single(const double* A, float* S, long long n) {
+// The lower triangle of A (n x n, column-major) in single precision into S (leading dimension
+// ld >= n): S's rows n..ld-1 zero, its strict upper triangle not written.
+__global__ void k_lower_to_single(const double* A, float* S, long long n, long long ld) {
   const long long j = blockIdx.y, i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
-  if (i >= j && i < n) S[j * n + i] = static_cast<float>(A[j * n + i]);
+  if (i >= ld || i < j) return;
+  S[j * ld + i] = i < n ? static_cast<float>(A[j * n + i]) : 0.0f;
 }
 
-__global__ void k_to_single(const double* x, float* y, long long n) {
-  const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
-  if (i < n) y[i] = static_cast<float>(x[i]);
+// The preconditioner's product z = S r, S symmetric stored as its lower triangle in single
+// precision (column-major, leading dimension ld: n rounded up to 4, its rows n..ld-1 zero), in
+// double arithmetic. Every tile (I, J), J <= I, of kTile x kTile entries is read once and used
+// twice: S_IJ r_J for rows I, S_IJ^T r_I for rows J, each written as one partial sum of the
+// partials [nt][nt][kTile] (block row, tile, row); k_symmetric_sums adds each row's partials in
+// tile order: the same bits on every run. One pass over n^2 / 2 floats, at the device's memory
+// bandwidth, plus nt^2 kTile doubles twice (n^2 / 8 bytes).
+constexpr int kTile = 64;
+constexpr int kTileThreads = 256;  // 16 quads of rows x 16 groups of columns
+
+__global__ void __launch_bounds__(kTileThreads)
+    k_symmetric_tiles(const float* S, long long ld, int n, int nt, const double* r, double* partials) {
+  __shared__ double row_sums[16][kTile];
+  __shared__ double column_sums[kTile];
+  // Tile (I, J) of linear index b = I (I + 1) / 2 + J.
+  const long long b = blockIdx.x;
+  int I = static_cast<int>((sqrt(8.0 * static_cast<double>(b) + 1.0) - 1.0) / 2.0);
+  while (static_cast<long long>(I) * (I + 1) / 2 > b) --I;
+  while (static_cast<long long>(I + 1) * (I + 2) / 2 <= b) ++I;
+  const int J = static_cast<int>(b - static_cast<long long>(I) * (I + 1) / 2);
+  const int t = static_cast<int>(threadIdx.x), quad = t % 16, group = t / 16;
+  const int row = 4 * quad;  // this thread's rows row..row + 3 and columns group + 16 k of the tile
+  const long long row0 = static_cast<long long>(I) * kTile + row;
+  float4 a[4];
+  double xc[4], xr[4];
+#pragma unroll
+  for (int k = 0; k < 4; ++k) {
+    const long long col = static_cast<long long>(J) * kTile + group + 16 * k;
+    a[k] = col < n && row0 < ld ? *reinterpret_cast<const float4*>(S + col * ld + row0) : make_float4(0, 0, 0, 0);
+    xc[k] = col < n ? r[col] : 0.0;
+    xr[k] = row0 + k < n ? r[row0 + k] : 0.0;
+  }
+  double yr[4] = {0, 0, 0, 0}, yc[4] = {0, 0, 0, 0};
+#pragma unroll
+  for (int k = 0; k < 4; ++k) {
+    const int col = group + 16 * k;
+    const double v[4] = {a[k].x, a[k].y, a[k].z, a[k].w};
+#pragma unroll
+    for (int i = 0; i < 4; ++i) {
+      // A diagonal tile holds the lower triangle only: S_rc for r > c serves both products, S_rr
+      // the direct one.
+      const bool lower = I != J || row + i > col;
+      const double direct = lower || row + i == col ? v[i] : 0.0;
+      yr[i] += direct * xc[k];
+      yc[k] += (lower ? v[i] : 0.0) * xr[i];
+    }
+  }
+#pragma unroll
+  for (int k = 0; k < 4; ++k)
+    for (int offset = 8; offset > 0; offset /= 2) yc[k] += __shfl_xor_sync(0xffffffffu, yc[k], offset);
+#pragma unroll
+  for (int i = 0; i < 4; ++i) row_sums[group][row + i] = yr[i];
+  if (quad == 0)
+#pragma unroll
+    for (int k = 0; k < 4; ++k) {
+      if (I == J)
+        column_sums[group + 16 * k] = yc[k];
+      else
+        partials[(static_cast<long long>(J) * nt + I) * kTile + group + 16 * k] = yc[k];
+    }
+  __syncthreads();
+  if (t >= kTile) return;
+  double sum = 0;
+  for (int g = 0; g < 16; ++g) sum += row_sums[g][t];
+  if (I == J) sum += column_sums[t];
+  partials[(static_cast<long long>(I) * nt + J) * kTile + t] = sum;
 }
 
-__global__ void k_to_double(const float* x, double* y, long long n) {
-  const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
-  if (i < n) y[i] = static_cast<double>(x[i]);
+// z rows of block row I (one block each): the sum of their nt partials, in tile order by 4 parts
+// then the parts in order.
+__global__ void __launch_bounds__(kTileThreads) k_symmetric_sums(const double* partials, int n, int nt, double* z) {
+  __shared__ double part_sums[4][kTile];
+  const int I = static_cast<int>(blockIdx.x), t = static_cast<int>(threadIdx.x), row = t % kTile, part = t / kTile;
+  double sum = 0;
+  for (int tile = part; tile < nt; tile += 4) sum += partials[(static_cast<long long>(I) * nt + tile) * kTile + row];
+  part_sums[part][row] = sum;
+  __syncthreads();
+  const long long i = static_cast<long long>(I) * kTile + t;
+  if (t < kTile && i < n) z[i] = ((part_sums[0][t] + part_sums[1][t]) + part_sums[2][t]) + part_sums[3][t];
 }
 
 __global__ void k_unit_diagonal(double* A, long long n) {
@@ -204,7 +275,9 @@ struct DeviceCholesky::Impl {
   DeviceBuffer<int> block_rows, block_frames, body_blocks;
   DeviceBuffer<double> A, W, diag, work, probe, product, blocks;  // W: L^{-1}
   DeviceBuffer<double> panel;  // L21 W11 of invert_lower's largest split: inverse_scratch(n) values
-  DeviceBuffer<float> single_r, single_z;  // a solve's r and z in single precision
+  DeviceBuffer<double> partials;  // the product's partial sums (k_symmetric_tiles)
+  long long ld = 0;               // the leading dimension of H^{-1} in single precision
+  int tiles = 0;                  // its tiles per row and column
   DeviceBuffer<int> info;
   int shift_step = -1, first_shift_step = 0;  // as SparseCholesky's
   cusolverDnHandle_t handle = nullptr;
@@ -237,8 +310,9 @@ struct DeviceCholesky::Impl {
     diag.resize(static_cast<size_t>(n));
     probe.resize(static_cast<size_t>(n));
     product.resize(static_cast<size_t>(n));
-    single_r.resize(static_cast<size_t>(n));
-    single_z.resize(static_cast<size_t>(n));
+    ld = (n + 3) / 4 * 4;
+    tiles = static_cast<int>((n + kTile - 1) / kTile);
+    partials.resize(static_cast<size_t>(tiles) * static_cast<size_t>(tiles) * kTile);
     info.resize(1);
     FASCIA_CUSOLVER(cusolver().create(&handle));
     FASCIA_CUSOLVER(cusolver().set_stream(handle, ops.stream()));
@@ -265,17 +339,17 @@ struct DeviceCholesky::Impl {
   }
 
   // H^{-1} in single precision: the lower triangle in W's memory (W is needed only while
-  // inverting), in A's layout.
+  // inverting; ld n <= 2 n^2 floats), leading dimension ld.
   float* inverse() { return reinterpret_cast<float*>(W.data()); }
 
-  // z = H^{-1} r in single precision: r rounded, cuBLAS's Ssymv, z widened (enqueued).
+  // z = H^{-1} r (enqueued): k_symmetric_tiles over the nt (nt + 1) / 2 tiles, then their sums.
   void product_with_inverse(const double* r, double* z) {
     const cudaStream_t stream = ops.stream();
-    k_to_single<<<blocks_for(n), kThreads, 0, stream>>>(r, single_r.data(), n);
-    const float one = 1.0f, zero = 0.0f;
-    FASCIA_CUBLAS(cusolver().symv(blas, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), &one, inverse(), static_cast<int>(n),
-                                  single_r.data(), 1, &zero, single_z.data(), 1));
-    k_to_double<<<blocks_for(n), kThreads, 0, stream>>>(single_z.data(), z, n);
+    const unsigned lower_tiles = static_cast<unsigned>(static_cast<long long>(tiles) * (tiles + 1) / 2);
+    k_symmetric_tiles<<<lower_tiles, kTileThreads, 0, stream>>>(inverse(), ld, static_cast<int>(n), tiles, r,
+                                                               partials.data());
+    k_symmetric_sums<<<static_cast<unsigned>(tiles), kTileThreads, 0, stream>>>(partials.data(), static_cast<int>(n),
+                                                                               tiles, z);
     FASCIA_CUDA(cudaGetLastError());
   }
 
@@ -326,7 +400,8 @@ struct DeviceCholesky::Impl {
       FASCIA_CUBLAS(cusolver().syrk(blas, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_T, r1, r1 - r0, &one, W.data() + r0, order,
                                     &beta, A.data(), order));
     }
-    k_lower_to_single<<<dim3(blocks_for(n), static_cast<unsigned>(n)), kThreads, 0, stream>>>(A.data(), inverse(), n);
+    k_lower_to_single<<<dim3(blocks_for(ld), static_cast<unsigned>(n)), kThreads, 0, stream>>>(A.data(), inverse(), n,
+                                                                                              ld);
     FASCIA_CUDA(cudaGetLastError());
     return true;
   }
@@ -342,8 +417,8 @@ struct DeviceCholesky::Impl {
 std::string DeviceCholesky::refusal(long long dofs, long long pairs) {
   if (!cusolver().error.empty()) return cusolver().error;
   std::ostringstream why;
-  // A and W, and the inversion's panel (n^2 / 4 values)
-  const double bytes = 18.0 * static_cast<double>(dofs) * static_cast<double>(dofs);
+  // A and W, the inversion's panel (n^2 / 4 values) and the product's partial sums (n^2 / 64)
+  const double bytes = 18.125 * static_cast<double>(dofs) * static_cast<double>(dofs);
   const double columns = 432.0 * static_cast<double>(pairs);
   if (dofs > kMaxDenseDofs) {
     why << "the dense device factor of " << dofs << " DOFs (" << bytes / (1 << 30) << " GiB with its inverse) exceeds the "

@@ -7,11 +7,11 @@
 // body for the bodies' rows and columns (integrate/tangent_probing.hpp; none without bodies),
 // factorised by cuSOLVER's potrf (H = L L^T) and inverted from the factor by cuBLAS, W = L^{-1}
 // (recursively by halves: triangular products, trmm, and trsm with the identity on blocks of 1024)
-// then H^{-1} = W^T W (syrk); the preconditioner is then cuBLAS's symmetric product (Ssymv) with the lower triangle
-// of H^{-1} rounded to single precision, one pass over n^2/2 floats at the
-// device's memory bandwidth (where potrs's two triangular solves, sequential by blocks, took 1.7
-// ms at 11,460 DOFs on an H100, and a product with both triangles in double 0.37 ms). The
-// rounding (relative 6e-8 per entry and per sum) perturbs the preconditioner, not the system PCG
+// then H^{-1} = W^T W (syrk); the preconditioner is then a symmetric product with the lower
+// triangle of H^{-1} rounded to single precision, in double arithmetic, one pass over its tiles
+// (n^2/2 floats) at the device's memory bandwidth (where potrs's two triangular solves, sequential
+// by blocks, took 1.7 ms at 11,460 DOFs on an H100, and a product with both triangles in double
+// 0.37 ms). The rounding (relative 6e-8 per entry) perturbs the preconditioner, not the system PCG
 // solves: its residuals and tolerances stay in double. The inverse costs about 2n^3/3 flops more per
 // factorisation (29 ms at 10,962 DOFs on an H200, potrf 15 ms), which the tens to hundreds of CG
 // iterations each factorisation serves repay. Dense, because the scenes' reduced tangents are
