@@ -69,6 +69,14 @@ constexpr int kLanedSlots = 8;
 constexpr int kFrameLanes = 8;
 int grid_for(long long count, int threads) { return static_cast<int>(std::max<long long>(1, (count + threads - 1) / threads)); }
 
+// y = x for n values, *changed = 1 where a value's bits differ (every writer writes 1).
+__global__ void k_take_state(long long n, const double* x, double* y, int* changed) {
+  const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (i >= n || __double_as_longlong(x[i]) == __double_as_longlong(y[i])) return;
+  y[i] = x[i];
+  *changed = 1;
+}
+
 }  // namespace
 
 // The implementation of DeviceElasticity: abstract over the storage precision.
@@ -259,6 +267,9 @@ class System final : public DeviceElasticity::Impl {
     m_counter.zero();
     m_scalars.resize(1);
     m_scalars.zero();
+    m_changed.resize(1);
+    const int changed = 1;
+    m_changed.upload(&changed, 1);
     // The launched frame pass loops over its frames in the blocks that fit at once.
     m_frame_lanes = !grouped && m_slots > static_cast<long long>(kLanedSlots) * m_n ? kFrameLanes : 1;
     m_rows_grid = resident_blocks(frame_sums_kernel(m_frame_lanes), kFrameThreads,
@@ -279,6 +290,8 @@ class System final : public DeviceElasticity::Impl {
     if (state.frame_count() != m_n) throw std::invalid_argument("DeviceElasticity: state has the wrong frame count");
     m_positions.upload(state.positions);
     m_orientations.upload(state.orientations);
+    const int changed = 1;
+    m_changed.upload(&changed, 1);
   }
 
   void get_state(State& state) const override {
@@ -300,8 +313,13 @@ class System final : public DeviceElasticity::Impl {
     return e;
   }
 
+  // The force pass is skipped where the state is the last pass's (Newton prepares the state whose
+  // gradient its line search has just taken): F, the cache and the samples' state are its.
   double prepare(bool diagonal_blocks) override {
-    enqueue_gradient_pass(nullptr);
+    int changed = 1;
+    FASCIA_CUDA(cudaMemcpyAsync(&changed, m_changed.data(), sizeof(int), cudaMemcpyDeviceToHost, m_stream));
+    FASCIA_CUDA(cudaStreamSynchronize(m_stream));
+    if (changed) enqueue_gradient_pass(nullptr);
     enqueue_frame_prepare(diagonal_blocks);
     return read_scalars().energy;
   }
@@ -321,8 +339,11 @@ class System final : public DeviceElasticity::Impl {
   void* stream() const override { return m_stream; }
 
   void set_state_on_device(const double* positions, const double* orientations) override {
-    convert_async(positions, m_positions.data(), 3LL * m_n, m_stream);
-    convert_async(orientations, m_orientations.data(), 4LL * m_n, m_stream);
+    k_take_state<<<grid_for(3LL * m_n, kThreads), kThreads, 0, m_stream>>>(3LL * m_n, positions, m_positions.data(),
+                                                                            m_changed.data());
+    k_take_state<<<grid_for(4LL * m_n, kThreads), kThreads, 0, m_stream>>>(4LL * m_n, orientations,
+                                                                            m_orientations.data(), m_changed.data());
+    check_launch();
   }
 
   double gradient_on_device(double* g) override {
@@ -559,17 +580,25 @@ class System final : public DeviceElasticity::Impl {
     k_fused_samples<R><<<m_blocks, kBlockSamples, m_shared_bytes, m_stream>>>(
         m_view, m_frame_view, m_F.data(), m_cache.data(), m_partials.data(), reduction(), m_sample_state.data());
     check_launch();
+    FASCIA_CUDA(cudaMemsetAsync(m_changed.data(), 0, sizeof(int), m_stream));
     if (gradient) enqueue_frame_rows(m_view, m_partials.data(), nullptr, nullptr, nullptr, gradient);
   }
 
   // The per-frame preparation: the rotational geometric blocks Kr (m_geo) and, with `diag`, the
   // diagonal blocks K_ii (m_diag).
   void enqueue_frame_prepare(bool diag) {
-    k_frame_columns<R><<<grid_for(m_n, kColumnFrames), kColumnParts * kColumnFrames, 0, m_stream>>>(
-        m_view, m_frame_view, m_F.data(), diag, m_prepare_sums.data());
+    const dim3 grid = grid_for(m_n, kColumnFrames);
+    if (!diag) {
+      k_frame_columns<R, false><<<grid, kColumnParts * kColumnFrames, 0, m_stream>>>(m_view, m_frame_view, m_F.data(),
+                                                                                    nullptr, m_geo.data());
+      check_launch();
+      return;
+    }
+    k_frame_columns<R, true><<<grid, kColumnParts * kColumnFrames, 0, m_stream>>>(m_view, m_frame_view, m_F.data(),
+                                                                                 m_prepare_sums.data(), nullptr);
     check_launch();
     k_frame_finish<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(m_n, m_prepare_sums.data(), m_geo.data(),
-                                                                        diag ? m_diag.data() : nullptr);
+                                                                        m_diag.data());
     check_launch();
   }
 
@@ -673,6 +702,7 @@ class System final : public DeviceElasticity::Impl {
   // Reductions.
   DeviceBuffer<double> m_red_partials;
   DeviceBuffer<unsigned> m_counter;
+  DeviceBuffer<int> m_changed;  // 1: the state differs from the last force pass's (set_state*)
   DeviceBuffer<Scalars> m_scalars;
 };
 

@@ -426,35 +426,41 @@ __global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* ge
 
 // ---- frames: preparation ----
 
-// Frame preparation in two kernels. k_frame_columns: kColumnParts threads per frame, each summing
-// every column of K_ii and Kr over an interleaved subset of the frame's pairs (frame_prepare_pairs:
-// one gather and one first Piola stress per pair for all columns) into its own column of shared
-// memory; the parts are then summed in part order and stored as sums [N][kPrepareSums] (K_ii
-// row-major, then Kr row-major). k_frame_finish: one thread per frame stores Kr and K_ii
-// (frame_prepare_blocks). A warp per frame in the first: meshless frames meet hundreds of samples (about 670
-// pairs per frame in the pelvis at 56 k samples), whose pairs one thread each would walk in turn
-// with the grid's few thousand threads mostly idle.
+// Frame preparation. k_frame_columns: kColumnParts threads per frame, each summing every column
+// of K_ii and Kr (WithK) or Kr alone over an interleaved subset of the frame's pairs
+// (frame_prepare_pairs: one gather and one first Piola stress per pair for all columns) into its
+// own column of shared memory; the parts are then summed in part order. With K_ii the sums are
+// stored as sums [N][kPrepareSums] (K_ii row-major, then Kr row-major) and k_frame_finish, one
+// thread per frame, stores Kr and K_ii (frame_prepare_blocks); without, Kr goes to geo [N][9]
+// directly, from a fifth of the shared memory. A warp per frame: meshless frames meet hundreds of
+// samples (about 670 pairs per frame in the pelvis at 56 k samples), whose pairs one thread each
+// would walk in turn with the grid's few thousand threads mostly idle.
 constexpr int kColumnParts = 32;  // k_frame_columns: threads per frame
 constexpr int kColumnFrames = 2;  // k_frame_columns: frames per block, 64 threads (blocks spread evenly)
 
-template <class R>
+template <class R, bool WithK>
 __global__ void __launch_bounds__(kColumnParts * kColumnFrames)
-    k_frame_columns(ModelView<R> m, FrameView<R> f, const R* F, bool with_K, double* sums) {
-  __shared__ double part_sums[kPrepareSums][kColumnParts * kColumnFrames];  // one column per thread
+    k_frame_columns(ModelView<R> m, FrameView<R> f, const R* F, double* sums, R* geo) {
+  constexpr int kSums = WithK ? kPrepareSums : 9;
+  constexpr int kFirst = WithK ? 0 : 36;  // the first of frame_prepare_pairs' indices kept
+  __shared__ double part_sums[kSums][kColumnParts * kColumnFrames];  // one column per thread
   const int t = static_cast<int>(threadIdx.x), part = t % kColumnParts;
   const int first = static_cast<int>(blockIdx.x) * kColumnFrames, i = first + t / kColumnParts;
-  for (int k = 0; k < kPrepareSums; ++k) part_sums[k][t] = 0;
+  for (int k = 0; k < kSums; ++k) part_sums[k][t] = 0;
   if (i < m.frames)
-    frame_prepare_pairs(m, f, F, i, part, kColumnParts, with_K,
-                        [&](int k, double value) { part_sums[k][t] += value; });
+    frame_prepare_pairs(m, f, F, i, part, kColumnParts, WithK,
+                        [&](int k, double value) { part_sums[k - kFirst][t] += value; });
   __syncthreads();
-  // Entry e of frame first + e / kPrepareSums, summed over the frame's parts in part order.
-  for (int e = t; e < kColumnFrames * kPrepareSums; e += static_cast<int>(blockDim.x)) {
-    const int fl = e / kPrepareSums, k = e - kPrepareSums * fl;
+  // Entry e of frame first + e / kSums, summed over the frame's parts in part order.
+  for (int e = t; e < kColumnFrames * kSums; e += static_cast<int>(blockDim.x)) {
+    const int fl = e / kSums, k = e - kSums * fl;
     if (first + fl >= m.frames) break;
     double sum = 0;
     for (int pp = 0; pp < kColumnParts; ++pp) sum += part_sums[k][kColumnParts * fl + pp];
-    sums[kPrepareSums * static_cast<size_t>(first) + e] = sum;
+    if constexpr (WithK)
+      sums[kSums * static_cast<size_t>(first) + e] = sum;
+    else
+      geo[kSums * static_cast<size_t>(first) + e] = static_cast<R>(sum);
   }
 }
 
