@@ -1,5 +1,6 @@
 #include "cuda_step.hpp"
 
+#include "device_memory.hpp"
 #include "device_problem.hpp"
 #include "integrate/simulation.hpp"
 #include "mechanics/rotation_stabilisation.hpp"
@@ -116,26 +117,52 @@ class CudaStep final : public StepBackend {
 
 }  // namespace
 
+namespace {
+
+// Why the whole step does not run on the device for model and settings; empty when it does.
+std::string whole_step_refusal(const Model& model, const SimulationSettings& settings) {
+  if (settings.integrator == Integrator::variational) return "the variational integrator runs on the CPU engine";
+  std::string why =
+      device_potential_refusal(model, settings.integrator == Integrator::backward_euler ? settings.rayleigh_stiffness : 0.0);
+  if (!why.empty()) return why;
+  if (settings.integrator == Integrator::static_equilibrium && RotationStabilisation::applies(model))
+    return "static equilibria of frame hexahedra carry the rotation stabilisation (mechanics/rotation_stabilisation.hpp), which runs on the CPU";
+  if (settings.newton.linear.method == LinearMethod::cholmod)
+    return "the linear method is cholmod (a direct solve), which runs on the CPU";
+  return {};
+}
+
+// Why the device does not keep the dense factor for pcg (empty when it does); `wanted`: whether
+// the settings ask for it.
+std::string dense_refusal(const Model& model, const LinearSettings& linear, bool& wanted) {
+  wanted = DeviceProblem::factorises(linear);
+  return wanted ? DeviceCholesky::refusal(model.dof_count(), model.pair_count()) : std::string();
+}
+
+}  // namespace
+
 StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
   return [options](const Model& model, const ExternalLoads& loads, const SimulationSettings& settings,
                    std::string& why) -> std::unique_ptr<StepBackend> {
-    why = device_potential_refusal(model, settings.integrator == Integrator::backward_euler ? settings.rayleigh_stiffness : 0.0);
+    why = whole_step_refusal(model, settings);
     if (!why.empty()) return nullptr;
-    if (settings.integrator == Integrator::static_equilibrium && RotationStabilisation::applies(model)) {
-      why = "static equilibria of frame hexahedra carry the rotation stabilisation (mechanics/rotation_stabilisation.hpp), which runs on the CPU";
-      return nullptr;
-    }
-    const LinearSettings& linear = settings.newton.linear;
-    if (linear.method == LinearMethod::cholmod) {
-      why = "the linear method is cholmod (a direct solve), which runs on the CPU";
-      return nullptr;
-    }
     // Where the dense factor does not fit, pcg is preconditioned by block Jacobi.
-    const bool factorises = DeviceProblem::factorises(linear);
-    const std::string dense = factorises ? DeviceCholesky::refusal(model.dof_count(), model.pair_count()) : std::string();
+    bool factorises = false;
+    const std::string dense = dense_refusal(model, settings.newton.linear, factorises);
     if (!dense.empty()) std::cerr << "fascia: note: the device preconditions pcg by block Jacobi: " << dense << "\n";
     return std::make_unique<CudaStep>(model, loads, options, factorises && dense.empty());
   };
+}
+
+std::string device_run_refusal(const Model& model, const SimulationSettings& settings, bool sample_rows) {
+  DeviceRun run;
+  bool wanted = false;
+  run.factorised = whole_step_refusal(model, settings).empty() &&
+                   dense_refusal(model, settings.newton.linear, wanted).empty() && wanted;
+  run.sample_rows = sample_rows;
+  size_t free = 0, total = 0;
+  FASCIA_CUDA(cudaMemGetInfo(&free, &total));
+  return device_memory_refusal(model, run, static_cast<double>(free), static_cast<double>(total));
 }
 
 }  // namespace fascia::gpu

@@ -15,6 +15,9 @@ inline void cuda_check(cudaError_t e, const char* what) {
 }
 #define FASCIA_CUDA(call) ::fascia::gpu::cuda_check((call), #call)
 
+// The device buffers' bytes, counted as they allocate and free (device_memory.hpp).
+void count_device_buffer_bytes(long long delta);
+
 // A device array of T, move-only. upload() converts element types (double -> float).
 template <class T>
 class DeviceBuffer {
@@ -34,6 +37,7 @@ class DeviceBuffer {
     release();
     if (n > 0) FASCIA_CUDA(cudaMalloc(&m_data, n * sizeof(T)));
     m_size = n;
+    count_device_buffer_bytes(static_cast<long long>(bytes()));
   }
   template <class U>
   void upload(const std::vector<U>& host) {
@@ -67,6 +71,7 @@ class DeviceBuffer {
 
  private:
   void release() {
+    count_device_buffer_bytes(-static_cast<long long>(bytes()));
     if (m_data) cudaFree(m_data);
     m_data = nullptr;
     m_size = 0;

@@ -417,8 +417,7 @@ struct DeviceCholesky::Impl {
 std::string DeviceCholesky::refusal(long long dofs, long long pairs) {
   if (!cusolver().error.empty()) return cusolver().error;
   std::ostringstream why;
-  // A and W, the inversion's panel (n^2 / 4 values) and the product's partial sums (n^2 / 64)
-  const double bytes = 18.125 * static_cast<double>(dofs) * static_cast<double>(dofs);
+  const double bytes = dense_bytes(dofs);
   const double columns = 432.0 * static_cast<double>(pairs);
   if (dofs > kMaxDenseDofs) {
     why << "the dense device factor of " << dofs << " DOFs (" << bytes / (1 << 30) << " GiB with its inverse) exceeds the "
@@ -434,6 +433,11 @@ std::string DeviceCholesky::refusal(long long dofs, long long pairs) {
     return why.str();
   }
   return {};
+}
+
+double DeviceCholesky::dense_bytes(long long dofs) {
+  // A and W, the inversion's panel (n^2 / 4 values) and the product's partial sums (n^2 / 64)
+  return 18.125 * static_cast<double>(dofs) * static_cast<double>(dofs);
 }
 
 DeviceCholesky::DeviceCholesky(DevicePotential& potential) : m_impl(std::make_unique<Impl>(potential)) {}

@@ -51,6 +51,8 @@ class DeviceCholesky {
   // Empty when a model of `dofs` DOFs and `pairs` sample pairs can be factorised now, else the
   // reason.
   static std::string refusal(long long dofs, long long pairs);
+  // The dense matrices' bytes for `dofs` DOFs: H (then H^{-1}), L^{-1} and the inversion's scratch.
+  static double dense_bytes(long long dofs);
 
   // The factor of potential's Hessian (the potential must outlive this object); sets its tangent
   // block pattern (DevicePotential::set_tangent_blocks).

@@ -225,9 +225,11 @@ void DeviceVector::resize(long long n, cudaStream_t stream) {
   m_stream = stream;
   if (n > 0) FASCIA_CUDA(cudaMallocAsync(reinterpret_cast<void**>(&m_data), n * sizeof(double), stream));
   m_size = n;
+  count_device_buffer_bytes(static_cast<long long>(sizeof(double)) * n);
 }
 
 void DeviceVector::release() {
+  count_device_buffer_bytes(-static_cast<long long>(sizeof(double)) * m_size);
   if (m_data) cudaFreeAsync(m_data, m_stream);
   m_data = nullptr;
   m_size = 0;

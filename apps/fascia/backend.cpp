@@ -43,6 +43,9 @@ int resolve_backend(const char* command, const BackendOptions& options, Backend&
   backend.elasticity = gpu::cuda_elasticity_factory(device);
   backend.step = gpu::cuda_step_factory(device);
   backend.sample_fields = gpu::device_sample_fields_factory();
+  backend.memory_refusal = [](const Model& model, const SimulationSettings& settings) {
+    return gpu::device_run_refusal(model, settings, model.sample_count() > 0);
+  };
   backend.provenance = {{"backend", "cuda"}, {"gpu", info.name}, {"precision", options.precision}};
   backend.description = "cuda (" + info.name + ", " + options.precision + ")";
   return kOk;

@@ -28,6 +28,9 @@ struct Backend {
   ElasticityFactory elasticity;  // empty for cpu
   StepBackendFactory step;       // cuda: the whole step on the device where it covers the scene
   SampleFieldsFactory sample_fields;  // cuda: the output rows' sample fields on the device
+  // cuda: why a run of the model with the settings would not fit in the device's free memory
+  // ("" when it fits; kernels/device_memory.hpp).
+  std::function<std::string(const Model&, const SimulationSettings&)> memory_refusal;
   nlohmann::json provenance;     // {"backend", and for cuda "gpu", "precision"}
   std::string description;       // for logs: "cpu" or "cuda (NVIDIA H200, double)"
 };

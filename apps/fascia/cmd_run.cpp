@@ -336,6 +336,14 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
     built.settings.threads = step_threads(built.model, built.settings.threads, process_threads(), row_per_step);
   }
   bound_process_threads(built.settings.threads);
+  // The device's memory is estimated before anything is put there or written.
+  if (backend.memory_refusal) {
+    const std::string refusal = backend.memory_refusal(built.model, built.settings);
+    if (!refusal.empty()) {
+      std::cerr << "fascia: error: " << options.request.path << ": --backend cuda: " << refusal << "\n";
+      return kTooLarge;
+    }
+  }
 
   // The steps of this run: the scene's, or fewer under a benchmark's cap.
   const int steps = options.max_steps > 0 ? std::min(options.max_steps, built.steps) : built.steps;

@@ -12,7 +12,7 @@ enum ExitCode : int {
   kNoInput = 66,
   kUnavailable = 69,  // a required service is missing: --backend cuda without a usable CUDA device
   kSoftware = 70,     // an internal error: an exception fascia does not expect from any input (a defect)
-  kTooLarge = 71,     // refused for size: more memory than --max-memory, more disk than is free, an input over its cap
+  kTooLarge = 71,     // refused for size: more memory than --max-memory, more device memory than is free, more disk than is free, an input over its cap
   kCantCreate = 73,   // the output exists (no --overwrite or --resume) or is one of the run's inputs
   kIoError = 74,
   kStoppedOnSignal = 75,
