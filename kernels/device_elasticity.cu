@@ -197,7 +197,7 @@ class System final : public DeviceElasticity::Impl {
       upload_groups(model);
       grouped = true;
     }
-    FASCIA_CUDA(cudaFuncSetAttribute(k_fused_samples<R>, cudaFuncAttributeMaxDynamicSharedMemorySize,
+    FASCIA_CUDA(cudaFuncSetAttribute(force_kernel(), cudaFuncAttributeMaxDynamicSharedMemorySize,
                                      static_cast<int>(m_shared_bytes)));
 
     m_view.samples = m_s;
@@ -254,6 +254,7 @@ class System final : public DeviceElasticity::Impl {
     m_x.resize(3 * static_cast<size_t>(m_n));
     m_rot.resize(9 * static_cast<size_t>(m_n));
     m_F.resize(9 * static_cast<size_t>(m_s));
+    m_P.resize(9 * static_cast<size_t>(m_s));
     m_geo.resize(9 * static_cast<size_t>(m_n));
     m_diag.resize(36 * static_cast<size_t>(m_n));
     m_prepare_sums.resize(kPrepareSums * static_cast<size_t>(m_n));
@@ -577,8 +578,9 @@ class System final : public DeviceElasticity::Impl {
         m_n, m_positions.data(), m_orientations.data(), m_origin, m_x.data(), m_rot.data(), m_frame_rest.data(),
         m_levers.data());
     check_launch();
-    k_fused_samples<R><<<m_blocks, kBlockSamples, m_shared_bytes, m_stream>>>(
-        m_view, m_frame_view, m_F.data(), m_cache.data(), m_partials.data(), reduction(), m_sample_state.data());
+    force_kernel()<<<m_blocks, kBlockSamples, m_shared_bytes, m_stream>>>(
+        m_view, m_frame_view, m_F.data(), m_cache.data(), m_P.data(), m_partials.data(), reduction(),
+        m_sample_state.data());
     check_launch();
     FASCIA_CUDA(cudaMemsetAsync(m_changed.data(), 0, sizeof(int), m_stream));
     if (gradient) enqueue_frame_rows(m_view, m_partials.data(), nullptr, nullptr, nullptr, gradient);
@@ -589,13 +591,13 @@ class System final : public DeviceElasticity::Impl {
   void enqueue_frame_prepare(bool diag) {
     const dim3 grid = grid_for(m_n, kColumnFrames);
     if (!diag) {
-      k_frame_columns<R, false><<<grid, kColumnParts * kColumnFrames, 0, m_stream>>>(m_view, m_frame_view, m_F.data(),
-                                                                                    nullptr, m_geo.data());
+      k_frame_columns<R, false><<<grid, kColumnParts * kColumnFrames, 0, m_stream>>>(
+          m_view, m_frame_view, m_F.data(), m_P.data(), nullptr, m_geo.data());
       check_launch();
       return;
     }
-    k_frame_columns<R, true><<<grid, kColumnParts * kColumnFrames, 0, m_stream>>>(m_view, m_frame_view, m_F.data(),
-                                                                                 m_prepare_sums.data(), nullptr);
+    k_frame_columns<R, true><<<grid, kColumnParts * kColumnFrames, 0, m_stream>>>(
+        m_view, m_frame_view, m_F.data(), nullptr, m_prepare_sums.data(), nullptr);
     check_launch();
     k_frame_finish<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(m_n, m_prepare_sums.data(), m_geo.data(),
                                                                         m_diag.data());
@@ -635,6 +637,10 @@ class System final : public DeviceElasticity::Impl {
     check_launch();
     enqueue_frame_rows(m_view, m_partials.data(), m_geo.data(), d, frame_diagonal, out);
   }
+
+  // The force pass's kernel, with the tangent pass's threads per sample (its blocks' samples).
+  using ForceKernel = void (*)(ModelView<R>, FrameView<R>, R*, R*, R*, R*, Reduction, R*);
+  ForceKernel force_kernel() const { return m_lanes == 1 ? &k_fused_samples<R, 1> : &k_fused_samples<R, kSampleLanes>; }
 
   // The launched coalesced tangent kernel for `keep` held ELL entries per lane (2, 4, else 8) and
   // `lanes` threads per sample (1, else kSampleLanes).
@@ -697,6 +703,7 @@ class System final : public DeviceElasticity::Impl {
   DeviceBuffer<double> m_positions, m_orientations, m_diag;
   DeviceBuffer<double> m_prepare_sums;  // k_frame_columns -> k_frame_finish: [N][kPrepareSums]
   DeviceBuffer<R> m_x, m_rot, m_F, m_cache, m_partials, m_geo;
+  DeviceBuffer<R> m_P;  // the force pass's first Piola stress [S][9], for Kr without K_ii
   DeviceBuffer<R> m_d;
   DeviceBuffer<double> m_grad, m_out;
   // Reductions.

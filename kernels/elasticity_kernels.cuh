@@ -125,23 +125,38 @@ __global__ void k_kinematics(int n, const double* positions, const double* orien
 
 // ---- force pass ----
 
-// One block of consecutive samples (ModelView::block_samples), one thread per sample (fused_sample);
-// dynamic shared memory holds one 6-vector per pair of the block, summed per slot. Each thread
-// also packs its sample's state for the tangent passes (pack_sample_state, component-major) from
-// the F and cache it has just stored.
-template <class R>
-__global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, R* F_out, R* cache_out, R* slot_partials,
+// One block of consecutive samples (ModelView::block_samples), `Lanes` threads per sample
+// (fused_sample's lanes: 1, or kSampleLanes for samples with many pairs, whose blocks hold
+// kBlockSamples / Lanes samples), their partial F added by an xor butterfly; dynamic shared memory
+// holds one 6-vector per pair of the block, summed per slot. Lane 0 of each sample also packs its
+// state for the tangent passes (pack_sample_state, component-major) from the F and cache it has
+// just stored.
+template <class R, int Lanes>
+__global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, R* F_out, R* cache_out, R* P_out, R* slot_partials,
                                 Reduction red, R* state_out) {
+  static_assert(Lanes >= 1 && Lanes <= 32 && (Lanes & (Lanes - 1)) == 0, "Lanes: a power of two <= 32");
   extern __shared__ unsigned char shared_raw[];
   R* local = reinterpret_cast<R*>(shared_raw);
   const int b = blockIdx.x;
   const int s0 = m.block_samples[b], s1 = m.block_samples[b + 1];
   const int pair_base = m.offsets[s0];
-  const int s = s0 + static_cast<int>(threadIdx.x);
+  const int lane = static_cast<int>(threadIdx.x) & (Lanes - 1);
+  const int s = s0 + static_cast<int>(threadIdx.x) / Lanes;
+  // The sample's lanes within the warp (all alike in s < s1).
+  const unsigned lanes_mask =
+      Lanes == 32 ? 0xffffffffu : ((1u << Lanes) - 1u) << (static_cast<int>(threadIdx.x) & 31 & ~(Lanes - 1));
   double e = 0;
   if (s < s1) {
-    e = fused_sample(m, f, s, pair_base, local, F_out, cache_out);
-    pack_sample_state(m, F_out, cache_out, s, state_out);
+    e = fused_sample(m, f, s, pair_base, local, F_out, cache_out, P_out, lane, Lanes, [&](Mat3& F) {
+      if constexpr (Lanes > 1) {
+#pragma unroll
+        for (int r = 0; r < 3; ++r)
+#pragma unroll
+          for (int c = 0; c < 3; ++c)
+            for (int o = Lanes / 2; o > 0; o >>= 1) F.m[r][c] += __shfl_xor_sync(lanes_mask, F.m[r][c], o);
+      }
+    });
+    if (lane == 0) pack_sample_state(m, F_out, cache_out, s, state_out);
   }
   __syncthreads();
   for (int q = m.block_slots[b] + threadIdx.x; q < m.block_slots[b + 1]; q += blockDim.x)
@@ -440,7 +455,7 @@ constexpr int kColumnFrames = 2;  // k_frame_columns: frames per block, 64 threa
 
 template <class R, bool WithK>
 __global__ void __launch_bounds__(kColumnParts * kColumnFrames)
-    k_frame_columns(ModelView<R> m, FrameView<R> f, const R* F, double* sums, R* geo) {
+    k_frame_columns(ModelView<R> m, FrameView<R> f, const R* F, const R* P, double* sums, R* geo) {
   constexpr int kSums = WithK ? kPrepareSums : 9;
   constexpr int kFirst = WithK ? 0 : 36;  // the first of frame_prepare_pairs' indices kept
   __shared__ double part_sums[kSums][kColumnParts * kColumnFrames];  // one column per thread
@@ -448,7 +463,7 @@ __global__ void __launch_bounds__(kColumnParts * kColumnFrames)
   const int first = static_cast<int>(blockIdx.x) * kColumnFrames, i = first + t / kColumnParts;
   for (int k = 0; k < kSums; ++k) part_sums[k][t] = 0;
   if (i < m.frames)
-    frame_prepare_pairs(m, f, F, i, part, kColumnParts, WithK,
+    frame_prepare_pairs(m, f, F, P, i, part, kColumnParts, WithK,
                         [&](int k, double value) { part_sums[k - kFirst][t] += value; });
   __syncthreads();
   // Entry e of frame first + e / kSums, summed over the frame's parts in part order.

@@ -124,27 +124,35 @@ FASCIA_HD void frame_kinematics(int i, const double* positions, const double* or
 // One sample of the force pass. F is rebuilt from the frames (eq. 8, l = p_s - x_i, eq. 2 with
 // rest orientation I), P = P(F) (eq. 19); each pair's v B_p^T P (eq. 18) goes to
 // local[6 (p - pair_base) + k] (shared memory on the device). Stores F [S][9] (frame preparation)
-// and the material cache [S][10] (tangent passes). Returns v psi(F).
-template <class R>
+// and the material cache [S][10] (tangent passes), and P [S][9] where P_out is set (the
+// rotational geometric blocks of a preparation without K_ii). Returns v psi(F). Lane `lane` of `lanes`
+// (1 on the host) takes the sample's pairs lane, lane + lanes, ...: `sum_lanes(F)` adds the lanes'
+// partial F (the device's butterfly), each lane writes its pairs' outputs, lane 0 stores F and the
+// cache and returns the energy (the others 0).
+template <class R, class SumLanes>
 FASCIA_HD double fused_sample(const ModelView<R>& m, const FrameView<R>& f, int s, int pair_base, R* local, R* F_out,
-                              R* cache_out) {
+                              R* cache_out, R* P_out, int lane, int lanes, SumLanes&& sum_lanes) {
   const Vec3 ps = ld3(m.sample_rest + 3 * s);
   const int begin = m.offsets[s], end = m.offsets[s + 1];
   Mat3 F = zero3();
-  for (int p = begin; p < end; ++p) {
+  for (int p = begin + lane; p < end; p += lanes) {
     const int i = m.frame_of[p];
     const Mat3 Ri = ldm(f.rotations + 9 * i);
     const Vec3 a = Ri * (ps - ld3(m.frame_rest + 3 * i));
     F += outer(ld3(f.positions + 3 * i) + a, ld3(m.gradients + 3 * p)) + static_cast<double>(m.weights[p]) * Ri;
   }
+  sum_lanes(F);
   const Material mat = m.materials[m.sample_materials[s]];
   const double v = static_cast<double>(m.volumes[s]);
   MaterialCache cache;
   const Mat3 P = first_piola(mat, F, cache);
-  stm(F_out + 9 * s, F);
-  stm(cache_out + 10 * s, cache.a);
-  cache_out[10 * s + 9] = static_cast<R>(cache.c);
-  for (int p = begin; p < end; ++p) {
+  if (lane == 0) {
+    stm(F_out + 9 * s, F);
+    stm(cache_out + 10 * s, cache.a);
+    cache_out[10 * s + 9] = static_cast<R>(cache.c);
+    if (P_out) stm(P_out + 9 * s, P);
+  }
+  for (int p = begin + lane; p < end; p += lanes) {
     const int i = m.frame_of[p];
     const Mat3 Ri = ldm(f.rotations + 9 * i);
     const Vec3 a = Ri * (ps - ld3(m.frame_rest + 3 * i));
@@ -153,7 +161,7 @@ FASCIA_HD double fused_sample(const ModelView<R>& m, const FrameView<R>& f, int 
     R* dst = local + 6 * (p - pair_base);
     for (int k = 0; k < 6; ++k) dst[k] = static_cast<R>(out[k]);
   }
-  return v * energy_density(mat, F);
+  return lane == 0 ? v * energy_density(mat, F) : 0.0;
 }
 
 // Sum of the pairs of block slot q (one frame of one block), in increasing pair order.
@@ -483,10 +491,11 @@ FASCIA_HD void unpack_prepare_sums(const double* sums, double* K, Mat3& Kr) {
 // gather and one first Piola stress per pair, a = R_i (p_s - x_i). `add(k, value)` receives each pair's terms in pair order,
 // k < 36 for K_ii[k] (row-major: column c of row r at 6 r + c, the column of the unit displacement
 // (c < 3) or rotation (c >= 3) along axis c % 3), 36 + 3 r + c for Kr[r][c]; without `with_K`
-// (a preparation without the diagonal blocks) only Kr's.
+// (a preparation without the diagonal blocks) only Kr's, from the gradient pass's P [S][9] where
+// `P_stored` is set.
 template <class R, class Add>
-FASCIA_HD void frame_prepare_pairs(const ModelView<R>& m, const FrameView<R>& f, const R* F, int i, int part,
-                                   int parts, bool with_K, Add&& add) {
+FASCIA_HD void frame_prepare_pairs(const ModelView<R>& m, const FrameView<R>& f, const R* F, const R* P_stored, int i,
+                                   int part, int parts, bool with_K, Add&& add) {
   const Mat3 Ri = ldm(f.rotations + 9 * i);
   for (int q = m.rev_offsets[i] + part; q < m.rev_offsets[i + 1]; q += parts) {
     const int p = m.rev_pairs[q];
@@ -496,6 +505,12 @@ FASCIA_HD void frame_prepare_pairs(const ModelView<R>& m, const FrameView<R>& f,
     const Vec3 g = ld3(m.gradients + 3 * p);
     const double w = static_cast<double>(m.weights[p]);
     const double v = static_cast<double>(m.volumes[s]);
+    if (!with_K && P_stored) {
+      const Mat3 Kr = pair_rotational_geometric_block(ldm(P_stored + 9 * s), a, g, w, Ri, v);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) add(36 + 3 * r + c, Kr.m[r][c]);
+      continue;
+    }
     const Material mat = m.materials[m.sample_materials[s]];
     const Mat3 Fs = ldm(F + 9 * s);
     MaterialCache cache;
@@ -534,7 +549,8 @@ template <class R>
 FASCIA_HD void frame_prepare(const ModelView<R>& m, const FrameView<R>& f, const R* F, int i, R* geo_out,
                              double* diag_out) {
   double sums[kPrepareSums] = {};
-  frame_prepare_pairs(m, f, F, i, 0, 1, true, [&](int k, double value) { sums[k] += value; });
+  frame_prepare_pairs(m, f, F, static_cast<const R*>(nullptr), i, 0, 1, true,
+                      [&](int k, double value) { sums[k] += value; });
   double K[36];
   Mat3 Kr;
   unpack_prepare_sums(sums, K, Kr);

@@ -199,7 +199,8 @@ struct HostDevice {
       const int s0 = layout.block_samples[b];
       std::vector<double> local(6 * static_cast<size_t>(layout.max_block_pairs));
       for (int s = s0; s < layout.block_samples[b + 1]; ++s)
-        energy += fused_sample(view, frames, s, model.neighbours.offsets[s0], local.data(), F.data(), cache.data());
+        energy += fused_sample(view, frames, s, model.neighbours.offsets[s0], local.data(), F.data(), cache.data(), static_cast<double*>(nullptr), 0, 1,
+                               [](Mat3&) {});
       for (int q = layout.block_slots[b]; q < layout.block_slots[b + 1]; ++q) fused_slot_sum(view, local.data(), q, partials.data());
     }
     std::vector<double> out(model.dof_count());
