@@ -125,6 +125,23 @@ __global__ void k_kinematics(int n, const double* positions, const double* orien
 
 // ---- force pass ----
 
+// The mask of this thread's group of `Lanes` consecutive lanes within its warp.
+template <int Lanes>
+__device__ inline unsigned group_lanes_mask() {
+  return Lanes == 32 ? 0xffffffffu : ((1u << Lanes) - 1u) << (static_cast<int>(threadIdx.x) & 31 & ~(Lanes - 1));
+}
+
+// A summed over the group's `Lanes` lanes (`mask`: group_lanes_mask) by an xor butterfly, the same
+// order on every run; every lane of the group holds the sum.
+template <int Lanes, class T>
+__device__ inline void butterfly_sum(Mat3T<T>& A, unsigned mask) {
+#pragma unroll
+  for (int r = 0; r < 3; ++r)
+#pragma unroll
+    for (int c = 0; c < 3; ++c)
+      for (int o = Lanes / 2; o > 0; o >>= 1) A.m[r][c] += __shfl_xor_sync(mask, A.m[r][c], o);
+}
+
 // One block of consecutive samples (ModelView::block_samples), `Lanes` threads per sample
 // (fused_sample's lanes: 1, or kSampleLanes for samples with many pairs, whose blocks hold
 // kBlockSamples / Lanes samples), their partial F added by an xor butterfly; dynamic shared memory
@@ -142,19 +159,11 @@ __global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, R* F_out, R* cac
   const int pair_base = m.offsets[s0];
   const int lane = static_cast<int>(threadIdx.x) & (Lanes - 1);
   const int s = s0 + static_cast<int>(threadIdx.x) / Lanes;
-  // The sample's lanes within the warp (all alike in s < s1).
-  const unsigned lanes_mask =
-      Lanes == 32 ? 0xffffffffu : ((1u << Lanes) - 1u) << (static_cast<int>(threadIdx.x) & 31 & ~(Lanes - 1));
+  const unsigned lanes_mask = group_lanes_mask<Lanes>();  // the sample's lanes (all alike in s < s1)
   double e = 0;
   if (s < s1) {
     e = fused_sample(m, f, s, pair_base, local, F_out, cache_out, P_out, lane, Lanes, [&](Mat3& F) {
-      if constexpr (Lanes > 1) {
-#pragma unroll
-        for (int r = 0; r < 3; ++r)
-#pragma unroll
-          for (int c = 0; c < 3; ++c)
-            for (int o = Lanes / 2; o > 0; o >>= 1) F.m[r][c] += __shfl_xor_sync(lanes_mask, F.m[r][c], o);
-      }
+      if constexpr (Lanes > 1) butterfly_sum<Lanes>(F, lanes_mask);
     });
     if (lane == 0) pack_sample_state(m, F_out, cache_out, s, state_out);
   }
@@ -321,8 +330,7 @@ __device__ void ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f, 
   const int groups = static_cast<int>(blockDim.x) / Lanes;
   const int lane = static_cast<int>(threadIdx.x) & (Lanes - 1);
   // The sample's lanes within the warp, for the butterfly.
-  const unsigned lanes_mask =
-      Lanes == 32 ? 0xffffffffu : ((1u << Lanes) - 1u) << (static_cast<int>(threadIdx.x) & 31 & ~(Lanes - 1));
+  const unsigned lanes_mask = group_lanes_mask<Lanes>();
   for (int base = 0; base < ns; base += groups) {  // the same trip count in every thread
     const int t = base + static_cast<int>(threadIdx.x) / Lanes, s = s0 + t;
     if (t >= ns) continue;  // all lanes of a sample alike
@@ -339,13 +347,7 @@ __device__ void ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f, 
       if (lane + k * Lanes < count) ell_pair_dF(ell_pair_of(kept[k], f.levers, ps), d, dF);
     for (int j = lane + Keep * Lanes; j < count; j += Lanes)
       ell_pair_dF(ell_pair_of(ell_entry(m, e0 + j * ns + t), f.levers, ps), d, dF);
-    if constexpr (Lanes > 1) {
-#pragma unroll
-      for (int r = 0; r < 3; ++r)
-#pragma unroll
-        for (int c = 0; c < 3; ++c)
-          for (int o = Lanes / 2; o > 0; o >>= 1) dF.m[r][c] += __shfl_xor_sync(lanes_mask, dF.m[r][c], o);
-    }
+    if constexpr (Lanes > 1) butterfly_sum<Lanes>(dF, lanes_mask);
     if (count > 0) {
       const Mat3T<R> dP = ell_sample_dP(m, f.sample_state, s, dF);
       const R v = sample_value(f.sample_state, m.samples, 3, s);
@@ -399,8 +401,7 @@ __global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* ge
                              const double* frame_diagonal, double* out) {
   static_assert(Lanes >= 1 && Lanes <= 32 && (Lanes & (Lanes - 1)) == 0, "Lanes: a power of two <= 32");
   const int lane = static_cast<int>(threadIdx.x) & (Lanes - 1);
-  const unsigned lanes_mask =
-      Lanes == 32 ? 0xffffffffu : ((1u << Lanes) - 1u) << (static_cast<int>(threadIdx.x) & 31 & ~(Lanes - 1));
+  const unsigned lanes_mask = group_lanes_mask<Lanes>();
   const int stride = static_cast<int>(gridDim.x * blockDim.x) / Lanes;
   for (int i = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x) / Lanes; i < m.frames; i += stride) {
     // The frame's slot partials, two of the lane's slots' 6 values per round, added in slot order.
