@@ -69,19 +69,6 @@ double parse_bytes(const std::string& text) {
   return value * std::pow(1024.0, static_cast<double>(p + 1));
 }
 
-std::string bytes_text(double bytes) {
-  const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
-  int u = 0;
-  while (bytes >= 1024 && u < 6) {
-    bytes /= 1024;
-    ++u;
-  }
-  char text[64];
-  if (!std::isfinite(bytes)) return "more than can be counted";
-  std::snprintf(text, sizeof text, "%.3g %s", bytes, units[u]);
-  return text;
-}
-
 ObjectEstimate estimate_meshless(const SurfaceMesh& surface, const MeshlessOptions& options) {
   ObjectEstimate e;
   Vec3 lo, hi;

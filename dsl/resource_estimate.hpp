@@ -9,6 +9,7 @@
 // is never refused and one that asks for 100x the machine is refused in milliseconds.
 #pragma once
 
+#include "core/bytes_text.hpp"
 #include "discretise/label_image.hpp"
 #include "discretise/meshless.hpp"
 #include "discretise/surface_mesh.hpp"
@@ -27,9 +28,6 @@ double machine_memory();
 
 // "16G", "512 MiB", "2GB", "1e9" (bytes; K, M, G, T are powers of 1024) -> bytes, or < 0.
 double parse_bytes(const std::string& text);
-
-// "1.5 GiB", "3.2 PiB".
-std::string bytes_text(double bytes);
 
 // Estimated figures of one object's discretisation.
 struct ObjectEstimate {

@@ -115,10 +115,6 @@ class CudaStep final : public StepBackend {
   TangentOrigin m_origin;
 };
 
-}  // namespace
-
-namespace {
-
 // Why the whole step does not run on the device for model and settings; empty when it does.
 std::string whole_step_refusal(const Model& model, const SimulationSettings& settings) {
   if (settings.integrator == Integrator::variational) return "the variational integrator runs on the CPU engine";
@@ -132,11 +128,10 @@ std::string whole_step_refusal(const Model& model, const SimulationSettings& set
   return {};
 }
 
-// Why the device does not keep the dense factor for pcg (empty when it does); `wanted`: whether
-// the settings ask for it.
-std::string dense_refusal(const Model& model, const LinearSettings& linear, bool& wanted) {
-  wanted = DeviceProblem::factorises(linear);
-  return wanted ? DeviceCholesky::refusal(model.dof_count(), model.pair_count()) : std::string();
+// Why the dense factor the settings' pcg asks for does not fit (empty where it fits or is not asked
+// for): the device keeps it where DeviceProblem::factorises(linear) and this is empty.
+std::string dense_refusal(const Model& model, const LinearSettings& linear) {
+  return DeviceProblem::factorises(linear) ? DeviceCholesky::refusal(model.dof_count(), model.pair_count()) : std::string();
 }
 
 }  // namespace
@@ -147,18 +142,18 @@ StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
     why = whole_step_refusal(model, settings);
     if (!why.empty()) return nullptr;
     // Where the dense factor does not fit, pcg is preconditioned by block Jacobi.
-    bool factorises = false;
-    const std::string dense = dense_refusal(model, settings.newton.linear, factorises);
+    const LinearSettings& linear = settings.newton.linear;
+    const std::string dense = dense_refusal(model, linear);
     if (!dense.empty()) std::cerr << "fascia: note: the device preconditions pcg by block Jacobi: " << dense << "\n";
-    return std::make_unique<CudaStep>(model, loads, options, factorises && dense.empty());
+    return std::make_unique<CudaStep>(model, loads, options, DeviceProblem::factorises(linear) && dense.empty());
   };
 }
 
 std::string device_run_refusal(const Model& model, const SimulationSettings& settings, bool sample_rows) {
   DeviceRun run;
-  bool wanted = false;
-  run.factorised = whole_step_refusal(model, settings).empty() &&
-                   dense_refusal(model, settings.newton.linear, wanted).empty() && wanted;
+  const LinearSettings& linear = settings.newton.linear;
+  run.factorised =
+      whole_step_refusal(model, settings).empty() && DeviceProblem::factorises(linear) && dense_refusal(model, linear).empty();
   run.sample_rows = sample_rows;
   size_t free = 0, total = 0;
   FASCIA_CUDA(cudaMemGetInfo(&free, &total));

@@ -269,8 +269,7 @@ class System final : public DeviceElasticity::Impl {
     m_scalars.resize(1);
     m_scalars.zero();
     m_changed.resize(1);
-    const int changed = 1;
-    m_changed.upload(&changed, 1);
+    mark_changed();
     // The launched frame pass loops over its frames in the blocks that fit at once.
     m_frame_lanes = !grouped && m_slots > static_cast<long long>(kLanedSlots) * m_n ? kFrameLanes : 1;
     m_rows_grid = resident_blocks(frame_sums_kernel(m_frame_lanes), kFrameThreads,
@@ -291,6 +290,11 @@ class System final : public DeviceElasticity::Impl {
     if (state.frame_count() != m_n) throw std::invalid_argument("DeviceElasticity: state has the wrong frame count");
     m_positions.upload(state.positions);
     m_orientations.upload(state.orientations);
+    mark_changed();
+  }
+
+  // The next preparation takes a force pass (the state came from the host).
+  void mark_changed() {
     const int changed = 1;
     m_changed.upload(&changed, 1);
   }

@@ -1,9 +1,9 @@
 #include "device_memory.hpp"
 
+#include "core/bytes_text.hpp"
 #include "device_cholesky.hpp"
 
 #include <atomic>
-#include <cstdio>
 #include <sstream>
 
 namespace fascia::gpu {
@@ -22,24 +22,6 @@ constexpr double kBlockTerm = 8;         // a block contribution: a pair of a sa
 constexpr double kBlockFrame = 10240;    // the block pattern and its 6 x 6 blocks (tens per frame)
 constexpr double kFieldsPair = 70, kFieldsSample = 60, kFieldsFrame = 100;  // DeviceSampleFields
 constexpr double kFieldsFixed = 64 * 1024;
-
-}  // namespace
-
-long long device_buffer_bytes() { return g_buffer_bytes.load(); }
-
-void count_device_buffer_bytes(long long delta) { g_buffer_bytes += delta; }
-
-namespace {
-
-// "1.25 GiB", "310 MiB".
-std::string bytes_text(double bytes) {
-  char text[32];
-  if (bytes >= 1024.0 * 1024 * 1024)
-    std::snprintf(text, sizeof text, "%.2f GiB", bytes / (1024.0 * 1024 * 1024));
-  else
-    std::snprintf(text, sizeof text, "%.0f MiB", bytes / (1024.0 * 1024));
-  return text;
-}
 
 struct Parts {
   double elasticity = 0, step = 0, shells = 0, factor = 0, fields = 0;
@@ -71,6 +53,10 @@ Parts estimate_parts(const Model& model, const DeviceRun& run) {
 }
 
 }  // namespace
+
+long long device_buffer_bytes() { return g_buffer_bytes.load(); }
+
+void count_device_buffer_bytes(long long delta) { g_buffer_bytes += delta; }
 
 double estimate_device_bytes(const Model& model, const DeviceRun& run) { return estimate_parts(model, run).total();
 }

@@ -49,10 +49,10 @@ void check_output_space(const std::string& path, const dsl::SceneSpec& spec, con
   const double need = dsl::output_bytes(static_cast<double>(rows), bytes);
   const double free = dsl::free_disk_bytes(path);
   if (free >= 0 && need > free)
-    diagnostics.error(where, "the output '" + path + "' needs about " + dsl::bytes_text(need) + " for " +
+    diagnostics.error(where, "the output '" + path + "' needs about " + bytes_text(need) + " for " +
                                  std::to_string(rows) + " rows (" + std::to_string(built.steps) + " steps, every " +
                                  std::to_string(spec.output.every) + "), and its file system has " +
-                                 dsl::bytes_text(free) + " free; raise output.every, take fewer steps or write elsewhere (-o)",
+                                 bytes_text(free) + " free; raise output.every, take fewer steps or write elsewhere (-o)",
                       dsl::ExitCode::too_large);
 }
 
