@@ -3,7 +3,6 @@
 #include "device_memory.hpp"
 #include "device_problem.hpp"
 #include "integrate/simulation.hpp"
-#include "mechanics/rotation_stabilisation.hpp"
 #include "solve/diagonal_shifts.hpp"
 
 #include <iostream>
@@ -38,7 +37,7 @@ class CudaStep final : public StepBackend {
 
   NewtonResult equilibrium(State& state, const NewtonSettings& settings, const LoadStepping& stepping,
                            const std::function<double(double)>& set_load_factor) override {
-    m_potential.set_static();
+    m_potential.set_equilibrium();
     m_state.upload(state);
     double load_factor = 1.0;
     DeviceProblem problem(m_potential, settings.linear, m_factor.get(), m_kept, [&](const DeviceFrames& q) {
@@ -83,7 +82,7 @@ class CudaStep final : public StepBackend {
     m_factor->set_first_shift_step(resumed_first_shift_step(tangent.shift_step, true));
     const TangentOrigin& o = tangent.origin;
     if (settings.integrator == Integrator::static_equilibrium)
-      m_potential.set_static();
+      m_potential.set_equilibrium();
     else
       m_potential.set_dynamic(o.start, o.dt, settings.rayleigh_mass);
     m_potential.set_load_scale(o.load_scale);
@@ -121,17 +120,24 @@ std::string whole_step_refusal(const Model& model, const SimulationSettings& set
   std::string why =
       device_potential_refusal(model, settings.integrator == Integrator::backward_euler ? settings.rayleigh_stiffness : 0.0);
   if (!why.empty()) return why;
-  if (settings.integrator == Integrator::static_equilibrium && RotationStabilisation::applies(model))
-    return "static equilibria of frame hexahedra carry the rotation stabilisation (mechanics/rotation_stabilisation.hpp), which runs on the CPU";
-  if (settings.newton.linear.method == LinearMethod::cholmod)
-    return "the linear method is cholmod (a direct solve), which runs on the CPU";
   return {};
 }
 
-// Why the dense factor the settings' pcg asks for does not fit (empty where it fits or is not asked
+// Why the dense factor the settings ask for does not fit (empty where it fits or is not asked
 // for): the device keeps it where DeviceProblem::factorises(linear) and this is empty.
 std::string dense_refusal(const Model& model, const LinearSettings& linear) {
   return DeviceProblem::factorises(linear) ? DeviceCholesky::refusal(model.dof_count(), model.pair_count()) : std::string();
+}
+
+// Why the whole step does not run on the device, the dense factor included: the cholmod method
+// needs the factor (pcg falls back to block Jacobi without it).
+std::string device_step_refusal(const Model& model, const SimulationSettings& settings) {
+  std::string why = whole_step_refusal(model, settings);
+  if (why.empty() && settings.newton.linear.method == LinearMethod::cholmod) {
+    why = dense_refusal(model, settings.newton.linear);
+    if (!why.empty()) why = "the linear method is cholmod (a factorisation per Newton iteration), and " + why;
+  }
+  return why;
 }
 
 }  // namespace
@@ -139,7 +145,7 @@ std::string dense_refusal(const Model& model, const LinearSettings& linear) {
 StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
   return [options](const Model& model, const ExternalLoads& loads, const SimulationSettings& settings,
                    std::string& why) -> std::unique_ptr<StepBackend> {
-    why = whole_step_refusal(model, settings);
+    why = device_step_refusal(model, settings);
     if (!why.empty()) return nullptr;
     // Where the dense factor does not fit, pcg is preconditioned by block Jacobi.
     const LinearSettings& linear = settings.newton.linear;
@@ -153,7 +159,7 @@ std::string device_run_refusal(const Model& model, const SimulationSettings& set
   DeviceRun run;
   const LinearSettings& linear = settings.newton.linear;
   run.factorised =
-      whole_step_refusal(model, settings).empty() && DeviceProblem::factorises(linear) && dense_refusal(model, linear).empty();
+      device_step_refusal(model, settings).empty() && DeviceProblem::factorises(linear) && dense_refusal(model, linear).empty();
   run.sample_rows = sample_rows;
   size_t free = 0, total = 0;
   FASCIA_CUDA(cudaMemGetInfo(&free, &total));

@@ -2,6 +2,7 @@
 
 #include "core/bytes_text.hpp"
 #include "device_cholesky.hpp"
+#include "mechanics/rotation_stabilisation.hpp"
 
 #include <atomic>
 #include <sstream>
@@ -17,6 +18,7 @@ constexpr double kElasticPair = 100, kElasticSample = 1000, kElasticFrame = 200;
 constexpr double kElasticFixed = 256 * 1024;  // its reductions' partials and grids
 constexpr double kStepFrame = 2048;      // DevicePotential, DeviceFrames, the solver's vectors
 constexpr double kShellTriangle = 4096;  // DeviceShells: rest data, the 18 x 18 Hessian, values
+constexpr double kStabilisedSample = 12 * 1536;  // DeviceStabilisation: 12 edges (12 x 12 Hessian, values)
 constexpr double kColumnPair = 432;      // the factorised step: a pair's material columns (k_pair_columns)
 constexpr double kBlockTerm = 8;         // a block contribution: a pair of a sample's frames
 constexpr double kBlockFrame = 10240;    // the block pattern and its 6 x 6 blocks (tens per frame)
@@ -24,8 +26,8 @@ constexpr double kFieldsPair = 70, kFieldsSample = 60, kFieldsFrame = 100;  // D
 constexpr double kFieldsFixed = 64 * 1024;
 
 struct Parts {
-  double elasticity = 0, step = 0, shells = 0, factor = 0, fields = 0;
-  double total() const { return elasticity + step + shells + factor + fields; }
+  double elasticity = 0, step = 0, shells = 0, stabilisation = 0, factor = 0, fields = 0;
+  double total() const { return elasticity + step + shells + stabilisation + factor + fields; }
 };
 
 Parts estimate_parts(const Model& model, const DeviceRun& run) {
@@ -36,6 +38,11 @@ Parts estimate_parts(const Model& model, const DeviceRun& run) {
   if (S > 0) parts.elasticity = kElasticPair * P + kElasticSample * S + kElasticFrame * N + kElasticFixed;
   parts.step = kStepFrame * N;
   parts.shells = kShellTriangle * triangles;
+  if (RotationStabilisation::applies(model)) {
+    double stabilised = 0;  // at most 12 edges each, shared edges counted once per sample
+    for (std::uint8_t f : model.samples.rotation_stabilised) stabilised += f != 0;
+    parts.stabilisation = kStabilisedSample * stabilised;
+  }
   if (run.factorised) {
     // Each sample adds a term to the block of every pair of its frames: k_s^2 terms.
     double terms = 0;
@@ -71,6 +78,7 @@ std::string device_memory_refusal(const Model& model, const DeviceRun& run, doub
       << model.pair_count() << " sample-frame pairs)";
   if (parts.factor > 0) why << ", the dense factor of " << model.dof_count() << " DOFs " << bytes_text(parts.factor);
   if (parts.shells > 0) why << ", the shells " << bytes_text(parts.shells);
+  if (parts.stabilisation > 0) why << ", the rotation stabilisation " << bytes_text(parts.stabilisation);
   if (parts.fields > 0) why << ", the rows' sample fields " << bytes_text(parts.fields);
   why << "; coarsen the discretisation (sample_spacing, frame_spacing) or use a device with more memory";
   return why.str();

@@ -3,6 +3,7 @@
 #include "device_buffers.cuh"
 #include "device_rigid.hpp"
 #include "device_shell.hpp"
+#include "device_stabilisation.hpp"
 #include "device_vector.cuh"
 #include "mechanics/frame_inertia.hpp"
 #include "mechanics/frame_loads.hpp"
@@ -242,7 +243,12 @@ struct PotentialStream {
 
 struct DevicePotential::Impl {
   Impl(const Model& model, const ExternalLoads& loads, const DeviceOptions& options)
-      : device(model, options), elasticity(device.elasticity.get()), ops(device.stream), mapping(model), shells(model) {
+      : device(model, options),
+        elasticity(device.elasticity.get()),
+        ops(device.stream),
+        mapping(model),
+        shells(model),
+        stabilisation(model) {
     const int n = model.frame_count();
     stream = ops.stream();
     const FrameLoads frame_loads(model, loads);
@@ -290,6 +296,7 @@ struct DevicePotential::Impl {
       ops.fill(g, 0.0, dofs);
     }
     w += shells.add_gradient(s.positions(), s.orientations(), g, ops);
+    if (equilibrium) w += stabilisation.add_gradient(s.orientations(), g, ops);
     k_frame_terms<<<kReduceBlocks, kReduceThreads, 0, stream>>>(terms, s.positions(), s.orientations(), g,
                                                               ops.partials());
     check();
@@ -302,8 +309,11 @@ struct DevicePotential::Impl {
   VectorOps ops;
   DeviceRigidMapping mapping;
   DeviceShells shells;
+  DeviceStabilisation stabilisation;  // carried by static equilibria (set_equilibrium)
   cudaStream_t stream = nullptr;
   bool dynamic = false;
+  bool equilibrium = false;  // Phi carries the stabilisation
+  bool stabilised = false;   // the prepared Hessian carries it
   bool preconditioned = false;  // minv holds the block-Jacobi inverse of the last prepare_hessian
   FrameTerms terms{};
   DeviceBuffer<double> load_f, load_C, masses, inertia0, inertia, start_x, start_q, start_v, diag, minv, scratch, blocks;
@@ -329,13 +339,20 @@ void DevicePotential::set_load_scale(double scale) { m_impl->terms.scale = scale
 
 void DevicePotential::set_static() {
   m_impl->dynamic = false;
+  m_impl->equilibrium = false;
   m_impl->terms.start_x = nullptr;
+}
+
+void DevicePotential::set_equilibrium() {
+  set_static();
+  m_impl->equilibrium = !m_impl->stabilisation.empty();
 }
 
 void DevicePotential::set_dynamic(const State& start, double dt, double rayleigh_mass) {
   Impl& m = *m_impl;
   const int n = m_model.frame_count();
   m.dynamic = true;
+  m.equilibrium = false;
   m.start_x.upload(start.positions);
   m.start_q.upload(start.orientations);
   std::vector<double> v = start.velocities;
@@ -371,7 +388,8 @@ double DevicePotential::elastic_energy(const DeviceFrames& q) {
 
 double DevicePotential::value(const DeviceFrames& q) {
   Impl& m = *m_impl;
-  const double w = elastic_energy(q);
+  double w = elastic_energy(q);
+  if (m.equilibrium) w += m.stabilisation.energy(q.orientations(), m.ops);
   k_frame_terms<<<kReduceBlocks, kReduceThreads, 0, m.stream>>>(m.terms, q.positions(), q.orientations(), nullptr,
                                                                 m.ops.partials());
   check();
@@ -401,6 +419,8 @@ void DevicePotential::prepare_hessian(const DeviceFrames& q, bool preconditioner
     m.elasticity->prepare(preconditioner);
   }
   m.shells.prepare(q.positions(), q.orientations(), m.stream);
+  m.stabilised = m.equilibrium;
+  if (m.stabilised) m.stabilisation.prepare(q.orientations(), m.stream);
   k_frame_diagonal<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(m.terms, q.orientations(), m.diag.data());
   check();
   m.preconditioned = preconditioner;
@@ -409,6 +429,7 @@ void DevicePotential::prepare_hessian(const DeviceFrames& q, bool preconditioner
       n, m.elasticity ? m.elasticity->diagonal_blocks_on_device() : nullptr, m.diag.data(), m.blocks.data());
   check();
   m.shells.add_diagonal_blocks(m.blocks.data(), m.stream);
+  if (m.stabilised) m.stabilisation.add_diagonal_blocks(m.blocks.data(), m.stream);
   m.mapping.reduce_diagonal_blocks(m.blocks.data(), m.stream);
   k_block_jacobi<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.blocks.data(), m.fixed.data(), m.minv.data());
   check();
@@ -430,6 +451,7 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
     check();
   }
   m.shells.add_tangent(d, out, m.stream);
+  if (m.stabilised) m.stabilisation.add_tangent(d, out, m.stream);
   m.mapping.reduce_product(d_reduced, out, m.stream);
 }
 
@@ -440,6 +462,7 @@ void DevicePotential::set_tangent_blocks(const std::vector<int>& block_offsets, 
   m.diagonal_blocks.upload(diagonal_blocks);
   if (m.elasticity) m.elasticity->set_tangent_blocks(block_offsets, block_frames, diagonal_blocks);
   m.shells.set_tangent_blocks(block_offsets, block_frames);
+  m.stabilisation.set_tangent_blocks(block_offsets, block_frames);
 }
 
 void DevicePotential::tangent_blocks(double* blocks) {
@@ -450,6 +473,7 @@ void DevicePotential::tangent_blocks(double* blocks) {
   else
     m.ops.fill(blocks, 0.0, 36 * m.block_count);
   m.shells.add_tangent_blocks(blocks, m.stream);
+  if (m.stabilised) m.stabilisation.add_tangent_blocks(blocks, m.stream);
   k_add_frame_blocks<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.diagonal_blocks.data(), m.diag.data(), blocks);
   check();
 }

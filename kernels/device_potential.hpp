@@ -1,5 +1,6 @@
 // The step potential of engine/integrate/step_potential.hpp held and evaluated on the device: the
-// volumetric elasticity (DeviceElasticity), the shells (device_shell.hpp), inertia and Rayleigh
+// volumetric elasticity (DeviceElasticity), the shells (device_shell.hpp), in static equilibria
+// the rotation stabilisation of frame hexahedra (device_stabilisation.hpp), inertia and Rayleigh
 // mass damping (mechanics/frame_inertia.hpp) and the external loads (mechanics/frame_loads.hpp),
 // summed into one value, gradient [N][6], Hessian product and block-Jacobi preconditioner over
 // device arrays, reduced by the rigid mapping of frames attached to rigid bodies (device_rigid.hpp) as
@@ -46,6 +47,9 @@ class DevicePotential {
   // Load factor s of every load (ExternalLoads::scale is ignored: set it here).
   void set_load_scale(double scale);
   void set_static();
+  // Static equilibrium solve: set_static() plus the rotation stabilisation (StepPotential::
+  // set_equilibrium).
+  void set_equilibrium();
   // Backward Euler from `start` (positions, orientations, velocities), Rayleigh mass damping alpha.
   void set_dynamic(const State& start, double dt, double rayleigh_mass);
 

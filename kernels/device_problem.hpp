@@ -1,10 +1,13 @@
 // The device potential (device_potential.hpp) as a problem of the one Newton solver
 // (engine/solve/newton.hpp): device vectors and states, the linear solve by the one PCG
 // (engine/solve/pcg.hpp) with the device Hessian product, preconditioned by block Jacobi or by the
-// kept factorisation of engine/solve/factorised_solve.hpp, the device Cholesky factor
-// (device_cholesky.hpp). The
-// same algorithm, settings and stopping rules as the CPU engine (solve/newton.cpp,
-// HostPotentialProblem); the host reads only the scalars that steer the iterations.
+// factorisation of engine/solve/factorised_solve.hpp, the device Cholesky factor
+// (device_cholesky.hpp): kept across solves (pcg with the cholmod preconditioner), or computed
+// for each solve (the cholmod method: a factorisation per Newton iteration, as the CPU's direct
+// solve, with PCG on that factor taking the solve to the linear tolerance, since the factor's
+// inverse is applied in float). The same algorithm, settings and stopping rules as the CPU engine
+// (solve/newton.cpp, HostPotentialProblem); the host reads only the scalars that steer the
+// iterations.
 #pragma once
 
 #include "device_cholesky.hpp"
@@ -25,12 +28,12 @@ class DeviceProblem {
   using Vector = DeviceVector;
   using State = DeviceFrames;
 
-  // @param linear      the settings Newton solves with (NewtonSettings::linear): the direct
-  //                    cholmod method is refused (it runs on the CPU)
-  // @param factor      the device factor for the cholmod preconditioner, kept by the caller
-  //                    between problems with its state `kept` (solve/kept_factorisation.hpp);
-  //                    null: pcg is preconditioned by block Jacobi whatever
-  //                    LinearSettings::preconditioner says.
+  // @param linear      the settings Newton solves with (NewtonSettings::linear)
+  // @param factor      the device factor for the cholmod method and preconditioner, kept by the
+  //                    caller between problems with its state `kept`
+  //                    (solve/kept_factorisation.hpp); null: pcg is preconditioned by block Jacobi
+  //                    whatever LinearSettings::preconditioner says, and the cholmod method is
+  //                    refused.
   // @param factorising called with the iterate before each factorisation (may be empty)
   DeviceProblem(DevicePotential& potential, const LinearSettings& linear, DeviceCholesky* factor, KeptFactorisation& kept,
                 std::function<void(const DeviceFrames&)> factorising = {})
@@ -39,13 +42,15 @@ class DeviceProblem {
         m_factor(factor),
         m_kept(kept),
         m_factorising(std::move(factorising)) {
-    if (linear.method == LinearMethod::cholmod)
-      throw std::invalid_argument("the device step solves with cg or pcg, not the direct cholmod");
+    if (linear.method == LinearMethod::cholmod && !factor)
+      throw std::invalid_argument("the device step's cholmod method needs the device factor");
   }
 
-  // Whether the settings want the kept factorisation of H.
+  // Whether the settings want a factorisation of H: the cholmod method, or pcg with the cholmod
+  // preconditioner.
   static bool factorises(const LinearSettings& linear) {
-    return linear.method == LinearMethod::pcg && linear.preconditioner == Preconditioner::cholmod;
+    return linear.method == LinearMethod::cholmod ||
+           (linear.method == LinearMethod::pcg && linear.preconditioner == Preconditioner::cholmod);
   }
 
   const Ops& ops() const { return m_ops; }
@@ -79,6 +84,7 @@ class DeviceProblem {
           return fascia::stops_paying(k, iterations, problem.m_factor->cost());
         }
       } kept{*this, q};
+      if (linear.method == LinearMethod::cholmod) m_kept.stale = true;  // a factorisation per solve
       return pcg_with_kept_factorisation(m_ops, apply, kept, m_kept, linear, rhs, d);
     }
     const PcgSettings pcg_settings = fascia::pcg_settings(linear);

@@ -22,11 +22,13 @@
 // Gradient and symmetric Hessian of theta -> W(q (+) theta) at theta = 0 are exact: with
 // C = R_i^T R_j, dC[d] = R_i^T [d_j - d_i]x R_j and
 // d2C[d, e] = R_i^T (sym([d_i]x [e_i]x) - [d_i]x [e_j]x - [e_i]x [d_j]x + sym([d_j]x [e_j]x)) R_j.
-// The term involves only the rotations of the edge's two frames.
+// The term involves only the rotations of the edge's two frames; one edge's energy, gradient and
+// Hessian are mechanics/edge_twist.hpp, shared with the CUDA driver.
 // Only samples flagged in model.samples.rotation_stabilised carry it: hexahedral samples whose 8
 // neighbours are the cell's corners in VTK order.
 #pragma once
 
+#include "mechanics/edge_twist.hpp"
 #include "mechanics/force_field.hpp"
 #include "model/model.hpp"
 
@@ -53,13 +55,13 @@ class RotationStabilisation : public ForceField {
 
   // Whether the model has samples that carry the term (and free rotations).
   static bool applies(const Model& model);
-  int edge_count() const { return static_cast<int>(m_stiffness.size()); }
+  int edge_count() const { return static_cast<int>(m_edges.size()); }
+  // The edges, i < j, each once, with k_e = the sum over the edge's samples of kappa mu v / 12 (J).
+  const std::vector<EdgeTwist>& edges() const { return m_edges; }
 
  private:
-  std::vector<int> m_edges;          // [E][2] frames i, j
-  std::vector<double> m_directions;  // [E][3] rest unit direction e_ij
-  std::vector<double> m_stiffness;   // [E] k_e = sum over the edge's samples of kappa mu v / 12, J
-  std::vector<double> m_hessians;    // [E][6][6] prepared: rows/cols (dr_i, dr_j)
+  std::vector<EdgeTwist> m_edges;
+  std::vector<double> m_hessians;  // [E][6][6] prepared: rows/cols (dr_i, dr_j)
 };
 
 }  // namespace fascia

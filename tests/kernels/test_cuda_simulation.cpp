@@ -159,10 +159,11 @@ TEST_CASE("a CUDA run restored from its checkpoint continues bit for bit", "[gpu
   // is fixed (no atomics).
   const Integrator integrator = GENERATE(Integrator::backward_euler, Integrator::static_equilibrium);
   const Preconditioner preconditioner = GENERATE(Preconditioner::cholmod, Preconditioner::block_jacobi);
-  INFO(to_string(integrator) << ", pcg + " << to_string(preconditioner));
-  // Tetrahedra: static solves of frame hexahedra carry the rotation stabilisation, which runs on
-  // the CPU engine.
-  Model model = small_box_model(CellType::tetrahedron, MaterialLaw::neo_hookean, 4, 3, 2);
+  // Hexahedra: static solves carry the rotation stabilisation (device_stabilisation.hpp).
+  const CellType cells = GENERATE(CellType::tetrahedron, CellType::hexahedron);
+  const char* cell_name = cells == CellType::tetrahedron ? "tetrahedra" : "hexahedra";
+  INFO(to_string(integrator) << ", pcg + " << to_string(preconditioner) << ", " << cell_name);
+  Model model = small_box_model(cells, MaterialLaw::neo_hookean, 4, 3, 2);
   fix_frames(model, [](double x, double, double) { return x < 1e-9; });
   SimulationSettings settings;
   settings.integrator = integrator;
@@ -188,8 +189,8 @@ TEST_CASE("a CUDA run restored from its checkpoint continues bit for bit", "[gpu
     CHECK(c.resumed.orientations == c.full.orientations);
     CHECK(c.resumed.velocities == c.full.velocities);
   }
-  std::printf("[resume %s, pcg + %s] factorisation held at %d of 4 restore steps\n", to_string(integrator),
-              to_string(preconditioner), held);
+  std::printf("[resume %s, pcg + %s, %s] factorisation held at %d of 4 restore steps\n", to_string(integrator),
+              to_string(preconditioner), cell_name, held);
   if (preconditioner == Preconditioner::block_jacobi) CHECK(held == 0);
   if (preconditioner == Preconditioner::cholmod && integrator == Integrator::backward_euler) CHECK(held > 0);
 }

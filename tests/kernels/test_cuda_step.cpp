@@ -21,6 +21,7 @@
 #include "dsl/build_scene.hpp"
 #include "dsl/scene_spec.hpp"
 #include "mechanics/rigid_mapping.hpp"
+#include "mechanics/rotation_stabilisation.hpp"
 #include "model/assembly.hpp"
 #include "solve/block_jacobi.hpp"
 #include "solve/sparse_cholesky.hpp"
@@ -59,18 +60,23 @@ ExternalLoads all_loads(const Model& model) {
 }
 
 // The models of the comparisons: every force field and the rigid mapping.
-enum class Kind { tissue, rigid, coupled };
-const char* to_string(Kind k) { return k == Kind::tissue ? "tissue" : k == Kind::rigid ? "rigid" : "coupled"; }
+enum class Kind { tissue, rigid, coupled, hexahedra };
+const char* to_string(Kind k) {
+  return k == Kind::tissue ? "tissue" : k == Kind::rigid ? "rigid" : k == Kind::coupled ? "coupled" : "hexahedra";
+}
 
 // tissue: a tetrahedral block clamped at x = 0; rigid: the same with its bottom frames attached to
 // a free rigid plate under it (the mapped frames of device_rigid.hpp); coupled: a block with a
 // shell on its top face sharing its top frames, standing on a fixed rigid plate
-// (support/coupling_fixtures.hpp).
+// (support/coupling_fixtures.hpp); hexahedra: a block of frame hexahedra clamped at x = 0, whose
+// static equilibria carry the rotation stabilisation (device_stabilisation.hpp).
 Model test_model(Kind kind) {
   if (kind == Kind::coupled) return coupled_model(CellType::tetrahedron, true);
-  if (kind == Kind::tissue) {
-    Model model = small_box_model(CellType::tetrahedron, MaterialLaw::neo_hookean, 3, 2, 2);
+  if (kind == Kind::tissue || kind == Kind::hexahedra) {
+    const CellType cells = kind == Kind::tissue ? CellType::tetrahedron : CellType::hexahedron;
+    Model model = small_box_model(cells, MaterialLaw::neo_hookean, 3, 2, 2);
     fix_frames(model, [](double x, double, double) { return x < 1e-9; });
+    REQUIRE(RotationStabilisation::applies(model) == (kind == Kind::hexahedra));
     return model;
   }
   ModelBuilder builder;
@@ -106,11 +112,11 @@ double relative_difference(const std::vector<double>& a, const std::vector<doubl
 }
 
 // Both potentials set alike: a backward-Euler step of 10 ms (Rayleigh mass 0.8) from a random
-// start, or static.
+// start, or a static equilibrium (with the rotation stabilisation of frame hexahedra).
 void set_step(const Model& model, StepPotential& cpu, DevicePotential& dev, bool dynamic) {
   if (!dynamic) {
-    cpu.set_static();
-    dev.set_static();
+    cpu.set_equilibrium();
+    dev.set_equilibrium();
     return;
   }
   const State start = random_state(model, 7, 0.002, 0.2, 0.4);
@@ -122,7 +128,7 @@ void set_step(const Model& model, StepPotential& cpu, DevicePotential& dev, bool
 
 TEST_CASE("device potential equals StepPotential: value, gradient, Hessian product, preconditioner", "[gpu]") {
   const bool dynamic = GENERATE(false, true);
-  const Kind kind = GENERATE(Kind::tissue, Kind::rigid, Kind::coupled);
+  const Kind kind = GENERATE(Kind::tissue, Kind::rigid, Kind::coupled, Kind::hexahedra);
   const Model model = test_model(kind);
   ExternalLoads loads = all_loads(model);
   const double load_scale = 0.7;
@@ -141,8 +147,8 @@ TEST_CASE("device potential equals StepPotential: value, gradient, Hessian produ
     cpu.set_dynamic(start_v, dt, alpha, 0.0);
     dev.set_dynamic(start_v, dt, alpha);
   } else {
-    cpu.set_static();
-    dev.set_static();
+    cpu.set_equilibrium();
+    dev.set_equilibrium();
   }
   const size_t n = static_cast<size_t>(model.dof_count());
   DeviceFrames q = dev.make_state();
@@ -195,7 +201,7 @@ TEST_CASE("device potential equals StepPotential: value, gradient, Hessian produ
 }
 
 TEST_CASE("device tangent blocks equal the CPU's assembled step tangent between frames that are not bodies", "[gpu]") {
-  const Kind kind = GENERATE(Kind::tissue, Kind::rigid, Kind::coupled);
+  const Kind kind = GENERATE(Kind::tissue, Kind::rigid, Kind::coupled, Kind::hexahedra);
   const bool dynamic = GENERATE(false, true);
   const Model model = test_model(kind);
   const ExternalLoads loads = all_loads(model);
@@ -359,10 +365,10 @@ TEST_CASE("the benchmark step on the device equals the CPU engine's one-iteratio
 
 TEST_CASE("whole step on the device equals the CPU engine on a tissue block", "[gpu]") {
   const Integrator integrator = GENERATE(Integrator::backward_euler, Integrator::static_equilibrium);
-  // cg, pcg with block Jacobi, pcg with the kept factorisation.
-  const int solver = GENERATE(0, 1, 2);
-  const LinearMethod method = solver == 0 ? LinearMethod::cg : LinearMethod::pcg;
-  const Kind kind = GENERATE(Kind::tissue, Kind::rigid, Kind::coupled);
+  // cg, pcg with block Jacobi, pcg with the kept factorisation, a factorisation per Newton iteration.
+  const int solver = GENERATE(0, 1, 2, 3);
+  const LinearMethod method = solver == 0 ? LinearMethod::cg : solver == 3 ? LinearMethod::cholmod : LinearMethod::pcg;
+  const Kind kind = GENERATE(Kind::tissue, Kind::rigid, Kind::coupled, Kind::hexahedra);
   const Model model = test_model(kind);
   SimulationSettings s;
   s.integrator = integrator;
