@@ -12,8 +12,9 @@ namespace {
 
 class CudaStep final : public StepBackend {
  public:
-  CudaStep(const Model& model, const ExternalLoads& loads, const DeviceOptions& options, bool factorise)
-      : m_potential(model, loads, options), m_state(m_potential.make_state()) {
+  CudaStep(const Model& model, const ExternalLoads& loads, const DeviceOptions& options, double rayleigh_stiffness,
+           bool factorise)
+      : m_potential(model, loads, options, rayleigh_stiffness), m_state(m_potential.make_state()) {
     if (factorise) m_factor = std::make_unique<DeviceCholesky>(m_potential);
   }
 
@@ -114,30 +115,25 @@ class CudaStep final : public StepBackend {
   TangentOrigin m_origin;
 };
 
-// Why the whole step does not run on the device for model and settings; empty when it does.
-std::string whole_step_refusal(const Model& model, const SimulationSettings& settings) {
-  if (settings.integrator == Integrator::variational) return "the variational integrator runs on the CPU engine";
-  std::string why =
-      device_potential_refusal(model, settings.integrator == Integrator::backward_euler ? settings.rayleigh_stiffness : 0.0);
-  if (!why.empty()) return why;
-  return {};
-}
-
 // Why the dense factor the settings ask for does not fit (empty where it fits or is not asked
 // for): the device keeps it where DeviceProblem::factorises(linear) and this is empty.
 std::string dense_refusal(const Model& model, const LinearSettings& linear) {
   return DeviceProblem::factorises(linear) ? DeviceCholesky::refusal(model.dof_count(), model.pair_count()) : std::string();
 }
 
-// Why the whole step does not run on the device, the dense factor included: the cholmod method
-// needs the factor (pcg falls back to block Jacobi without it).
+// Why the whole step does not run on the device for model and settings (empty when it does): the
+// variational integrator, or the cholmod method without room for the dense factor (pcg falls
+// back to block Jacobi without it).
 std::string device_step_refusal(const Model& model, const SimulationSettings& settings) {
-  std::string why = whole_step_refusal(model, settings);
-  if (why.empty() && settings.newton.linear.method == LinearMethod::cholmod) {
-    why = dense_refusal(model, settings.newton.linear);
-    if (!why.empty()) why = "the linear method is cholmod (a factorisation per Newton iteration), and " + why;
-  }
-  return why;
+  if (settings.integrator == Integrator::variational) return "the variational integrator runs on the CPU engine";
+  if (settings.newton.linear.method != LinearMethod::cholmod) return {};
+  const std::string why = dense_refusal(model, settings.newton.linear);
+  return why.empty() ? why : "the linear method is cholmod (a factorisation per Newton iteration), and " + why;
+}
+
+// Stiffness-proportional damping acts in backward-Euler steps only (StepPotential::set_dynamic).
+double damping(const SimulationSettings& settings) {
+  return settings.integrator == Integrator::backward_euler ? settings.rayleigh_stiffness : 0.0;
 }
 
 }  // namespace
@@ -151,7 +147,8 @@ StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
     const LinearSettings& linear = settings.newton.linear;
     const std::string dense = dense_refusal(model, linear);
     if (!dense.empty()) std::cerr << "fascia: note: the device preconditions pcg by block Jacobi: " << dense << "\n";
-    return std::make_unique<CudaStep>(model, loads, options, DeviceProblem::factorises(linear) && dense.empty());
+    return std::make_unique<CudaStep>(model, loads, options, damping(settings),
+                                      DeviceProblem::factorises(linear) && dense.empty());
   };
 }
 
@@ -160,6 +157,7 @@ std::string device_run_refusal(const Model& model, const SimulationSettings& set
   const LinearSettings& linear = settings.newton.linear;
   run.factorised =
       device_step_refusal(model, settings).empty() && DeviceProblem::factorises(linear) && dense_refusal(model, linear).empty();
+  run.start_tangent = damping(settings) > 0;
   run.sample_rows = sample_rows;
   size_t free = 0, total = 0;
   FASCIA_CUDA(cudaMemGetInfo(&free, &total));

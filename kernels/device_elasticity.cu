@@ -113,13 +113,17 @@ namespace {
 template <class R>
 class System final : public DeviceElasticity::Impl {
  public:
-  System(const Model& input, const DeviceOptions& opts) {
+  System(const Model& input, const DeviceOptions& opts, cudaStream_t shared) {
     options = opts;
     validate(input);
     if (!offsets_are_rest_differences(input))
       throw std::invalid_argument(
           "DeviceElasticity: the model's rest offsets are not p_s - x_i (eq. 2 with rest orientation I)");
-    FASCIA_CUDA(cudaStreamCreateWithFlags(&m_stream, cudaStreamNonBlocking));
+    m_own_stream = shared == nullptr;
+    if (m_own_stream)
+      FASCIA_CUDA(cudaStreamCreateWithFlags(&m_stream, cudaStreamNonBlocking));
+    else
+      m_stream = shared;
     FASCIA_CUDA(cudaEventCreate(&m_start));
     FASCIA_CUDA(cudaEventCreate(&m_stop));
     // Samples in Morton order; in group order from it where the model allows the grouped pass,
@@ -283,7 +287,7 @@ class System final : public DeviceElasticity::Impl {
   ~System() override {
     cudaEventDestroy(m_start);
     cudaEventDestroy(m_stop);
-    cudaStreamDestroy(m_stream);
+    if (m_own_stream) cudaStreamDestroy(m_stream);
   }
 
   void set_state(const State& state) override {
@@ -679,6 +683,7 @@ class System final : public DeviceElasticity::Impl {
   size_t m_shared_bytes = 0, m_ell_bytes = 0;
   Origin m_origin{};
   cudaStream_t m_stream = nullptr;
+  bool m_own_stream = true;  // created here (else another object's stream, shared)
   cudaEvent_t m_start = nullptr, m_stop = nullptr;
   ModelView<R> m_view;
   ModelView<R> m_group_view;  // the grouped pass's: m_view with its blocks of groups and their slots
@@ -721,11 +726,12 @@ class System final : public DeviceElasticity::Impl {
 
 // ---- public classes ------------------------------------------------------------------------------
 
-DeviceElasticity::DeviceElasticity(const Model& model, const DeviceOptions& options) {
+DeviceElasticity::DeviceElasticity(const Model& model, const DeviceOptions& options, void* stream) {
+  const auto shared = static_cast<cudaStream_t>(stream);
   if (options.precision == Precision::double_precision)
-    m_impl = std::make_unique<System<double>>(model, options);
+    m_impl = std::make_unique<System<double>>(model, options, shared);
   else
-    m_impl = std::make_unique<System<float>>(model, options);
+    m_impl = std::make_unique<System<float>>(model, options, shared);
 }
 DeviceElasticity::~DeviceElasticity() = default;
 

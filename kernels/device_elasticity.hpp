@@ -60,7 +60,8 @@ struct LaunchGrids {
 // The model uploaded once to the device; the state is uploaded with set_state and stays there.
 class DeviceElasticity {
  public:
-  explicit DeviceElasticity(const Model& model, const DeviceOptions& options = {});
+  // stream: a cudaStream_t to enqueue on, which must outlive this object (null: its own).
+  explicit DeviceElasticity(const Model& model, const DeviceOptions& options = {}, void* stream = nullptr);
   ~DeviceElasticity();
   DeviceElasticity(const DeviceElasticity&) = delete;
   DeviceElasticity& operator=(const DeviceElasticity&) = delete;

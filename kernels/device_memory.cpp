@@ -36,6 +36,8 @@ Parts estimate_parts(const Model& model, const DeviceRun& run) {
   for (const Shell& shell : model.shells) triangles += static_cast<double>(shell.triangles.size()) / 3;
   Parts parts;
   if (S > 0) parts.elasticity = kElasticPair * P + kElasticSample * S + kElasticFrame * N + kElasticFixed;
+  const double elasticities = run.start_tangent ? 2 : 1;  // K(q_n) of stiffness-proportional damping
+  parts.elasticity *= elasticities;
   parts.step = kStepFrame * N;
   parts.shells = kShellTriangle * triangles;
   if (RotationStabilisation::applies(model)) {
@@ -52,7 +54,7 @@ Parts estimate_parts(const Model& model, const DeviceRun& run) {
       terms += k * k;
     }
     const double n = model.dof_count();
-    parts.factor = kColumnPair * P + kBlockTerm * terms + kBlockFrame * N +
+    parts.factor = elasticities * (kColumnPair * P + kBlockTerm * terms + kBlockFrame * N) +
                    DeviceCholesky::dense_bytes(static_cast<long long>(n));
   }
   if (run.sample_rows && S > 0) parts.fields = kFieldsPair * P + kFieldsSample * S + kFieldsFrame * N + kFieldsFixed;
@@ -75,7 +77,8 @@ std::string device_memory_refusal(const Model& model, const DeviceRun& run, doub
   why << "the model needs about " << bytes_text(parts.total()) << " of device memory, "
       << bytes_text(free) << " are free (of " << bytes_text(total)
       << "): the elasticity " << bytes_text(parts.elasticity) << " (" << model.sample_count() << " samples, "
-      << model.pair_count() << " sample-frame pairs)";
+      << model.pair_count() << " sample-frame pairs" << (run.start_tangent ? ", twice for stiffness-proportional damping" : "")
+      << ")";
   if (parts.factor > 0) why << ", the dense factor of " << model.dof_count() << " DOFs " << bytes_text(parts.factor);
   if (parts.shells > 0) why << ", the shells " << bytes_text(parts.shells);
   if (parts.stabilisation > 0) why << ", the rotation stabilisation " << bytes_text(parts.stabilisation);

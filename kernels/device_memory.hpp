@@ -25,6 +25,7 @@ void count_device_buffer_bytes(long long delta);
 struct DeviceRun {
   bool factorised = false;
   bool sample_rows = false;
+  bool start_tangent = false;  // stiffness-proportional damping: a second elasticity, K(q_n)
 };
 
 // Estimated device bytes of `run` for `model` (host-side figures only), in double storage: single

@@ -36,6 +36,8 @@ struct FrameTerms {
   const double* masses;   // [N]
   const double* inertia;  // [N][9] world inertia at the step start
   double h, alpha;
+  double beta;            // stiffness-proportional damping (s), with kd
+  const double* kd;       // [N][6] K(q_n) Delta, null: no stiffness-proportional damping
 };
 
 __global__ void k_frame_terms(FrameTerms t, const double* x, const double* q, double* g, double* partials) {
@@ -53,9 +55,9 @@ __global__ void k_frame_terms(FrameTerms t, const double* x, const double* q, do
     if (t.start_x) {
       const Vec3 zero{0, 0, 0};
       const FrameIncrement d = frame_increment(xi, qi, load3(t.start_x + 3 * i), load_quat(t.start_q + 4 * i));
-      const FrameInertiaTerm in =
-          frame_inertia_term(t.masses[i], load_mat3_d(t.inertia + 9 * i), d, load3(t.start_v + 6 * i),
-                             load3(t.start_v + 6 * i + 3), t.h, t.alpha, 0.0, zero, zero);
+      const FrameInertiaTerm in = frame_inertia_term(
+          t.masses[i], load_mat3_d(t.inertia + 9 * i), d, load3(t.start_v + 6 * i), load3(t.start_v + 6 * i + 3), t.h,
+          t.alpha, t.kd ? t.beta : 0.0, t.kd ? load3(t.kd + 6 * i) : zero, t.kd ? load3(t.kd + 6 * i + 3) : zero);
       sum[0] += in.value;
       gx += in.gx;
       if (!t.locked) gr += in.gr;
@@ -216,11 +218,6 @@ void check() { FASCIA_CUDA(cudaGetLastError()); }
 
 }  // namespace
 
-std::string device_potential_refusal(const Model&, double rayleigh_stiffness) {
-  if (rayleigh_stiffness != 0) return "stiffness-proportional damping (rayleigh_stiffness) is set";
-  return {};
-}
-
 // The stream of a potential: the elasticity's where the model has samples, else its own.
 struct PotentialStream {
   PotentialStream(const Model& model, const DeviceOptions& options) {
@@ -242,7 +239,7 @@ struct PotentialStream {
 };
 
 struct DevicePotential::Impl {
-  Impl(const Model& model, const ExternalLoads& loads, const DeviceOptions& options)
+  Impl(const Model& model, const ExternalLoads& loads, const DeviceOptions& options, double rayleigh_stiffness)
       : device(model, options),
         elasticity(device.elasticity.get()),
         ops(device.stream),
@@ -281,6 +278,23 @@ struct DevicePotential::Impl {
     terms.inertia = inertia.data();
     terms.start_q = start_q.data();
     terms.start_v = start_v.data();
+    if (rayleigh_stiffness > 0 && elasticity) {
+      beta = rayleigh_stiffness;
+      start_elasticity = std::make_unique<DeviceElasticity>(model, options, stream);
+      kd.resize(6 * static_cast<size_t>(n));
+      damped_product.resize(6 * static_cast<size_t>(n));
+    }
+  }
+
+  // Dynamic steps with stiffness-proportional damping: kd = K(q_n) Delta(q) for the frame terms.
+  bool damped() const { return dynamic && start_elasticity; }
+  void damping_forces(const DeviceFrames& s) {
+    if (!damped()) return;
+    const int n = static_cast<int>(kd.size() / 6);
+    k_increments<<<frame_grid(n), kFrameThreads, 0, stream>>>(n, s.positions(), s.orientations(), start_x.data(),
+                                                               start_q.data(), scratch.data());
+    check();
+    start_elasticity->apply_tangent_on_device(scratch.data(), kd.data());
   }
 
   // Makes the elasticity evaluate s.
@@ -297,6 +311,7 @@ struct DevicePotential::Impl {
     }
     w += shells.add_gradient(s.positions(), s.orientations(), g, ops);
     if (equilibrium) w += stabilisation.add_gradient(s.orientations(), g, ops);
+    damping_forces(s);
     k_frame_terms<<<kReduceBlocks, kReduceThreads, 0, stream>>>(terms, s.positions(), s.orientations(), g,
                                                               ops.partials());
     check();
@@ -314,6 +329,11 @@ struct DevicePotential::Impl {
   bool dynamic = false;
   bool equilibrium = false;  // Phi carries the stabilisation
   bool stabilised = false;   // the prepared Hessian carries it
+  // Stiffness-proportional damping (beta > 0): K(q_n), the elasticity prepared at the step start,
+  // on the same stream; beta / h K(q_n) in the Hessian.
+  double beta = 0;
+  std::unique_ptr<DeviceElasticity> start_elasticity;
+  DeviceBuffer<double> kd, damped_product, start_blocks;  // [N][6], [N][6], the pattern's [B][36]
   bool preconditioned = false;  // minv holds the block-Jacobi inverse of the last prepare_hessian
   FrameTerms terms{};
   DeviceBuffer<double> load_f, load_C, masses, inertia0, inertia, start_x, start_q, start_v, diag, minv, scratch, blocks;
@@ -322,12 +342,9 @@ struct DevicePotential::Impl {
   DeviceBuffer<int> diagonal_blocks;  // [N] each frame's block (a, a) of the tangent block pattern, -1: none
 };
 
-DevicePotential::DevicePotential(const Model& model, const ExternalLoads& loads, const DeviceOptions& options)
-    : m_model(model) {
-  const std::string why = device_potential_refusal(model, 0.0);
-  if (!why.empty()) throw std::invalid_argument("the device step does not cover this model: " + why);
-  m_impl = std::make_unique<Impl>(model, loads, options);
-}
+DevicePotential::DevicePotential(const Model& model, const ExternalLoads& loads, const DeviceOptions& options,
+                                 double rayleigh_stiffness)
+    : m_model(model), m_impl(std::make_unique<Impl>(model, loads, options, rayleigh_stiffness)) {}
 
 DevicePotential::~DevicePotential() = default;
 
@@ -341,6 +358,7 @@ void DevicePotential::set_static() {
   m_impl->dynamic = false;
   m_impl->equilibrium = false;
   m_impl->terms.start_x = nullptr;
+  m_impl->terms.kd = nullptr;
 }
 
 void DevicePotential::set_equilibrium() {
@@ -364,6 +382,12 @@ void DevicePotential::set_dynamic(const State& start, double dt, double rayleigh
   m.terms.start_x = m.start_x.data();
   m.terms.h = dt;
   m.terms.alpha = rayleigh_mass;
+  m.terms.beta = m.beta;
+  m.terms.kd = nullptr;
+  if (!m.start_elasticity) return;
+  m.start_elasticity->set_state(start);
+  m.start_elasticity->prepare();
+  m.terms.kd = m.kd.data();
 }
 
 void DevicePotential::increments(const DeviceFrames& q, double* delta_host) {
@@ -390,6 +414,7 @@ double DevicePotential::value(const DeviceFrames& q) {
   Impl& m = *m_impl;
   double w = elastic_energy(q);
   if (m.equilibrium) w += m.stabilisation.energy(q.orientations(), m.ops);
+  m.damping_forces(q);
   k_frame_terms<<<kReduceBlocks, kReduceThreads, 0, m.stream>>>(m.terms, q.positions(), q.orientations(), nullptr,
                                                                 m.ops.partials());
   check();
@@ -430,6 +455,8 @@ void DevicePotential::prepare_hessian(const DeviceFrames& q, bool preconditioner
   check();
   m.shells.add_diagonal_blocks(m.blocks.data(), m.stream);
   if (m.stabilised) m.stabilisation.add_diagonal_blocks(m.blocks.data(), m.stream);
+  if (m.damped())
+    m.ops.axpy(m.beta / m.terms.h, m.start_elasticity->diagonal_blocks_on_device(), m.blocks.data(), 36LL * n);
   m.mapping.reduce_diagonal_blocks(m.blocks.data(), m.stream);
   k_block_jacobi<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.blocks.data(), m.fixed.data(), m.minv.data());
   check();
@@ -452,6 +479,10 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
   }
   m.shells.add_tangent(d, out, m.stream);
   if (m.stabilised) m.stabilisation.add_tangent(d, out, m.stream);
+  if (m.damped()) {
+    m.start_elasticity->apply_tangent_on_device(d, m.damped_product.data());
+    m.ops.axpy(m.beta / m.terms.h, m.damped_product.data(), out, dofs());
+  }
   m.mapping.reduce_product(d_reduced, out, m.stream);
 }
 
@@ -463,6 +494,10 @@ void DevicePotential::set_tangent_blocks(const std::vector<int>& block_offsets, 
   if (m.elasticity) m.elasticity->set_tangent_blocks(block_offsets, block_frames, diagonal_blocks);
   m.shells.set_tangent_blocks(block_offsets, block_frames);
   m.stabilisation.set_tangent_blocks(block_offsets, block_frames);
+  if (m.start_elasticity) {
+    m.start_elasticity->set_tangent_blocks(block_offsets, block_frames, diagonal_blocks);
+    m.start_blocks.resize(36 * block_frames.size());
+  }
 }
 
 void DevicePotential::tangent_blocks(double* blocks) {
@@ -474,6 +509,10 @@ void DevicePotential::tangent_blocks(double* blocks) {
     m.ops.fill(blocks, 0.0, 36 * m.block_count);
   m.shells.add_tangent_blocks(blocks, m.stream);
   if (m.stabilised) m.stabilisation.add_tangent_blocks(blocks, m.stream);
+  if (m.damped()) {
+    m.start_elasticity->tangent_blocks_on_device(m.start_blocks.data());
+    m.ops.axpy(m.beta / m.terms.h, m.start_blocks.data(), blocks, 36 * m.block_count);
+  }
   k_add_frame_blocks<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.diagonal_blocks.data(), m.diag.data(), blocks);
   check();
 }

@@ -9,8 +9,8 @@
 // The states it evaluates are device states (device_frames.hpp); the host uploads a state and
 // reads one back once per step.
 //
-// Supported: every model, without stiffness-proportional damping (beta = 0);
-// device_potential_refusal says why not otherwise.
+// Supported: every model; stiffness-proportional damping (beta > 0) keeps a second elasticity,
+// prepared at each step's start (twice the elasticity's device memory).
 //
 // Every pointer argument is a device array of doubles of dofs() = 6N entries unless stated.
 #pragma once
@@ -26,13 +26,13 @@
 
 namespace fascia::gpu {
 
-// Empty where the device potential covers the model, else the reason (for the user).
-std::string device_potential_refusal(const Model& model, double rayleigh_stiffness);
-
 class DevicePotential {
  public:
   // Uploads the model and the loads at factor 1 (the model and loads must outlive this object).
-  DevicePotential(const Model& model, const ExternalLoads& loads, const DeviceOptions& options = {});
+  // rayleigh_stiffness: beta (s) of the backward-Euler steps' stiffness-proportional damping,
+  // beta / h K(q_n) in the Hessian and its forces in the frame terms (StepPotential::set_dynamic).
+  DevicePotential(const Model& model, const ExternalLoads& loads, const DeviceOptions& options = {},
+                  double rayleigh_stiffness = 0);
   ~DevicePotential();
   DevicePotential(const DevicePotential&) = delete;
   DevicePotential& operator=(const DevicePotential&) = delete;
@@ -50,7 +50,8 @@ class DevicePotential {
   // Static equilibrium solve: set_static() plus the rotation stabilisation (StepPotential::
   // set_equilibrium).
   void set_equilibrium();
-  // Backward Euler from `start` (positions, orientations, velocities), Rayleigh mass damping alpha.
+  // Backward Euler from `start` (positions, orientations, velocities), Rayleigh mass damping alpha
+  // and the constructor's stiffness-proportional damping (its K(q_n) prepared here).
   void set_dynamic(const State& start, double dt, double rayleigh_mass);
 
   // Delta = [x - x_n, log(R R_n^T)] [N][6] of q w.r.t. the step start, into host memory.

@@ -14,7 +14,7 @@ void add_backend_options(CLI::App& command, BackendOptions& options) {
   command
       .add_option("--backend", options.backend,
                   "cpu | cuda (run: the whole step on the GPU, the scene's linear method and preconditioner included, "
-                  "except with rayleigh_stiffness or the variational integrator; there, and in study, the volumetric "
+                  "except with the variational integrator; there, and in study, the volumetric "
                   "elasticity on the GPU behind the CPU solver; exit 69 without a usable device)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
   command

@@ -111,23 +111,29 @@ double relative_difference(const std::vector<double>& a, const std::vector<doubl
   return den > 0 ? std::sqrt(num / den) : std::sqrt(num);
 }
 
-// Both potentials set alike: a backward-Euler step of 10 ms (Rayleigh mass 0.8) from a random
-// start, or a static equilibrium (with the rotation stabilisation of frame hexahedra).
-void set_step(const Model& model, StepPotential& cpu, DevicePotential& dev, bool dynamic) {
+// Both potentials set alike: a backward-Euler step of 10 ms (Rayleigh mass 0.8, stiffness
+// damping beta: the device potential's) from a random start, or a static equilibrium (with the
+// rotation stabilisation of frame hexahedra).
+void set_step(const Model& model, StepPotential& cpu, DevicePotential& dev, bool dynamic, double beta = 0.0) {
   if (!dynamic) {
     cpu.set_equilibrium();
     dev.set_equilibrium();
     return;
   }
   const State start = random_state(model, 7, 0.002, 0.2, 0.4);
-  cpu.set_dynamic(start, 0.01, 0.8, 0.0);
+  cpu.set_dynamic(start, 0.01, 0.8, beta);
   dev.set_dynamic(start, 0.01, 0.8);
 }
+
+// The step's label in the tests' output: static, dynamic, or dynamic with stiffness damping.
+const char* step_label(bool dynamic, double beta) { return !dynamic ? "static" : beta > 0 ? "damped" : "dynamic"; }
 
 }  // namespace
 
 TEST_CASE("device potential equals StepPotential: value, gradient, Hessian product, preconditioner", "[gpu]") {
   const bool dynamic = GENERATE(false, true);
+  const double beta = GENERATE(0.0, 0.002);  // stiffness-proportional damping (s), dynamic steps only
+  if (!dynamic && beta > 0) return;
   const Kind kind = GENERATE(Kind::tissue, Kind::rigid, Kind::coupled, Kind::hexahedra);
   const Model model = test_model(kind);
   ExternalLoads loads = all_loads(model);
@@ -141,10 +147,10 @@ TEST_CASE("device potential equals StepPotential: value, gradient, Hessian produ
   const double dt = 0.01, alpha = 0.8;
 
   StepPotential cpu(model, loads, 1);
-  DevicePotential dev(model, loads);
+  DevicePotential dev(model, loads, {}, beta);
   dev.set_load_scale(load_scale);
   if (dynamic) {
-    cpu.set_dynamic(start_v, dt, alpha, 0.0);
+    cpu.set_dynamic(start_v, dt, alpha, beta);
     dev.set_dynamic(start_v, dt, alpha);
   } else {
     cpu.set_equilibrium();
@@ -159,7 +165,7 @@ TEST_CASE("device potential equals StepPotential: value, gradient, Hessian produ
   const double phi_cpu = cpu.gradient(state, g_cpu);
   DeviceArray g(n);
   const double phi_dev = dev.gradient(q, g.data);
-  std::printf("[device potential %s %s] value %.17g / %.17g, gradient rel. diff %.2e\n", dynamic ? "dynamic" : "static",
+  std::printf("[device potential %s %s] value %.17g / %.17g, gradient rel. diff %.2e\n", step_label(dynamic, beta),
               to_string(kind), v_cpu, v_dev, relative_difference(g.download(), g_cpu));
   CHECK(std::abs(v_dev - v_cpu) <= 1e-12 * std::abs(v_cpu));
   CHECK(std::abs(phi_dev - phi_cpu) <= 1e-12 * std::abs(phi_cpu));
@@ -175,7 +181,7 @@ TEST_CASE("device potential equals StepPotential: value, gradient, Hessian produ
   dd.upload(d);
   dev.apply(dd.data, hd.data);
   const std::vector<double> hd_dev = hd.download();
-  std::printf("[device potential %s %s] H d rel. diff %.2e\n", dynamic ? "dynamic" : "static", to_string(kind),
+  std::printf("[device potential %s %s] H d rel. diff %.2e\n", step_label(dynamic, beta), to_string(kind),
               relative_difference(hd_dev, hd_cpu));
   CHECK(relative_difference(hd_dev, hd_cpu) <= 1e-12);
 
@@ -195,7 +201,7 @@ TEST_CASE("device potential equals StepPotential: value, gradient, Hessian produ
   std::vector<double> z_dev = z.download();
   for (size_t k = 0; k < n; ++k)
     if (sys.fixed[k]) z_dev[k] = z_cpu[k] = 0;  // PCG projects z (solve/pcg.hpp)
-  std::printf("[device potential %s %s] preconditioner rel. diff %.2e\n", dynamic ? "dynamic" : "static",
+  std::printf("[device potential %s %s] preconditioner rel. diff %.2e\n", step_label(dynamic, beta),
               to_string(kind), relative_difference(z_dev, z_cpu));
   CHECK(relative_difference(z_dev, z_cpu) <= 1e-10);
 }
@@ -203,11 +209,13 @@ TEST_CASE("device potential equals StepPotential: value, gradient, Hessian produ
 TEST_CASE("device tangent blocks equal the CPU's assembled step tangent between frames that are not bodies", "[gpu]") {
   const Kind kind = GENERATE(Kind::tissue, Kind::rigid, Kind::coupled, Kind::hexahedra);
   const bool dynamic = GENERATE(false, true);
+  const double beta = GENERATE(0.0, 0.002);
+  if (!dynamic && beta > 0) return;
   const Model model = test_model(kind);
   const ExternalLoads loads = all_loads(model);
   StepPotential cpu(model, loads, 1);
-  DevicePotential dev(model, loads);
-  set_step(model, cpu, dev, dynamic);
+  DevicePotential dev(model, loads, {}, beta);
+  set_step(model, cpu, dev, dynamic, beta);
   State state = random_state(model, 11, 0.001, 0.1, 0.4);
   RigidMapping(model).sync(state);
   DeviceFrames q = dev.make_state();
@@ -244,7 +252,7 @@ TEST_CASE("device tangent blocks equal the CPU's assembled step tangent between 
     }
   REQUIRE(!a.empty());
   REQUIRE(upper > 0);
-  std::printf("[tangent blocks %s %s] %zu blocks, %zu bodies, rel. diff %.2e\n", dynamic ? "dynamic" : "static",
+  std::printf("[tangent blocks %s %s] %zu blocks, %zu bodies, rel. diff %.2e\n", step_label(dynamic, beta),
               to_string(kind), t.block_frames.size(), t.bodies.size(), relative_difference(a, b));
   CHECK(relative_difference(a, b) <= 1e-12);
 }
@@ -369,11 +377,15 @@ TEST_CASE("whole step on the device equals the CPU engine on a tissue block", "[
   const int solver = GENERATE(0, 1, 2, 3);
   const LinearMethod method = solver == 0 ? LinearMethod::cg : solver == 3 ? LinearMethod::cholmod : LinearMethod::pcg;
   const Kind kind = GENERATE(Kind::tissue, Kind::rigid, Kind::coupled, Kind::hexahedra);
+  // Stiffness-proportional damping (s): backward Euler only.
+  const double beta = GENERATE(0.0, 0.002);
+  if (integrator != Integrator::backward_euler && beta > 0) return;
   const Model model = test_model(kind);
   SimulationSettings s;
   s.integrator = integrator;
   s.dt = 0.01;
   s.rayleigh_mass = 0.5;
+  s.rayleigh_stiffness = beta;
   s.newton.tolerance = 1e-10;
   s.newton.linear.method = method;
   s.newton.linear.preconditioner = solver == 1 ? Preconditioner::block_jacobi : Preconditioner::cholmod;
@@ -384,9 +396,9 @@ TEST_CASE("whole step on the device equals the CPU engine on a tissue block", "[
     Simulation probe(model, all_loads(model), device);
     REQUIRE(probe.on_step_backend());
   }
-  char label[64];
-  std::snprintf(label, sizeof label, "device step %s %s %s %s", to_string(integrator), to_string(method),
-                to_string(s.newton.linear.preconditioner), to_string(kind));
+  char label[80];
+  std::snprintf(label, sizeof label, "device step %s%s %s %s %s", to_string(integrator), beta > 0 ? " damped" : "",
+                to_string(method), to_string(s.newton.linear.preconditioner), to_string(kind));
   CHECK(check_backends_agree(label, model, all_loads(model), s, device, 3) <= 1.0);
 }
 
