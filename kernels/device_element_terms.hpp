@@ -1,7 +1,8 @@
-// The frame-side half of a force field made of small elements on the device (the shells'
-// triangles, device_shell.hpp; the stabilisation's edges, device_stabilisation.hpp): each element
-// couples k frames, 6 DOFs each ([dx, dr] per node), and its driver's kernels store per element
-// its energy, its gradient [6k] or its Hessian [6k][6k] in the buffers here. This class sums
+// The frame-side half of a force field made of small elements on the device, the base of its
+// driver (the shells' triangles, device_shell.hpp; the stabilisation's edges,
+// device_stabilisation.hpp): each element couples k frames, 6 DOFs each ([dx, dr] per node), and
+// the driver's kernels store per element its energy, its gradient [6k] or its Hessian [6k][6k] in
+// the buffers here. This class sums
 // them per frame and per block of the tangent pattern in a fixed order (a frame's (element, node)
 // entries, a block's (element, node, node) terms, in element order), so that results are
 // deterministic without atomics, and multiplies the prepared Hessians by a direction.
@@ -23,15 +24,6 @@ class DeviceElementTerms {
   int count() const { return m_elements; }
   int element_dofs() const { return 6 * m_nodes_per_element; }
 
-  // Per-element buffers for the driver's kernels: energies [T], values [T][6k] (gradients or
-  // products), hessians [T][6k][6k].
-  double* energies() { return m_energies.data(); }
-  double* values() { return m_values.data(); }
-  double* hessians() { return m_hessians.data(); }
-  // The sum of the elements' energies (J), in a fixed order.
-  double energy_sum(const VectorOps& ops);
-  // out [N][6] += each frame's entries of values() (gradients: after the driver stored them).
-  void gather(double* out, cudaStream_t stream) const;
   // out += K d with the prepared Hessians (d [N][6]).
   void add_tangent(const double* d, double* out, cudaStream_t stream);
   // blocks [N][36] += each frame's 6x6 diagonal blocks of the prepared Hessians.
@@ -42,6 +34,17 @@ class DeviceElementTerms {
   // blocks [B][36] += the prepared Hessians' blocks (a, b) with b <= a of the pattern, between two
   // nodes of an element (a == b: one node's diagonal block).
   void add_tangent_blocks(double* blocks, cudaStream_t stream) const;
+
+ protected:
+  // Per-element buffers for the driver's kernels: energies [T], values [T][6k] (gradients or
+  // products), hessians [T][6k][6k].
+  double* energies() { return m_energies.data(); }
+  double* values() { return m_values.data(); }
+  double* hessians() { return m_hessians.data(); }
+  // The sum of the elements' energies (J), in a fixed order.
+  double energy_sum(const VectorOps& ops);
+  // out [N][6] += each frame's entries of values() (gradients: after the driver stored them).
+  void gather(double* out, cudaStream_t stream) const;
 
  private:
   int m_nodes_per_element = 0, m_elements = 0, m_frames = 0;

@@ -35,8 +35,8 @@ std::vector<int> triangle_nodes(const std::vector<ShellElementRest>& elements) {
 DeviceShells::DeviceShells(const Model& model) : DeviceShells(shell_elements(model), shell_moduli(model)) {}
 
 DeviceShells::DeviceShells(const std::vector<ShellElementRest>& elements, const std::vector<ShellModuli>& moduli)
-    : m_triangles(static_cast<int>(elements.size())), m_terms(3, triangle_nodes(elements)) {
-  if (m_triangles == 0) return;
+    : DeviceElementTerms(3, triangle_nodes(elements)) {
+  if (empty()) return;
   m_elements.upload(elements);
   m_moduli.upload(moduli);
 }

@@ -54,26 +54,26 @@ constexpr int kHessianThreads = 32;
 
 double DeviceShells::energy(const double* x, const double* q, const VectorOps& ops) {
   if (empty()) return 0.0;
-  k_shell_elements<ElementOutput::energy><<<grid(m_triangles), kThreads, 0, ops.stream()>>>(
-      m_triangles, m_elements.data(), m_moduli.data(), x, q, m_terms.energies(), nullptr, nullptr);
+  k_shell_elements<ElementOutput::energy><<<grid(count()), kThreads, 0, ops.stream()>>>(
+      count(), m_elements.data(), m_moduli.data(), x, q, energies(), nullptr, nullptr);
   check();
-  return m_terms.energy_sum(ops);
+  return energy_sum(ops);
 }
 
 double DeviceShells::add_gradient(const double* x, const double* q, double* g, const VectorOps& ops) {
   if (empty()) return 0.0;
-  k_shell_elements<ElementOutput::gradient><<<grid(m_triangles), kThreads, 0, ops.stream()>>>(
-      m_triangles, m_elements.data(), m_moduli.data(), x, q, m_terms.energies(), m_terms.values(), nullptr);
+  k_shell_elements<ElementOutput::gradient><<<grid(count()), kThreads, 0, ops.stream()>>>(
+      count(), m_elements.data(), m_moduli.data(), x, q, energies(), values(), nullptr);
   check();
-  m_terms.gather(g, ops.stream());
-  return m_terms.energy_sum(ops);
+  gather(g, ops.stream());
+  return energy_sum(ops);
 }
 
 void DeviceShells::prepare(const double* x, const double* q, cudaStream_t stream) {
   if (empty()) return;
   k_shell_elements<ElementOutput::hessian>
-      <<<(m_triangles + kHessianThreads - 1) / kHessianThreads, kHessianThreads, 0, stream>>>(
-          m_triangles, m_elements.data(), m_moduli.data(), x, q, m_terms.energies(), nullptr, m_terms.hessians());
+      <<<(count() + kHessianThreads - 1) / kHessianThreads, kHessianThreads, 0, stream>>>(
+          count(), m_elements.data(), m_moduli.data(), x, q, energies(), nullptr, hessians());
   check();
 }
 

@@ -58,32 +58,32 @@ __global__ void k_edge_twists(int count, const EdgeTwist* edges, const double* q
 DeviceStabilisation::DeviceStabilisation(const Model& model) : DeviceStabilisation(RotationStabilisation(model).edges()) {}
 
 DeviceStabilisation::DeviceStabilisation(const std::vector<EdgeTwist>& edges)
-    : m_edges(static_cast<int>(edges.size())), m_terms(2, edge_nodes(edges)) {
-  if (m_edges > 0) m_twists.upload(edges);
+    : DeviceElementTerms(2, edge_nodes(edges)) {
+  if (!empty()) m_twists.upload(edges);
 }
 
 double DeviceStabilisation::energy(const double* q, const VectorOps& ops) {
   if (empty()) return 0.0;
-  k_edge_twists<EdgeOutput::energy><<<grid(m_edges), kThreads, 0, ops.stream()>>>(m_edges, m_twists.data(), q,
-                                                                                 m_terms.energies(), nullptr, nullptr);
+  k_edge_twists<EdgeOutput::energy><<<grid(count()), kThreads, 0, ops.stream()>>>(count(), m_twists.data(), q,
+                                                                                 energies(), nullptr, nullptr);
   check();
-  return m_terms.energy_sum(ops);
+  return energy_sum(ops);
 }
 
 double DeviceStabilisation::add_gradient(const double* q, double* g, const VectorOps& ops) {
   if (empty()) return 0.0;
-  k_edge_twists<EdgeOutput::gradient><<<grid(m_edges), kThreads, 0, ops.stream()>>>(
-      m_edges, m_twists.data(), q, m_terms.energies(), m_terms.values(), nullptr);
+  k_edge_twists<EdgeOutput::gradient><<<grid(count()), kThreads, 0, ops.stream()>>>(
+      count(), m_twists.data(), q, energies(), values(), nullptr);
   check();
-  m_terms.gather(g, ops.stream());
-  return m_terms.energy_sum(ops);
+  gather(g, ops.stream());
+  return energy_sum(ops);
 }
 
 void DeviceStabilisation::prepare(const double* q, cudaStream_t stream) {
   if (empty()) return;
-  k_edge_twists<EdgeOutput::hessian><<<grid(m_edges), kThreads, 0, stream>>>(m_edges, m_twists.data(), q,
-                                                                            m_terms.energies(), nullptr,
-                                                                            m_terms.hessians());
+  k_edge_twists<EdgeOutput::hessian><<<grid(count()), kThreads, 0, stream>>>(count(), m_twists.data(), q,
+                                                                            energies(), nullptr,
+                                                                            hessians());
   check();
 }
 
