@@ -1,5 +1,6 @@
 // `fascia study beam`: the paper's cantilever convergence study (§4.1, Figure 3), on the CPU or
-// with the volumetric elasticity on the CUDA backend (--backend cuda; backend.hpp).
+// on the CUDA backend (--backend cuda; backend.hpp): each row's static solve on the device where
+// the device step covers it, else with the volumetric elasticity on the device.
 #include "backend.hpp"
 #include "commands.hpp"
 #include "process_threads.hpp"
@@ -79,6 +80,7 @@ int run_beam(const StudyOptions& o) {
   BeamSettings settings;
   settings.threads = o.threads;
   settings.elasticity = backend.elasticity;
+  settings.step_backend = backend.step;
   settings.samples_per_frame = o.samples_per_frame;
   const std::vector<BeamCase> cases = select_cases(o, settings);
   const Vec3 elastica = beam_elastica_deflection(settings);

@@ -71,6 +71,7 @@ BeamResult run_beam_case(const BeamCase& beam, const BeamSettings& s) {
   settings.integrator = Integrator::static_equilibrium;
   settings.threads = s.threads;
   settings.elasticity = s.elasticity;
+  settings.step_backend = s.step_backend;
   settings.newton.tolerance = s.tolerance;
   // Every row converges in 15-40 iterations (frame hexahedra with their rotation stabilisation,
   // docs/solvers.md); the budget keeps a non-converging row to minutes and the row reports its

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "core/small_math.hpp"
+#include "integrate/step_backend.hpp"
 #include "material/material.hpp"
 #include "mechanics/volumetric_elasticity.hpp"
 
@@ -35,6 +36,7 @@ struct BeamSettings {
   double tolerance = 1e-7;                    // Newton, relative to the weight
   int threads = 0;
   ElasticityFactory elasticity;               // backend of the volumetric elasticity; empty: CPU
+  StepBackendFactory step_backend;            // the whole step's backend where it covers the row; empty: CPU
 };
 
 struct BeamResult {

@@ -1,6 +1,8 @@
 // Simulations on the CUDA backend (`fascia run --backend cuda`, `fascia study beam --backend
-// cuda`) against the CPU engine: the Newton solver, loads, shells and rigid mapping run on the
-// CPU in both; only the volumetric elasticity (CudaElasticity) differs, in summation order.
+// cuda`) against the CPU engine: with the volumetric elasticity alone on the device
+// (CudaElasticity: the Newton solver, loads, shells and rigid mapping run on the CPU in both, the
+// elasticity differs in summation order), and the study row and the resumed runs with the whole
+// step on the device (cuda_step.hpp).
 //
 // Bounds. Each step starts both backends from the same state and must end within the
 // a-posteriori distance of support/minimiser_bound.hpp: both runs stop at |g_free| <= tau F, so
@@ -116,6 +118,7 @@ TEST_CASE("a beam study row on the CUDA backend equals the CPU row", "[gpu]") {
   // `fascia study beam --method frame-tet --resolution 4x1x1`, tolerance 1e-7 of the weight.
   BeamSettings cpu_settings, gpu_settings;
   gpu_settings.elasticity = cuda_elasticity_factory();
+  gpu_settings.step_backend = cuda_step_factory();  // the row's static solve on the device
   const BeamCase row{"frame-tet", 4, 1, 1};
   const BeamResult cpu = run_beam_case(row, cpu_settings);
   const BeamResult gpu = run_beam_case(row, gpu_settings);
