@@ -5,6 +5,8 @@
 #include "integrate/simulation.hpp"
 #include "solve/diagonal_shifts.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <iostream>
 
 namespace fascia::gpu {
@@ -34,6 +36,30 @@ class CudaStep final : public StepBackend {
     m_potential.increments(m_state, trial.velocities.data());
     for (double& v : trial.velocities) v /= dt;
     return r;
+  }
+
+  NewtonResult variational(const State& start, State& end, double dt, const std::vector<double>& p_start,
+                           const NewtonSettings& settings, double force_scale, VariationalSolve& out) override {
+    m_potential.set_load_scale(1.0);
+    m_potential.set_static();
+    DeviceVariational& step = variational_step(dt);
+    step.set_start(start, p_start);
+    m_state.upload(end);
+    DeviceVariationalProblem problem(step, m_potential, settings.linear, m_factor.get(), m_kept,
+                                     [&](const DeviceFrames& q) {
+                                       factorising(q, 1.0);
+                                       m_origin.start = start;
+                                       m_origin.dt = dt;
+                                     });
+    // The first residual enters the force scale as on the CPU (VariationalStep::advance).
+    DeviceVector r;
+    problem.gradient(m_state, r);
+    const double norm_r0 = problem.ops().norm(r);
+    out.scale = std::isfinite(norm_r0) ? std::max(force_scale, norm_r0) : force_scale;
+    const NewtonResult result = newton(problem, m_state, settings, out.scale);
+    out.residual_norm = step.end_momenta(m_state, out.p_end);
+    m_state.download(end);
+    return result;
   }
 
   NewtonResult equilibrium(State& state, const NewtonSettings& settings, const LoadStepping& stepping,
@@ -82,13 +108,21 @@ class CudaStep final : public StepBackend {
     if (!m_factor || tangent.pattern != m_factor->fingerprint()) return false;
     m_factor->set_first_shift_step(resumed_first_shift_step(tangent.shift_step, true));
     const TangentOrigin& o = tangent.origin;
-    if (settings.integrator == Integrator::static_equilibrium)
-      m_potential.set_equilibrium();
-    else
-      m_potential.set_dynamic(o.start, o.dt, settings.rayleigh_mass);
     m_potential.set_load_scale(o.load_scale);
     m_state.upload(o.state);
-    m_potential.prepare_hessian(m_state, false);
+    if (settings.integrator == Integrator::variational) {
+      m_potential.set_static();
+      DeviceVariational& step = variational_step(o.dt);
+      step.set_start(o.start, {});
+      step.set_kinetic_blocks(m_state);
+      m_potential.prepare_hessian(step.midpoint(m_state), false);
+    } else {
+      if (settings.integrator == Integrator::static_equilibrium)
+        m_potential.set_equilibrium();
+      else
+        m_potential.set_dynamic(o.start, o.dt, settings.rayleigh_mass);
+      m_potential.prepare_hessian(m_state, false);
+    }
     m_factor->factorise(m_potential);
     m_potential.set_load_scale(1.0);
     m_origin = o;
@@ -105,8 +139,15 @@ class CudaStep final : public StepBackend {
     m_origin.state.velocities.assign(6 * m_origin.state.positions.size() / 3, 0.0);
   }
 
+  // The variational step's device terms for step dt (made at the first variational solve).
+  DeviceVariational& variational_step(double dt) {
+    if (!m_variational || m_variational->dt() != dt) m_variational = std::make_unique<DeviceVariational>(m_potential, dt);
+    return *m_variational;
+  }
+
   DevicePotential m_potential;
   DeviceFrames m_state;
+  std::unique_ptr<DeviceVariational> m_variational;
   // The factorisation of the cholmod preconditioner: pcg keeps it across Newton
   // iterations and steps as the CPU does (solve/factorised_solve.hpp), and a checkpoint records
   // where it was computed, so that a resumed run computes it again (restore_tangent).
@@ -122,10 +163,8 @@ std::string dense_refusal(const Model& model, const LinearSettings& linear) {
 }
 
 // Why the whole step does not run on the device for model and settings (empty when it does): the
-// variational integrator, or the cholmod method without room for the dense factor (pcg falls
-// back to block Jacobi without it).
+// cholmod method without room for the dense factor (pcg falls back to block Jacobi without it).
 std::string device_step_refusal(const Model& model, const SimulationSettings& settings) {
-  if (settings.integrator == Integrator::variational) return "the variational integrator runs on the CPU engine";
   if (settings.newton.linear.method != LinearMethod::cholmod) return {};
   const std::string why = dense_refusal(model, settings.newton.linear);
   return why.empty() ? why : "the linear method is cholmod (a factorisation per Newton iteration), and " + why;
@@ -158,6 +197,7 @@ std::string device_run_refusal(const Model& model, const SimulationSettings& set
   run.factorised =
       device_step_refusal(model, settings).empty() && DeviceProblem::factorises(linear) && dense_refusal(model, linear).empty();
   run.start_tangent = damping(settings) > 0;
+  run.variational = settings.integrator == Integrator::variational;
   run.sample_rows = sample_rows;
   size_t free = 0, total = 0;
   FASCIA_CUDA(cudaMemGetInfo(&free, &total));

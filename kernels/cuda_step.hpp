@@ -4,13 +4,14 @@
 // vectors (device_problem.hpp) on the device potential (device_potential.hpp), and reads the
 // result back once; inside, only the scalars that steer the iterations cross the bus.
 //
-// Covered: the static and backward-Euler integrators with cg or pcg on every model (tissues,
-// shells, rigid bodies and their attached frames), without stiffness-proportional damping. pcg is
-// preconditioned by block Jacobi or, with solver.linear.preconditioner: cholmod (the default), by
-// the device's dense Cholesky factor kept across Newton iterations and steps (device_cholesky.hpp),
-// or by block Jacobi where that factor would not fit. Elsewhere the factory returns null with the
-// reason, and Simulation runs the CPU engine with the volumetric elasticity on the device
-// (cuda_elasticity.hpp).
+// Covered: every integrator (static, backward Euler with Rayleigh damping, variational:
+// device_variational.hpp) with cg, pcg or cholmod on every model (tissues, shells, rigid bodies
+// and their attached frames). pcg is preconditioned by block Jacobi or, with
+// solver.linear.preconditioner: cholmod (the default), by the device's dense Cholesky factor kept
+// across Newton iterations and steps (device_cholesky.hpp), or by block Jacobi where that factor
+// would not fit. The cholmod method without room for that factor is refused: the factory returns
+// null with the reason, and Simulation runs the CPU engine with the volumetric elasticity on the
+// device (cuda_elasticity.hpp).
 #pragma once
 
 #include "device_elasticity.hpp"

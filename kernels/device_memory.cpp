@@ -17,6 +17,7 @@ std::atomic<long long> g_buffer_bytes{0};
 constexpr double kElasticPair = 100, kElasticSample = 1000, kElasticFrame = 200;  // DeviceElasticity
 constexpr double kElasticFixed = 256 * 1024;  // its reductions' partials and grids
 constexpr double kStepFrame = 2048;      // DevicePotential, DeviceFrames, the solver's vectors
+constexpr double kVariationalFrame = 1024;  // DeviceVariational: two states, kinetic blocks, momenta
 constexpr double kShellTriangle = 4096;  // DeviceShells: rest data, the 18 x 18 Hessian, values
 constexpr double kStabilisedSample = 12 * 1536;  // DeviceStabilisation: 12 edges (12 x 12 Hessian, values)
 constexpr double kColumnPair = 432;      // the factorised step: a pair's material columns (k_pair_columns)
@@ -38,7 +39,7 @@ Parts estimate_parts(const Model& model, const DeviceRun& run) {
   if (S > 0) parts.elasticity = kElasticPair * P + kElasticSample * S + kElasticFrame * N + kElasticFixed;
   const double elasticities = run.start_tangent ? 2 : 1;  // K(q_n) of stiffness-proportional damping
   parts.elasticity *= elasticities;
-  parts.step = kStepFrame * N;
+  parts.step = (kStepFrame + (run.variational ? kVariationalFrame : 0)) * N;
   parts.shells = kShellTriangle * triangles;
   if (RotationStabilisation::applies(model)) {
     double stabilised = 0;  // at most 12 edges each, shared edges counted once per sample

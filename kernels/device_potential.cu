@@ -119,6 +119,25 @@ __global__ void k_add_frame_blocks(int n, const int* diagonal_blocks, const doub
   add_frame_block(diag + 10 * i, blocks + 36LL * diagonal_blocks[i]);
 }
 
+// blocks[p] += E_i [36], p = diagonal_blocks[i] (-1: none).
+__global__ void k_add_blocks(int n, const int* diagonal_blocks, const double* E, double* blocks) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n || diagonal_blocks[i] < 0) return;
+  double* B = blocks + 36LL * diagonal_blocks[i];
+  for (int k = 0; k < 36; ++k) B[k] += E[36 * i + k];
+}
+
+// out_i += E_i d_i (E [N][36] row-major).
+__global__ void k_add_block_product(int n, const double* E, const double* d, double* out) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  for (int r = 0; r < 6; ++r) {
+    double s = 0;
+    for (int c = 0; c < 6; ++c) s += E[36 * i + 6 * r + c] * d[6 * i + c];
+    out[6 * i + r] += s;
+  }
+}
+
 // The diagonal blocks of H [N][36]: the elastic block (null: none) plus the frame diagonal.
 __global__ void k_diagonal_blocks(int n, const double* elastic, const double* diag, double* blocks) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -335,6 +354,7 @@ struct DevicePotential::Impl {
   std::unique_ptr<DeviceElasticity> start_elasticity;
   DeviceBuffer<double> kd, damped_product, start_blocks;  // [N][6], [N][6], the pattern's [B][36]
   bool preconditioned = false;  // minv holds the block-Jacobi inverse of the last prepare_hessian
+  const double* frame_blocks = nullptr;  // [N][36] set_frame_blocks' E, null: none
   FrameTerms terms{};
   DeviceBuffer<double> load_f, load_C, masses, inertia0, inertia, start_x, start_q, start_v, diag, minv, scratch, blocks;
   DeviceBuffer<double> expanded, full_g;  // rigid mapping: d with mapped frames filled in, unreduced gradient
@@ -355,6 +375,7 @@ const std::uint8_t* DevicePotential::fixed() const { return m_impl->fixed.data()
 void DevicePotential::set_load_scale(double scale) { m_impl->terms.scale = scale; }
 
 void DevicePotential::set_static() {
+  m_impl->frame_blocks = nullptr;
   m_impl->dynamic = false;
   m_impl->equilibrium = false;
   m_impl->terms.start_x = nullptr;
@@ -369,6 +390,7 @@ void DevicePotential::set_equilibrium() {
 void DevicePotential::set_dynamic(const State& start, double dt, double rayleigh_mass) {
   Impl& m = *m_impl;
   const int n = m_model.frame_count();
+  m.frame_blocks = nullptr;
   m.dynamic = true;
   m.equilibrium = false;
   m.start_x.upload(start.positions);
@@ -389,6 +411,8 @@ void DevicePotential::set_dynamic(const State& start, double dt, double rayleigh
   m.start_elasticity->prepare();
   m.terms.kd = m.kd.data();
 }
+
+void DevicePotential::set_frame_blocks(const double* blocks) { m_impl->frame_blocks = blocks; }
 
 void DevicePotential::increments(const DeviceFrames& q, double* delta_host) {
   Impl& m = *m_impl;
@@ -458,6 +482,7 @@ void DevicePotential::prepare_hessian(const DeviceFrames& q, bool preconditioner
   if (m.damped())
     m.ops.axpy(m.beta / m.terms.h, m.start_elasticity->diagonal_blocks_on_device(), m.blocks.data(), 36LL * n);
   m.mapping.reduce_diagonal_blocks(m.blocks.data(), m.stream);
+  if (m.frame_blocks) m.ops.axpy(1.0, m.frame_blocks, m.blocks.data(), 36LL * n);
   k_block_jacobi<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.blocks.data(), m.fixed.data(), m.minv.data());
   check();
 }
@@ -484,6 +509,10 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
     m.ops.axpy(m.beta / m.terms.h, m.damped_product.data(), out, dofs());
   }
   m.mapping.reduce_product(d_reduced, out, m.stream);
+  if (m.frame_blocks) {
+    k_add_block_product<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.frame_blocks, d_reduced, out);
+    check();
+  }
 }
 
 void DevicePotential::set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
@@ -515,6 +544,10 @@ void DevicePotential::tangent_blocks(double* blocks) {
   }
   k_add_frame_blocks<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.diagonal_blocks.data(), m.diag.data(), blocks);
   check();
+  if (m.frame_blocks) {
+    k_add_blocks<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.diagonal_blocks.data(), m.frame_blocks, blocks);
+    check();
+  }
 }
 
 const double* DevicePotential::preconditioner() const {

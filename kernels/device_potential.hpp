@@ -54,6 +54,12 @@ class DevicePotential {
   // and the constructor's stiffness-proportional damping (its K(q_n) prepared here).
   void set_dynamic(const State& start, double dt, double rayleigh_mass);
 
+  // A block-diagonal term E [N][36] (a device array the caller keeps; null: none) of the reduced
+  // unknowns, added to the Hessian prepare_hessian prepares: in apply(), the block-Jacobi blocks
+  // and tangent_blocks(). The variational step's kinetic matrix (device_variational.hpp);
+  // set_static, set_equilibrium and set_dynamic clear it.
+  void set_frame_blocks(const double* blocks);
+
   // Delta = [x - x_n, log(R R_n^T)] [N][6] of q w.r.t. the step start, into host memory.
   void increments(const DeviceFrames& q, double* delta_host);
 

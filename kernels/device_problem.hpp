@@ -12,6 +12,7 @@
 
 #include "device_cholesky.hpp"
 #include "device_potential.hpp"
+#include "device_variational.hpp"
 #include "solve/factorised_solve.hpp"
 #include "solve/newton.hpp"
 #include "solve/pcg.hpp"
@@ -106,6 +107,53 @@ class DeviceProblem {
   DeviceCholesky* m_factor;
   KeptFactorisation& m_kept;
   std::function<void(const DeviceFrames&)> m_factorising;
+};
+
+// The variational step's equations (4) (device_variational.hpp) as a problem of the one Newton
+// solver, as VariationalProblem is on the CPU (integrate/variational_step.cpp): the residual r / h
+// at q_{k+1}, which is not the gradient of a potential (a step must decrease |r|), and the
+// iteration matrix 4 H, the potential's Hessian at the midpoint with the kinetic blocks, solved as
+// DeviceProblem solves (the same preconditioners and kept factorisation) with the right-hand side
+// times 4. `factorising` is called with q_{k+1} before each factorisation.
+class DeviceVariationalProblem {
+ public:
+  using Ops = DeviceVectorOps;
+  using Vector = DeviceVector;
+  using State = DeviceFrames;
+
+  DeviceVariationalProblem(DeviceVariational& step, DevicePotential& potential, const LinearSettings& linear,
+                           DeviceCholesky* factor, KeptFactorisation& kept,
+                           std::function<void(const DeviceFrames&)> factorising = {})
+      : m_step(step),
+        m_factorising(std::move(factorising)),
+        m_linear(potential, linear, factor, kept, [this](const DeviceFrames&) {
+          if (m_factorising) m_factorising(*m_end);
+        }) {}
+  DeviceVariationalProblem(const DeviceVariationalProblem&) = delete;
+  DeviceVariationalProblem& operator=(const DeviceVariationalProblem&) = delete;
+
+  const Ops& ops() const { return m_linear.ops(); }
+  bool minimises() const { return false; }
+  double value(const State&) { return 0; }
+  double gradient(const State& end, Vector& r) {
+    ops().resize(r);
+    return m_step.residual(end, r.data());
+  }
+  LinearResult solve(const State& end, const Vector& rhs, Vector& d, const LinearSettings& linear) {
+    m_end = &end;
+    m_step.set_kinetic_blocks(end);
+    ops().copy(rhs, m_rhs);
+    ops().scale(4.0, m_rhs);
+    return m_linear.solve(m_step.midpoint(end), m_rhs, d, linear);
+  }
+  void retract(State& q, const Vector& d, double alpha) { m_linear.retract(q, d, alpha); }
+
+ private:
+  DeviceVariational& m_step;
+  std::function<void(const DeviceFrames&)> m_factorising;
+  const DeviceFrames* m_end = nullptr;  // the iterate of the solve in progress
+  DeviceProblem m_linear;               // the iteration matrix's solve
+  Vector m_rhs;
 };
 
 }  // namespace fascia::gpu

@@ -13,8 +13,8 @@ namespace fascia::app {
 void add_backend_options(CLI::App& command, BackendOptions& options) {
   command
       .add_option("--backend", options.backend,
-                  "cpu | cuda (run: the whole step on the GPU, the scene's linear method and preconditioner included, "
-                  "except with the variational integrator; there, and in study, the volumetric "
+                  "cpu | cuda (run and study: the whole step on the GPU, every integrator, the scene's linear method "
+                  "and preconditioner included; where the cholmod method's dense factor does not fit, the volumetric "
                   "elasticity on the GPU behind the CPU solver; exit 69 without a usable device)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
   command

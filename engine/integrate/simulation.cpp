@@ -47,10 +47,6 @@ struct Simulation::Impl {
   static std::unique_ptr<StepBackend> make_backend(const Model& model, const ExternalLoads& loads,
                                                    const SimulationSettings& settings, std::string& why) {
     if (!settings.step_backend) return nullptr;
-    if (settings.integrator == Integrator::variational) {
-      why = "the variational integrator runs on the CPU engine";
-      return nullptr;
-    }
     return settings.step_backend(model, loads, settings, why);
   }
   std::string refusal;                   // why the step backend does not run the steps
@@ -225,7 +221,8 @@ Simulation::Attempt Simulation::attempt(double h, State& trial) {
   potential.rigid_mapping().sync(trial);
   Attempt a;
   StepBackend* backend = m_impl->backend.get();
-  a.newton = variational ? m_impl->variational->advance(m_state, trial, m_settings.newton, reference, &m_impl->linear)
+  a.newton = variational ? m_impl->variational->advance(m_state, trial, m_settings.newton, reference, &m_impl->linear,
+                                                        backend)
              : backend   ? backend->backward_euler(m_state, trial, h, m_settings.rayleigh_mass, m_settings.newton, reference)
                          : minimise(potential, trial, m_settings.newton, reference, &m_impl->linear);
   // The variational step sets its velocities from the momenta, the backend from its increments.

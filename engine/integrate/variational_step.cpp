@@ -1,5 +1,7 @@
 #include "integrate/variational_step.hpp"
 
+#include "integrate/discrete_action.hpp"
+
 #include "core/rotation.hpp"
 #include "solve/vector_ops.hpp"
 
@@ -13,28 +15,13 @@
 
 namespace fascia {
 
-Mat3 left_jacobian(const Vec3& phi) {
-  const double t = norm(phi);
-  // Coefficients (1 - cos t)/t^2 and (t - sin t)/t^3; their Taylor series below t = 1e-3, where
-  // the closed forms lose about 6 and 9 digits to cancellation.
-  const double a = t < 1e-3 ? 0.5 - t * t / 24.0 : (1 - std::cos(t)) / (t * t);
-  const double b = t < 1e-3 ? 1.0 / 6.0 - t * t / 120.0 : (t - std::sin(t)) / (t * t * t);
-  const Mat3 K = skew(phi);
-  return identity3() + a * K + b * (K * K);
-}
-
 namespace {
-
-// vee(A - A^T): the axial vector a with [a]x = A - A^T.
-Vec3 vee_of_skew_part(const Mat3& a) {
-  return {a.m[2][1] - a.m[1][2], a.m[0][2] - a.m[2][0], a.m[1][0] - a.m[0][1]};
-}
 
 Mat3 frame_rotation(const State& s, int i) { return rotation_matrix(load_quat(&s.orientations[4 * i])); }
 
-// Relative rotation psi = log(R_end R_start^T), world axes.
-Vec3 relative_rotation(const State& start, const State& end, int i) {
-  return quat_log(load_quat(&end.orientations[4 * i]) * conjugate(load_quat(&start.orientations[4 * i])));
+// psi = log(R_end R_start^T) of frame i, world axes.
+Vec3 frame_relative_rotation(const State& start, const State& end, int i) {
+  return relative_rotation(load_quat(&start.orientations[4 * i]), load_quat(&end.orientations[4 * i]));
 }
 
 double free_norm(const std::vector<double>& v, const std::vector<std::uint8_t>& fixed) {
@@ -57,27 +44,26 @@ void VariationalStep::midpoint(const State& start, const State& end, State& mid)
   mid = end;
   const int n = m_model.frame_count();
   for (int i = 0; i < n; ++i) {
-    for (int k = 0; k < 3; ++k) mid.positions[3 * i + k] = 0.5 * (start.positions[3 * i + k] + end.positions[3 * i + k]);
-    if (m_model.rotations_locked) continue;
-    const Vec3 psi = relative_rotation(start, end, i);
-    store_quat(&mid.orientations[4 * i], apply_increment(load_quat(&start.orientations[4 * i]), 0.5 * psi));
+    Vec3 x;
+    Quat q;
+    midpoint_frame(load3(&start.positions[3 * i]), load_quat(&start.orientations[4 * i]), load3(&end.positions[3 * i]),
+                   load_quat(&end.orientations[4 * i]), m_model.rotations_locked, x, q);
+    store3(&mid.positions[3 * i], x);
+    store_quat(&mid.orientations[4 * i], q);
   }
   m_potential.rigid_mapping().sync(mid);
 }
 
 void VariationalStep::kinetic_momenta(const State& start, const State& end, std::vector<double>& kappa) const {
   const int n = m_model.frame_count();
-  const double h = m_dt;
   kappa.assign(6 * n, 0.0);
   for (int i = 0; i < n; ++i) {
-    const double m = m_model.frame_masses[i];
-    store3(&kappa[6 * i], (m / h) * (load3(&end.positions[3 * i]) - load3(&start.positions[3 * i])));
-    if (m_model.rotations_locked) continue;
-    const Mat3 J = load_mat3(&m_model.frame_inertias[9 * i]);
-    const Mat3 Jd = 0.5 * trace(J) * identity3() - J;
-    const Mat3 Rk = frame_rotation(start, i);
-    const Mat3 F = transpose(Rk) * frame_rotation(end, i);
-    store3(&kappa[6 * i + 3], (1 / h) * (Rk * vee_of_skew_part(F * Jd)));  // (2)
+    Vec3 px, pr;
+    kinetic_momentum(m_model.frame_masses[i], load_mat3(&m_model.frame_inertias[9 * i]), load3(&start.positions[3 * i]),
+                     load_quat(&start.orientations[4 * i]), load3(&end.positions[3 * i]),
+                     load_quat(&end.orientations[4 * i]), m_dt, m_model.rotations_locked, px, pr);
+    store3(&kappa[6 * i], px);
+    store3(&kappa[6 * i + 3], pr);
   }
 }
 
@@ -88,33 +74,24 @@ void VariationalStep::midpoint_transposes(const State& start, const State& end, 
   bt_g.assign(6 * n, 0.0);
   for (int i = 0; i < n; ++i) {
     for (int k = 0; k < 3; ++k) at_g[6 * i + k] = bt_g[6 * i + k] = 0.5 * g[6 * i + k];
-    if (m_model.rotations_locked) continue;
-    const Vec3 psi = relative_rotation(start, end, i);
-    const Mat3 Jh = left_jacobian(0.5 * psi);
-    const Mat3 A = 0.5 * (Jh * inverse_left_jacobian(psi));                     // (3)
-    const Mat3 B = rotation_matrix(quat_exp(0.5 * psi)) - 0.5 * (Jh * inverse_left_jacobian(-1.0 * psi));
-    const Vec3 tau = load3(&g[6 * i + 3]);
-    store3(&at_g[6 * i + 3], transpose(A) * tau);
-    store3(&bt_g[6 * i + 3], transpose(B) * tau);
+    Vec3 at, bt;
+    fascia::midpoint_transposes(load_quat(&start.orientations[4 * i]), load_quat(&end.orientations[4 * i]),
+                                m_model.rotations_locked, load3(&g[6 * i + 3]), at, bt);  // (3)
+    store3(&at_g[6 * i + 3], at);
+    store3(&bt_g[6 * i + 3], bt);
   }
 }
 
 double VariationalStep::action(const State& start, const State& end) {
   const int n = m_model.frame_count();
-  const double h = m_dt;
   double s = 0;
-  for (int i = 0; i < n; ++i) {
-    const Vec3 dx = load3(&end.positions[3 * i]) - load3(&start.positions[3 * i]);
-    s += 0.5 * m_model.frame_masses[i] * dot(dx, dx) / h;
-    if (m_model.rotations_locked) continue;
-    const Mat3 J = load_mat3(&m_model.frame_inertias[9 * i]);
-    const Mat3 Jd = 0.5 * trace(J) * identity3() - J;
-    const Mat3 F = transpose(frame_rotation(start, i)) * frame_rotation(end, i);
-    s += trace((identity3() - F) * Jd) / h;
-  }
+  for (int i = 0; i < n; ++i)
+    s += kinetic_action(m_model.frame_masses[i], load_mat3(&m_model.frame_inertias[9 * i]), load3(&start.positions[3 * i]),
+                        load_quat(&start.orientations[4 * i]), load3(&end.positions[3 * i]),
+                        load_quat(&end.orientations[4 * i]), m_dt, m_model.rotations_locked);
   midpoint(start, end, m_mid);
   m_potential.set_static();
-  return s - h * m_potential.value(m_mid);
+  return s - m_dt * m_potential.value(m_mid);
 }
 
 void VariationalStep::action_derivatives(const State& start, const State& end, std::vector<double>& minus_d1,
@@ -187,7 +164,7 @@ void VariationalStep::set_velocities(const State& start, State& end, const std::
     // Fixed DOFs move as prescribed: their velocity is the step's increment over h.
     Eigen::Matrix<double, 6, 1> v, rhs;
     const Vec3 dx = (1 / h) * (load3(&end.positions[3 * i]) - load3(&start.positions[3 * i]));
-    const Vec3 dr = m_model.rotations_locked ? Vec3{0, 0, 0} : (1 / h) * relative_rotation(start, end, i);
+    const Vec3 dr = m_model.rotations_locked ? Vec3{0, 0, 0} : (1 / h) * frame_relative_rotation(start, end, i);
     v << dx.x, dx.y, dx.z, dr.x, dr.y, dr.z;
     std::vector<int> free;
     for (int c = 0; c < 6; ++c)
@@ -237,19 +214,9 @@ LinearSystem VariationalStep::approximate_jacobian(const State& start, const Sta
   LinearSystem K = m_potential.system();
   // 4 M_kin / h^2 per frame (the system below is 4 H = 4 M_kin / h^2 + K).
   m_mass_blocks.assign(36 * n, 0.0);
-  for (int i = 0; i < n; ++i) {
-    double* b = &m_mass_blocks[36 * i];
-    const double c = 4 / (h * h);
-    for (int k = 0; k < 3; ++k) b[7 * k] = c * m_model.frame_masses[i];
-    if (m_model.rotations_locked) continue;
-    const Mat3 J = load_mat3(&m_model.frame_inertias[9 * i]);
-    const Mat3 Jd = 0.5 * trace(J) * identity3() - J;
-    const Mat3 Rk = frame_rotation(start, i);
-    const Mat3 C = transpose(Rk) * frame_rotation(end, i) * Jd;
-    const Mat3 Q = Rk * symmetric_part(trace(C) * identity3() - C) * transpose(Rk);
-    for (int r = 0; r < 3; ++r)
-      for (int col = 0; col < 3; ++col) b[6 * (3 + r) + 3 + col] = c * Q.m[r][col];
-  }
+  for (int i = 0; i < n; ++i)
+    kinetic_block(m_model.frame_masses[i], load_mat3(&m_model.frame_inertias[9 * i]), load_quat(&start.orientations[4 * i]),
+                  load_quat(&end.orientations[4 * i]), 4 / (h * h), m_model.rotations_locked, &m_mass_blocks[36 * i]);
   m_end_mapping.set_state(end);
   LinearSystem sys;
   sys.size = K.size;
@@ -343,7 +310,7 @@ class VariationalProblem {
 }  // namespace
 
 NewtonResult VariationalStep::advance(const State& start, State& end, const NewtonSettings& settings,
-                                      double reference_force, LinearSolver* solver) {
+                                      double reference_force, LinearSolver* solver, StepBackend* backend) {
   const int n = m_model.frame_count();
   const double h = m_dt;
   std::vector<double> p_start;
@@ -356,22 +323,34 @@ NewtonResult VariationalStep::advance(const State& start, State& end, const Newt
     m_potential.retract(end, d.data(), 1.0);
   }
   // The force scale of the relative residual: newton() takes the larger of it and |r_0| / h.
-  std::vector<double> r;
-  const double norm_r0 = residual(start, end, p_start, r);
   m_scale = std::max({reference_force, free_norm(p_start, m_fixed) / h, 1e-300});
-  if (std::isfinite(norm_r0)) m_scale = std::max(m_scale, norm_r0 / h);
-  std::unique_ptr<LinearSolver> local;
-  if (!solver) solver = (local = std::make_unique<LinearSolver>()).get();
-  VariationalProblem problem(*this, m_potential, start, p_start, m_fixed, h, *solver);
-  NewtonResult result = newton(problem, end, settings, m_scale);
-  m_residual_norm = residual(start, end, p_start, r);
+  NewtonResult result;
+  std::vector<double> p_end;
+  if (backend) {
+    VariationalSolve solve;
+    result = backend->variational(start, end, h, p_start, settings, m_scale, solve);
+    m_scale = solve.scale;
+    m_residual_norm = solve.residual_norm;
+    p_end = std::move(solve.p_end);
+  } else {
+    std::vector<double> r;
+    const double norm_r0 = residual(start, end, p_start, r);
+    if (std::isfinite(norm_r0)) m_scale = std::max(m_scale, norm_r0 / h);
+    std::unique_ptr<LinearSolver> local;
+    if (!solver) solver = (local = std::make_unique<LinearSolver>()).get();
+    VariationalProblem problem(*this, m_potential, start, p_start, m_fixed, h, *solver);
+    result = newton(problem, end, settings, m_scale);
+    m_residual_norm = residual(start, end, p_start, r);
+    // (5): momenta at q_{k+1}.
+    if (result.converged) {
+      std::vector<double> minus_d1;
+      action_derivatives(start, end, minus_d1, p_end);
+    }
+  }
   if (!result.converged) {
     result.message = "variational step: " + result.message;
     return result;
   }
-  // (5): momenta at q_{k+1}, then velocities.
-  std::vector<double> minus_d1, p_end;
-  action_derivatives(start, end, minus_d1, p_end);
   set_velocities(start, end, p_end);
   return result;
 }

@@ -53,12 +53,15 @@
 // K: the reduced tangent of V at the midpoint), solved by the configured CG/PCG/CHOLMOD. The
 // omitted parts are O(|psi|) and O(h^2 |tau|) relative to H, so the iterations converge linearly
 // at that rate (a few iterations for rotations of a few degrees per step); a step that does not
-// reduce |r| is halved. The converged q_{k+1} does not depend on the approximation.
+// reduce |r| is halved. The converged q_{k+1} does not depend on the approximation. A step backend
+// (step_backend.hpp) solves (4) and evaluates (5) where its data lives, with the same per-frame
+// terms (discrete_action.hpp) and the same Newton.
 //
 // No damping: a variational step conserves momenta and keeps the energy oscillating about its
 // initial value (backward Euler dissipates); Rayleigh damping is refused by Simulation.
 #pragma once
 
+#include "integrate/step_backend.hpp"
 #include "integrate/step_potential.hpp"
 #include "mechanics/rigid_mapping.hpp"
 #include "solve/newton.hpp"
@@ -76,9 +79,11 @@ class VariationalStep {
   // motions applied, attached frames synced), leaves as the solution of (4) with velocities from
   // (5). start: q_k with velocities v_k. reference_force: the force scale of the relative residual
   // (N), as for minimise(); |p_k| / h and the first residual are used when larger.
-  // The linear solves use `solver` (kept between steps; null: one for this step only).
+  // The linear solves use `solver` (kept between steps; null: one for this step only); with a
+  // `backend` the backend solves (4) and computes (5) (StepBackend::variational), and this step
+  // keeps the momenta and velocities, which do not involve V.
   NewtonResult advance(const State& start, State& end, const NewtonSettings& settings, double reference_force,
-                       LinearSolver* solver = nullptr);
+                       LinearSolver* solver = nullptr, StepBackend* backend = nullptr);
 
   // Discrete action (1), J s. Both states synced.
   double action(const State& start, const State& end);
@@ -127,9 +132,5 @@ class VariationalStep {
   std::vector<double> m_expanded, m_scratch;
   double m_residual_norm = 0, m_scale = 0;
 };
-
-// J_l(phi), the left Jacobian of SO(3) (Barfoot, State Estimation, eq. 7.77a):
-// exp([phi + e]x) = exp([J_l(phi) e]x) exp([phi]x) + O(e^2).
-Mat3 left_jacobian(const Vec3& phi);
 
 }  // namespace fascia

@@ -1,6 +1,6 @@
 // Inertia and Rayleigh damping of the backward-Euler step, per frame (DESIGN.md;
 // integrate/step_potential.hpp), written once for the CPU reference and the CUDA driver
-// (kernels/device_inertia.cu):
+// (kernels/device_potential.cu):
 //   Phi_i = 1/(2h^2) |Delta_i - h v_i|^2_M + 1/(2h) Delta_i^T (alpha M_i) Delta_i
 //           + beta/(2h) Delta_i^T (K_n Delta)_i
 // with Delta_i = [x_i - x_n,i, phi_i = log(R_i R_n,i^T)], M_i = diag(m_i I3, I_i), I_i = R_n I_0 R_n^T

@@ -4,6 +4,7 @@
 #include "integrate/variational_step.hpp"
 
 #include "core/rotation.hpp"
+#include "integrate/discrete_action.hpp"
 #include "integrate/simulation.hpp"
 #include "support/coupling_fixtures.hpp"
 #include "support/finite_difference.hpp"

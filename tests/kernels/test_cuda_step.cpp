@@ -16,6 +16,7 @@
 #include "device_potential.hpp"
 #include "integrate/step_potential.hpp"
 #include "integrate/tangent_probing.hpp"
+#include "integrate/variational_step.hpp"
 #include "mechanics/assembled_tangent.hpp"
 #include "mechanics/elasticity.hpp"
 #include "dsl/build_scene.hpp"
@@ -400,6 +401,79 @@ TEST_CASE("whole step on the device equals the CPU engine on a tissue block", "[
   std::snprintf(label, sizeof label, "device step %s%s %s %s %s", to_string(integrator), beta > 0 ? " damped" : "",
                 to_string(method), to_string(s.newton.linear.preconditioner), to_string(kind));
   CHECK(check_backends_agree(label, model, all_loads(model), s, device, 3) <= 1.0);
+}
+
+TEST_CASE("the variational step on the device solves the CPU's discrete Euler-Lagrange equations", "[gpu]") {
+  // A solution of (4) is not a minimiser (variational_step.hpp), so the device's states are checked
+  // against the CPU's equations rather than the CPU's states: the CPU's residual of (4) at the
+  // device's q_{k+1} is within the Newton tolerance, and the device's velocities are the CPU's
+  // (5) at that q_{k+1}.
+  const int solver = GENERATE(0, 1, 2, 3);  // cg, pcg + block Jacobi, pcg + kept factor, cholmod
+  const LinearMethod method = solver == 0 ? LinearMethod::cg : solver == 3 ? LinearMethod::cholmod : LinearMethod::pcg;
+  const Kind kind = GENERATE(Kind::tissue, Kind::rigid, Kind::coupled, Kind::hexahedra);
+  const Model model = test_model(kind);
+  const ExternalLoads loads = all_loads(model);
+  SimulationSettings s;
+  s.integrator = Integrator::variational;
+  s.dt = 0.01;
+  s.newton.tolerance = 1e-8;
+  s.newton.linear.method = method;
+  s.newton.linear.preconditioner = solver == 1 ? Preconditioner::block_jacobi : Preconditioner::cholmod;
+  s.newton.linear.tolerance = 1e-10;
+  s.step_backend = cuda_step_factory();
+  Simulation device(model, loads, s);
+  REQUIRE(device.on_step_backend());
+  // A spin of 2 rad/s about z and a drift on the free DOFs: rotations of about 1 degree per step.
+  {
+    State& q = device.state();
+    const Vec3 w{0.3, -0.4, 2.0}, v{0.05, 0.02, -0.01};
+    for (int i = 0; i < model.frame_count(); ++i) {
+      const Vec3 vi = v + cross(w, load3(&q.positions[3 * i]));
+      for (int k = 0; k < 3; ++k) {
+        q.velocities[6 * i + k] = model.fixed_dofs[6 * i + k] ? 0.0 : (&vi.x)[k];
+        q.velocities[6 * i + 3 + k] = model.fixed_dofs[6 * i + 3 + k] ? 0.0 : (&w.x)[k];
+      }
+    }
+  }
+  StepPotential potential(model, loads, 1);
+  VariationalStep cpu(model, potential, s.dt);
+  const double reference = potential.frame_loads().force_norm(1.0);
+  for (int k = 1; k <= 3; ++k) {
+    const State start = device.state();
+    const StepReport report = device.step();
+    REQUIRE(report.converged);
+    const State& end = device.state();
+    // The CPU's own step from the same start gives the residual's force scale S (N).
+    State cpu_end = start;
+    const NewtonResult rc = cpu.advance(start, cpu_end, s.newton, reference);
+    REQUIRE(rc.converged);
+    const double scale = cpu.residual_scale();
+    std::vector<double> p_start, r, minus_d1, p_end;
+    cpu.momenta(start, p_start);
+    const double residual = cpu.residual(start, end, p_start, r);
+    // Converged on the device: |r / h| <= tolerance S there. The CPU evaluates r with V's
+    // gradient summed in another order, a relative 1e-14 of its terms, far below the tolerance's
+    // 1e-8: twice the tolerance bounds the CPU's value.
+    const double bound = 2 * s.newton.tolerance * scale * s.dt;
+    // Velocities: (5) at the device's state on the CPU, then the same 6 x 6 mass solves. They
+    // differ by the round-off of g (above) through h A^T g, relative 1e-12 at most of the largest.
+    cpu.action_derivatives(start, end, minus_d1, p_end);
+    State expected = end;
+    cpu.set_velocities(start, expected, p_end);
+    double v_max = 0, v_diff = 0;
+    for (size_t i = 0; i < end.velocities.size(); ++i) {
+      v_max = std::max(v_max, std::abs(expected.velocities[i]));
+      v_diff = std::max(v_diff, std::abs(end.velocities[i] - expected.velocities[i]));
+    }
+    const StateDifference d = max_difference(end, cpu_end);
+    std::printf("[gpu] variational %s %s %s step %d: newton %d/%d cg %d/%d |r| %.2e (bound %.2e) velocity %.2e "
+                "(of %.2e) | state vs CPU: position %.2e rotation %.2e\n",
+                to_string(method), to_string(s.newton.linear.preconditioner), to_string(kind), k, rc.iterations,
+                report.newton_iterations, rc.cg_iterations, report.cg_iterations, residual, bound, v_diff, v_max,
+                d.position, d.rotation);
+    CHECK(residual <= bound);
+    CHECK(v_diff <= 1e-12 * v_max);
+  }
 }
 
 TEST_CASE("every shipped scene: --backend cuda equals the CPU engine", "[gpu]") {
