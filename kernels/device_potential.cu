@@ -298,7 +298,7 @@ struct DevicePotential::Impl {
     terms.start_q = start_q.data();
     terms.start_v = start_v.data();
     if (rayleigh_stiffness > 0 && elasticity) {
-      beta = rayleigh_stiffness;
+      terms.beta = rayleigh_stiffness;
       start_elasticity = std::make_unique<DeviceElasticity>(model, options, stream);
       kd.resize(6 * static_cast<size_t>(n));
       damped_product.resize(6 * static_cast<size_t>(n));
@@ -348,11 +348,12 @@ struct DevicePotential::Impl {
   bool dynamic = false;
   bool equilibrium = false;  // Phi carries the stabilisation
   bool stabilised = false;   // the prepared Hessian carries it
-  // Stiffness-proportional damping (beta > 0): K(q_n), the elasticity prepared at the step start,
-  // on the same stream; beta / h K(q_n) in the Hessian.
-  double beta = 0;
+  // Stiffness-proportional damping (terms.beta > 0): K(q_n), the elasticity prepared at the step
+  // start, on the same stream; beta / h K(q_n) in the Hessian. Its diagonal blocks (block Jacobi)
+  // and its tangent blocks (the dense factor) are formed at a step's first use.
   std::unique_ptr<DeviceElasticity> start_elasticity;
   DeviceBuffer<double> kd, damped_product, start_blocks;  // [N][6], [N][6], the pattern's [B][36]
+  bool start_diagonal = false, start_blocks_formed = false;  // formed for this step
   bool preconditioned = false;  // minv holds the block-Jacobi inverse of the last prepare_hessian
   const double* frame_blocks = nullptr;  // [N][36] set_frame_blocks' E, null: none
   FrameTerms terms{};
@@ -404,11 +405,11 @@ void DevicePotential::set_dynamic(const State& start, double dt, double rayleigh
   m.terms.start_x = m.start_x.data();
   m.terms.h = dt;
   m.terms.alpha = rayleigh_mass;
-  m.terms.beta = m.beta;
   m.terms.kd = nullptr;
   if (!m.start_elasticity) return;
   m.start_elasticity->set_state(start);
-  m.start_elasticity->prepare();
+  m.start_elasticity->prepare(false);
+  m.start_diagonal = m.start_blocks_formed = false;
   m.terms.kd = m.kd.data();
 }
 
@@ -479,8 +480,11 @@ void DevicePotential::prepare_hessian(const DeviceFrames& q, bool preconditioner
   check();
   m.shells.add_diagonal_blocks(m.blocks.data(), m.stream);
   if (m.stabilised) m.stabilisation.add_diagonal_blocks(m.blocks.data(), m.stream);
-  if (m.damped())
-    m.ops.axpy(m.beta / m.terms.h, m.start_elasticity->diagonal_blocks_on_device(), m.blocks.data(), 36LL * n);
+  if (m.damped()) {
+    if (!m.start_diagonal) m.start_elasticity->prepare(true);
+    m.start_diagonal = true;
+    m.ops.axpy(m.terms.beta / m.terms.h, m.start_elasticity->diagonal_blocks_on_device(), m.blocks.data(), 36LL * n);
+  }
   m.mapping.reduce_diagonal_blocks(m.blocks.data(), m.stream);
   if (m.frame_blocks) m.ops.axpy(1.0, m.frame_blocks, m.blocks.data(), 36LL * n);
   k_block_jacobi<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.blocks.data(), m.fixed.data(), m.minv.data());
@@ -506,7 +510,7 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
   if (m.stabilised) m.stabilisation.add_tangent(d, out, m.stream);
   if (m.damped()) {
     m.start_elasticity->apply_tangent_on_device(d, m.damped_product.data());
-    m.ops.axpy(m.beta / m.terms.h, m.damped_product.data(), out, dofs());
+    m.ops.axpy(m.terms.beta / m.terms.h, m.damped_product.data(), out, dofs());
   }
   m.mapping.reduce_product(d_reduced, out, m.stream);
   if (m.frame_blocks) {
@@ -526,6 +530,7 @@ void DevicePotential::set_tangent_blocks(const std::vector<int>& block_offsets, 
   if (m.start_elasticity) {
     m.start_elasticity->set_tangent_blocks(block_offsets, block_frames, diagonal_blocks);
     m.start_blocks.resize(36 * block_frames.size());
+    m.start_blocks_formed = false;
   }
 }
 
@@ -539,8 +544,9 @@ void DevicePotential::tangent_blocks(double* blocks) {
   m.shells.add_tangent_blocks(blocks, m.stream);
   if (m.stabilised) m.stabilisation.add_tangent_blocks(blocks, m.stream);
   if (m.damped()) {
-    m.start_elasticity->tangent_blocks_on_device(m.start_blocks.data());
-    m.ops.axpy(m.beta / m.terms.h, m.start_blocks.data(), blocks, 36 * m.block_count);
+    if (!m.start_blocks_formed) m.start_elasticity->tangent_blocks_on_device(m.start_blocks.data());
+    m.start_blocks_formed = true;
+    m.ops.axpy(m.terms.beta / m.terms.h, m.start_blocks.data(), blocks, 36 * m.block_count);
   }
   k_add_frame_blocks<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.diagonal_blocks.data(), m.diag.data(), blocks);
   check();
