@@ -182,13 +182,22 @@ bool finite_state(const State& s) {
   return true;
 }
 
-// The likely cause of a failed step, from how Newton stopped (newton.hpp's messages).
-std::string likely_cause(const NewtonResult& r, bool finite, bool adaptive) {
-  const std::string smaller = adaptive ? "" : "; a smaller solver.dt, or solver.adaptive, resolves it";
+// The likely cause of a failed step, from how Newton stopped (newton.hpp's messages), and the
+// remedy: a smaller dt, or adaptive steps where the integrator takes them (not the variational
+// one) and the run does not already have them.
+std::string likely_cause(const NewtonResult& r, bool finite, bool adaptive, Integrator integrator) {
+  const bool variational = integrator == Integrator::variational;
+  const std::string smaller = adaptive      ? ""
+                              : variational ? "; a smaller solver.dt resolves it"
+                                            : "; a smaller solver.dt, or solver.adaptive, resolves it";
   if (!finite) return "the state became non-finite (diverged): the step is too large for the load" + smaller;
   if (r.message.find("non-finite energy") != std::string::npos)
     return "an element inverts at the start of the step: prescribed motions or loads move frames farther in one "
            "step than the elements allow" + smaller;
+  if (variational && r.message.find("line search") != std::string::npos)
+    return "no decrease of the residual along the step of the variational iteration matrix, which leaves out the "
+           "skew part of the Jacobian: that part grows with the step (rotation per step, elastic torques on frames "
+           "of small rotational inertia)" + smaller;
   if (r.message.find("line search") != std::string::npos)
     return "no descent along the Newton direction: an indefinite tangent (buckling, inverted elements) or a load "
            "too large for one step" + smaller;
@@ -315,7 +324,7 @@ StepReport Simulation::step() {
     std::ostringstream msg;
     msg << "step " << m_step + 1 << " (t = " << t_next << " s, dt = " << m_settings.dt
         << " s) failed: " << (a.finite ? a.newton.message : "non-finite state") << "; relative residual "
-        << a.newton.residual << "; likely cause: " << likely_cause(a.newton, a.finite, false);
+        << a.newton.residual << "; likely cause: " << likely_cause(a.newton, a.finite, false, m_settings.integrator);
     throw SolverError(msg.str());
   }
   m_state = std::move(trial);
@@ -353,7 +362,7 @@ StepReport Simulation::advance_to(double t_target) {
       std::ostringstream msg;
       msg << "step " << m_step + 1 << " (t = " << m_time << " s to " << m_time + h << " s) failed at the minimum "
           << "step " << h << " s: " << (a.finite ? a.newton.message : "non-finite state") << "; relative residual "
-          << a.newton.residual << "; likely cause: " << likely_cause(a.newton, a.finite, true);
+          << a.newton.residual << "; likely cause: " << likely_cause(a.newton, a.finite, true, m_settings.integrator);
       throw SolverError(msg.str());
     }
     // Static steps: the distance from the predicted start (O(h^2)) where there is one, the

@@ -161,6 +161,34 @@ TEST_CASE("a sudden push that fails at a fixed dt completes with adaptive steps"
   REQUIRE(sim.state().positions[3 * push.motions[0].frames[0]] == Approx(0.2 - 0.08).epsilon(1e-12));
 }
 
+TEST_CASE("a failed variational step names a smaller dt, not the adaptive steps it cannot take", "[integrate]") {
+  // The push of the test above at a fixed 20 ms step inverts the last cells under either
+  // integrator; solver.adaptive is refused with the variational one.
+  const Push push = make_push(4.0, 0.02);
+  for (const Integrator integrator : {Integrator::backward_euler, Integrator::variational}) {
+    SimulationSettings settings;
+    settings.integrator = integrator;
+    settings.dt = 0.02;
+    Simulation sim(push.model, ExternalLoads{}, settings, push.motions);
+    try {
+      sim.step();
+      FAIL("the step converged");
+    } catch (const SolverError& e) {
+      INFO(e.what());
+      CHECK_THAT(e.what(), Catch::Contains("likely cause") && Catch::Contains("a smaller solver.dt"));
+      const bool names_adaptive = std::string(e.what()).find("solver.adaptive") != std::string::npos;
+      CHECK(names_adaptive == (integrator == Integrator::backward_euler));
+    }
+  }
+  SimulationSettings adaptive;
+  adaptive.integrator = Integrator::variational;
+  adaptive.adaptive.enabled = true;
+  adaptive.adaptive.min_dt = 1e-6;
+  adaptive.adaptive.tolerance = 1e-3;
+  REQUIRE_THROWS_WITH(Simulation(push.model, ExternalLoads{}, adaptive, push.motions),
+                      Catch::Contains("adaptive time steps need the backward_euler or static integrator"));
+}
+
 TEST_CASE("a step that cannot converge at min_dt stops with its time, step and residual", "[integrate][adaptive]") {
   // 10 km/s: even the smallest step (10 us) moves the end by 0.1 m, two cells.
   const Push push = make_push(1e4, 1.0);
