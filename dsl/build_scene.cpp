@@ -137,6 +137,14 @@ bool admit_file(const ObjectSpec& o, const Located<std::string>& file, MemoryBud
   return true;
 }
 
+// The object's transform (scale, rotation, translation) applied to vertices [V][3] (m) in place.
+void transform_vertices(const TransformSpec& transform, std::vector<double>& vertices) {
+  for (std::size_t v = 0; v + 2 < vertices.size(); v += 3) {
+    const Vec3d p = transform.apply({vertices[v], vertices[v + 1], vertices[v + 2]});
+    for (int k = 0; k < 3; ++k) vertices[v + k] = p[k];
+  }
+}
+
 VolumeMesh object_mesh(const ObjectSpec& o, Diagnostics& diagnostics) {
   VolumeMesh mesh;
   if (o.box) {
@@ -156,13 +164,7 @@ VolumeMesh object_mesh(const ObjectSpec& o, Diagnostics& diagnostics) {
     }
   }
   // Geometry transform: scale, rotate, translate (the box too, so that it can be placed freely).
-  for (int v = 0; v < mesh.vertex_count(); ++v) {
-    double* x = &mesh.vertices[3 * static_cast<std::size_t>(v)];
-    const Vec3d p = o.transform.apply({x[0], x[1], x[2]});
-    x[0] = p[0];
-    x[1] = p[1];
-    x[2] = p[2];
-  }
+  transform_vertices(o.transform, mesh.vertices);
   return mesh;
 }
 
@@ -291,13 +293,7 @@ bool read_transformed_surface(const ObjectSpec& o, SurfaceMesh& surface, MemoryB
     diagnostics.error(o.surface->where, std::string("surface: ") + e.what(), ExitCode::bad_data);
     return false;
   }
-  for (int v = 0; v < surface.vertex_count(); ++v) {
-    double* x = &surface.vertices[3 * static_cast<std::size_t>(v)];
-    const Vec3d p = o.transform.apply({x[0], x[1], x[2]});
-    x[0] = p[0];
-    x[1] = p[1];
-    x[2] = p[2];
-  }
+  transform_vertices(o.transform, surface.vertices);
   return true;
 }
 

@@ -7,7 +7,8 @@
 // solve, with PCG on that factor taking the solve to the linear tolerance, since the factor's
 // inverse is applied in float). The same algorithm, settings and stopping rules as the CPU engine
 // (solve/newton.cpp, HostPotentialProblem); the host reads only the scalars that steer the
-// iterations.
+// iterations. DeviceVariationalProblem (below) poses the variational step's equations the same
+// way.
 #pragma once
 
 #include "device_cholesky.hpp"

@@ -1,8 +1,7 @@
 #include "integrate/variational_step.hpp"
 
-#include "integrate/discrete_action.hpp"
-
 #include "core/rotation.hpp"
+#include "integrate/discrete_action.hpp"
 #include "solve/vector_ops.hpp"
 
 #include <Eigen/Dense>
