@@ -5,8 +5,6 @@
 #include "integrate/simulation.hpp"
 #include "solve/diagonal_shifts.hpp"
 
-#include <algorithm>
-#include <cmath>
 #include <iostream>
 
 namespace fascia::gpu {
@@ -39,7 +37,7 @@ class CudaStep final : public StepBackend {
   }
 
   NewtonResult variational(const State& start, State& end, double dt, const std::vector<double>& p_start,
-                           const NewtonSettings& settings, double force_scale, VariationalSolve& out) override {
+                           const NewtonSettings& settings, double force_scale, std::vector<double>& p_end) override {
     m_potential.set_load_scale(1.0);
     m_potential.set_static();
     DeviceVariational& step = variational_step(dt);
@@ -51,13 +49,8 @@ class CudaStep final : public StepBackend {
                                        m_origin.start = start;
                                        m_origin.dt = dt;
                                      });
-    // The first residual enters the force scale as on the CPU (VariationalStep::advance).
-    DeviceVector r;
-    problem.gradient(m_state, r);
-    const double norm_r0 = problem.ops().norm(r);
-    out.scale = std::isfinite(norm_r0) ? std::max(force_scale, norm_r0) : force_scale;
-    const NewtonResult result = newton(problem, m_state, settings, out.scale);
-    out.residual_norm = step.end_momenta(m_state, out.p_end);
+    const NewtonResult result = newton(problem, m_state, settings, force_scale);
+    if (result.converged) step.end_momenta(m_state, p_end);
     m_state.download(end);
     return result;
   }

@@ -4,7 +4,6 @@
 #include "integrate/discrete_action.hpp"
 
 #include <algorithm>
-#include <cmath>
 #include <stdexcept>
 
 namespace fascia::gpu {
@@ -152,14 +151,12 @@ void DeviceVariational::set_kinetic_blocks(const DeviceFrames& end) {
   m_potential.set_frame_blocks(m_kinetic_blocks.data());
 }
 
-double DeviceVariational::end_momenta(const DeviceFrames& end, std::vector<double>& p_end) {
+void DeviceVariational::end_momenta(const DeviceFrames& end, std::vector<double>& p_end) {
   const Model& model = m_potential.model();
   const int n = model.frame_count();
   const VectorOps& ops = m_potential.ops();
-  const double* r = m_d2.data();
-  residual(end, m_d2.data());
-  const double norm_r = m_dt * std::sqrt(ops.dot(r, r, 6LL * n));
-  // D_2 S: the kinetic momenta reduced at end, less h A^T g (g from the residual's midpoint).
+  // D_2 S: the kinetic momenta reduced at end, less h A^T g with g at the midpoint.
+  m_potential.gradient(midpoint(end), m_g.data());
   m_end_mapping.set_state(end.positions(), ops.stream());
   kinetic_momenta(end, m_end_mapping, m_d2.data());
   const StepFrames f{n, model.rotations_locked, m_start.positions(), m_start.orientations(), end.positions(),
@@ -169,7 +166,6 @@ double DeviceVariational::end_momenta(const DeviceFrames& end, std::vector<doubl
   FASCIA_CUDA(cudaStreamSynchronize(ops.stream()));
   p_end.resize(6 * static_cast<size_t>(n));
   m_d2.download(p_end.data());
-  return norm_r;
 }
 
 }  // namespace fascia::gpu

@@ -32,8 +32,8 @@ class DeviceVariational {
   // Sets the potential's frame blocks to 4 M_kin / h^2 at (q_k, end), reduced by the mapping at
   // end: with the potential prepared at midpoint(end), its Hessian is the iteration matrix 4 H.
   void set_kinetic_blocks(const DeviceFrames& end);
-  // D_2 S of (5) at end into p_end [N][6] (host) and |r| (N s) of (4) there.
-  double end_momenta(const DeviceFrames& end, std::vector<double>& p_end);
+  // D_2 S of (5) at end into p_end [N][6] (host).
+  void end_momenta(const DeviceFrames& end, std::vector<double>& p_end);
 
  private:
   // kappa of every frame (discrete_action.hpp) into out [N][6], reduced by `mapping` at its state.

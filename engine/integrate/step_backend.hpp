@@ -19,14 +19,6 @@ namespace fascia {
 
 struct SimulationSettings;
 
-// What a backend's variational solve leaves besides the state: the momenta p_{k+1} = D_2 S of (5)
-// at the solution [N][6] (N s), the relative residual's force scale (N: force_scale or |r_0| / h,
-// the larger) and |r| at the end (N s).
-struct VariationalSolve {
-  std::vector<double> p_end;
-  double scale = 0;
-  double residual_norm = 0;
-};
 
 class StepBackend {
  public:
@@ -39,9 +31,10 @@ class StepBackend {
   // The variational step's discrete Euler-Lagrange equations (variational_step.hpp, (4)) over dt
   // from `start` with its reduced momenta p_start [N][6] (N s): `end` enters as the predictor
   // (fixed DOFs at their t_{k+1} values, attached frames synced) and leaves as the solution, its
-  // velocities untouched. force_scale (N) is VariationalStep::advance's before the first residual.
+  // velocities untouched; where it converged, p_end holds the momenta D_2 S of (5) there [N][6].
+  // force_scale (N) is the reference force of Newton's relative residual (r / h, N).
   virtual NewtonResult variational(const State& start, State& end, double dt, const std::vector<double>& p_start,
-                                   const NewtonSettings& settings, double force_scale, VariationalSolve& out) = 0;
+                                   const NewtonSettings& settings, double force_scale, std::vector<double>& p_end) = 0;
   // Static equilibrium with load stepping (solve/newton.hpp, newton_load_stepping) from `state`
   // (updated in place). set_load_factor(f) applies factor f to the host's loads and returns the
   // reference force at that factor (N); the backend applies the same factor to its own.

@@ -321,31 +321,26 @@ NewtonResult VariationalStep::advance(const State& start, State& end, const Newt
       if (!m_fixed[k]) d[k] = h * start.velocities[k];
     m_potential.retract(end, d.data(), 1.0);
   }
-  // The force scale of the relative residual: newton() takes the larger of it and |r_0| / h.
-  m_scale = std::max({reference_force, free_norm(p_start, m_fixed) / h, 1e-300});
+  // The force scale of the relative residual; newton() takes the larger of it and |r_0| / h, and
+  // its last residual is r / h at the end.
+  const double force_scale = std::max(reference_force, free_norm(p_start, m_fixed) / h);
   NewtonResult result;
   std::vector<double> p_end;
   if (backend) {
-    VariationalSolve solve;
-    result = backend->variational(start, end, h, p_start, settings, m_scale, solve);
-    m_scale = solve.scale;
-    m_residual_norm = solve.residual_norm;
-    p_end = std::move(solve.p_end);
+    result = backend->variational(start, end, h, p_start, settings, force_scale, p_end);
   } else {
-    std::vector<double> r;
-    const double norm_r0 = residual(start, end, p_start, r);
-    if (std::isfinite(norm_r0)) m_scale = std::max(m_scale, norm_r0 / h);
     std::unique_ptr<LinearSolver> local;
     if (!solver) solver = (local = std::make_unique<LinearSolver>()).get();
     VariationalProblem problem(*this, m_potential, start, p_start, m_fixed, h, *solver);
-    result = newton(problem, end, settings, m_scale);
-    m_residual_norm = residual(start, end, p_start, r);
+    result = newton(problem, end, settings, force_scale);
     // (5): momenta at q_{k+1}.
     if (result.converged) {
       std::vector<double> minus_d1;
       action_derivatives(start, end, minus_d1, p_end);
     }
   }
+  m_scale = result.scale;
+  m_residual_norm = result.residual * result.scale * h;
   if (!result.converged) {
     result.message = "variational step: " + result.message;
     return result;

@@ -106,7 +106,8 @@ class VariationalStep {
   const TangentOrigin& assembled_at() const { return m_assembled_at; }
 
   // Free-DOF norm of the residual of (4) at the end of the last advance(), N s, and the force
-  // scale its relative value was measured against (N).
+  // scale its relative value was measured against (N; NewtonResult::scale: 0 where the predictor
+  // was not admissible).
   double residual_norm() const { return m_residual_norm; }
   double residual_scale() const { return m_scale; }
 

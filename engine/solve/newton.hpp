@@ -71,7 +71,8 @@ struct NewtonResult {
   bool converged = false;
   int iterations = 0;
   int cg_iterations = 0;
-  double residual = 0;   // |g_free| / reference force at the end
+  double residual = 0;   // |g_free| / scale at the end
+  double scale = 0;      // the force scale: max(reference force, |g_free(q_0)|) (0: q_0 not admissible)
   double value = 0;      // Phi at the end (minimising problems)
   std::string message;   // why it stopped, when not converged
 };
@@ -96,6 +97,7 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
     return result;
   }
   const double scale = std::max({reference_force, g_norm, 1e-300});
+  result.scale = scale;
   const int iterations = settings.fixed_iterations > 0 ? settings.fixed_iterations : settings.max_iterations;
   for (int it = 0; it < iterations; ++it) {
     throw_if_stop_requested();  // core/stop_request.hpp: the step is abandoned
