@@ -127,17 +127,6 @@ __global__ void k_add_blocks(int n, const int* diagonal_blocks, const double* E,
   for (int k = 0; k < 36; ++k) B[k] += E[36 * i + k];
 }
 
-// out_i += E_i d_i (E [N][36] row-major).
-__global__ void k_add_block_product(int n, const double* E, const double* d, double* out) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n) return;
-  for (int r = 0; r < 6; ++r) {
-    double s = 0;
-    for (int c = 0; c < 6; ++c) s += E[36 * i + 6 * r + c] * d[6 * i + c];
-    out[6 * i + r] += s;
-  }
-}
-
 // The diagonal blocks of H [N][36]: the elastic block (null: none) plus the frame diagonal.
 __global__ void k_diagonal_blocks(int n, const double* elastic, const double* diag, double* blocks) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -513,10 +502,7 @@ void DevicePotential::apply(const double* d_reduced, double* out) {
     m.ops.axpy(m.terms.beta / m.terms.h, m.damped_product.data(), out, dofs());
   }
   m.mapping.reduce_product(d_reduced, out, m.stream);
-  if (m.frame_blocks) {
-    k_add_block_product<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.frame_blocks, d_reduced, out);
-    check();
-  }
+  if (m.frame_blocks) m.ops.block_apply(m.frame_blocks, d_reduced, out, n, true);
 }
 
 void DevicePotential::set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,

@@ -67,14 +67,14 @@ __global__ void k_scale_project(long long n, double s, const double* x, const st
     y[k] = fixed && fixed[k] ? 0.0 : s * x[k];
 }
 
-// y_i = B_i x_i per frame (6x6 row-major blocks).
-__global__ void k_block_apply(int frames, const double* blocks, const double* x, double* y) {
+// y_i = B_i x_i per frame (6x6 row-major blocks), or y_i += B_i x_i where add.
+__global__ void k_block_apply(int frames, const double* blocks, const double* x, bool add, double* y) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= frames) return;
   double xi[6];
   for (int c = 0; c < 6; ++c) xi[c] = x[6 * i + c];
   for (int r = 0; r < 6; ++r) {
-    double s = 0;
+    double s = add ? y[6 * i + r] : 0.0;
     for (int c = 0; c < 6; ++c) s += blocks[36 * i + 6 * r + c] * xi[c];
     y[6 * i + r] = s;
   }
@@ -284,9 +284,9 @@ void VectorOps::project(double* x, const std::uint8_t* fixed, long long n) const
   check();
 }
 
-void VectorOps::block_apply(const double* blocks, const double* x, double* y, int frames) const {
+void VectorOps::block_apply(const double* blocks, const double* x, double* y, int frames, bool add) const {
   if (frames <= 0) return;
-  k_block_apply<<<vector_grid(frames), kVectorThreads, 0, m_stream>>>(frames, blocks, x, y);
+  k_block_apply<<<vector_grid(frames), kVectorThreads, 0, m_stream>>>(frames, blocks, x, add, y);
   check();
 }
 

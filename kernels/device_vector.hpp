@@ -65,8 +65,8 @@ class VectorOps {
   void scale(double a, double* x, long long n) const;                  // x = a x
   // x_k = 0 where fixed[k] (fixed may be null: nothing).
   void project(double* x, const std::uint8_t* fixed, long long n) const;
-  // y_i = B_i x_i for 6-vectors and 6x6 row-major blocks B [frames][36].
-  void block_apply(const double* blocks, const double* x, double* y, int frames) const;
+  // y_i = B_i x_i for 6-vectors and 6x6 row-major blocks B [frames][36]; y_i += B_i x_i where add.
+  void block_apply(const double* blocks, const double* x, double* y, int frames, bool add = false) const;
   // sum_k x_k y_k; y null: sum_k x_k.
   double dot(const double* x, const double* y, long long n) const;
   // Sums the kReduceBlocks partials that a fused kernel left in partials() and returns the sum.
