@@ -195,9 +195,9 @@ std::string likely_cause(const NewtonResult& r, bool finite, bool adaptive, Inte
     return "an element inverts at the start of the step: prescribed motions or loads move frames farther in one "
            "step than the elements allow" + smaller;
   if (variational && r.message.find("line search") != std::string::npos)
-    return "no decrease of the residual along the step of the variational iteration matrix, which leaves out the "
-           "skew part of the Jacobian: that part grows with the step (rotation per step, elastic torques on frames "
-           "of small rotational inertia)" + smaller;
+    return "no decrease of the residual even along Newton-Krylov directions: the discrete equations have no "
+           "solution near the predicted state, or one the residual cannot be driven to from there (large rotations "
+           "per step, elastic torques on frames of small rotational inertia)" + smaller;
   if (r.message.find("line search") != std::string::npos)
     return "no descent along the Newton direction: an indefinite tangent (buckling, inverted elements) or a load "
            "too large for one step" + smaller;

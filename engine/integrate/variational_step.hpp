@@ -53,7 +53,9 @@
 // K: the reduced tangent of V at the midpoint), solved by the configured CG/PCG/CHOLMOD. The
 // omitted parts are O(|psi|) and O(h^2 |tau|) relative to H, so the iterations converge linearly
 // at that rate (a few iterations for rotations of a few degrees per step); a step that does not
-// reduce |r| is halved. The converged q_{k+1} does not depend on the approximation. A step backend
+// reduce |r| is halved, and from an iteration whose halvings all fail Newton takes Newton-Krylov
+// directions preconditioned by this solve (solve/newton.hpp). The converged q_{k+1} does not
+// depend on the approximation. A step backend
 // (step_backend.hpp) solves (4) and evaluates (5) where its data lives, with the same per-frame
 // terms (discrete_action.hpp) and the same Newton.
 //

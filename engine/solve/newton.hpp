@@ -34,16 +34,27 @@
 // there, as for residual problems, a step that reduces |g| is accepted. The full step's Phi is
 // the one its gradient returns (accepted, that gradient is the next iteration's); shortened steps
 // evaluate Phi alone.
+//
+// Residual problems whose solve is an approximation of the Jacobian J of g (the variational step's
+// symmetric iteration matrix) converge linearly, and where the approximation is poor its direction
+// need not decrease |g| at all. From the first iteration whose line search fails, the solve's
+// directions give way to Newton-Krylov ones (Knoll & Keyes, "Jacobian-free Newton-Krylov
+// methods", J. Comput. Phys. 193, 2004): J d = -g by FGMRES (solve/fgmres.hpp) with products
+// J z = (g(q (+) eps z) - g(q)) / eps, preconditioned by the problem's solve; that iteration is
+// taken again along the new direction, and so are the rest of the solve's. To the accuracy of the
+// difference quotient and the forcing term, d is J's Newton step, a descent direction of |g|^2.
 #pragma once
 
 #include "core/stop_request.hpp"
 #include "model/state.hpp"
+#include "solve/fgmres.hpp"
 #include "solve/linear_solver.hpp"
 #include "solve/step_controller.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -55,6 +66,16 @@ namespace fascia {
 // iterations within 3 %; a cap of 1e-1 adds up to a quarter more Newton iterations.
 constexpr double kForcing = 0.1;
 constexpr double kForcingMax = 1e-2;
+
+// Newton-Krylov directions (see above). The difference step eps |z| = 1e-7 (m and rad of the
+// increments) balances the quotient's truncation, about 1e-7 of J's scale over the variation of J
+// across a rotation of one radian or a translation of the model's size (>= 1 cm), against the
+// round-off of g, about 1e-16 of its largest terms (momenta over h, forces) over 1e-7 |J z|:
+// both well below the forcing term's 1e-2 .. 1e-8 relative accuracy on the shipped scenes.
+// FGMRES keeps at most kKrylovIterations directions, each one preconditioning solve (at the
+// forcing term's cap, kForcingMax) and one evaluation of g.
+constexpr double kDifferenceStep = 1e-7;
+constexpr int kKrylovIterations = 20;
 
 struct NewtonSettings {
   double tolerance = 1e-6;   // converged when |g_free| <= tolerance * reference force
@@ -77,6 +98,41 @@ struct NewtonResult {
   std::string message;   // why it stopped, when not converged
 };
 
+// The Newton-Krylov direction of a residual problem at q (see above): J d = rhs to the relative
+// tolerance of `linear`, g = g(q), `probe` the state of the difference quotients.
+template <class Problem>
+LinearResult newton_krylov_direction(Problem& problem, const typename Problem::State& q,
+                                     const typename Problem::Vector& g, const typename Problem::Vector& rhs,
+                                     typename Problem::Vector& d, const LinearSettings& linear,
+                                     std::optional<typename Problem::State>& probe) {
+  using Vector = typename Problem::Vector;
+  const auto& ops = problem.ops();
+  auto jacobian = [&](const Vector& z, Vector& out) {
+    const double z_norm = ops.norm(z);
+    if (!(z_norm > 0)) {
+      ops.fill(out, 0.0);
+      return true;
+    }
+    const double eps = kDifferenceStep / z_norm;
+    if (probe)
+      *probe = q;
+    else
+      probe.emplace(q);
+    problem.retract(*probe, z, eps);
+    if (!std::isfinite(problem.gradient(*probe, out))) return false;
+    ops.axpy(-1.0, g, out);
+    ops.scale(1 / eps, out);
+    return true;
+  };
+  LinearSettings inner = linear;
+  inner.tolerance = std::max(linear.tolerance, kForcingMax);
+  auto precondition = [&](const Vector& v, Vector& z) { return problem.solve(q, v, z, inner).iterations; };
+  FgmresSettings krylov;
+  krylov.tolerance = linear.tolerance;
+  krylov.max_iterations = kKrylovIterations;
+  return fgmres(ops, jacobian, precondition, krylov, rhs, d);
+}
+
 template <class Problem>
 NewtonResult newton(Problem& problem, typename Problem::State& state, const NewtonSettings& settings,
                     double reference_force) {
@@ -89,6 +145,8 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
   ops.resize(d);
   ops.resize(rhs);
   typename Problem::State trial = state;
+  std::optional<typename Problem::State> probe;  // the Newton-Krylov difference quotients' state
+  bool krylov = false;                           // Newton-Krylov directions (residual problems)
   NewtonResult result;
   double phi = problem.gradient(state, g);
   double g_norm = ops.norm(g);
@@ -110,10 +168,13 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
     ops.scale(-1.0, rhs);
     LinearSettings linear = settings.linear;
     linear.tolerance = std::max(settings.linear.tolerance, std::min(kForcingMax, kForcing * result.residual));
-    const LinearResult lin = problem.solve(state, rhs, d, linear);
+    const LinearResult lin =
+        krylov ? newton_krylov_direction(problem, state, g, rhs, d, linear, probe) : problem.solve(state, rhs, d, linear);
     result.cg_iterations += lin.iterations;
     double slope = ops.dot(g, d);
-    if (!(slope < 0)) {  // not a descent direction: steepest descent
+    // Not a descent direction: steepest descent (a Newton-Krylov step descends on |g|^2, whatever
+    // the sign of g.d).
+    if (!krylov && !(slope < 0)) {
       ops.copy(rhs, d);
       slope = -g_norm * g_norm;
     }
@@ -163,10 +224,14 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
         accepted = true;
       }
     }
+    if (!accepted && !minimises && !krylov) {  // this iteration again, along J's Newton step
+      krylov = true;
+      continue;
+    }
     if (!accepted) {
       std::ostringstream msg;
       msg << "line search failed after " << settings.max_backtracks << " halvings at Newton iteration " << it + 1
-          << " (relative residual " << result.residual << ")";
+          << (krylov ? " along the Newton-Krylov direction" : "") << " (relative residual " << result.residual << ")";
       result.message = msg.str();
       result.value = phi;
       return result;

@@ -476,6 +476,41 @@ TEST_CASE("the variational step on the device solves the CPU's discrete Euler-La
   }
 }
 
+TEST_CASE("Newton-Krylov directions on the device: the coupling scene undamped at 20 ms", "[gpu]") {
+  // scenes/coupling.yaml at twice its dt without damping: at step 4 the iteration matrix's
+  // directions stop decreasing |r| and Newton continues along Newton-Krylov ones (solve/newton.hpp,
+  // over the device's vectors). Checked as above: the CPU's residual of (4) at each of the
+  // device's states.
+  const std::string dir = std::filesystem::is_directory("scenes") ? "scenes" : std::string(FASCIA_SOURCE_DIR) + "/scenes";
+  dsl::BuiltScene b = dsl::build_scene(dsl::parse_scene(
+      dir + "/coupling.yaml",
+      {"solver.integrator=variational", "solver.rayleigh_mass=0", "solver.dt=20ms", "run.duration=0.1s"}));
+  b.settings.threads = 1;
+  SimulationSettings s = b.settings;
+  s.step_backend = cuda_step_factory();
+  Simulation device(b.model, b.loads, s, b.motions);
+  REQUIRE(device.on_step_backend());
+  Simulation host(b.model, b.loads, b.settings, b.motions);
+  StepPotential potential(host.model(), host.loads(), 1);
+  VariationalStep cpu(host.model(), potential, s.dt);
+  const double reference = potential.frame_loads().force_norm(1.0);
+  for (int k = 1; k <= b.steps; ++k) {
+    const State start = device.state();
+    const StepReport report = device.step();
+    INFO("step " << k << ": " << report.message);
+    REQUIRE(report.converged);
+    State cpu_end = start;
+    cpu.advance(start, cpu_end, s.newton, reference);  // the force scale S of the step
+    std::vector<double> p_start, r;
+    cpu.momenta(start, p_start);
+    const double residual = cpu.residual(start, device.state(), p_start, r);
+    const double bound = 2 * s.newton.tolerance * cpu.residual_scale() * s.dt;
+    std::printf("[gpu] coupling.yaml variational 20 ms step %d: newton %d cg %d |r| %.2e (bound %.2e)\n", k,
+                report.newton_iterations, report.cg_iterations, residual, bound);
+    CHECK(residual <= bound);
+  }
+}
+
 TEST_CASE("every shipped scene: --backend cuda equals the CPU engine", "[gpu]") {
   // The scenes of the working directory's checkout where there is one (the GPU machine runs the
   // tests from a checkout other than the build's), else of the source tree.
