@@ -81,14 +81,14 @@ TEST_CASE("FGMRES solves a non-symmetric system on the free DOFs", "[solve][fgmr
   settings.tolerance = 1e-10;
   settings.max_iterations = 40;
   std::vector<double> x;
+  int calls = 0;
+  auto identity = [&](const std::vector<double>& v, std::vector<double>& z) {
+    z = v;
+    ++calls;
+    return 0;
+  };
 
   SECTION("unpreconditioned: at most one iteration per free DOF") {
-    int calls = 0;
-    auto identity = [&](const std::vector<double>& v, std::vector<double>& z) {
-      z = v;
-      ++calls;
-      return 0;
-    };
     const LinearResult r = fgmres(ops, apply, identity, settings, b, x);
     REQUIRE(r.converged);
     REQUIRE(calls <= 38);
@@ -126,10 +126,6 @@ TEST_CASE("FGMRES solves a non-symmetric system on the free DOFs", "[solve][fgmr
   }
   SECTION("capped: the best iterate of the Krylov space, its residual as reported") {
     settings.max_iterations = 5;
-    auto identity = [&](const std::vector<double>& v, std::vector<double>& z) {
-      z = v;
-      return 0;
-    };
     const LinearResult r = fgmres(ops, apply, identity, settings, b, x);
     REQUIRE(!r.converged);
     REQUIRE(r.message == "GMRES reached its iteration cap");
@@ -140,10 +136,6 @@ TEST_CASE("FGMRES solves a non-symmetric system on the free DOFs", "[solve][fgmr
     int products = 0;
     auto failing = [&](const std::vector<double>& z, std::vector<double>& out) {
       return ++products < 3 && apply(z, out);
-    };
-    auto identity = [&](const std::vector<double>& v, std::vector<double>& z) {
-      z = v;
-      return 0;
     };
     const LinearResult r = fgmres(ops, failing, identity, settings, b, x);
     REQUIRE(!r.converged);
