@@ -194,7 +194,7 @@ std::string likely_cause(const NewtonResult& r, bool finite, bool adaptive, Inte
   if (r.message.find("non-finite energy") != std::string::npos)
     return "an element inverts at the start of the step: prescribed motions or loads move frames farther in one "
            "step than the elements allow" + smaller;
-  if (variational && r.message.find("line search") != std::string::npos)
+  if (variational && (r.message.find("line search") != std::string::npos || r.message.find("stalled") != std::string::npos))
     return "no decrease of the residual even along Newton-Krylov directions: the discrete equations have no "
            "solution near the predicted state, or one the residual cannot be driven to from there (large rotations "
            "per step, elastic torques on frames of small rotational inertia)" + smaller;

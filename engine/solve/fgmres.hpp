@@ -11,8 +11,8 @@
 // that residual norm at every iteration without forming x. No restart: at most max_iterations
 // vectors of each kind are kept (a Newton direction needs a few). b, every z_j and A z_j are
 // projected, so fixed DOFs stay zero. Stops at |b - A x| <= tolerance |b|, after max_iterations,
-// or at a breakdown (h_{k+1,k} = 0: x_k solves the system); a non-finite product stops it with
-// x = 0 and the message.
+// at a breakdown (h_{k+1,k} = 0: x_k solves the system), or where A z_k = 0 (z_k adds nothing,
+// a singular A); a non-finite product stops it with x = 0 and the message.
 #pragma once
 
 #include "core/stop_request.hpp"
@@ -83,9 +83,14 @@ LinearResult fgmres(const Ops& ops, Apply&& apply, Precondition&& precondition, 
       H(i + 1, k) = -s[i] * a + c[i] * b2;
     }
     const double r = std::hypot(H(k, k), H(k + 1, k));
+    if (!(r > 0)) {  // A z_k = 0 on the free DOFs: z_k adds nothing, the residual stays
+      H(k, k) = 0;
+      ++k;
+      break;
+    }
     const bool breakdown = !(H(k + 1, k) > 0);
-    c[k] = r > 0 ? H(k, k) / r : 1.0;
-    s[k] = r > 0 ? H(k + 1, k) / r : 0.0;
+    c[k] = H(k, k) / r;
+    s[k] = H(k + 1, k) / r;
     if (!breakdown) ops.scale(1 / H(k + 1, k), w);
     H(k, k) = r;
     H(k + 1, k) = 0;

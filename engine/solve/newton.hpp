@@ -43,6 +43,9 @@
 // J z = (g(q (+) eps z) - g(q)) / eps, preconditioned by the problem's solve; that iteration is
 // taken again along the new direction, and so are the rest of the solve's. To the accuracy of the
 // difference quotient and the forcing term, d is J's Newton step, a descent direction of |g|^2.
+// Where FGMRES cannot reduce the linearised residual below kKrylovStall |g|, J^T g is about zero:
+// |g| is at a minimum away from zero (the equations have no solution near q), and the solve stops
+// there rather than take iterations that cannot progress.
 #pragma once
 
 #include "core/stop_request.hpp"
@@ -76,6 +79,7 @@ constexpr double kForcingMax = 1e-2;
 // forcing term's cap, kForcingMax) and one evaluation of g.
 constexpr double kDifferenceStep = 1e-7;
 constexpr int kKrylovIterations = 20;
+constexpr double kKrylovStall = 0.99;
 
 struct NewtonSettings {
   double tolerance = 1e-6;   // converged when |g_free| <= tolerance * reference force
@@ -171,6 +175,19 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
     const LinearResult lin =
         krylov ? newton_krylov_direction(problem, state, g, rhs, d, linear, probe) : problem.solve(state, rhs, d, linear);
     result.cg_iterations += lin.iterations;
+    if (krylov && !(lin.relative_residual < kKrylovStall)) {
+      std::ostringstream msg;
+      msg << "Newton-Krylov directions stalled at Newton iteration " << it + 1 << " (relative residual "
+          << result.residual << "): ";
+      if (lin.message.find("could not be formed") != std::string::npos)
+        msg << "a difference quotient's state is not admissible (an inverted element)";
+      else
+        msg << "GMRES reduced the linearised residual to " << lin.relative_residual
+            << " of |g| only, a local minimum of the residual away from zero";
+      result.message = msg.str();
+      result.value = phi;
+      return result;
+    }
     double slope = ops.dot(g, d);
     // Not a descent direction: steepest descent (a Newton-Krylov step descends on |g|^2, whatever
     // the sign of g.d).

@@ -144,6 +144,23 @@ TEST_CASE("FGMRES solves a non-symmetric system on the free DOFs", "[solve][fgmr
   }
 }
 
+TEST_CASE("FGMRES: a zero operator leaves the residual at |b|, reported as such", "[solve][fgmres]") {
+  const HostVectorOps ops(4, nullptr);
+  auto zero = [](const std::vector<double>& z, std::vector<double>& out) {
+    out.assign(z.size(), 0.0);
+    return true;
+  };
+  auto identity = [](const std::vector<double>& v, std::vector<double>& z) {
+    z = v;
+    return 0;
+  };
+  std::vector<double> x;
+  const LinearResult r = fgmres(ops, zero, identity, FgmresSettings{}, std::vector<double>{1, 2, 0, -1}, x);
+  REQUIRE(!r.converged);
+  REQUIRE(r.relative_residual == 1.0);
+  for (double v : x) REQUIRE(v == 0.0);
+}
+
 TEST_CASE("FGMRES: the identity converges in one iteration, a zero right-hand side in none", "[solve][fgmres]") {
   const HostVectorOps ops(6, nullptr);
   auto identity_product = [](const std::vector<double>& z, std::vector<double>& out) {
