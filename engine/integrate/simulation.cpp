@@ -182,25 +182,33 @@ bool finite_state(const State& s) {
   return true;
 }
 
-// The likely cause of a failed step, from how Newton stopped (newton.hpp's messages), and the
-// remedy: a smaller dt, or adaptive steps where the integrator takes them (not the variational
-// one) and the run does not already have them.
+// The likely cause of a failed step, from how Newton stopped, and the remedy: a smaller dt, or
+// adaptive steps where the integrator takes them (not the variational one) and the run does not
+// already have them.
 std::string likely_cause(const NewtonResult& r, bool finite, bool adaptive, Integrator integrator) {
   const bool variational = integrator == Integrator::variational;
   const std::string smaller = adaptive      ? ""
                               : variational ? "; a smaller solver.dt resolves it"
                                             : "; a smaller solver.dt, or solver.adaptive, resolves it";
   if (!finite) return "the state became non-finite (diverged): the step is too large for the load" + smaller;
-  if (r.message.find("non-finite energy") != std::string::npos)
-    return "an element inverts at the start of the step: prescribed motions or loads move frames farther in one "
-           "step than the elements allow" + smaller;
-  if (variational && (r.message.find("line search") != std::string::npos || r.message.find("stalled") != std::string::npos))
-    return "no decrease of the residual even along Newton-Krylov directions: the discrete equations have no "
-           "solution near the predicted state, or one the residual cannot be driven to from there (large rotations "
-           "per step, elastic torques on frames of small rotational inertia)" + smaller;
-  if (r.message.find("line search") != std::string::npos)
-    return "no descent along the Newton direction: an indefinite tangent (buckling, inverted elements) or a load "
-           "too large for one step" + smaller;
+  switch (r.stop) {
+    case NewtonStop::inadmissible_start:
+      return "an element inverts at the start of the step: prescribed motions or loads move frames farther in one "
+             "step than the elements allow" + smaller;
+    case NewtonStop::line_search:
+    case NewtonStop::krylov_stall:
+    case NewtonStop::inadmissible_probe:
+      if (variational)
+        return "no decrease of the residual even along Newton-Krylov directions: the discrete equations have no "
+               "solution near the predicted state, or one the residual cannot be driven to from there (large "
+               "rotations per step, elastic torques on frames of small rotational inertia)" + smaller;
+      return "no descent along the Newton direction: an indefinite tangent (buckling, inverted elements) or a load "
+             "too large for one step" + smaller;
+    case NewtonStop::converged:
+    case NewtonStop::iteration_cap:
+    case NewtonStop::non_finite:
+      break;
+  }
   return "slow convergence: a near-singular tangent (unconstrained frames, zero-energy modes) or too large a step" +
          smaller;
 }

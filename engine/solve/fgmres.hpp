@@ -12,7 +12,7 @@
 // vectors of each kind are kept (a Newton direction needs a few). b, every z_j and A z_j are
 // projected, so fixed DOFs stay zero. Stops at |b - A x| <= tolerance |b|, after max_iterations,
 // at a breakdown (h_{k+1,k} = 0: x_k solves the system), or where A z_k = 0 (z_k adds nothing,
-// a singular A); a non-finite product stops it with x = 0 and the message.
+// a singular A); a product that cannot be formed stops it with x = 0 and product_failed.
 #pragma once
 
 #include "core/stop_request.hpp"
@@ -68,6 +68,7 @@ LinearResult fgmres(const Ops& ops, Apply&& apply, Precondition&& precondition, 
     if (!apply(z[k], w)) {
       ops.fill(x, 0.0);
       result.relative_residual = 1;
+      result.product_failed = true;
       result.message = "GMRES: the operator's product could not be formed";
       return result;
     }

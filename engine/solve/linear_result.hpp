@@ -12,6 +12,8 @@ struct LinearResult {
   bool negative_curvature = false;  // CG met d^T H d <= 0 and stopped there (truncated Newton)
   bool shifted = false;             // the factorised matrix was H + tau diag|H| (H not positive definite)
   bool factorised = false;          // a numeric factorisation was computed for this solve
+  bool product_failed = false;      // the operator's product could not be formed (GMRES: a difference
+                                    // quotient's state is not admissible); x = 0
   std::string message;
 };
 

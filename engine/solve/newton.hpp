@@ -92,8 +92,20 @@ struct NewtonSettings {
   LinearSettings linear;
 };
 
+// How a Newton solve ended (NewtonResult::stop).
+enum class NewtonStop {
+  converged,
+  inadmissible_start,  // the starting state has non-finite energy or gradient
+  line_search,         // no step along the direction decreased Phi (or |g|)
+  krylov_stall,        // Newton-Krylov: GMRES could not reduce the linearised residual
+  inadmissible_probe,  // Newton-Krylov: a difference quotient's state is not admissible
+  iteration_cap,       // max_iterations without reaching the tolerance
+  non_finite,          // fixed_iterations ended at a state of non-finite energy or gradient
+};
+
 struct NewtonResult {
   bool converged = false;
+  NewtonStop stop = NewtonStop::converged;  // meaningful when !converged
   int iterations = 0;
   int cg_iterations = 0;
   double residual = 0;   // |g_free| / scale at the end
@@ -155,6 +167,7 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
   double phi = problem.gradient(state, g);
   double g_norm = ops.norm(g);
   if (!std::isfinite(phi) || !std::isfinite(g_norm)) {
+    result.stop = NewtonStop::inadmissible_start;
     result.message = "the starting state has non-finite energy (an inverted element, or magnitudes beyond a double: moduli, densities, loads?)";
     return result;
   }
@@ -179,7 +192,8 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
       std::ostringstream msg;
       msg << "Newton-Krylov directions stalled at Newton iteration " << it + 1 << " (relative residual "
           << result.residual << "): ";
-      if (lin.message.find("could not be formed") != std::string::npos)
+      result.stop = lin.product_failed ? NewtonStop::inadmissible_probe : NewtonStop::krylov_stall;
+      if (lin.product_failed)
         msg << "a difference quotient's state is not admissible (an inverted element)";
       else
         msg << "GMRES reduced the linearised residual to " << lin.relative_residual
@@ -249,6 +263,7 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
       std::ostringstream msg;
       msg << "line search failed after " << settings.max_backtracks << " halvings at Newton iteration " << it + 1
           << (krylov ? " along the Newton-Krylov direction" : "") << " (relative residual " << result.residual << ")";
+      result.stop = NewtonStop::line_search;
       result.message = msg.str();
       result.value = phi;
       return result;
@@ -258,9 +273,11 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
   result.value = phi;
   if (settings.fixed_iterations > 0) {
     result.converged = std::isfinite(phi) && std::isfinite(g_norm);
+    if (!result.converged) result.stop = NewtonStop::non_finite;
   } else if (!result.converged) {
     result.converged = result.residual <= settings.tolerance;
     if (!result.converged) {
+      result.stop = NewtonStop::iteration_cap;
       std::ostringstream msg;
       msg << "Newton did not converge in " << settings.max_iterations << " iterations (relative residual "
           << result.residual << ", tolerance " << settings.tolerance << ")";
@@ -322,6 +339,7 @@ NewtonResult newton_load_stepping(Problem& problem, typename Problem::State& sta
       std::ostringstream msg;
       msg << "static solve failed at load factor " << target << ": " << r.message;
       total.message = msg.str();
+      total.stop = r.stop;
       total.residual = r.residual;
       return total;
     }

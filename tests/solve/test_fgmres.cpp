@@ -129,6 +129,7 @@ TEST_CASE("FGMRES solves a non-symmetric system on the free DOFs", "[solve][fgmr
     const LinearResult r = fgmres(ops, apply, identity, settings, b, x);
     REQUIRE(!r.converged);
     REQUIRE(r.message == "GMRES reached its iteration cap");
+    REQUIRE(!r.product_failed);
     REQUIRE(r.relative_residual < 1);  // GMRES's residual never grows
     REQUIRE(true_residual(A, b, x, fixed) == Approx(r.relative_residual).margin(1e-12));
   }
@@ -139,7 +140,7 @@ TEST_CASE("FGMRES solves a non-symmetric system on the free DOFs", "[solve][fgmr
     };
     const LinearResult r = fgmres(ops, failing, identity, settings, b, x);
     REQUIRE(!r.converged);
-    REQUIRE(r.message == "GMRES: the operator's product could not be formed");
+    REQUIRE(r.product_failed);
     for (double v : x) REQUIRE(v == 0.0);
   }
 }

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <vector>
 
@@ -177,6 +178,70 @@ TEST_CASE("Newton on a residual problem: Newton-Krylov directions where the appr
     // |g| 0.79 |g_0|); from there Newton-Krylov converges quadratically, in 4 iterations to
     // 1e-10 (16 in all).
     REQUIRE(r.iterations <= 20);
+  }
+}
+
+// A residual problem without a root: g(x) = (1 + x_1^2, x_1). |g| has its minimum 1 at x_1 = 0,
+// where J = [0 0; 0 1] and J^T g = 0. solve() approximates J by the identity, whose first step
+// lands on x_1 = 0; no step decreases |g| from there.
+struct RootlessProblem {
+  using Ops = HostVectorOps;
+  using Vector = std::vector<double>;
+  using State = std::vector<double>;
+  HostVectorOps m_ops{2, nullptr};
+  const Ops& ops() const { return m_ops; }
+  bool minimises() const { return false; }
+  double value(const State&) const { return 0; }
+  double gradient(const State& x, Vector& g) const {
+    g = {1 + x[1] * x[1], x[1]};
+    return 0;
+  }
+  LinearResult solve(const State&, const Vector& rhs, Vector& d, const LinearSettings&) const {
+    d = rhs;
+    LinearResult r;
+    r.converged = true;
+    r.iterations = 1;
+    return r;
+  }
+  void retract(State& x, const Vector& d, double alpha) const {
+    for (int k = 0; k < 2; ++k) x[k] += alpha * d[k];
+  }
+};
+
+TEST_CASE("Newton reports how it stopped", "[solve][newton]") {
+  NewtonSettings settings;
+  settings.tolerance = 1e-10;
+  SECTION("converged") {
+    QuarticProblem problem(8, 1.0);
+    std::vector<double> x(8, 0.0);
+    const NewtonResult r = newton(problem, x, settings, 1.0);
+    REQUIRE(r.converged);
+    REQUIRE(r.stop == NewtonStop::converged);
+  }
+  SECTION("the iteration cap") {
+    settings.max_iterations = 6;  // too few for the load 200 from x = 0
+    QuarticProblem problem(8, 200.0);
+    std::vector<double> x(8, 0.0);
+    const NewtonResult r = newton(problem, x, settings, 1.0);
+    REQUIRE(!r.converged);
+    REQUIRE(r.stop == NewtonStop::iteration_cap);
+  }
+  SECTION("a starting state that is not admissible") {
+    QuarticProblem problem(8, 1.0);
+    std::vector<double> x(8, 0.0);
+    x[0] = std::numeric_limits<double>::quiet_NaN();
+    const NewtonResult r = newton(problem, x, settings, 1.0);
+    REQUIRE(!r.converged);
+    REQUIRE(r.stop == NewtonStop::inadmissible_start);
+  }
+  SECTION("a residual without a root: Newton-Krylov stops at the minimum of |g|") {
+    RootlessProblem problem;
+    std::vector<double> x{0.3, 0.5};
+    const NewtonResult r = newton(problem, x, settings, 1.0);
+    INFO(r.message);
+    REQUIRE(!r.converged);
+    REQUIRE(r.stop == NewtonStop::krylov_stall);
+    REQUIRE(x[1] == 0.0);  // left at the minimum of |g|
   }
 }
 
