@@ -10,8 +10,8 @@
 // (count times voxel volume) up to the coverage ramp's error at the staircase's edges, within
 // 1 % at h = the smallest voxel edge (docs/meshless.md, "Label images").
 //
-// OpenVDB stays behind this interface (pimpl); level_set_grid.hpp exposes the grid to the
-// discretisation's own sources.
+// OpenVDB stays behind this interface (pimpl): its module is loaded on first use
+// (discretise/voxel_module.hpp).
 #pragma once
 
 #include "core/small_math.hpp"

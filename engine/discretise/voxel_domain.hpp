@@ -3,7 +3,8 @@
 // distances, sign by flood fill so independent of triangle orientation) answers inside tests and
 // gives each voxel the fraction of it that lies inside.
 //
-// OpenVDB stays behind this interface (pimpl) so that only voxel_domain.cpp includes it.
+// OpenVDB stays behind this interface (pimpl): its module is loaded on first use
+// (discretise/voxel_module.hpp).
 #pragma once
 
 #include "core/small_math.hpp"
@@ -23,6 +24,7 @@ struct CoveredVoxel {
 
 class VoxelDomain {
  public:
+  struct Impl;  // discretise/voxel_module.hpp
   // @param voxel_size h, m. @param half_width narrow band half width in voxels (>= 2).
   // Throws std::invalid_argument when the mesh is empty or h <= 0.
   VoxelDomain(const SurfaceMesh& surface, double voxel_size, int half_width = 3);
@@ -45,13 +47,13 @@ class VoxelDomain {
   // The same interpolation through a cached tree accessor, for hot loops; one per thread.
   class Probe {
    public:
+    struct Impl;  // discretise/voxel_module.hpp
     explicit Probe(const VoxelDomain& domain);
     ~Probe();
     double signed_distance(const Vec3& x);
     bool inside(const Vec3& x) { return signed_distance(x) < 0; }
 
    private:
-    struct Impl;
     std::unique_ptr<Impl> m_impl;
   };
 
@@ -70,7 +72,6 @@ class VoxelDomain {
   long long covered_count() const;
 
  private:
-  struct Impl;
   std::unique_ptr<Impl> m_impl;
 };
 
