@@ -134,6 +134,12 @@ def test_info_summarises_a_run(fascia_bin, root, tmp_path):
     assert fields["samples"] == fields["slab"]
     assert {"orientation", "axis_x", "axis_y", "axis_z", "angular_velocity"} <= fields["frames"]
     assert "elastic_energy" in info["final"]
+    # Counts are integers, energies floats (every observable is stored as a double).
+    for name in ("newton_iterations", "cg_iterations", "accepted_steps", "rejected_steps", "converged"):
+        assert type(info["final"][name]) is int, name
+    assert type(info["solver"]["newton_iterations_total"]) is int
+    assert info["solver"]["newton_iterations_total"] >= info["solver"]["newton_iterations_max"]
+    assert type(info["final"]["elastic_energy"]) is float
     assert run_fascia(fascia_bin, root, "info", str(tmp_path / "missing.h5")).returncode == 66
 
 
