@@ -208,16 +208,9 @@ struct RootlessProblem {
   }
 };
 
-TEST_CASE("Newton reports how it stopped", "[solve][newton]") {
+TEST_CASE("Newton reports why it stopped", "[solve][newton]") {
   NewtonSettings settings;
   settings.tolerance = 1e-10;
-  SECTION("converged") {
-    QuarticProblem problem(8, 1.0);
-    std::vector<double> x(8, 0.0);
-    const NewtonResult r = newton(problem, x, settings, 1.0);
-    REQUIRE(r.converged);
-    REQUIRE(r.stop == NewtonStop::converged);
-  }
   SECTION("the iteration cap") {
     settings.max_iterations = 6;  // too few for the load 200 from x = 0
     QuarticProblem problem(8, 200.0);
@@ -255,6 +248,7 @@ TEST_CASE("Newton minimises a strictly convex potential to its tolerance", "[sol
   settings.tolerance = 1e-10;
   const NewtonResult r = newton(problem, x, settings, 1.0);
   REQUIRE(r.converged);
+  REQUIRE(r.stop == NewtonStop::converged);
   REQUIRE(r.iterations == problem.solves);
   REQUIRE(r.cg_iterations == problem.solves);
   REQUIRE(x[2] == 0.25);
