@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 #include <system_error>
+#include <vector>
 
 namespace fascia {
 
@@ -15,26 +16,38 @@ namespace {
 
 constexpr const char* kModuleFile = "libfascia_openvdb.so";
 
-// FASCIA_MODULE_DIR/libfascia_openvdb.so, else ../lib/libfascia_openvdb.so from the executable.
-std::filesystem::path module_path() {
-  if (const char* dir = std::getenv("FASCIA_MODULE_DIR"); dir && *dir) return std::filesystem::path(dir) / kModuleFile;
+// Where the module is looked for, in order: FASCIA_MODULE_DIR; ../lib from the executable (a
+// build tree's or a bundle's bin/ and lib/); the build tree's lib/ (a program copied elsewhere on
+// the machine that built it).
+std::vector<std::filesystem::path> module_paths() {
+  std::vector<std::filesystem::path> paths;
+  if (const char* dir = std::getenv("FASCIA_MODULE_DIR"); dir && *dir) {
+    paths.push_back(std::filesystem::path(dir) / kModuleFile);
+    return paths;
+  }
   std::error_code ec;
   const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (ec) return kModuleFile;  // the loader's search path
-  return exe.parent_path().parent_path() / "lib" / kModuleFile;
+  if (!ec) paths.push_back(exe.parent_path().parent_path() / "lib" / kModuleFile);
+  paths.push_back(std::filesystem::path(FASCIA_MODULE_BUILD_DIR) / kModuleFile);
+  return paths;
 }
 
 const VoxelModule* load() {
-  const std::filesystem::path path = module_path();
-  // RTLD_NOW: a missing symbol is reported here, not at a later call.
-  void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (!handle)
-    throw std::runtime_error("cannot load the voxelisation module " + path.string() + ": " + dlerror() +
-                             " (it is built with fascia into lib/ next to bin/; FASCIA_MODULE_DIR names another folder)");
-  using Entry = const VoxelModule* (*)();
-  const auto entry = reinterpret_cast<Entry>(dlsym(handle, "fascia_voxel_module"));
-  if (!entry) throw std::runtime_error("the voxelisation module " + path.string() + " has no entry point: " + dlerror());
-  return entry();  // the module stays loaded for the life of the process
+  std::string errors;
+  for (const std::filesystem::path& path : module_paths()) {
+    // RTLD_NOW: a missing symbol is reported here, not at a later call.
+    void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!handle) {
+      errors += std::string(errors.empty() ? "" : "; ") + dlerror();
+      continue;
+    }
+    using Entry = const VoxelModule* (*)();
+    const auto entry = reinterpret_cast<Entry>(dlsym(handle, "fascia_voxel_module"));
+    if (!entry) throw std::runtime_error("the voxelisation module " + path.string() + " has no entry point: " + dlerror());
+    return entry();  // the module stays loaded for the life of the process
+  }
+  throw std::runtime_error("cannot load the voxelisation module " + std::string(kModuleFile) + ": " + errors +
+                           " (it is built with fascia into lib/ next to bin/; FASCIA_MODULE_DIR names another folder)");
 }
 
 }  // namespace

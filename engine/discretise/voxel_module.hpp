@@ -7,8 +7,8 @@
 // for the scenes and commands that never voxelise. LevelSet and VoxelDomain forward to the
 // interfaces below; only the module includes OpenVDB.
 //
-// The module is found at ../lib/libfascia_openvdb.so from the running executable (the build tree's
-// bin/ and lib/, and a bundle's), or in the folder FASCIA_MODULE_DIR names.
+// The module is looked for in the folder FASCIA_MODULE_DIR names, else at ../lib from the running
+// executable (the build tree's bin/ and lib/, and a bundle's), then in the build tree's lib/.
 #pragma once
 
 #include "discretise/level_set.hpp"
