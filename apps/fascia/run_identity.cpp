@@ -1,40 +1,54 @@
 #include "run_identity.hpp"
 
+#include "discretise/voxel_module.hpp"
+
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <vector>
 
 namespace fascia::app {
 
+namespace {
+
+// A 64-bit FNV-1a-style fingerprint of a file over its 8-byte words (the last word zero-padded):
+// a checkpoint is resumed only by the build that wrote it (not a defence against tampering). Word
+// by word it reads a 16 MB program in a few milliseconds.
+std::string file_fingerprint(const std::string& path) {
+  std::uint64_t h = 14695981039346656037ull;
+  std::ifstream in(path, std::ios::binary);
+  std::vector<char> buffer(1 << 16);
+  std::uint64_t bytes = 0;
+  while (in.read(buffer.data(), static_cast<std::streamsize>(buffer.size())) || in.gcount() > 0) {
+    const std::size_t n = static_cast<std::size_t>(in.gcount());
+    bytes += n;
+    for (std::size_t i = 0; i < n; i += 8) {
+      std::uint64_t word = 0;
+      std::memcpy(&word, buffer.data() + i, std::min<std::size_t>(8, n - i));
+      h ^= word;
+      h *= 1099511628211ull;
+    }
+    if (n < buffer.size()) break;
+  }
+  h ^= bytes;
+  h *= 1099511628211ull;
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return std::string("fnv1a64w:") + hex;
+}
+
+}  // namespace
+
 const std::string& build_identity() {
   static const std::string identity = [] {
-    // A 64-bit FNV-1a-style fingerprint of the executable over its 8-byte words (the last word
-    // zero-padded): a checkpoint is resumed only by the build that wrote it (not a defence against
-    // tampering). Word by word it reads a 16 MB program in a few milliseconds at start-up.
-    std::uint64_t h = 14695981039346656037ull;
-    std::ifstream in("/proc/self/exe", std::ios::binary);
-    std::vector<char> buffer(1 << 16);
-    std::uint64_t bytes = 0;
-    while (in.read(buffer.data(), static_cast<std::streamsize>(buffer.size())) || in.gcount() > 0) {
-      const std::size_t n = static_cast<std::size_t>(in.gcount());
-      bytes += n;
-      for (std::size_t i = 0; i < n; i += 8) {
-        std::uint64_t word = 0;
-        std::memcpy(&word, buffer.data() + i, std::min<std::size_t>(8, n - i));
-        h ^= word;
-        h *= 1099511628211ull;
-      }
-      if (n < buffer.size()) break;
-    }
-    h ^= bytes;
-    h *= 1099511628211ull;
-    char hex[17];
-    std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
-    return std::string("fascia " FASCIA_VERSION ", executable fnv1a64w:") + hex;
+    std::string id = "fascia " FASCIA_VERSION ", executable " + file_fingerprint("/proc/self/exe");
+    const std::filesystem::path module = voxel_module_file();
+    if (!module.empty()) id += ", voxel module " + file_fingerprint(module.string());
+    return id;
   }();
   return identity;
 }

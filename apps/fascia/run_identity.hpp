@@ -9,8 +9,10 @@
 
 namespace fascia::app {
 
-// "fascia 0.1.0, executable fnv1a64w:0123456789abcdef": the version and a hash of the running
-// executable's bytes (/proc/self/exe), so that any rebuild with other code is another build.
+// "fascia 0.1.0, executable fnv1a64w:0123456789abcdef, voxel module fnv1a64w:...": the version and
+// hashes of the running executable's bytes (/proc/self/exe) and of the voxelisation module it
+// loads (discretise/voxel_module.hpp; left out where there is none), so that any rebuild with
+// other code is another build.
 const std::string& build_identity();
 
 // The resolved scene (YAML, SI units, defaults) without the keys that do not change the

@@ -32,22 +32,34 @@ std::vector<std::filesystem::path> module_paths() {
   return paths;
 }
 
-const VoxelModule* load() {
-  std::string errors;
+}  // namespace
+
+std::filesystem::path voxel_module_file() {
   for (const std::filesystem::path& path : module_paths()) {
-    // RTLD_NOW: a missing symbol is reported here, not at a later call.
-    void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!handle) {
-      errors += std::string(errors.empty() ? "" : "; ") + dlerror();
-      continue;
-    }
-    using Entry = const VoxelModule* (*)();
-    const auto entry = reinterpret_cast<Entry>(dlsym(handle, "fascia_voxel_module"));
-    if (!entry) throw std::runtime_error("the voxelisation module " + path.string() + " has no entry point: " + dlerror());
-    return entry();  // the module stays loaded for the life of the process
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(path, ec)) return path;
   }
-  throw std::runtime_error("cannot load the voxelisation module " + std::string(kModuleFile) + ": " + errors +
-                           " (it is built with fascia into lib/ next to bin/; FASCIA_MODULE_DIR names another folder)");
+  return {};
+}
+
+namespace {
+
+const VoxelModule* load() {
+  const std::filesystem::path path = voxel_module_file();
+  if (path.empty()) {
+    std::string tried;
+    for (const std::filesystem::path& p : module_paths()) tried += (tried.empty() ? "" : ", ") + p.string();
+    throw std::runtime_error("cannot find the voxelisation module " + std::string(kModuleFile) + " (looked for " +
+                             tried + "; it is built with fascia into lib/ next to bin/, and FASCIA_MODULE_DIR names "
+                             "another folder)");
+  }
+  // RTLD_NOW: a missing symbol is reported here, not at a later call.
+  void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!handle) throw std::runtime_error("cannot load the voxelisation module " + path.string() + ": " + dlerror());
+  using Entry = const VoxelModule* (*)();
+  const auto entry = reinterpret_cast<Entry>(dlsym(handle, "fascia_voxel_module"));
+  if (!entry) throw std::runtime_error("the voxelisation module " + path.string() + " has no entry point: " + dlerror());
+  return entry();  // the module stays loaded for the life of the process
 }
 
 }  // namespace

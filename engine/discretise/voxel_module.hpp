@@ -14,6 +14,7 @@
 #include "discretise/level_set.hpp"
 #include "discretise/voxel_domain.hpp"
 
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <vector>
@@ -59,6 +60,10 @@ struct VoxelModule {
   // A domain sharing the level set's grid (never modified through it).
   virtual std::unique_ptr<VoxelDomain::Impl> domain(const LevelSet::Impl& level_set) const = 0;
 };
+
+// The module file voxel_module() loads: the first of the places above that exists (empty: none).
+// A checkpoint's build identity covers its bytes with the executable's.
+std::filesystem::path voxel_module_file();
 
 // The loaded module; loads it on the first call (thread-safe). Throws std::runtime_error naming
 // the file and the loader's message where it cannot be loaded.

@@ -2,6 +2,8 @@
 steps), by --max-wall or killed with SIGKILL continues from its checkpoint into the same file and
 ends bitwise identical to an uninterrupted run (same build, backend, precision and threads);
 refusals of checkpoints from another scene; SIGHUP and SIGUSR2 do not stop a run."""
+import os
+import pathlib
 import signal
 import subprocess
 import time
@@ -262,3 +264,24 @@ def test_a_checkpoint_of_another_scene_is_refused(fascia_bin, root, tmp_path):
     assert out.read_bytes() == before
     # --resume and --overwrite contradict each other.
     assert run(fascia_bin, root, *SCENE, "-o", str(out), "--resume", "--overwrite").returncode == 64
+
+
+def test_a_checkpoint_is_refused_with_another_voxelisation_module(fascia_bin, root, tmp_path):
+    """The build identity covers the voxelisation module the run loads: a stopped meshless run
+    resumed with a module of other bytes is refused (exit 65) and its file is left as it was."""
+    scene = ["scenes/meshless_slab.yaml", "--threads", "1"]
+    out = tmp_path / "slab.h5"
+    r = run(fascia_bin, root, *scene, "--set", "run.duration=100 s", "-o", str(out), "--max-wall", "1 s", "-q")
+    assert r.returncode == STOPPED, r.stderr
+    before = out.read_bytes()
+    module_dir = tmp_path / "module"
+    module_dir.mkdir()
+    program = pathlib.Path(fascia_bin).resolve()
+    module = (program.parent.parent / "lib" / "libfascia_openvdb.so").read_bytes()
+    (module_dir / "libfascia_openvdb.so").write_bytes(module + b"\0")  # still loadable, other bytes
+    other = subprocess.run([fascia_bin, "run", *scene, "--set", "run.duration=100 s", "-o", str(out), "--resume", "-q"],
+                           cwd=root, capture_output=True, text=True, timeout=600,
+                           env={**os.environ, "FASCIA_MODULE_DIR": str(module_dir)})
+    assert other.returncode == DATA_ERROR, other.stderr
+    assert "written by another build" in other.stderr and "voxel module" in other.stderr
+    assert out.read_bytes() == before
