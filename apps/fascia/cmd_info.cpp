@@ -21,16 +21,10 @@ struct InfoOptions {
   bool json = false;
 };
 
-// An observable's value as JSON: the counts (iterations, steps, the converged flag), stored as
-// doubles like every observable, as integers.
-nlohmann::json observable_json(const std::string& name, double value) {
-  const auto ends_with = [&](const char* suffix) {
-    const std::string s(suffix);
-    return name.size() >= s.size() && name.compare(name.size() - s.size(), s.size(), s) == 0;
-  };
-  const bool count = ends_with("_iterations") || ends_with("_steps") || name == "converged";
-  if (count && std::isfinite(value) && value == std::round(value) && std::abs(value) < 9.0e15)
-    return static_cast<long long>(value);
+// An observable's value as JSON: an integer where the file stores the observable as integers
+// (counts, flags; the reader returns every value as a double).
+nlohmann::json observable_json(bool integer, double value) {
+  if (integer) return static_cast<long long>(value);
   return value;
 }
 
@@ -67,10 +61,11 @@ int info(const InfoOptions& options) {
     for (const std::string& name : reader.observable_names()) {
       const std::vector<double> v = reader.observable(name);
       if (v.empty()) continue;
-      final_values[name] = observable_json(name, v.back());
+      const bool integer = reader.observable_is_integer(name);
+      final_values[name] = observable_json(integer, v.back());
       if (name == "newton_iterations" || name == "cg_iterations" || name == "wall_time") {
-        solver[name + "_total"] = observable_json(name, std::accumulate(v.begin(), v.end(), 0.0));
-        solver[name + "_max"] = observable_json(name, *std::max_element(v.begin(), v.end()));
+        solver[name + "_total"] = observable_json(integer, std::accumulate(v.begin(), v.end(), 0.0));
+        solver[name + "_max"] = observable_json(integer, *std::max_element(v.begin(), v.end()));
       }
       if (name == "residual") solver["residual_max"] = *std::max_element(v.begin(), v.end());
       if (name == "converged")

@@ -764,6 +764,14 @@ std::vector<double> TrajectoryReader::observable(const std::string& name) const 
                            static_cast<hsize_t>(m_steps), m_impl->path);
 }
 
+bool TrajectoryReader::observable_is_integer(const std::string& name) const {
+  const std::string path = "/observables/" + name + "/value";
+  Handle ds(H5Dopen2(m_impl->file.get(), path.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!ds.valid()) throw TrajectoryError(m_impl->path + ": no dataset " + path);
+  Handle type(H5Dget_type(ds.get()), H5Tclose);
+  return type.valid() && H5Tget_class(type.get()) == H5T_INTEGER;
+}
+
 std::vector<double> TrajectoryReader::particle_values(const std::string& group, const std::string& element, int k) const {
   if (k < 0 || k >= m_steps) throw TrajectoryError(m_impl->path + ": step index " + std::to_string(k) + " out of range");
   return read_rows<double>(m_impl->file.get(), "/particles/" + group + "/" + element + "/value", H5T_NATIVE_DOUBLE,

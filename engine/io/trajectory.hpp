@@ -152,6 +152,8 @@ class TrajectoryReader {
   std::vector<std::string> observable_names() const;
   // Observable values over the complete steps.
   std::vector<double> observable(const std::string& name) const;
+  // Whether the observable is stored as integers (counts, flags: the layout's is_integer).
+  bool observable_is_integer(const std::string& name) const;
   // value[k] of /particles/<group>/<element>, flattened ([N][3] or [N][4]).
   std::vector<double> particle_values(const std::string& group, const std::string& element, int k) const;
   // /connectivity/<surface> flattened, with its nodes per face.

@@ -130,6 +130,8 @@ TEST_CASE("trajectories round-trip through the H5MD layout", "[io]") {
   CHECK(reader.particle_elements("samples") == std::vector<std::string>{"cauchy_stress", "position"});
   CHECK(reader.observable("elastic_energy") == std::vector<double>{0, 0.5, 1.0});
   CHECK(reader.observable("newton_iterations") == std::vector<double>{2, 3, 4});
+  CHECK(reader.observable_is_integer("newton_iterations"));
+  CHECK_FALSE(reader.observable_is_integer("elastic_energy"));
   int nodes = 0;
   CHECK(reader.connectivity("slab", nodes) == std::vector<int>{0, 1, 2});
   CHECK(nodes == 3);
