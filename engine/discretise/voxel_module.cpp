@@ -16,6 +16,25 @@ namespace {
 
 constexpr const char* kModuleFile = "libfascia_openvdb.so";
 
+// dlopen's flags. RTLD_NOW: a missing symbol is reported at the load, not at a later call.
+// RTLD_DEEPBIND: the module's and OpenVDB's libraries look their symbols up in their own scope
+// before the program's (about 70,000 relocations, most against OpenVDB's own symbols, each of
+// which would first miss in the program's 60-odd libraries): a voxelising command starts about
+// 45 ms sooner on a 2-core VM. The sanitizers' runtimes refuse RTLD_DEEPBIND (their interceptors
+// must see every call), so their builds load without it.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define FASCIA_SANITIZED_BUILD
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
+#define FASCIA_SANITIZED_BUILD
+#endif
+#endif
+#ifdef FASCIA_SANITIZED_BUILD
+constexpr int kLoadFlags = RTLD_NOW | RTLD_LOCAL;
+#else
+constexpr int kLoadFlags = RTLD_NOW | RTLD_LOCAL | RTLD_DEEPBIND;
+#endif
+
 // Where the module is looked for, in order: FASCIA_MODULE_DIR; ../lib from the executable (a
 // build tree's or a bundle's bin/ and lib/); the build tree's lib/ (a program copied elsewhere on
 // the machine that built it).
@@ -53,8 +72,7 @@ const VoxelModule* load() {
                              tried + "; it is built with fascia into lib/ next to bin/, and FASCIA_MODULE_DIR names "
                              "another folder)");
   }
-  // RTLD_NOW: a missing symbol is reported here, not at a later call.
-  void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  void* handle = dlopen(path.c_str(), kLoadFlags);
   if (!handle) throw std::runtime_error("cannot load the voxelisation module " + path.string() + ": " + dlerror());
   using Entry = const VoxelModule* (*)();
   const auto entry = reinterpret_cast<Entry>(dlsym(handle, "fascia_voxel_module"));
