@@ -11,3 +11,12 @@
 #else
 #define FASCIA_CLONES
 #endif
+
+// FASCIA_CLONE_INLINE: a helper of a FASCIA_CLONES function, always inlined, so that each clone
+// compiles it for its own instruction set (a helper left out of line is compiled once, for plain
+// x86-64).
+#if defined(__GNUC__)
+#define FASCIA_CLONE_INLINE __attribute__((always_inline)) inline
+#else
+#define FASCIA_CLONE_INLINE inline
+#endif

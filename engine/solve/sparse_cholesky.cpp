@@ -49,92 +49,102 @@ class SerialRegions {
   int m_previous;
 };
 
+// A supernode's block: nsrow x nscol, column-major, its first nscol rows a lower triangle T and
+// the m = nsrow - nscol rows below them a rectangle B (cholmod.h's layout, below).
+struct SupernodeBlock {
+  const double* x;
+  int nsrow, nscol;
+  const double* column(int j) const { return x + static_cast<std::ptrdiff_t>(j) * nsrow; }
+};
+
+// Forward over columns j0 .. j0 + 3 of a supernode, t [nsrow] holding the right-hand side at its
+// rows: the 4 x 4 triangle on the diagonal, then t_i -= sum_q L_{i,j0+q} t_{j0+q} for every row
+// below it, T's and B's alike, in one pass over the four columns.
+FASCIA_CLONE_INLINE void forward_panel(const SupernodeBlock& L, int j0, double* t) {
+  const double *c0 = L.column(j0), *c1 = L.column(j0 + 1), *c2 = L.column(j0 + 2), *c3 = L.column(j0 + 3);
+  const double v0 = t[j0] / c0[j0];
+  const double v1 = (t[j0 + 1] - c0[j0 + 1] * v0) / c1[j0 + 1];
+  const double v2 = (t[j0 + 2] - c0[j0 + 2] * v0 - c1[j0 + 2] * v1) / c2[j0 + 2];
+  const double v3 = (t[j0 + 3] - c0[j0 + 3] * v0 - c1[j0 + 3] * v1 - c2[j0 + 3] * v2) / c3[j0 + 3];
+  t[j0] = v0, t[j0 + 1] = v1, t[j0 + 2] = v2, t[j0 + 3] = v3;
+#pragma omp simd
+  for (int i = j0 + 4; i < L.nsrow; ++i) t[i] -= c0[i] * v0 + c1[i] * v1 + c2[i] * v2 + c3[i] * v3;
+}
+
+// Forward over one column j.
+FASCIA_CLONE_INLINE void forward_column(const SupernodeBlock& L, int j, double* t) {
+  const double* c = L.column(j);
+  const double v = t[j] / c[j];
+  t[j] = v;
+#pragma omp simd
+  for (int i = j + 1; i < L.nsrow; ++i) t[i] -= c[i] * v;
+}
+
+// Backward over columns j0 .. j0 + 3, every row below them final: four dot products with those
+// rows (independent sums, so the pass is bound by the loads, not by an addition's latency), then
+// the 4 x 4 triangle transposed.
+FASCIA_CLONE_INLINE void backward_panel(const SupernodeBlock& L, int j0, double* t) {
+  const double *c0 = L.column(j0), *c1 = L.column(j0 + 1), *c2 = L.column(j0 + 2), *c3 = L.column(j0 + 3);
+  double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+#pragma omp simd reduction(+ : s0, s1, s2, s3)
+  for (int i = j0 + 4; i < L.nsrow; ++i) {
+    s0 += c0[i] * t[i];
+    s1 += c1[i] * t[i];
+    s2 += c2[i] * t[i];
+    s3 += c3[i] * t[i];
+  }
+  const double v3 = (t[j0 + 3] - s3) / c3[j0 + 3];
+  const double v2 = (t[j0 + 2] - s2 - c2[j0 + 3] * v3) / c2[j0 + 2];
+  const double v1 = (t[j0 + 1] - s1 - c1[j0 + 2] * v2 - c1[j0 + 3] * v3) / c1[j0 + 1];
+  const double v0 = (t[j0] - s0 - c0[j0 + 1] * v1 - c0[j0 + 2] * v2 - c0[j0 + 3] * v3) / c0[j0];
+  t[j0] = v0, t[j0 + 1] = v1, t[j0 + 2] = v2, t[j0 + 3] = v3;
+}
+
+// Backward over one column j.
+FASCIA_CLONE_INLINE void backward_column(const SupernodeBlock& L, int j, double* t) {
+  const double* c = L.column(j);
+  double s = 0.0;
+#pragma omp simd reduction(+ : s)
+  for (int i = j + 1; i < L.nsrow; ++i) s += c[i] * t[i];
+  t[j] = (t[j] - s) / c[j];
+}
+
 // y = L^{-T} L^{-1} y for a supernodal LL^T factor (cholmod.h's layout: supernode k holds
 // columns super[k] .. super[k+1] - 1, its rows are s[pi[k]] .. s[pi[k+1] - 1], the first nscol
-// of them its columns, and its values are the column-major nsrow x nscol block at x + px[k]: a
-// lower triangle T over a rectangle B of m = nsrow - nscol rows). Per supernode, y's entries at
-// its rows are gathered into t [nsrow], and the sweeps run in two parts: forward, T's columns
-// (short axpys within the triangle), then B's product with the columns' solution, four columns
-// per pass over the m rows; backward, B^T's product with the rows below, four dot products per
-// pass, then T's columns. The entries are put back: the columns' part into y, and forward the
-// rows below them added in. CHOLMOD's solve makes the same sweeps with BLAS calls per supernode
+// of them its columns, and its values are the column-major nsrow x nscol block at x + px[k]).
+// Per supernode, y's entries at its rows are gathered into t [nsrow] (forward: its columns', and
+// zeros below them, which collect -B t), swept in panels of four columns, and put back (forward:
+// the rows below added in). CHOLMOD's solve makes the same sweeps with BLAS calls per supernode
 // and column block, whose overhead exceeds the arithmetic on the shipped scenes' factors (tens of
-// columns per supernode); these loops run in AVX2 where the CPU has it
+// columns per supernode); a column at a time, the sweeps would wait on each column's division
+// and on each dot product's additions. These loops run in AVX2 where the CPU has it
 // (core/target_clones.hpp).
-FASCIA_CLONES void supernodal_solve(const cholmod_factor& L, double* y, double* t) {
-  const int* super = static_cast<const int*>(L.super);
-  const int* pi = static_cast<const int*>(L.pi);
-  const int* px = static_cast<const int*>(L.px);
-  const int* rows = static_cast<const int*>(L.s);
-  const double* x = static_cast<const double*>(L.x);
-  const int nsuper = static_cast<int>(L.nsuper);
+FASCIA_CLONES void supernodal_solve(const cholmod_factor& factor, double* y, double* t) {
+  const int* super = static_cast<const int*>(factor.super);
+  const int* pi = static_cast<const int*>(factor.pi);
+  const int* px = static_cast<const int*>(factor.px);
+  const int* rows = static_cast<const int*>(factor.s);
+  const double* x = static_cast<const double*>(factor.x);
+  const int nsuper = static_cast<int>(factor.nsuper);
   for (int k = 0; k < nsuper; ++k) {  // y = L^{-1} y
-    const int nscol = super[k + 1] - super[k], nsrow = pi[k + 1] - pi[k], m = nsrow - nscol;
-    const double* block = x + px[k];
+    const SupernodeBlock L{x + px[k], pi[k + 1] - pi[k], super[k + 1] - super[k]};
     const int* r = rows + pi[k];
-    for (int i = 0; i < nscol; ++i) t[i] = y[r[i]];
-    for (int j = 0; j < nscol; ++j) {  // T
-      const double* col = block + static_cast<std::ptrdiff_t>(j) * nsrow;
-      const double v = t[j] / col[j];
-      t[j] = v;
-#pragma omp simd
-      for (int i = j + 1; i < nscol; ++i) t[i] -= col[i] * v;
-    }
-    double* u = t + nscol;  // B t, then subtracted from y's rows below
-#pragma omp simd
-    for (int i = 0; i < m; ++i) u[i] = 0.0;
+    for (int i = 0; i < L.nscol; ++i) t[i] = y[r[i]];
+    for (int i = L.nscol; i < L.nsrow; ++i) t[i] = 0.0;
     int j = 0;
-    for (; j + 4 <= nscol; j += 4) {
-      const double* c0 = block + static_cast<std::ptrdiff_t>(j) * nsrow + nscol;
-      const double *c1 = c0 + nsrow, *c2 = c1 + nsrow, *c3 = c2 + nsrow;
-      const double v0 = t[j], v1 = t[j + 1], v2 = t[j + 2], v3 = t[j + 3];
-#pragma omp simd
-      for (int i = 0; i < m; ++i) u[i] += c0[i] * v0 + c1[i] * v1 + c2[i] * v2 + c3[i] * v3;
-    }
-    for (; j < nscol; ++j) {
-      const double* c0 = block + static_cast<std::ptrdiff_t>(j) * nsrow + nscol;
-      const double v0 = t[j];
-#pragma omp simd
-      for (int i = 0; i < m; ++i) u[i] += c0[i] * v0;
-    }
-    for (int i = 0; i < nscol; ++i) y[r[i]] = t[i];
-    for (int i = 0; i < m; ++i) y[r[nscol + i]] -= u[i];
+    for (; j + 4 <= L.nscol; j += 4) forward_panel(L, j, t);
+    for (; j < L.nscol; ++j) forward_column(L, j, t);
+    for (int i = 0; i < L.nscol; ++i) y[r[i]] = t[i];
+    for (int i = L.nscol; i < L.nsrow; ++i) y[r[i]] += t[i];
   }
   for (int k = nsuper - 1; k >= 0; --k) {  // y = L^{-T} y
-    const int nscol = super[k + 1] - super[k], nsrow = pi[k + 1] - pi[k], m = nsrow - nscol;
-    const double* block = x + px[k];
+    const SupernodeBlock L{x + px[k], pi[k + 1] - pi[k], super[k + 1] - super[k]};
     const int* r = rows + pi[k];
-    for (int i = 0; i < nsrow; ++i) t[i] = y[r[i]];
-    const double* u = t + nscol;  // the rows below: final
-    int j = 0;
-    for (; j + 4 <= nscol; j += 4) {
-      const double* c0 = block + static_cast<std::ptrdiff_t>(j) * nsrow + nscol;
-      const double *c1 = c0 + nsrow, *c2 = c1 + nsrow, *c3 = c2 + nsrow;
-      double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-#pragma omp simd reduction(+ : s0, s1, s2, s3)
-      for (int i = 0; i < m; ++i) {
-        s0 += c0[i] * u[i];
-        s1 += c1[i] * u[i];
-        s2 += c2[i] * u[i];
-        s3 += c3[i] * u[i];
-      }
-      t[j] -= s0, t[j + 1] -= s1, t[j + 2] -= s2, t[j + 3] -= s3;
-    }
-    for (; j < nscol; ++j) {
-      const double* c0 = block + static_cast<std::ptrdiff_t>(j) * nsrow + nscol;
-      double s0 = 0.0;
-#pragma omp simd reduction(+ : s0)
-      for (int i = 0; i < m; ++i) s0 += c0[i] * u[i];
-      t[j] -= s0;
-    }
-    for (int jj = nscol - 1; jj >= 0; --jj) {  // T^T
-      const double* col = block + static_cast<std::ptrdiff_t>(jj) * nsrow;
-      double sum = 0.0;
-#pragma omp simd reduction(+ : sum)
-      for (int i = jj + 1; i < nscol; ++i) sum += col[i] * t[i];
-      t[jj] = (t[jj] - sum) / col[jj];
-    }
-    for (int i = 0; i < nscol; ++i) y[r[i]] = t[i];
+    for (int i = 0; i < L.nsrow; ++i) t[i] = y[r[i]];
+    const int panels = L.nscol / 4 * 4;
+    for (int j = L.nscol - 1; j >= panels; --j) backward_column(L, j, t);
+    for (int j = panels - 4; j >= 0; j -= 4) backward_panel(L, j, t);
+    for (int i = 0; i < L.nscol; ++i) y[r[i]] = t[i];
   }
 }
 
