@@ -50,7 +50,7 @@ class CudaStep final : public StepBackend {
                                        m_origin.dt = dt;
                                      });
     const NewtonResult result = newton(problem, m_state, settings, force_scale);
-    if (result.converged) step.end_momenta(m_state, p_end);
+    if (result.converged()) step.end_momenta(m_state, p_end);
     m_state.download(end);
     return result;
   }

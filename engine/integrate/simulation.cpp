@@ -219,7 +219,7 @@ struct Simulation::Attempt {
   NewtonResult newton;
   State predicted;  // adaptive static steps with a path history: the predicted start
   bool finite = true;
-  bool ok() const { return newton.converged && finite; }
+  bool ok() const { return newton.converged() && finite; }
 };
 
 Simulation::Attempt Simulation::attempt(double h, State& trial) {
@@ -243,7 +243,7 @@ Simulation::Attempt Simulation::attempt(double h, State& trial) {
              : backend   ? backend->backward_euler(m_state, trial, h, m_settings.rayleigh_mass, m_settings.newton, reference)
                          : minimise(potential, trial, m_settings.newton, reference, &m_impl->linear);
   // The variational step sets its velocities from the momenta, the backend from its increments.
-  if (!variational && !backend && a.newton.converged) {
+  if (!variational && !backend && a.newton.converged()) {
     std::vector<double> delta;
     potential.increments(trial, delta);
     for (size_t k = 0; k < delta.size(); ++k) trial.velocities[k] = delta[k] / h;

@@ -334,14 +334,14 @@ NewtonResult VariationalStep::advance(const State& start, State& end, const Newt
     VariationalProblem problem(*this, m_potential, start, p_start, m_fixed, h, *solver);
     result = newton(problem, end, settings, force_scale);
     // (5): momenta at q_{k+1}.
-    if (result.converged) {
+    if (result.converged()) {
       std::vector<double> minus_d1;
       action_derivatives(start, end, minus_d1, p_end);
     }
   }
   m_scale = result.scale;
   m_residual_norm = result.residual * result.scale * h;
-  if (!result.converged) {
+  if (!result.converged()) {
     result.message = "variational step: " + result.message;
     return result;
   }

@@ -104,14 +104,14 @@ enum class NewtonStop {
 };
 
 struct NewtonResult {
-  bool converged = false;
-  NewtonStop stop = NewtonStop::converged;  // meaningful when !converged
+  NewtonStop stop = NewtonStop::iteration_cap;  // why it stopped (a result not yet reached: the cap)
   int iterations = 0;
   int cg_iterations = 0;
   double residual = 0;   // |g_free| / scale at the end
   double scale = 0;      // the force scale: max(reference force, |g_free(q_0)|) (0: q_0 not admissible)
   double value = 0;      // Phi at the end (minimising problems)
   std::string message;   // why it stopped, when not converged
+  bool converged() const { return stop == NewtonStop::converged; }
 };
 
 // The Newton-Krylov direction of a residual problem at q (see above): J d = rhs to the relative
@@ -178,7 +178,7 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
     throw_if_stop_requested();  // core/stop_request.hpp: the step is abandoned
     result.residual = g_norm / scale;
     if (settings.fixed_iterations == 0 && result.residual <= settings.tolerance) {
-      result.converged = true;
+      result.stop = NewtonStop::converged;
       break;
     }
     ops.copy(g, rhs);
@@ -272,11 +272,11 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
   result.residual = g_norm / scale;
   result.value = phi;
   if (settings.fixed_iterations > 0) {
-    result.converged = std::isfinite(phi) && std::isfinite(g_norm);
-    if (!result.converged) result.stop = NewtonStop::non_finite;
-  } else if (!result.converged) {
-    result.converged = result.residual <= settings.tolerance;
-    if (!result.converged) {
+    result.stop = std::isfinite(phi) && std::isfinite(g_norm) ? NewtonStop::converged : NewtonStop::non_finite;
+  } else if (!result.converged()) {
+    if (result.residual <= settings.tolerance) {
+      result.stop = NewtonStop::converged;
+    } else {
       result.stop = NewtonStop::iteration_cap;
       std::ostringstream msg;
       msg << "Newton did not converge in " << settings.max_iterations << " iterations (relative residual "
@@ -327,7 +327,7 @@ NewtonResult newton_load_stepping(Problem& problem, typename Problem::State& sta
     }
     total.iterations += r.iterations;
     total.cg_iterations += r.cg_iterations;
-    if (r.converged) {
+    if (r.converged()) {
       std::swap(state, attempt);
       done = target;
       last = r;
@@ -344,7 +344,7 @@ NewtonResult newton_load_stepping(Problem& problem, typename Problem::State& sta
       return total;
     }
   }
-  total.converged = true;
+  total.stop = NewtonStop::converged;
   total.residual = last.residual;
   total.value = last.value;
   return total;

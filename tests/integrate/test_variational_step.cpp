@@ -146,7 +146,7 @@ TEST_CASE("variational step: a free coupled system conserves linear and angular 
   for (int n = 0; n < steps; ++n) {
     State next = state;
     const NewtonResult r = step.advance(state, next, newton, 0.0);
-    REQUIRE(r.converged);
+    REQUIRE(r.converged());
     iterations += r.iterations;
     // Discrete Noether (variational_step.hpp): J(q_{k+1}, p_{k+1}) = J(q_k, p_k + r) with r the
     // residual left in (4), so per step |dP| <= sum |r_x| <= sqrt(n) |r| and
@@ -203,7 +203,7 @@ TEST_CASE("variational integrator in Simulation: same trajectory as the step, mo
   for (int n = 0; n < 5; ++n) {
     sim.step();
     State next = state;
-    REQUIRE(step.advance(state, next, settings.newton, 0.0).converged);
+    REQUIRE(step.advance(state, next, settings.newton, 0.0).converged());
     state = std::move(next);
   }
   // Same operations in the same order: equal to round-off of the thread-parallel sums.

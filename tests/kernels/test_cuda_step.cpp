@@ -446,7 +446,7 @@ TEST_CASE("the variational step on the device solves the CPU's discrete Euler-La
     // The CPU's own step from the same start gives the residual's force scale S (N).
     State cpu_end = start;
     const NewtonResult rc = cpu.advance(start, cpu_end, s.newton, reference);
-    REQUIRE(rc.converged);
+    REQUIRE(rc.converged());
     const double scale = cpu.residual_scale();
     std::vector<double> p_start, r, minus_d1, p_end;
     cpu.momenta(start, p_start);

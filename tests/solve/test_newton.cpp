@@ -150,7 +150,7 @@ TEST_CASE("Newton on a residual problem: Newton-Krylov directions where the appr
     SkewProblem problem(10, 0.05);
     std::vector<double> x(10, 0.0);
     const NewtonResult r = newton(problem, x, settings, 1.0);
-    REQUIRE(r.converged);
+    REQUIRE(r.converged());
     REQUIRE(problem.solves == r.iterations);
     REQUIRE(r.cg_iterations == problem.solves);
   }
@@ -166,7 +166,7 @@ TEST_CASE("Newton on a residual problem: Newton-Krylov directions where the appr
     x[9] = 0.5;  // a fixed DOF keeps its value
     const NewtonResult r = newton(problem, x, settings, 1.0);
     INFO(r.message);
-    REQUIRE(r.converged);
+    REQUIRE(r.converged());
     REQUIRE(x[9] == 0.5);
     problem.gradient(x, g);
     REQUIRE(problem.ops().norm(g) <= 1e-10 * r.scale);
@@ -216,7 +216,7 @@ TEST_CASE("Newton reports why it stopped", "[solve][newton]") {
     QuarticProblem problem(8, 200.0);
     std::vector<double> x(8, 0.0);
     const NewtonResult r = newton(problem, x, settings, 1.0);
-    REQUIRE(!r.converged);
+    REQUIRE(!r.converged());
     REQUIRE(r.stop == NewtonStop::iteration_cap);
   }
   SECTION("a starting state that is not admissible") {
@@ -224,7 +224,7 @@ TEST_CASE("Newton reports why it stopped", "[solve][newton]") {
     std::vector<double> x(8, 0.0);
     x[0] = std::numeric_limits<double>::quiet_NaN();
     const NewtonResult r = newton(problem, x, settings, 1.0);
-    REQUIRE(!r.converged);
+    REQUIRE(!r.converged());
     REQUIRE(r.stop == NewtonStop::inadmissible_start);
   }
   SECTION("a residual without a root: Newton-Krylov stops at the minimum of |g|") {
@@ -232,7 +232,7 @@ TEST_CASE("Newton reports why it stopped", "[solve][newton]") {
     std::vector<double> x{0.3, 0.5};
     const NewtonResult r = newton(problem, x, settings, 1.0);
     INFO(r.message);
-    REQUIRE(!r.converged);
+    REQUIRE(!r.converged());
     REQUIRE(r.stop == NewtonStop::krylov_stall);
     REQUIRE(x[1] == 0.0);  // left at the minimum of |g|
   }
@@ -247,7 +247,7 @@ TEST_CASE("Newton minimises a strictly convex potential to its tolerance", "[sol
   NewtonSettings settings;
   settings.tolerance = 1e-10;
   const NewtonResult r = newton(problem, x, settings, 1.0);
-  REQUIRE(r.converged);
+  REQUIRE(r.converged());
   REQUIRE(r.stop == NewtonStop::converged);
   REQUIRE(r.iterations == problem.solves);
   REQUIRE(r.cg_iterations == problem.solves);
@@ -277,7 +277,7 @@ TEST_CASE("Newton's accepted full steps cost one gradient each and no separate v
   NewtonSettings settings;
   settings.tolerance = 1e-10;
   const NewtonResult r = newton(problem, x, settings, 1.0);
-  REQUIRE(r.converged);
+  REQUIRE(r.converged());
   if (load < 1) {
     REQUIRE(problem.values == 0);
     REQUIRE(problem.gradients == r.iterations + 1);
@@ -297,8 +297,8 @@ TEST_CASE("Newton's forcing term: loose solves far from the minimum, tight near 
   std::vector<double> x_exact(8, 0.0), x(8, 0.0);
   const NewtonResult r_exact = newton(exact, x_exact, settings, 1.0);
   const NewtonResult r = newton(inexact, x, settings, 1.0);
-  REQUIRE(r_exact.converged);
-  REQUIRE(r.converged);
+  REQUIRE(r_exact.converged());
+  REQUIRE(r.converged());
   // Solve k was asked for eta_k = min(kForcingMax, kForcing |g_k| / scale), at least the linear
   // tolerance, with scale = max(reference 1 N, |g_0|) and |g_k| = |rhs_k|.
   REQUIRE(inexact.rhs_norms.size() == inexact.tolerances.size());
@@ -323,7 +323,7 @@ TEST_CASE("Newton in fixed-iteration mode takes exactly that many full steps", "
   NewtonSettings settings;
   settings.fixed_iterations = 2;
   const NewtonResult r = newton(problem, x, settings, 1.0);
-  REQUIRE(r.converged);
+  REQUIRE(r.converged());
   REQUIRE(r.iterations == 2);
   // Two undamped Newton steps from 0: x1 = f b / a, x2 = x1 - (x1^3 + a x1 - f b) / (3 x1^2 + a).
   for (int k = 0; k < 6; ++k) {
@@ -343,7 +343,7 @@ TEST_CASE("load stepping halves the load increment until Newton converges within
   {
     QuarticProblem direct(8, 200.0);
     std::vector<double> y(8, 0.0);
-    REQUIRE(!newton(direct, y, settings, 1.0).converged);
+    REQUIRE(!newton(direct, y, settings, 1.0).converged());
   }
   std::vector<double> factors;
   LoadStepping stepping;
@@ -352,7 +352,7 @@ TEST_CASE("load stepping halves the load increment until Newton converges within
     problem.f = 200.0 * factor;
     return 1.0;
   });
-  REQUIRE(r.converged);
+  REQUIRE(r.converged());
   REQUIRE(factors.size() > 1);
   REQUIRE(factors.back() == 1.0);
   REQUIRE(problem.f == 200.0);
