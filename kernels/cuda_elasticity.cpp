@@ -7,14 +7,23 @@ namespace fascia::gpu {
 
 CudaElasticity::CudaElasticity(const Model& model, const DeviceOptions& options, int threads)
     : m_model(model), m_threads(threads) {
-  if (model.sample_count() > 0) m_device = std::make_unique<DeviceElasticity>(model, options);
+  if (model.sample_count() == 0) return;
+  m_device = std::make_unique<DeviceElasticity>(model, options);
+  if (options.precision != Precision::double_precision)
+    m_forces = std::make_unique<DeviceElasticity>(model, DeviceOptions{}, m_device->stream());
+}
+
+DeviceElasticity& CudaElasticity::forces() {
+  if (m_forces) return *m_forces;
+  m_device_prepared = false;  // the tangent's elasticity moves to another state
+  return *m_device;
 }
 
 double CudaElasticity::energy(const State& state) {
   if (!m_device) return 0.0;
-  m_device_prepared = false;
-  m_device->set_state(state);
-  return m_device->energy();
+  DeviceElasticity& e = forces();
+  e.set_state(state);
+  return e.energy();
 }
 
 double CudaElasticity::gradient(const State& state, double* gradient) {
@@ -22,9 +31,9 @@ double CudaElasticity::gradient(const State& state, double* gradient) {
     std::fill(gradient, gradient + m_model.dof_count(), 0.0);
     return 0.0;
   }
-  m_device_prepared = false;
-  m_device->set_state(state);
-  return m_device->gradient(gradient);
+  DeviceElasticity& e = forces();
+  e.set_state(state);
+  return e.gradient(gradient);
 }
 
 double CudaElasticity::prepare(const State& state) {

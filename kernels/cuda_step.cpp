@@ -184,12 +184,14 @@ StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
   };
 }
 
-std::string device_run_refusal(const Model& model, const SimulationSettings& settings, bool sample_rows) {
+std::string device_run_refusal(const Model& model, const SimulationSettings& settings, const DeviceOptions& options,
+                               bool sample_rows) {
   DeviceRun run;
   const LinearSettings& linear = settings.newton.linear;
   run.factorised =
       device_step_refusal(model, settings).empty() && DeviceProblem::factorises(linear) && dense_refusal(model, linear).empty();
   run.start_tangent = damping(settings) > 0;
+  run.single = options.precision != Precision::double_precision;
   run.variational = settings.integrator == Integrator::variational;
   run.sample_rows = sample_rows;
   size_t free = 0, total = 0;

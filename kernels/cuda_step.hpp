@@ -24,6 +24,7 @@ StepBackendFactory cuda_step_factory(const DeviceOptions& options = {});
 // Why a run of model with settings does not fit in the device's free memory (empty when it does):
 // the step the factory makes (or the elasticity behind the CPU step) and, with `sample_rows`, the
 // output rows' sample fields (device_memory.hpp).
-std::string device_run_refusal(const Model& model, const SimulationSettings& settings, bool sample_rows);
+std::string device_run_refusal(const Model& model, const SimulationSettings& settings, const DeviceOptions& options,
+                               bool sample_rows);
 
 }  // namespace fascia::gpu

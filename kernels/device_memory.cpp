@@ -37,8 +37,10 @@ Parts estimate_parts(const Model& model, const DeviceRun& run) {
   for (const Shell& shell : model.shells) triangles += static_cast<double>(shell.triangles.size()) / 3;
   Parts parts;
   if (S > 0) parts.elasticity = kElasticPair * P + kElasticSample * S + kElasticFrame * N + kElasticFixed;
-  const double elasticities = run.start_tangent ? 2 : 1;  // K(q_n) of stiffness-proportional damping
-  parts.elasticity *= elasticities;
+  // K(q_n) of stiffness-proportional damping; in single precision the forces' (double) too,
+  // which forms no tangent blocks.
+  const double elasticities = 1 + (run.start_tangent ? 1 : 0);
+  parts.elasticity *= elasticities + (run.single ? 1 : 0);
   parts.step = (kStepFrame + (run.variational ? kVariationalFrame : 0)) * N;
   parts.shells = kShellTriangle * triangles;
   if (RotationStabilisation::applies(model)) {
@@ -78,8 +80,9 @@ std::string device_memory_refusal(const Model& model, const DeviceRun& run, doub
   why << "the model needs about " << bytes_text(parts.total()) << " of device memory, "
       << bytes_text(free) << " are free (of " << bytes_text(total)
       << "): the elasticity " << bytes_text(parts.elasticity) << " (" << model.sample_count() << " samples, "
-      << model.pair_count() << " sample-frame pairs" << (run.start_tangent ? ", twice for stiffness-proportional damping" : "")
-      << ")";
+      << model.pair_count() << " sample-frame pairs"
+      << (run.start_tangent ? ", again for stiffness-proportional damping" : "")
+      << (run.single ? ", again in double for the forces of single precision" : "") << ")";
   if (parts.factor > 0) why << ", the dense factor of " << model.dof_count() << " DOFs " << bytes_text(parts.factor);
   if (parts.shells > 0) why << ", the shells " << bytes_text(parts.shells);
   if (parts.stabilisation > 0) why << ", the rotation stabilisation " << bytes_text(parts.stabilisation);

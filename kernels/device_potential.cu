@@ -226,12 +226,19 @@ void check() { FASCIA_CUDA(cudaGetLastError()); }
 
 }  // namespace
 
-// The stream of a potential: the elasticity's where the model has samples, else its own.
+// The stream of a potential: the elasticity's where the model has samples, else its own. In
+// single precision the forces and energies (Newton's residual, the line search) come from a
+// second elasticity in double storage on the same stream: float tables and kinematics leave the
+// gradient an error of about 1e-7 of each sample's force, and the residual of a scene whose
+// internal forces are large against the net force stalls at 1e-5 to 1e-4 of the force scale, above
+// Newton's tolerance. The tangent (the products and blocks) stays in the storage chosen.
 struct PotentialStream {
   PotentialStream(const Model& model, const DeviceOptions& options) {
     if (model.sample_count() > 0) {
       elasticity = std::make_unique<DeviceElasticity>(model, options);
       stream = static_cast<cudaStream_t>(elasticity->stream());
+      if (options.precision != Precision::double_precision)
+        forces = std::make_unique<DeviceElasticity>(model, DeviceOptions{}, stream);
     } else {
       FASCIA_CUDA(cudaStreamCreateWithFlags(&own, cudaStreamNonBlocking));
       stream = own;
@@ -243,6 +250,7 @@ struct PotentialStream {
   PotentialStream(const PotentialStream&) = delete;
   PotentialStream& operator=(const PotentialStream&) = delete;
   std::unique_ptr<DeviceElasticity> elasticity;  // null without samples
+  std::unique_ptr<DeviceElasticity> forces;      // single precision: the forces' elasticity, double
   cudaStream_t stream = nullptr, own = nullptr;
 };
 
@@ -250,6 +258,7 @@ struct DevicePotential::Impl {
   Impl(const Model& model, const ExternalLoads& loads, const DeviceOptions& options, double rayleigh_stiffness)
       : device(model, options),
         elasticity(device.elasticity.get()),
+        forces(device.forces ? device.forces.get() : elasticity),
         ops(device.stream),
         mapping(model),
         shells(model),
@@ -288,7 +297,8 @@ struct DevicePotential::Impl {
     terms.start_v = start_v.data();
     if (rayleigh_stiffness > 0 && elasticity) {
       terms.beta = rayleigh_stiffness;
-      start_elasticity = std::make_unique<DeviceElasticity>(model, options, stream);
+      // Its product K(q_n) Delta(q) is part of the gradient: double storage, as the forces'.
+      start_elasticity = std::make_unique<DeviceElasticity>(model, DeviceOptions{}, stream);
       kd.resize(6 * static_cast<size_t>(n));
       damped_product.resize(6 * static_cast<size_t>(n));
     }
@@ -305,15 +315,15 @@ struct DevicePotential::Impl {
     start_elasticity->apply_tangent_on_device(scratch.data(), kd.data());
   }
 
-  // Makes the elasticity evaluate s.
-  void select(const DeviceFrames& s) { elasticity->set_state_on_device(s.positions(), s.orientations()); }
+  // Makes `e` (the elasticity or the forces') evaluate s.
+  static void select(DeviceElasticity& e, const DeviceFrames& s) { e.set_state_on_device(s.positions(), s.orientations()); }
 
   // Phi and its gradient at s before the rigid mapping's reduction, into g.
   double full_gradient(const DeviceFrames& s, double* g, long long dofs) {
     double w = 0;
-    if (elasticity) {
-      select(s);
-      w = elasticity->gradient_on_device(g);
+    if (forces) {
+      select(*forces, s);
+      w = forces->gradient_on_device(g);
     } else {
       ops.fill(g, 0.0, dofs);
     }
@@ -327,7 +337,8 @@ struct DevicePotential::Impl {
   }
 
   PotentialStream device;
-  DeviceElasticity* elasticity;  // null without samples
+  DeviceElasticity* elasticity;  // null without samples: the tangent's
+  DeviceElasticity* forces;      // the energies' and gradients' (single precision: double storage)
   long long block_count = 0;     // blocks of the tangent block pattern (set_tangent_blocks)
   VectorOps ops;
   DeviceRigidMapping mapping;
@@ -417,9 +428,9 @@ void DevicePotential::increments(const DeviceFrames& q, double* delta_host) {
 double DevicePotential::elastic_energy(const DeviceFrames& q) {
   Impl& m = *m_impl;
   double w = 0;
-  if (m.elasticity) {
-    m.select(q);
-    w = m.elasticity->energy();
+  if (m.forces) {
+    m.select(*m.forces, q);
+    w = m.forces->energy();
   }
   return w + m.shells.energy(q.positions(), q.orientations(), m.ops);
 }
@@ -454,7 +465,7 @@ void DevicePotential::prepare_hessian(const DeviceFrames& q, bool preconditioner
     m.mapping.set_geometric(m.full_g.data(), m.stream);
   }
   if (m.elasticity) {
-    m.select(q);
+    m.select(*m.elasticity, q);
     m.elasticity->prepare(preconditioner);
   }
   m.shells.prepare(q.positions(), q.orientations(), m.stream);

@@ -19,8 +19,8 @@ void add_backend_options(CLI::App& command, BackendOptions& options) {
       ->check(CLI::IsMember({"cpu", "cuda"}));
   command
       .add_option("--precision", options.precision,
-                  "cuda: double | single storage on the device (single: forces to about 1e-6 relative, use a Newton "
-                  "tolerance of 1e-5 or more)")
+                  "cuda: double | single storage of the tangent on the device (single: its products and blocks in "
+                  "float; the forces and energies stay double)")
       ->check(CLI::IsMember({"double", "single"}));
 }
 
@@ -43,8 +43,8 @@ int resolve_backend(const char* command, const BackendOptions& options, Backend&
   backend.elasticity = gpu::cuda_elasticity_factory(device);
   backend.step = gpu::cuda_step_factory(device);
   backend.sample_fields = gpu::device_sample_fields_factory();
-  backend.memory_refusal = [](const Model& model, const SimulationSettings& settings) {
-    return gpu::device_run_refusal(model, settings, model.sample_count() > 0);
+  backend.memory_refusal = [device](const Model& model, const SimulationSettings& settings) {
+    return gpu::device_run_refusal(model, settings, device, model.sample_count() > 0);
   };
   backend.provenance = {{"backend", "cuda"}, {"gpu", info.name}, {"precision", options.precision}};
   backend.description = "cuda (" + info.name + ", " + options.precision + ")";

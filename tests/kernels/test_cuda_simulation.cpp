@@ -99,14 +99,16 @@ TEST_CASE("static cantilever: CUDA backend equals the CPU engine", "[gpu]") {
   CHECK(worst <= 1.0);
 }
 
-TEST_CASE("backward Euler in single precision stays within its Newton tolerance of the CPU engine", "[gpu]") {
-  // Single storage: forces carry about 1e-6 relative error (docs/gpu.md), so Newton's tolerance
-  // is 1e-5; the bound is a-posteriori (CPU gradients at both end states), so it holds for any
-  // storage precision.
+TEST_CASE("backward Euler in single precision converges to the CPU engine's tolerance", "[gpu]") {
+  // Single storage holds the tangent; energies and gradients are evaluated in double
+  // (CudaElasticity's forces' elasticity), so Newton reaches the comparison's tolerance of 1e-10 as
+  // in double; the bound is a-posteriori (CPU gradients at both end states). Without
+  // stiffness-proportional damping: behind the CPU solver its start-of-step product K(q_n) dq, a
+  // term of the gradient, is the tangent's, in the storage chosen.
   Model model = small_box_model(CellType::hexahedron, MaterialLaw::stvk, 4, 3, 2);
   fix_frames(model, [](double x, double, double) { return x < 1e-9; });
   SimulationSettings settings = comparison_settings(Integrator::backward_euler, LinearMethod::pcg);
-  settings.newton.tolerance = 1e-5;
+  settings.rayleigh_stiffness = 0;
   DeviceOptions options;
   options.precision = Precision::single_precision;
   const double worst = check_backends_agree("gpu block single", model, gravity(), settings,
