@@ -27,6 +27,11 @@ void add_backend_options(CLI::App& command, BackendOptions& options) {
 int resolve_backend(const char* command, const BackendOptions& options, Backend& backend) {
   backend = Backend{};
   if (options.backend == "cpu") {
+    if (options.precision != "double") {
+      std::cerr << "fascia " << command << ": error: --precision " << options.precision
+                << " applies to --backend cuda; the CPU engine computes in double\n";
+      return kUsage;
+    }
     backend.provenance = {{"backend", "cpu"}};
     backend.description = "cpu";
     return kOk;

@@ -36,7 +36,8 @@ struct Backend {
 };
 
 // Resolves the options. Without a usable CUDA device, or in a build without CUDA, prints one
-// line "fascia <command>: error: ..." on stderr and returns kUnavailable; kOk otherwise.
+// line "fascia <command>: error: ..." on stderr and returns kUnavailable; `--precision single`
+// with the CPU backend likewise returns kUsage; kOk otherwise.
 int resolve_backend(const char* command, const BackendOptions& options, Backend& backend);
 
 }  // namespace fascia::app

@@ -59,6 +59,19 @@ def test_run_records_the_cpu_backend(fascia_bin, root, tmp_path):
     assert env["backend"] == "cpu" and "gpu" not in env
 
 
+def test_single_precision_on_the_cpu_backend_is_refused(fascia_bin, root, tmp_path):
+    # The CPU engine computes in double: `--precision single` there is a usage error (64), not a
+    # silent double run, and nothing is written.
+    out = tmp_path / "bone.h5"
+    for command in (["run", "scenes/bone.yaml", "-o", str(out)],
+                    ["study", "beam", "--method", "frame-tet", "--resolution", "4x1x1"]):
+        r = run_fascia(fascia_bin, root, *command, "--precision", "single")
+        assert r.returncode == 64, r.stderr
+        assert "--precision single applies to --backend cuda" in r.stderr
+        assert r.stdout == ""
+    assert not out.exists()
+
+
 def test_study_backend_cuda_exits_69_without_a_device_else_runs(fascia_bin, root):
     args = ["study", "beam", "--method", "frame-tet", "--resolution", "4x1x1", "--json"]
     r = run_fascia(fascia_bin, root, *args, "--backend", "cuda")
