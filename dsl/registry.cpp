@@ -359,7 +359,7 @@ ParamSpec build_registry() {
                                       "Rayleigh damping alpha (D = alpha M + beta K; backward_euler only)"),
                              0, false),
                        "0"),
-          with_default(above(quantity("rayleigh_stiffness", dim::time, "Rayleigh damping beta"), 0, false), "0"),
+          with_default(above(quantity("rayleigh_stiffness", dim::time, "Rayleigh damping beta (backward_euler only)"), 0, false), "0"),
           with_default(above(leaf("load_steps", ParamType::integer, "static: initial number of load increments"), 1,
                              false),
                        "1"),
@@ -399,7 +399,7 @@ ParamSpec build_registry() {
                                            "conjugate gradients, preconditioned CG, or a CHOLMOD direct solve"),
                                "pcg"),
                   with_default(enumeration("preconditioner", {"block_jacobi", "cholmod"},
-                                           "pcg's preconditioner: the 6x6 diagonal blocks, or a sparse "
+                                           "pcg's preconditioner (method pcg only): the 6x6 diagonal blocks, or a sparse "
                                            "factorisation of the tangent reused across Newton iterations and steps"),
                                "cholmod"),
                   with_default(above(quantity("tolerance", dim::none, "CG relative residual"), 0), "1e-8"),

@@ -523,12 +523,14 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   s.dt = located_num(solver.at("dt"));
   s.rayleigh_mass = solver.num("rayleigh_mass");
   s.rayleigh_stiffness = solver.num("rayleigh_stiffness");
-  if (s.integrator.value == "variational")
+  if (s.integrator.value == "variational" || s.integrator.value == "static")
     for (const char* key : {"rayleigh_mass", "rayleigh_stiffness"})
       if (solver.num(key) != 0)
-        diagnostics.error(solver.at(key).where, std::string("solver: the variational integrator conserves energy and "
-                                                            "momentum and takes no damping; remove '") +
-                                                    key + "' or use 'integrator: backward_euler'");
+        diagnostics.error(solver.at(key).where,
+                          std::string(s.integrator.value == "variational"
+                                          ? "solver: the variational integrator conserves energy and momentum"
+                                          : "solver: a static solve has no inertia or velocities") +
+                              " and takes no damping; remove '" + key + "' or use 'integrator: backward_euler'");
   s.load_steps = static_cast<int>(solver.integer_at("load_steps"));
   s.max_load_halvings = static_cast<int>(solver.integer_at("max_load_halvings"));
   s.threads = static_cast<int>(solver.integer_at("threads"));
@@ -553,6 +555,11 @@ SceneSpec extract(const Value& root, const std::string& file, Diagnostics& diagn
   const Value& linear = solver.at("linear");
   s.linear_method = located_str(linear.at("method"));
   s.linear_preconditioner = located_str(linear.at("preconditioner"));
+  if (!linear.at("preconditioner").defaulted && s.linear_method.value != "pcg")
+    diagnostics.error(linear.at("preconditioner").where,
+                      "solver.linear: 'preconditioner' applies to method pcg (method " + s.linear_method.value +
+                          (s.linear_method.value == "cg" ? " is plain CG" : " is a direct solve") +
+                          "); remove 'preconditioner' or use 'method: pcg'");
   s.linear_tolerance = linear.num("tolerance");
   s.linear_max_iterations = static_cast<int>(linear.integer_at("max_iterations"));
   s.linear_fixed_iterations = linear.flag("fixed_iterations");
