@@ -97,6 +97,7 @@ enum CgMode : int { kCgIdle = 0, kCgUpdate = 1, kCgFirstBreakdown = 2, kCgBreakd
 struct VectorOps::CgState {
   double rho, alpha, beta, b_norm, tolerance, relative_residual;
   int iterations, stopped, negative_curvature, mode;
+  int identity;  // z is r (plain CG): k_cg_update forms rho' = r^T r, cg_direction only updates p
 };
 
 namespace {
@@ -122,7 +123,7 @@ __global__ void k_cg_start(long long n, const double* r, const double* z, double
   dot_partial(n, r, z, partials);
   if (!last_block(counter)) return;
   const double rho = sum_partials(partials);
-  if (threadIdx.x == 0) *cg = VectorOps::CgState{rho, 0, 0, b_norm, tolerance, 0, 0, 0, 0, kCgIdle};
+  if (threadIdx.x == 0) *cg = VectorOps::CgState{rho, 0, 0, b_norm, tolerance, 0, 0, 0, 0, kCgIdle, r == z};
 }
 
 // From c = p^T H p: alpha = rho / c, or the breakdown.
@@ -144,8 +145,9 @@ __global__ void k_cg_curvature(long long n, const double* p, const double* hp, d
 }
 
 // The update of the mode (x += alpha p, r -= alpha P H p; or x = P z), then |r| / |b| from r^T r
-// and the convergence test after an update. Every block reads the mode before the last one resets
-// it.
+// and the convergence test after an update; with z = r (plain CG), also k_cg_rho's step from
+// rho' = r^T r, summed in k_cg_rho's order (dot_partial's), so with the same bits. Every block
+// reads the mode before the last one resets it.
 __global__ void k_cg_update(long long n, VectorOps::CgState* cg, const double* p, const double* hp, const double* z,
                             const std::uint8_t* fixed, double* x, double* r, double* partials, unsigned* counter) {
   const int mode = cg->mode;
@@ -173,6 +175,10 @@ __global__ void k_cg_update(long long n, VectorOps::CgState* cg, const double* p
   if (mode == kCgUpdate) {
     ++cg->iterations;
     cg->stopped = cg->relative_residual <= cg->tolerance;
+    if (cg->identity && !cg->stopped) {
+      cg->beta = rr / cg->rho;
+      cg->rho = rr;
+    }
   }
   cg->mode = kCgIdle;
 }
@@ -320,7 +326,9 @@ void VectorOps::cg_step(const double* p, const double* hp, const double* z, cons
 
 void VectorOps::cg_direction(const double* r, const double* z, const std::uint8_t* fixed, double* p,
                              long long n) const {
-  k_cg_rho<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, r, z, m_partials.data(), m_counter.data(), m_cg);
+  // z = r: k_cg_update has formed rho' (CgState::identity).
+  if (r != z)
+    k_cg_rho<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, r, z, m_partials.data(), m_counter.data(), m_cg);
   if (n > 0) k_cg_xpay<<<vector_grid(n), kVectorThreads, 0, m_stream>>>(n, m_cg, z, fixed, p);
   check();
 }

@@ -25,6 +25,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 namespace fascia {
 
@@ -55,16 +56,22 @@ inline int next_status_read(int k_previous, double previous, int k, double resid
 //                       definite on the free DOFs (z is projected afterwards)
 // @param b              right-hand side [n]; projected here
 // @param x              solution [n], resized; starts from zero
+template <class Ops>
+struct IdentityPreconditioner;
+
 template <class Ops, class Apply, class Precondition>
 LinearResult pcg(const Ops& ops, Apply&& apply, Precondition&& precondition, const PcgSettings& settings,
                  const typename Ops::Vector& b_in, typename Ops::Vector& x) {
   using Vector = typename Ops::Vector;
-  Vector b, r, z, p, hp;
+  // Plain CG: z is r itself (r is projected), with no copy and no product of its own.
+  constexpr bool kIdentity = std::is_same_v<std::decay_t<Precondition>, IdentityPreconditioner<Ops>>;
+  Vector b, r, z_own, p, hp;
+  Vector& z = kIdentity ? r : z_own;
   ops.copy(b_in, b);
   ops.project(b);
   ops.fill(x, 0.0);
   ops.copy(b, r);
-  ops.resize(z);
+  if constexpr (!kIdentity) ops.resize(z);
   ops.resize(hp);
   LinearResult result;
   const double b_norm = ops.norm(b);
@@ -72,8 +79,10 @@ LinearResult pcg(const Ops& ops, Apply&& apply, Precondition&& precondition, con
     result.converged = true;
     return result;
   }
-  precondition(r, z);
-  ops.project(z);
+  if constexpr (!kIdentity) {
+    precondition(r, z);
+    ops.project(z);
+  }
   ops.copy(z, p);
   typename Ops::CgScalars scalars;
   ops.cg_start(scalars, r, z, b_norm, settings.fixed_iterations ? -1.0 : settings.tolerance);
@@ -86,7 +95,7 @@ LinearResult pcg(const Ops& ops, Apply&& apply, Precondition&& precondition, con
     ops.cg_step(scalars, p, hp, z, x, r);  // alpha = rho / p^T H p, x += alpha p, r -= alpha P H p
   };
   auto iteration = [&] {
-    precondition(r, z);
+    if constexpr (!kIdentity) precondition(r, z);
     ops.cg_direction(scalars, r, z, p);  // beta = rho' / rho, p = P z + beta p
     product_and_step();
   };
@@ -126,7 +135,8 @@ LinearResult pcg(const Ops& ops, Apply&& apply, Precondition&& precondition, con
   return result;
 }
 
-// The identity preconditioner (plain CG): z = r.
+// The identity preconditioner (plain CG): z = r. pcg() recognises it and takes r itself for z,
+// which lets a backend form r^T z with the residual's r^T r (vector_ops.hpp, cg_step).
 template <class Ops>
 struct IdentityPreconditioner {
   const Ops& ops;

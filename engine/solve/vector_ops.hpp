@@ -31,6 +31,8 @@
 //       iteration was taken). The residual is |r| / b_norm in either case.
 //   void cg_direction(CgScalars& s, const Vector& r, const Vector& z, Vector& p) const;
 //       while running: rho' = r^T z, beta = rho' / rho, rho = rho', p = P z + beta p
+//   z may be r itself (plain CG: pcg.hpp's IdentityPreconditioner), in all three; a backend may then
+//   form rho' = r^T r in cg_step with the residual, as the device does.
 // (r^T z = r^T P z and p^T hp = p^T P hp, r and p being projected: P is applied where a
 // vector is written; the device does it in the pass that writes it.)
 //   CgStatus cg_status(const CgScalars& s) const;    the status, on the host
