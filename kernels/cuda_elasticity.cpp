@@ -9,19 +9,16 @@ CudaElasticity::CudaElasticity(const Model& model, const DeviceOptions& options,
     : m_model(model), m_threads(threads) {
   if (model.sample_count() == 0) return;
   m_device = std::make_unique<DeviceElasticity>(model, options);
-  if (options.precision != Precision::double_precision)
-    m_forces = std::make_unique<DeviceElasticity>(model, DeviceOptions{}, m_device->stream());
 }
 
-DeviceElasticity& CudaElasticity::forces() {
-  if (m_forces) return *m_forces;
-  m_device_prepared = false;  // the tangent's elasticity moves to another state
+DeviceElasticity& CudaElasticity::moved() {
+  m_device_prepared = false;
   return *m_device;
 }
 
 double CudaElasticity::energy(const State& state) {
   if (!m_device) return 0.0;
-  DeviceElasticity& e = forces();
+  DeviceElasticity& e = moved();
   e.set_state(state);
   return e.energy();
 }
@@ -31,7 +28,7 @@ double CudaElasticity::gradient(const State& state, double* gradient) {
     std::fill(gradient, gradient + m_model.dof_count(), 0.0);
     return 0.0;
   }
-  DeviceElasticity& e = forces();
+  DeviceElasticity& e = moved();
   e.set_state(state);
   return e.gradient(gradient);
 }

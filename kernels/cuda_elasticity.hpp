@@ -51,15 +51,12 @@ class CudaElasticity final : public VolumetricElasticity {
  private:
   // Makes the device buffers hold the prepare() of m_prepared.
   void restore_prepared();
-  // The elasticity of energies and gradients: m_forces in single precision, else m_device.
-  DeviceElasticity& forces();
+  // The device, about to move to another state than m_prepared (energy, gradient).
+  DeviceElasticity& moved();
 
   const Model& m_model;
   int m_threads;
-  std::unique_ptr<DeviceElasticity> m_device;  // null without samples: the tangent's
-  // Single precision: the energies' and gradients' in double storage (kernels/device_potential.cu
-  // says why), on m_device's stream.
-  std::unique_ptr<DeviceElasticity> m_forces;
+  std::unique_ptr<DeviceElasticity> m_device;  // null without samples
   State m_prepared;                    // state of the last prepare()
   bool m_has_prepared = false;
   bool m_device_prepared = false;      // the device's F, P, caches and blocks are those of m_prepared

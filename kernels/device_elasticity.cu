@@ -728,25 +728,33 @@ class System final : public DeviceElasticity::Impl {
 
 DeviceElasticity::DeviceElasticity(const Model& model, const DeviceOptions& options, void* stream) {
   const auto shared = static_cast<cudaStream_t>(stream);
-  if (options.precision == Precision::double_precision)
+  if (options.precision == Precision::double_precision) {
     m_impl = std::make_unique<System<double>>(model, options, shared);
-  else
+  } else {
     m_impl = std::make_unique<System<float>>(model, options, shared);
+    m_forces = std::make_unique<System<double>>(model, DeviceOptions{}, static_cast<cudaStream_t>(m_impl->stream()));
+  }
 }
 DeviceElasticity::~DeviceElasticity() = default;
 
-void DeviceElasticity::set_state(const State& state) { m_impl->set_state(state); }
+DeviceElasticity::Impl& DeviceElasticity::forces() { return m_forces ? *m_forces : *m_impl; }
+
+void DeviceElasticity::set_state(const State& state) {
+  m_impl->set_state(state);
+  if (m_forces) m_forces->set_state(state);
+}
 void DeviceElasticity::get_state(State& state) const { m_impl->get_state(state); }
-double DeviceElasticity::energy() { return m_impl->energy(); }
-double DeviceElasticity::gradient(double* g) { return m_impl->gradient(g); }
+double DeviceElasticity::energy() { return forces().energy(); }
+double DeviceElasticity::gradient(double* g) { return forces().gradient(g); }
 double DeviceElasticity::prepare(bool diagonal_blocks) { return m_impl->prepare(diagonal_blocks); }
 void DeviceElasticity::apply_tangent(const double* d, double* out) { m_impl->apply_tangent(d, out); }
 void DeviceElasticity::tangent_diagonal_blocks(double* blocks) { m_impl->diagonal_blocks(blocks); }
 void* DeviceElasticity::stream() const { return m_impl->stream(); }
 void DeviceElasticity::set_state_on_device(const double* positions, const double* orientations) {
   m_impl->set_state_on_device(positions, orientations);
+  if (m_forces) m_forces->set_state_on_device(positions, orientations);
 }
-double DeviceElasticity::gradient_on_device(double* gradient) { return m_impl->gradient_on_device(gradient); }
+double DeviceElasticity::gradient_on_device(double* gradient) { return forces().gradient_on_device(gradient); }
 void DeviceElasticity::apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal) {
   m_impl->apply_tangent_on_device(d, out, frame_diagonal);
 }

@@ -18,9 +18,10 @@
 
 namespace fascia::gpu {
 
-// Storage precision of device data. Per-sample and per-frame arithmetic runs in double registers
-// in both; `single` stores the model tables, frame kinematics and the products' partial sums in
-// float (the solver's vectors stay double: kernels/device_vector.hpp).
+// Storage precision of the tangent's device data. Per-sample and per-frame arithmetic runs in
+// double registers in both; `single` stores the model tables, frame kinematics and the products'
+// partial sums in float (the solver's vectors stay double: kernels/device_vector.hpp). The
+// energies and gradients are double in both (DeviceElasticity says why).
 enum class Precision { double_precision, single_precision };
 
 const char* to_string(Precision precision);
@@ -58,6 +59,12 @@ struct LaunchGrids {
 };
 
 // The model uploaded once to the device; the state is uploaded with set_state and stays there.
+// In single precision the energies and gradients (Newton's residual, the line search) come from
+// a second copy of the tables in double storage on the same stream, which every state set here
+// reaches too: float tables and kinematics leave the gradient an error of about 1e-7 of each
+// sample's force, and the residual of a scene whose internal forces are large against the net
+// force would stall at 1e-5 to 1e-4 of the force scale, above Newton's tolerance. The tangent
+// (prepare, the products and blocks) stays in the storage chosen.
 class DeviceElasticity {
  public:
   // stream: a cudaStream_t to enqueue on, which must outlive this object (null: its own).
@@ -73,7 +80,7 @@ class DeviceElasticity {
   // Energy and gradient [N][6] (host memory), as Elasticity::gradient.
   double gradient(double* gradient);
   // Precomputes F, P, the samples' state of the tangent product and the per-frame rotational
-  // blocks; returns the energy. Call before apply_tangent / tangent_diagonal_blocks. Without
+  // blocks; returns the energy (in the tangent's storage). Call before apply_tangent / tangent_diagonal_blocks. Without
   // `diagonal_blocks` the 6x6 blocks K_ii (one differential of P per pair and direction, most of
   // the preparation's work) are left out: tangent_diagonal_blocks and diagonal_blocks_on_device
   // are then not valid.
@@ -131,7 +138,9 @@ class DeviceElasticity {
   struct Impl;
 
  private:
-  std::unique_ptr<Impl> m_impl;
+  Impl& forces();  // the energies' and gradients': m_forces in single precision, else m_impl
+  std::unique_ptr<Impl> m_impl;    // the tangent's, in the storage chosen
+  std::unique_ptr<Impl> m_forces;  // single precision: double storage on m_impl's stream
 };
 
 }  // namespace fascia::gpu

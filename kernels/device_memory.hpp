@@ -26,7 +26,7 @@ struct DeviceRun {
   bool factorised = false;
   bool sample_rows = false;
   bool start_tangent = false;  // stiffness-proportional damping: a second elasticity, K(q_n)
-  bool single = false;         // single precision: the forces' elasticity in double beside the tangent's
+  bool single = false;         // single precision: the elasticity's double copy for the forces
   bool variational = false;    // the variational integrator's terms (device_variational.hpp)
 };
 

@@ -226,19 +226,12 @@ void check() { FASCIA_CUDA(cudaGetLastError()); }
 
 }  // namespace
 
-// The stream of a potential: the elasticity's where the model has samples, else its own. In
-// single precision the forces and energies (Newton's residual, the line search) come from a
-// second elasticity in double storage on the same stream: float tables and kinematics leave the
-// gradient an error of about 1e-7 of each sample's force, and the residual of a scene whose
-// internal forces are large against the net force stalls at 1e-5 to 1e-4 of the force scale, above
-// Newton's tolerance. The tangent (the products and blocks) stays in the storage chosen.
+// The stream of a potential: the elasticity's where the model has samples, else its own.
 struct PotentialStream {
   PotentialStream(const Model& model, const DeviceOptions& options) {
     if (model.sample_count() > 0) {
       elasticity = std::make_unique<DeviceElasticity>(model, options);
       stream = static_cast<cudaStream_t>(elasticity->stream());
-      if (options.precision != Precision::double_precision)
-        forces = std::make_unique<DeviceElasticity>(model, DeviceOptions{}, stream);
     } else {
       FASCIA_CUDA(cudaStreamCreateWithFlags(&own, cudaStreamNonBlocking));
       stream = own;
@@ -250,7 +243,6 @@ struct PotentialStream {
   PotentialStream(const PotentialStream&) = delete;
   PotentialStream& operator=(const PotentialStream&) = delete;
   std::unique_ptr<DeviceElasticity> elasticity;  // null without samples
-  std::unique_ptr<DeviceElasticity> forces;      // single precision: the forces' elasticity, double
   cudaStream_t stream = nullptr, own = nullptr;
 };
 
@@ -258,7 +250,6 @@ struct DevicePotential::Impl {
   Impl(const Model& model, const ExternalLoads& loads, const DeviceOptions& options, double rayleigh_stiffness)
       : device(model, options),
         elasticity(device.elasticity.get()),
-        forces(device.forces ? device.forces.get() : elasticity),
         ops(device.stream),
         mapping(model),
         shells(model),
@@ -297,7 +288,7 @@ struct DevicePotential::Impl {
     terms.start_v = start_v.data();
     if (rayleigh_stiffness > 0 && elasticity) {
       terms.beta = rayleigh_stiffness;
-      // Its product K(q_n) Delta(q) is part of the gradient: double storage, as the forces'.
+      // Its product K(q_n) Delta(q) is part of the gradient: double storage, as the gradients'.
       start_elasticity = std::make_unique<DeviceElasticity>(model, DeviceOptions{}, stream);
       kd.resize(6 * static_cast<size_t>(n));
       damped_product.resize(6 * static_cast<size_t>(n));
@@ -315,15 +306,15 @@ struct DevicePotential::Impl {
     start_elasticity->apply_tangent_on_device(scratch.data(), kd.data());
   }
 
-  // Makes `e` (the elasticity or the forces') evaluate s.
+  // Makes `e` evaluate s.
   static void select(DeviceElasticity& e, const DeviceFrames& s) { e.set_state_on_device(s.positions(), s.orientations()); }
 
   // Phi and its gradient at s before the rigid mapping's reduction, into g.
   double full_gradient(const DeviceFrames& s, double* g, long long dofs) {
     double w = 0;
-    if (forces) {
-      select(*forces, s);
-      w = forces->gradient_on_device(g);
+    if (elasticity) {
+      select(*elasticity, s);
+      w = elasticity->gradient_on_device(g);
     } else {
       ops.fill(g, 0.0, dofs);
     }
@@ -337,8 +328,7 @@ struct DevicePotential::Impl {
   }
 
   PotentialStream device;
-  DeviceElasticity* elasticity;  // null without samples: the tangent's
-  DeviceElasticity* forces;      // the energies' and gradients' (single precision: double storage)
+  DeviceElasticity* elasticity;  // null without samples
   long long block_count = 0;     // blocks of the tangent block pattern (set_tangent_blocks)
   VectorOps ops;
   DeviceRigidMapping mapping;
@@ -428,9 +418,9 @@ void DevicePotential::increments(const DeviceFrames& q, double* delta_host) {
 double DevicePotential::elastic_energy(const DeviceFrames& q) {
   Impl& m = *m_impl;
   double w = 0;
-  if (m.forces) {
-    m.select(*m.forces, q);
-    w = m.forces->energy();
+  if (m.elasticity) {
+    m.select(*m.elasticity, q);
+    w = m.elasticity->energy();
   }
   return w + m.shells.energy(q.positions(), q.orientations(), m.ops);
 }

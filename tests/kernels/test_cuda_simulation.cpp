@@ -101,7 +101,7 @@ TEST_CASE("static cantilever: CUDA backend equals the CPU engine", "[gpu]") {
 
 TEST_CASE("backward Euler in single precision converges to the CPU engine's tolerance", "[gpu]") {
   // Single storage holds the tangent; energies and gradients are evaluated in double
-  // (CudaElasticity's forces' elasticity), so Newton reaches the comparison's tolerance of 1e-10 as
+  // (DeviceElasticity's double copy), so Newton reaches the comparison's tolerance of 1e-10 as
   // in double; the bound is a-posteriori (CPU gradients at both end states). Without
   // stiffness-proportional damping: behind the CPU solver its start-of-step product K(q_n) dq, a
   // term of the gradient, is the tangent's, in the storage chosen.

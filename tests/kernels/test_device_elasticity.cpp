@@ -138,7 +138,12 @@ TEST_CASE("device forces, tangent products and diagonal blocks equal the CPU ref
               e_tangent, e_blocks);
   const double tol = bound(c.precision);
   CHECK(e_energy < tol);
-  CHECK(dw2 == dw);
+  // prepare() returns the energy of the tangent's storage: gradient()'s bits in double; in single
+  // that of the float tables, within the precision's bound of the double energy gradient() gives.
+  if (c.precision == Precision::double_precision)
+    CHECK(dw2 == dw);
+  else
+    CHECK(std::abs(dw2 - dw) <= tol * std::abs(dw));
   CHECK(e_grad < tol);
   CHECK(e_tangent < tol);
   CHECK(e_blocks < tol);

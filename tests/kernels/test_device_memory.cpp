@@ -34,7 +34,7 @@ TEST_CASE("the device memory estimate bounds what a run's device objects hold", 
   for (const auto& [path, overrides] : cases) {
     const dsl::BuiltScene built = dsl::build_scene(dsl::parse_scene(path, overrides));
     const Model& model = built.model;
-    // Single precision holds a second elasticity, in double, for the forces.
+    // Single precision holds a second copy of the elasticity, in double, for the forces.
     for (const Precision precision : {Precision::double_precision, Precision::single_precision}) {
       DeviceOptions options;
       options.precision = precision;

@@ -26,7 +26,7 @@ TEST_CASE("the device memory refusal names the estimate, the free memory and its
   CHECK_THAT(why, Catch::Contains("coarsen the discretisation"));
   CHECK(!device_memory_refusal(model, step, bytes * 0.99, 1e12).empty());
   CHECK(device_memory_refusal(model, step, bytes, 1e12).empty());
-  // Single precision keeps a second elasticity, in double, for the forces.
+  // Single precision keeps a second copy of the elasticity, in double, for the forces.
   DeviceRun single = step;
   single.single = true;
   CHECK(estimate_device_bytes(model, single) > bytes);
