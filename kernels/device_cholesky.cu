@@ -1,6 +1,7 @@
 #include "device_cholesky.hpp"
 
 #include "device_buffers.cuh"
+#include "core/fnv1a.hpp"
 #include "integrate/tangent_probing.hpp"
 #include "solve/diagonal_shifts.hpp"
 
@@ -270,7 +271,7 @@ struct DeviceCholesky::Impl {
   const VectorOps& ops;
   const std::uint8_t* fixed;
   long long n = 0;
-  std::uint64_t fingerprint = 14695981039346656037ull;
+  std::uint64_t fingerprint = kFnv1aOffset;
   std::vector<int> bodies;  // the probed frames (TangentProbing::bodies)
   DeviceBuffer<int> block_rows, block_frames, body_blocks;
   DeviceBuffer<double> A, W, diag, work, probe, product, blocks;  // W: L^{-1}
@@ -293,10 +294,7 @@ struct DeviceCholesky::Impl {
     potential.set_tangent_blocks(t.block_offsets, t.block_frames, t.diagonal_blocks);
     bodies = t.bodies;
     for (const std::vector<int>* list : {&t.bodies, &t.block_frames})
-      for (int c : *list) {
-        fingerprint ^= static_cast<std::uint64_t>(static_cast<std::uint32_t>(c));
-        fingerprint *= 1099511628211ull;
-      }
+      for (int c : *list) fingerprint = fnv1a_step(fingerprint, static_cast<std::uint32_t>(c));
     body_blocks.upload(t.body_blocks);
     std::vector<int> rows;
     for (int a = 0; a + 1 < static_cast<int>(t.block_offsets.size()); ++a)

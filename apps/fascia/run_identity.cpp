@@ -1,5 +1,6 @@
 #include "run_identity.hpp"
 
+#include "core/fnv1a.hpp"
 #include "discretise/voxel_module.hpp"
 
 #include <algorithm>
@@ -19,7 +20,7 @@ namespace {
 // a checkpoint is resumed only by the build that wrote it (not a defence against tampering). Word
 // by word it reads a 16 MB program in a few milliseconds.
 std::string file_fingerprint(const std::string& path) {
-  std::uint64_t h = 14695981039346656037ull;
+  std::uint64_t h = kFnv1aOffset;
   std::ifstream in(path, std::ios::binary);
   std::vector<char> buffer(1 << 16);
   std::uint64_t bytes = 0;
@@ -29,13 +30,11 @@ std::string file_fingerprint(const std::string& path) {
     for (std::size_t i = 0; i < n; i += 8) {
       std::uint64_t word = 0;
       std::memcpy(&word, buffer.data() + i, std::min<std::size_t>(8, n - i));
-      h ^= word;
-      h *= 1099511628211ull;
+      h = fnv1a_step(h, word);
     }
     if (n < buffer.size()) break;
   }
-  h ^= bytes;
-  h *= 1099511628211ull;
+  h = fnv1a_step(h, bytes);
   char hex[17];
   std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
   return std::string("fnv1a64w:") + hex;

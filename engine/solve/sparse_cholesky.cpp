@@ -1,5 +1,6 @@
 #include "solve/sparse_cholesky.hpp"
 
+#include "core/fnv1a.hpp"
 #include "core/target_clones.hpp"
 #include "solve/diagonal_shifts.hpp"
 
@@ -148,15 +149,6 @@ FASCIA_CLONES void supernodal_solve(const cholmod_factor& factor, double* y, dou
   }
 }
 
-std::uint64_t fnv1a(std::uint64_t h, const void* data, std::size_t bytes) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  for (std::size_t i = 0; i < bytes; ++i) {
-    h ^= p[i];
-    h *= 1099511628211ull;
-  }
-  return h;
-}
-
 }  // namespace
 
 class SparseCholesky::Factor : public Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> {
@@ -246,10 +238,9 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
       m_inner = reduced_inner;
       m_analysed = true;
       ++m_analyses;
-      std::uint64_t h = 14695981039346656037ull;
-      h = fnv1a(h, m_fixed.data(), m_fixed.size());
-      h = fnv1a(h, m_outer.data(), m_outer.size() * sizeof(int));
-      m_pattern_fingerprint = fnv1a(h, m_inner.data(), m_inner.size() * sizeof(int));
+      std::uint64_t h = fnv1a_bytes(kFnv1aOffset, m_fixed.data(), m_fixed.size());
+      h = fnv1a_bytes(h, m_outer.data(), m_outer.size() * sizeof(int));
+      m_pattern_fingerprint = fnv1a_bytes(h, m_inner.data(), m_inner.size() * sizeof(int));
     }
   }
   // The values: each entry of H at its position (each position receives at most one).
