@@ -299,6 +299,28 @@ FASCIA_HD void element_gradient(const Membrane& mem, const Vec3 P[2], const doub
   }
 }
 
+// What the gradient and the Hessian share: the membrane and bending states, the axis Jacobians
+// and the multipliers, with the element gradient g[18] (overwritten).
+struct ElementState {
+  Membrane mem;
+  Bending bend;
+  AxisJacobians j;
+  Vec3 C1[3], C2[3];
+};
+
+FASCIA_HD ElementState element_state(const ShellElementRest& e, const ShellModuli& m, const Vec3 x[3], const Mat3 R[3],
+                                     double* g) {
+  ElementState s{membrane(e, m, x), bending(e, m, x, R), {}, {}, {}};
+  s.j = axis_jacobians(s.bend);
+  multipliers(s.bend, s.C1, s.C2);
+  Vec3 P[2];
+  double gb[15];
+  bending_gradient(s.bend, s.j, s.C1, s.C2, gb);
+  membrane_stress_vectors(e, m, s.mem, P);
+  element_gradient(s.mem, P, gb, g);
+  return s;
+}
+
 }  // namespace shell_detail
 
 // W_e of one triangle (J). x: node positions (m); R: node rotations.
@@ -309,17 +331,8 @@ FASCIA_HD double shell_element_energy(const ShellElementRest& e, const ShellModu
 // W_e and its gradient g[18] in theta (overwritten; J/m for dx, J/rad for dr).
 FASCIA_HD double shell_element_gradient(const ShellElementRest& e, const ShellModuli& m, const Vec3 x[3], const Mat3 R[3],
                                         double* g) {
-  using namespace shell_detail;
-  const Membrane mem = membrane(e, m, x);
-  const Bending bend = bending(e, m, x, R);
-  const AxisJacobians j = axis_jacobians(bend);
-  Vec3 C1[3], C2[3], P[2];
-  multipliers(bend, C1, C2);
-  double gb[15];
-  bending_gradient(bend, j, C1, C2, gb);
-  membrane_stress_vectors(e, m, mem, P);
-  element_gradient(mem, P, gb, g);
-  return mem.energy + bend.energy;
+  const shell_detail::ElementState s = shell_detail::element_state(e, m, x, R, g);
+  return s.mem.energy + s.bend.energy;
 }
 
 // W_e, its gradient g[18] and its symmetric Hessian H[18][18] (row-major), both overwritten.
@@ -327,20 +340,12 @@ FASCIA_HD double shell_element_hessian(const ShellElementRest& e, const ShellMod
                                        double* g, double* H) {
   using namespace shell_detail;
   constexpr int n = kShellElementDofs;
-  const Membrane mem = membrane(e, m, x);
-  const Bending bend = bending(e, m, x, R);
-  const AxisJacobians j = axis_jacobians(bend);
-  Vec3 C1[3], C2[3], P[2];
-  multipliers(bend, C1, C2);
-  {
-    double gb[15];
-    bending_gradient(bend, j, C1, C2, gb);
-    membrane_stress_vectors(e, m, mem, P);
-    element_gradient(mem, P, gb, g);
-  }
+  const ElementState s = element_state(e, m, x, R, g);
+  const Membrane& mem = s.mem;
+  const Bending& bend = s.bend;
   // Bending and drilling in (a, b, dr_0, dr_1, dr_2), then theta: x_0 = -(a + b), x_1 = a, x_2 = b.
   double hb[15][15];
-  bending_hessian(e, bend, j, C1, C2, hb);
+  bending_hessian(e, bend, s.j, s.C1, s.C2, hb);
   double z[n][15];  // T^T hb: rows in theta, columns in (a, b, dr)
   for (int c = 0; c < 15; ++c)
     for (int k = 0; k < 3; ++k) {
