@@ -137,6 +137,18 @@ bool admit_file(const ObjectSpec& o, const Located<std::string>& file, MemoryBud
   return true;
 }
 
+// Admits the meshless discretisation of `surface` with `options` into the budget (its estimate,
+// resource_estimate.hpp), reported at `where` (the scene's sample_spacing).
+bool admit_meshless(const ObjectSpec& o, const SurfaceMesh& surface, const MeshlessOptions& options,
+                    const Location& where, MemoryBudget& budget, Diagnostics& diagnostics) {
+  const ObjectEstimate estimate = estimate_meshless(surface, options);
+  return budget.admit(o, estimate,
+                      "about " + count_text(estimate.samples) + " samples (sample_spacing " +
+                          metres(options.sample_spacing) + ") and " + count_text(estimate.frames) +
+                          " frames (frame_spacing " + metres(options.frame_spacing) + ")",
+                      where, diagnostics);
+}
+
 // The object's transform (scale, rotation, translation) applied to vertices [V][3] (m) in place.
 void transform_vertices(const TransformSpec& transform, std::vector<double>& vertices) {
   for (std::size_t v = 0; v + 2 < vertices.size(); v += 3) {
@@ -446,12 +458,7 @@ bool make_image_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget& b
       }
     }
     part.surface = level_set.surface();
-    const ObjectEstimate estimate = estimate_meshless(part.surface, options);
-    if (!budget.admit(o, estimate,
-                      "about " + count_text(estimate.samples) + " samples (sample_spacing " +
-                          metres(options.sample_spacing) + ") and " + count_text(estimate.frames) +
-                          " frames (frame_spacing " + metres(options.frame_spacing) + ")",
-                      ml.sample_spacing.where, diagnostics))
+    if (!admit_meshless(o, part.surface, options, ml.sample_spacing.where, budget, diagnostics))
       return false;
     result = build_meshless_model(VoxelDomain(level_set), part.surface, scene_material(scene, o), options);
   } catch (const std::exception& e) {
@@ -533,12 +540,7 @@ bool make_between_tissue(const SceneSpec& scene, std::vector<ObjectPart>& parts,
       region = [&o](const Vec3& x) { return o.region->signed_distance(Vec3d{x.x, x.y, x.z}); };
     const LevelSet level_set = LevelSet::between(organs[0], organs[1], within, region);
     part.surface = level_set.surface();
-    const ObjectEstimate estimate = estimate_meshless(part.surface, options);
-    if (!budget.admit(o, estimate,
-                      "about " + count_text(estimate.samples) + " samples (sample_spacing " +
-                          metres(options.sample_spacing) + ") and " + count_text(estimate.frames) +
-                          " frames (frame_spacing " + metres(options.frame_spacing) + ")",
-                      ml.sample_spacing.where, diagnostics))
+    if (!admit_meshless(o, part.surface, options, ml.sample_spacing.where, budget, diagnostics))
       return false;
     const VoxelDomain domain(level_set);
     result = build_meshless_model(domain, part.surface, scene_material(scene, o), options);
@@ -579,11 +581,7 @@ bool make_meshless_tissue(const SceneSpec& scene, ObjectPart& part, MemoryBudget
                                                   " across: it would hold a single frame at most");
     return false;
   }
-  const ObjectEstimate estimate = estimate_meshless(part.surface, options);
-  if (!budget.admit(o, estimate,
-                    "about " + count_text(estimate.samples) + " samples (sample_spacing " + metres(options.sample_spacing) +
-                        ") and " + count_text(estimate.frames) + " frames (frame_spacing " + metres(options.frame_spacing) + ")",
-                    ml.sample_spacing.where, diagnostics))
+  if (!admit_meshless(o, part.surface, options, ml.sample_spacing.where, budget, diagnostics))
     return false;
   MeshlessBuild result;
   try {
