@@ -89,8 +89,11 @@ const Elasticity& CudaElasticity::prepared_reference() {
 }
 
 ElasticityFactory cuda_elasticity_factory(const DeviceOptions& options) {
-  return [options](const Model& model, int threads) -> std::unique_ptr<VolumetricElasticity> {
-    return std::make_unique<CudaElasticity>(model, options, threads);
+  return [options](const Model& model, int threads, ElasticityUse use) -> std::unique_ptr<VolumetricElasticity> {
+    // Damping's K(q_n) dq is a term of the gradient: double storage, as on the whole-step path.
+    DeviceOptions chosen = options;
+    if (use == ElasticityUse::damping) chosen.precision = Precision::double_precision;
+    return std::make_unique<CudaElasticity>(model, chosen, threads);
   };
 }
 

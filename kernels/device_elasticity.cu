@@ -91,6 +91,9 @@ struct DeviceElasticity::Impl {
   virtual void diagonal_blocks(double* blocks) = 0;
   virtual void* stream() const = 0;
   virtual void set_state_on_device(const double* positions, const double* orientations) = 0;
+  // The state on the device: positions [N][3], orientations [N][4].
+  virtual const double* positions_on_device() const = 0;
+  virtual const double* orientations_on_device() const = 0;
   virtual double gradient_on_device(double* g) = 0;
   virtual void apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal) = 0;
   virtual void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
@@ -354,6 +357,9 @@ class System final : public DeviceElasticity::Impl {
                                                                             m_orientations.data(), m_changed.data());
     check_launch();
   }
+
+  const double* positions_on_device() const override { return m_positions.data(); }
+  const double* orientations_on_device() const override { return m_orientations.data(); }
 
   double gradient_on_device(double* g) override {
     enqueue_gradient_pass(g);
@@ -739,20 +745,23 @@ DeviceElasticity::~DeviceElasticity() = default;
 
 DeviceElasticity::Impl& DeviceElasticity::forces() { return m_forces ? *m_forces : *m_impl; }
 
-void DeviceElasticity::set_state(const State& state) {
-  m_impl->set_state(state);
-  if (m_forces) m_forces->set_state(state);
+void DeviceElasticity::set_state(const State& state) { forces().set_state(state); }
+void DeviceElasticity::get_state(State& state) const {
+  (m_forces ? *m_forces : *m_impl).get_state(state);
 }
-void DeviceElasticity::get_state(State& state) const { m_impl->get_state(state); }
 double DeviceElasticity::energy() { return forces().energy(); }
 double DeviceElasticity::gradient(double* g) { return forces().gradient(g); }
-double DeviceElasticity::prepare(bool diagonal_blocks) { return m_impl->prepare(diagonal_blocks); }
+double DeviceElasticity::prepare(bool diagonal_blocks) {
+  // Single precision: the tangent's copy takes the state here, from the double copy, which every
+  // state set reached (an energy or a gradient needs only that copy).
+  if (m_forces) m_impl->set_state_on_device(m_forces->positions_on_device(), m_forces->orientations_on_device());
+  return m_impl->prepare(diagonal_blocks);
+}
 void DeviceElasticity::apply_tangent(const double* d, double* out) { m_impl->apply_tangent(d, out); }
 void DeviceElasticity::tangent_diagonal_blocks(double* blocks) { m_impl->diagonal_blocks(blocks); }
 void* DeviceElasticity::stream() const { return m_impl->stream(); }
 void DeviceElasticity::set_state_on_device(const double* positions, const double* orientations) {
-  m_impl->set_state_on_device(positions, orientations);
-  if (m_forces) m_forces->set_state_on_device(positions, orientations);
+  forces().set_state_on_device(positions, orientations);
 }
 double DeviceElasticity::gradient_on_device(double* gradient) { return forces().gradient_on_device(gradient); }
 void DeviceElasticity::apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal) {

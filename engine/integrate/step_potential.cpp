@@ -63,7 +63,7 @@ void StepPotential::set_dynamic(const State& start, double dt, double rayleigh_m
     store_mat3(&m_world_inertia[9 * i], R * load_mat3(&m_model.frame_inertias[9 * i]) * transpose(R));
   }
   if (m_beta > 0) {
-    if (!m_start_elasticity) m_start_elasticity = make_elasticity(m_factory, m_model, m_threads);
+    if (!m_start_elasticity) m_start_elasticity = make_elasticity(m_factory, m_model, m_threads, ElasticityUse::damping);
     m_start_elasticity->prepare(start);
   }
 }

@@ -9,8 +9,8 @@ std::unique_ptr<VolumetricElasticity> make_cpu_elasticity(const Model& model, in
 }
 
 std::unique_ptr<VolumetricElasticity> make_elasticity(const ElasticityFactory& factory, const Model& model,
-                                                      int threads) {
-  return factory ? factory(model, threads) : make_cpu_elasticity(model, threads);
+                                                      int threads, ElasticityUse use) {
+  return factory ? factory(model, threads, use) : make_cpu_elasticity(model, threads);
 }
 
 }  // namespace fascia

@@ -50,15 +50,22 @@ class VolumetricElasticity {
   virtual const Elasticity& prepared_reference() = 0;
 };
 
-// Makes the volumetric elasticity of `model` (which must outlive it) with `threads` CPU threads
-// (0 = the OpenMP default).
-using ElasticityFactory = std::function<std::unique_ptr<VolumetricElasticity>(const Model& model, int threads)>;
+// What an elasticity is for. The step's own (step) serves the energy, the gradient and the
+// tangent of Newton's iterate. The start-of-step tangent of stiffness-proportional damping
+// (damping) serves K(q_n) dq, a term of the gradient that Newton's tolerance judges, so a
+// backend that stores its tangent in reduced precision makes this one in double.
+enum class ElasticityUse { step, damping };
 
-// The CPU reference, fascia::Elasticity.
+// Makes the volumetric elasticity of `model` (which must outlive it) with `threads` CPU threads
+// (0 = the OpenMP default), for `use`.
+using ElasticityFactory =
+    std::function<std::unique_ptr<VolumetricElasticity>(const Model& model, int threads, ElasticityUse use)>;
+
+// The CPU reference, fascia::Elasticity (double for every use).
 std::unique_ptr<VolumetricElasticity> make_cpu_elasticity(const Model& model, int threads);
 
-// factory(model, threads), or the CPU reference when factory is empty.
+// factory(model, threads, use), or the CPU reference when factory is empty.
 std::unique_ptr<VolumetricElasticity> make_elasticity(const ElasticityFactory& factory, const Model& model,
-                                                      int threads);
+                                                      int threads, ElasticityUse use = ElasticityUse::step);
 
 }  // namespace fascia

@@ -318,7 +318,7 @@ TEST_CASE("an explicit CPU elasticity factory gives the default's steps bit for 
 
   int made = 0;
   SimulationSettings explicit_settings = settings;
-  explicit_settings.elasticity = [&made](const Model& m, int threads) {
+  explicit_settings.elasticity = [&made](const Model& m, int threads, ElasticityUse) {
     ++made;
     return make_cpu_elasticity(m, threads);
   };

@@ -6,6 +6,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <vector>
+
 using namespace fascia;
 using namespace fascia::test;
 
@@ -81,4 +83,23 @@ TEST_CASE("backward-Euler potential: exact gradient of inertia and Rayleigh damp
   potential.system().apply(d.data(), hd.data());
   const double fd = mixed_second_derivative(model, phi, start, d, d);
   REQUIRE(fd == Approx(dot(d, hd)).epsilon(1e-5));
+}
+
+TEST_CASE("stiffness-proportional damping makes its start-of-step tangent for damping", "[integrate][backend]") {
+  // The factory learns each elasticity's use, so a reduced-precision backend can keep damping's
+  // K(q_n) dq, a term of the gradient, in double (mechanics/volumetric_elasticity.hpp).
+  const Model model = small_box_model(CellType::hexahedron, MaterialLaw::stvk);
+  std::vector<ElasticityUse> made;
+  const ElasticityFactory recording = [&made](const Model& m, int threads, ElasticityUse use) {
+    made.push_back(use);
+    return make_cpu_elasticity(m, threads);
+  };
+  StepPotential potential(model, ExternalLoads{}, 1, recording);
+  CHECK(made == std::vector<ElasticityUse>{ElasticityUse::step});
+  const State start = rest_state(model);
+  potential.set_dynamic(start, 0.01, 0.5, 0.0);  // no stiffness damping: no second elasticity
+  CHECK(made.size() == 1);
+  potential.set_dynamic(start, 0.01, 0.5, 0.002);
+  potential.set_dynamic(start, 0.01, 0.5, 0.002);  // made once, prepared at each start
+  CHECK(made == std::vector<ElasticityUse>{ElasticityUse::step, ElasticityUse::damping});
 }

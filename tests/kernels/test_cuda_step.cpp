@@ -60,6 +60,13 @@ ExternalLoads all_loads(const Model& model) {
   return loads;
 }
 
+// Every force of `loads` times `factor` (a static solve sets ExternalLoads::scale itself).
+void scale_loads(ExternalLoads& loads, double factor) {
+  loads.gravity = factor * loads.gravity;
+  for (PointForce& f : loads.point_forces) f.force = factor * f.force;
+  for (MaterialPointForce& f : loads.material_point_forces) f.force = factor * f.force;
+}
+
 // The models of the comparisons: every force field and the rigid mapping.
 enum class Kind { tissue, rigid, coupled, hexahedra };
 const char* to_string(Kind k) {
@@ -382,6 +389,13 @@ TEST_CASE("whole step on the device equals the CPU engine on a tissue block", "[
   const double beta = GENERATE(0.0, 0.002);
   if (integrator != Integrator::backward_euler && beta > 0) return;
   const Model model = test_model(kind);
+  // The hexahedra block's static solve from rest to the full load folds it far beyond its length
+  // and has several equilibria: on the CPU alone, cg, pcg with block Jacobi and cholmod end at
+  // three of them (frame rotations 1.6 and 3.1 rad apart), so which one a solve reaches depends on
+  // its rounding. At 0.3 of the load every linear method ends at one equilibrium (within 1e-10
+  // rad), and the comparison checks the device's solve rather than the choice of a branch.
+  ExternalLoads loads = all_loads(model);
+  if (integrator == Integrator::static_equilibrium && kind == Kind::hexahedra) scale_loads(loads, 0.3);
   SimulationSettings s;
   s.integrator = integrator;
   s.dt = 0.01;
@@ -394,13 +408,13 @@ TEST_CASE("whole step on the device equals the CPU engine on a tissue block", "[
   SimulationSettings device = s;
   device.step_backend = cuda_step_factory();
   {
-    Simulation probe(model, all_loads(model), device);
+    Simulation probe(model, loads, device);
     REQUIRE(probe.on_step_backend());
   }
   char label[80];
   std::snprintf(label, sizeof label, "device step %s%s %s %s %s", to_string(integrator), beta > 0 ? " damped" : "",
                 to_string(method), to_string(s.newton.linear.preconditioner), to_string(kind));
-  CHECK(check_backends_agree(label, model, all_loads(model), s, device, 3) <= 1.0);
+  CHECK(check_backends_agree(label, model, loads, s, device, 3) <= 1.0);
 }
 
 TEST_CASE("the variational step on the device solves the CPU's discrete Euler-Lagrange equations", "[gpu]") {

@@ -7,6 +7,7 @@
 #include <catch2/catch.hpp>
 
 #include <cstring>
+#include <vector>
 
 using namespace fascia;
 using namespace fascia::test;
@@ -55,14 +56,15 @@ TEST_CASE("the default elasticity factory is the CPU reference, bit for bit", "[
   CHECK(&made->prepared_reference() == made.get());
 }
 
-TEST_CASE("an explicit elasticity factory is what the step potential calls", "[mechanics][backend]") {
+TEST_CASE("an explicit elasticity factory is what make_elasticity calls", "[mechanics][backend]") {
   const Model model = small_box_model(CellType::hexahedron);
-  int made = 0;
-  const ElasticityFactory counting = [&made](const Model& m, int threads) {
-    ++made;
+  std::vector<ElasticityUse> made;
+  const ElasticityFactory counting = [&made](const Model& m, int threads, ElasticityUse use) {
+    made.push_back(use);
     return make_cpu_elasticity(m, threads);
   };
   const std::unique_ptr<VolumetricElasticity> e = make_elasticity(counting, model, 1);
-  CHECK(made == 1);
+  const std::unique_ptr<VolumetricElasticity> d = make_elasticity(counting, model, 1, ElasticityUse::damping);
+  CHECK(made == std::vector<ElasticityUse>{ElasticityUse::step, ElasticityUse::damping});
   CHECK(dynamic_cast<Elasticity*>(e.get()) != nullptr);
 }
