@@ -60,11 +60,33 @@ ExternalLoads all_loads(const Model& model) {
   return loads;
 }
 
-// Every force of `loads` times `factor` (a static solve sets ExternalLoads::scale itself).
-void scale_loads(ExternalLoads& loads, double factor) {
-  loads.gravity = factor * loads.gravity;
-  for (PointForce& f : loads.point_forces) f.force = factor * f.force;
-  for (MaterialPointForce& f : loads.material_point_forces) f.force = factor * f.force;
+// A static equilibrium of frame hexahedra is one of several: local minima that differ mostly in
+// the frames' rotations (the modes the rotation stabilisation holds weakly), and which one a solve
+// reaches depends on its path and rounding. On the CPU alone the tissue block's cg, pcg with
+// block Jacobi and cholmod end at three of them (rotations 1.6 and 3.1 rad apart), and the device
+// at another again. So the device's end state is checked as a minimiser of the CPU's potential
+// rather than against the CPU's state: the CPU's |g_free| there within twice Newton's stopping
+// bound tolerance * S (the two sum in different orders, a relative 1e-14 of the terms), S at most
+// max(|f_ext|, |g_free(rest)|) (the force scale of newton.hpp for the one load increment, or for
+// the last one after halvings, whose start has a smaller gradient), and the free Hessian positive
+// definite there. Returns |g_free| over that bound.
+double check_device_equilibrium(const char* label, const Model& model, const ExternalLoads& loads,
+                                const SimulationSettings& device_settings) {
+  Simulation device(model, loads, device_settings);
+  const State rest = device.state();
+  const StepReport report = device.step();
+  REQUIRE(report.converged);
+  StepPotential probe(model, loads, 1);
+  probe.set_equilibrium();
+  const double scale = std::max(probe.frame_loads().force_norm(1.0), free_gradient_norm(probe, rest));
+  const double bound = 2 * device_settings.newton.tolerance * scale;
+  const MinimiserBound b = minimiser_bound(probe, device.state(), device.state());
+  std::printf("[%s] newton %d cg %d |g| %.2e (bound %.2e) lambda_min %.3e\n", label, report.newton_iterations,
+              report.cg_iterations, b.gradient_a, bound, b.lambda_min);
+  CHECK(b.gradient_a <= bound);
+  CHECK(b.lambda_min > 0);
+  CHECK(max_abs(device.state().velocities) == 0.0);  // a static step ends at rest
+  return b.gradient_a / bound;
 }
 
 // The models of the comparisons: every force field and the rigid mapping.
@@ -389,13 +411,7 @@ TEST_CASE("whole step on the device equals the CPU engine on a tissue block", "[
   const double beta = GENERATE(0.0, 0.002);
   if (integrator != Integrator::backward_euler && beta > 0) return;
   const Model model = test_model(kind);
-  // The hexahedra block's static solve from rest to the full load folds it far beyond its length
-  // and has several equilibria: on the CPU alone, cg, pcg with block Jacobi and cholmod end at
-  // three of them (frame rotations 1.6 and 3.1 rad apart), so which one a solve reaches depends on
-  // its rounding. At 0.3 of the load every linear method ends at one equilibrium (within 1e-10
-  // rad), and the comparison checks the device's solve rather than the choice of a branch.
-  ExternalLoads loads = all_loads(model);
-  if (integrator == Integrator::static_equilibrium && kind == Kind::hexahedra) scale_loads(loads, 0.3);
+  const ExternalLoads loads = all_loads(model);
   SimulationSettings s;
   s.integrator = integrator;
   s.dt = 0.01;
@@ -414,7 +430,10 @@ TEST_CASE("whole step on the device equals the CPU engine on a tissue block", "[
   char label[80];
   std::snprintf(label, sizeof label, "device step %s%s %s %s %s", to_string(integrator), beta > 0 ? " damped" : "",
                 to_string(method), to_string(s.newton.linear.preconditioner), to_string(kind));
-  CHECK(check_backends_agree(label, model, loads, s, device, 3) <= 1.0);
+  if (integrator == Integrator::static_equilibrium && kind == Kind::hexahedra)
+    CHECK(check_device_equilibrium(label, model, loads, device) <= 1.0);  // one of several minima
+  else
+    CHECK(check_backends_agree(label, model, loads, s, device, 3) <= 1.0);
 }
 
 TEST_CASE("the variational step on the device solves the CPU's discrete Euler-Lagrange equations", "[gpu]") {
