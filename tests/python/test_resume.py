@@ -96,8 +96,10 @@ def test_a_stopped_run_resumes_to_the_same_bits(fascia_bin, root, tmp_path, refe
     # (200 steps, not the scene's 60): the signal must land before the run ends, and the rows
     # reach the file some steps after those steps are taken.
     (["scenes/bone.yaml", "--set", "run.duration=2 s"], [50, 53, 56, 59]),
-    # The variational integrator's iteration matrix (start and end states of the step), 20 steps.
-    (["scenes/tool_pull.yaml", "--set", "run.duration=0.2 s", "--set", "solver.integrator=variational",
+    # The variational integrator's iteration matrix (start and end states of the step). 40 steps,
+    # so that at least 28 (about 0.3 s on one thread of a 2-core VM) are left after the last stop's
+    # rows for the signal to land before the run ends.
+    (["scenes/tool_pull.yaml", "--set", "run.duration=0.4 s", "--set", "solver.integrator=variational",
       "--set", "solver.rayleigh_mass=0"], [8, 10, 12]),
 ])
 def test_the_reused_factorisation_is_resumed(fascia_bin, root, tmp_path, scene, stops):
