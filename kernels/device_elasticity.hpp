@@ -61,10 +61,11 @@ struct LaunchGrids {
 // The model uploaded once to the device; the state is uploaded with set_state and stays there.
 // In single precision the energies and gradients (Newton's residual, the line search) come from
 // a second copy of the tables in double storage on the same stream, which every state set here
-// reaches (the tangent's copy takes the state from it at prepare()): float tables and kinematics leave the gradient an error of about 1e-7 of each
-// sample's force, and the residual of a scene whose internal forces are large against the net
-// force would stall at 1e-5 to 1e-4 of the force scale, above Newton's tolerance. The tangent
-// (prepare, the products and blocks) stays in the storage chosen.
+// reaches (the tangent's copy takes the state from it at prepare()): float tables and kinematics
+// leave the gradient an error of about 1e-7 of each sample's force, and the residual of a scene
+// whose internal forces are large against the net force would stall at 1e-5 to 1e-4 of the force
+// scale, above Newton's tolerance. The tangent (prepare, the products and blocks) stays in the
+// storage chosen.
 class DeviceElasticity {
  public:
   // stream: a cudaStream_t to enqueue on, which must outlive this object (null: its own).
