@@ -743,12 +743,10 @@ DeviceElasticity::DeviceElasticity(const Model& model, const DeviceOptions& opti
 }
 DeviceElasticity::~DeviceElasticity() = default;
 
-DeviceElasticity::Impl& DeviceElasticity::forces() { return m_forces ? *m_forces : *m_impl; }
+DeviceElasticity::Impl& DeviceElasticity::forces() const { return m_forces ? *m_forces : *m_impl; }
 
 void DeviceElasticity::set_state(const State& state) { forces().set_state(state); }
-void DeviceElasticity::get_state(State& state) const {
-  (m_forces ? *m_forces : *m_impl).get_state(state);
-}
+void DeviceElasticity::get_state(State& state) const { forces().get_state(state); }
 double DeviceElasticity::energy() { return forces().energy(); }
 double DeviceElasticity::gradient(double* g) { return forces().gradient(g); }
 double DeviceElasticity::prepare(bool diagonal_blocks) {

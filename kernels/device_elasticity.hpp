@@ -139,7 +139,7 @@ class DeviceElasticity {
   struct Impl;
 
  private:
-  Impl& forces();  // the energies' and gradients': m_forces in single precision, else m_impl
+  Impl& forces() const;  // the energies' and gradients' (and the state's): m_forces in single, else m_impl
   std::unique_ptr<Impl> m_impl;    // the tangent's, in the storage chosen
   std::unique_ptr<Impl> m_forces;  // single precision: double storage on m_impl's stream
 };
