@@ -63,8 +63,9 @@ ExternalLoads all_loads(const Model& model) {
 // A static equilibrium of frame hexahedra is one of several: local minima that differ mostly in
 // the frames' rotations (the modes the rotation stabilisation holds weakly), and which one a solve
 // reaches depends on its path and rounding. On the CPU alone the tissue block's cg, pcg with
-// block Jacobi and cholmod end at three of them (rotations 1.6 and 3.1 rad apart), and the device
-// at another again. So the device's end state is checked as a minimiser of the CPU's potential
+// block Jacobi and cholmod end at three of them (rotations 1.6 and 3.1 rad apart), and the device's
+// pcg with the kept factor has ended at yet another (at 0.3 of this load, 1.55 rad from the CPU's).
+// So the device's end state is checked as a minimiser of the CPU's potential
 // rather than against the CPU's state: the CPU's |g_free| there within twice Newton's stopping
 // bound tolerance * S (the two sum in different orders, a relative 1e-14 of the terms), S at most
 // max(|f_ext|, |g_free(rest)|) (the force scale of newton.hpp for the one load increment, or for
