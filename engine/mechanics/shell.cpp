@@ -135,31 +135,29 @@ ShellForceField::ShellForceField(const Model& model, const Shell& shell, int thr
   for (int t = 0; t < t_count; ++t)
     m_elements.push_back(make_shell_element(model.frame_rest_positions.data(), shell.triangles[3 * t],
                                             shell.triangles[3 * t + 1], shell.triangles[3 * t + 2], shell));
-  m_hessians.assign(static_cast<size_t>(t_count) * kShellElementDofs * kShellElementDofs, 0.0);
   build_block_structure();
   m_element_gradients.assign(static_cast<size_t>(t_count) * kShellElementDofs, 0.0);
   m_element_energies.assign(t_count, 0.0);
 }
 
 void ShellForceField::build_block_structure() {
-  // Every (node a, node b) block of every element, sorted by (row frame, column frame, element):
-  // equal frame pairs become one block whose element contributions are summed in element order.
+  // Every (node a, node b) pair of every element, sorted by (row frame, column frame): equal frame
+  // pairs become one block.
   struct Entry {
     int row, col;
-    size_t source;  // offset of the 6x6 element block in m_hessians
+    int element_block;  // 9 t + 3 a + b
   };
   std::vector<Entry> entries;
   entries.reserve(9 * m_elements.size());
   for (size_t t = 0; t < m_elements.size(); ++t)
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b)
-        entries.push_back({m_elements[t].nodes[a], m_elements[t].nodes[b],
-                           t * kShellElementDofs * kShellElementDofs + 6 * kShellElementDofs * a + 6 * b});
+        entries.push_back({m_elements[t].nodes[a], m_elements[t].nodes[b], static_cast<int>(9 * t + 3 * a + b)});
   std::sort(entries.begin(), entries.end(), [](const Entry& x, const Entry& y) {
-    return x.row != y.row ? x.row < y.row : x.col != y.col ? x.col < y.col : x.source < y.source;
+    return x.row != y.row ? x.row < y.row : x.col != y.col ? x.col < y.col : x.element_block < y.element_block;
   });
   m_row_frames.clear(), m_row_offsets.assign(1, 0), m_block_frames.clear(), m_diagonal_blocks.clear();
-  m_source_offsets.assign(1, 0), m_sources.clear();
+  m_element_blocks.assign(entries.size(), 0);
   for (size_t k = 0; k < entries.size(); ++k) {
     const Entry& x = entries[k];
     const bool new_row = k == 0 || x.row != entries[k - 1].row;
@@ -169,17 +167,36 @@ void ShellForceField::build_block_structure() {
       m_row_frames.push_back(x.row);
     }
     if (new_block) {
-      if (k > 0) m_source_offsets.push_back(static_cast<int>(m_sources.size()));
       if (x.col == x.row) m_diagonal_blocks.push_back(static_cast<int>(m_block_frames.size()));
       m_block_frames.push_back(x.col);
     }
-    m_sources.push_back(x.source);
+    m_element_blocks[x.element_block] = static_cast<int>(m_block_frames.size()) - 1;
   }
-  if (!entries.empty()) {
-    m_row_offsets.push_back(static_cast<int>(m_block_frames.size()));
-    m_source_offsets.push_back(static_cast<int>(m_sources.size()));
-  }
+  if (!entries.empty()) m_row_offsets.push_back(static_cast<int>(m_block_frames.size()));
   m_blocks.assign(36 * m_block_frames.size(), 0.0);
+
+  // Greedy colouring: each triangle takes the smallest colour that no earlier triangle sharing
+  // one of its nodes has.
+  std::vector<std::vector<int>> node_colours;
+  std::vector<int> colour(m_elements.size());
+  int colours = 0;
+  for (size_t t = 0; t < m_elements.size(); ++t) {
+    std::vector<char> taken(colours + 1, 0);
+    for (int node : m_elements[t].nodes) {
+      if (node >= static_cast<int>(node_colours.size())) node_colours.resize(node + 1);
+      for (int c : node_colours[node]) taken[c] = 1;
+    }
+    const int c = static_cast<int>(std::find(taken.begin(), taken.end(), 0) - taken.begin());
+    colour[t] = c;
+    colours = std::max(colours, c + 1);
+    for (int node : m_elements[t].nodes) node_colours[node].push_back(c);
+  }
+  m_colour_offsets.assign(colours + 1, 0);
+  for (int c : colour) ++m_colour_offsets[c + 1];
+  for (int c = 0; c < colours; ++c) m_colour_offsets[c + 1] += m_colour_offsets[c];
+  m_colour_elements.resize(m_elements.size());
+  std::vector<int> next(m_colour_offsets.begin(), m_colour_offsets.end() - 1);
+  for (size_t t = 0; t < m_elements.size(); ++t) m_colour_elements[next[colour[t]]++] = static_cast<int>(t);
 }
 
 double ShellForceField::bending_stiffness() const {
@@ -217,24 +234,27 @@ double ShellForceField::add_gradient(const State& state, double* gradient) {
 }
 
 void ShellForceField::prepare(const State& state) {
-  const int t_count = element_count();
+  // Each element's Hessian is added into its nine node blocks (stored column-major: the
+  // product's inner loop then runs over contiguous rows) as soon as it is formed. The triangles of
+  // one colour share no node, so they write disjoint blocks in parallel, and every block sums its
+  // elements in colour order, whatever the thread count.
+  std::fill(m_blocks.begin(), m_blocks.end(), 0.0);
+  for (size_t colour = 0; colour + 1 < m_colour_offsets.size(); ++colour) {
+    const int begin = m_colour_offsets[colour], end = m_colour_offsets[colour + 1];
 #pragma omp parallel for schedule(static) num_threads(m_threads)
-  for (int t = 0; t < t_count; ++t) {
-    double g[kShellElementDofs];
-    element_hessian(m_elements[t], m_moduli, state, g,
-                    &m_hessians[static_cast<size_t>(t) * kShellElementDofs * kShellElementDofs]);
-  }
-  // Assemble the node blocks: each block gathers its elements' 6x6 blocks in element order,
-  // stored column-major (the product's inner loop then runs over contiguous rows).
-  const int block_count = static_cast<int>(m_block_frames.size());
-#pragma omp parallel for schedule(static) num_threads(m_threads)
-  for (int b = 0; b < block_count; ++b) {
-    double* B = &m_blocks[36 * static_cast<size_t>(b)];
-    for (int k = 0; k < 36; ++k) B[k] = 0;
-    for (int s = m_source_offsets[b]; s < m_source_offsets[b + 1]; ++s) {
-      const double* H = &m_hessians[m_sources[s]];
-      for (int r = 0; r < 6; ++r)
-        for (int c = 0; c < 6; ++c) B[6 * c + r] += H[kShellElementDofs * r + c];
+    for (int k = begin; k < end; ++k) {
+      const int t = m_colour_elements[k];
+      double g[kShellElementDofs], H[kShellElementDofs * kShellElementDofs];
+      element_hessian(m_elements[t], m_moduli, state, g, H);
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+          double* B = &m_blocks[36 * static_cast<size_t>(m_element_blocks[9 * t + 3 * a + b])];
+          // Column c of block (a, b) is row 6b + c of the symmetric H, from its column 6a.
+          for (int c = 0; c < 6; ++c) {
+            const double* h = &H[kShellElementDofs * (6 * b + c) + 6 * a];
+            for (int r = 0; r < 6; ++r) B[6 * c + r] += h[r];
+          }
+        }
     }
   }
 }

@@ -25,7 +25,8 @@
 // own rest normal). Gradient and Hessian of theta -> W(q (+) theta) are exact and in closed form
 // (mechanics/shell_element.hpp, which holds the per-triangle body shared with CUDA drivers).
 // prepare() sums the element Hessians into one 6x6 block per pair of frames that share a
-// triangle; products, diagonal blocks and triplets read those blocks.
+// triangle, colour by colour (triangles of a colour share no frame); products, diagonal blocks and
+// triplets read those blocks.
 #pragma once
 
 #include "core/small_math.hpp"
@@ -65,13 +66,13 @@ class ShellForceField : public ForceField {
   // triangle (rows: the shell's frames, sorted), assembled by prepare() from the element Hessians.
   void build_block_structure();
 
-  std::vector<double> m_hessians;           // [T][18][18] prepared element Hessians
   std::vector<int> m_row_frames;            // [rows] frame of each block row
   std::vector<int> m_row_offsets;           // [rows+1] blocks of row r: [offsets[r], offsets[r+1])
   std::vector<int> m_block_frames;          // [blocks] column frame of each block
   std::vector<int> m_diagonal_blocks;       // [rows] the (frame, frame) block of each row
-  std::vector<int> m_source_offsets;        // [blocks+1] element blocks summed into each block
-  std::vector<size_t> m_sources;            // offsets of those 6x6 element blocks in m_hessians
+  std::vector<int> m_element_blocks;        // [T][3][3] the block of each element's node pair (a, b)
+  std::vector<int> m_colour_offsets;        // [colours+1] triangles of colour c: [offsets[c], offsets[c+1])
+  std::vector<int> m_colour_elements;       // [T] triangles by colour, then index; no two of a colour share a node
   std::vector<double> m_blocks;             // [blocks][6][6] column-major: entry (r, c) at 6 c + r
   std::vector<double> m_element_gradients;  // [T][18] scratch
   std::vector<double> m_element_energies;   // [T] scratch

@@ -190,20 +190,6 @@ FASCIA_HD void bending_gradient(const Bending& g, const AxisJacobians& j, const 
   for (int i = 0; i < 3; ++i) store3(out + 6 + 3 * i, cross(C1[i], g.e1) + cross(C2[i], g.e2));
 }
 
-// Row m of G = ds/dtheta in (a, b, dr_0, dr_1, dr_2), for s_m = e1 . c1 + e2 . c2 of node i.
-FASCIA_HD void scalar_gradient(const Bending& g, const AxisJacobians& j, const Vec3& c1, const Vec3& c2, int i,
-                               double* row) {
-  for (int k = 0; k < 15; ++k) row[k] = 0;
-  store3(row, transpose(j.e1_a) * c1 + transpose(j.e2_a) * c2);
-  store3(row + 3, transpose(j.e2_b) * c2);
-  store3(row + 6 + 3 * i, cross(c1, g.e1) + cross(c2, g.e2));
-}
-
-FASCIA_HD void add_block(double (*h)[15], int row, int col, const Mat3& block) {
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) h[row + r][col + c] += block.m[r][c];
-}
-
 // Second derivative of c . v/|v| in v (the unit-vector formula of the header).
 FASCIA_HD Mat3 unit_vector_hessian(const Vec3& c, const Vec3& e, double length) {
   const double ce = dot(c, e);
@@ -212,73 +198,106 @@ FASCIA_HD Mat3 unit_vector_hessian(const Vec3& c, const Vec3& e, double length) 
   return (1 / (length * length)) * h;
 }
 
-// Hessian of Phi(s) in (a, b, dr_0, dr_1, dr_2), h[15][15] (overwritten).
+// Reduced unknowns (a, b, dr_0, dr_1, dr_2) as five blocks of three: 0 = a, 1 = b, 2 + i = dr_i.
+constexpr int kReducedBlocks = 5;
+
+// Hessian of Phi(s) in the reduced unknowns, as its 3x3 blocks h[P][Q] on and below the block
+// diagonal (P >= Q; overwritten; the blocks above are not set).
 FASCIA_HD void bending_hessian(const ShellElementRest& e, const Bending& g, const AxisJacobians& j,
-                               const Vec3 C1i[3], const Vec3 C2i[3], double (*h)[15]) {
-  for (int r = 0; r < 15; ++r)
-    for (int c = 0; c < 15; ++c) h[r][c] = 0;
-  // G^T Phi'' G.
-  double G[9][15];
-  const Vec3 zero{0, 0, 0};
+                               const Vec3 C1i[3], const Vec3 C2i[3], Mat3 (*h)[kReducedBlocks]) {
+  // G^T Phi'' G. Row m of G = ds/dtheta is (A_m, r_m): A_m [6] in (a, b), the gradient of
+  // e1 . c1 + e2 . c2 through the axes, and r_m = c1 x e1 + c2 x e2 in dr_i of the node i of s_m
+  // (rows 2i, 2i + 1, 6 + i), zero in the other nodes' dr.
+  const Mat3 J1aT = transpose(j.e1_a), J2aT = transpose(j.e2_a), J2bT = transpose(j.e2_b);
+  double A[9][6];
+  Vec3 r[9];
   for (int i = 0; i < 3; ++i) {
-    scalar_gradient(g, j, -g.d[i][2], zero, i, G[2 * i]);
-    scalar_gradient(g, j, zero, -g.d[i][2], i, G[2 * i + 1]);
-    scalar_gradient(g, j, -0.5 * g.d[i][1], 0.5 * g.d[i][0], i, G[6 + i]);
+    const Vec3 beta = -g.d[i][2];                                 // beta_ix: c1; beta_iy: c2
+    const Vec3 psi1 = -0.5 * g.d[i][1], psi2 = 0.5 * g.d[i][0];  // psi_i: c1, c2
+    store3(A[2 * i], J1aT * beta);
+    store3(A[2 * i] + 3, Vec3{0, 0, 0});
+    r[2 * i] = cross(beta, g.e1);
+    store3(A[2 * i + 1], J2aT * beta);
+    store3(A[2 * i + 1] + 3, J2bT * beta);
+    r[2 * i + 1] = cross(beta, g.e2);
+    store3(A[6 + i], J1aT * psi1 + J2aT * psi2);
+    store3(A[6 + i] + 3, J2bT * psi2);
+    r[6 + i] = cross(psi1, g.e1) + cross(psi2, g.e2);
   }
-  for (int m = 0; m < 9; ++m) {
-    double y[15];  // (Phi'' G)_m
-    if (m < 6) {
-      for (int k = 0; k < 15; ++k) {
-        double s = 0;
-        for (int l = 0; l < 6; ++l) s += e.bending[m][l] * G[l][k];
-        y[k] = s;
-      }
-    } else {
-      for (int k = 0; k < 15; ++k) y[k] = g.k_drill * G[m][k];
+  double Y[9][6];  // Phi'' A, Phi'' = diag(K_b, k_d I)
+  for (int m = 0; m < 9; ++m)
+    for (int p = 0; p < 6; ++p) {
+      double s = 0;
+      if (m < 6)
+        for (int l = 0; l < 6; ++l) s += e.bending[m][l] * A[l][p];
+      else
+        s = g.k_drill * A[m][p];
+      Y[m][p] = s;
     }
-    for (int r = 0; r < 15; ++r) {
-      if (G[m][r] == 0) continue;
-      for (int c = 0; c < 15; ++c) h[r][c] += G[m][r] * y[c];
+  // (a, b) x (a, b): A^T Phi'' A, its lower triangle mirrored.
+  double ab[6][6];
+  for (int p = 0; p < 6; ++p)
+    for (int q = 0; q <= p; ++q) {
+      double s = 0;
+      for (int m = 0; m < 9; ++m) s += A[m][p] * Y[m][q];
+      ab[p][q] = ab[q][p] = s;
+    }
+  for (int p = 0; p < 3; ++p)
+    for (int q = 0; q < 3; ++q) {
+      h[0][0].m[p][q] = ab[p][q];
+      h[1][0].m[p][q] = ab[3 + p][q];
+      h[1][1].m[p][q] = ab[3 + p][3 + q];
+    }
+  for (int i = 0; i < 3; ++i) {
+    const int rows[3] = {2 * i, 2 * i + 1, 6 + i};
+    // dr_i x (a, b): the rows m of node i, r_m (Phi'' A)_m^T.
+    Mat3 ha = zero3<double>(), hb = zero3<double>();
+    for (int m : rows) {
+      ha += outer(r[m], load3(Y[m]));
+      hb += outer(r[m], load3(Y[m] + 3));
+    }
+    h[2 + i][0] = ha;
+    h[2 + i][1] = hb;
+    // dr_i x dr_k (k <= i): Phi''_ml r_m r_l^T over the rows m of node i and l of node k; K_b
+    // couples the beta rows of every pair of nodes, k_d the psi row of a node with itself.
+    for (int k = 0; k <= i; ++k) {
+      Mat3 rr = zero3<double>();
+      for (int b = 0; b < 2; ++b)
+        rr += outer(e.bending[2 * i][2 * k + b] * r[2 * i] + e.bending[2 * i + 1][2 * k + b] * r[2 * i + 1],
+                    r[2 * k + b]);
+      if (k == i) rr += g.k_drill * outer(r[6 + i], r[6 + i]);
+      h[2 + i][2 + k] = rr;
     }
   }
   // sum_m Phi'_m Hess(s_m) = Hess(e1 . C1 + e2 . C2) with C_a = sum_i C_a,i frozen.
   const Vec3 C1 = C1i[0] + C1i[1] + C1i[2], C2 = C2i[0] + C2i[1] + C2i[2];
   // (a, b) x (a, b): e1 . C1 + e1 . (C2 x e3) + e3 . (e1 x C2) + the product term of e2.
-  add_block(h, 0, 0, unit_vector_hessian(C1 + cross(C2, g.e3), g.e1, g.la));
+  h[0][0] += unit_vector_hessian(C1 + cross(C2, g.e3), g.e1, g.la);
   {
     const Vec3 c3 = cross(g.e1, C2);
     const Mat3 Hn = unit_vector_hessian(c3, g.e3, g.ln);
+    const Mat3 SaHn = skew_times(g.a, Hn), SbHn = skew_times(g.b, Hn);
     const Mat3 Sa = skew(g.a), Sb = skew(g.b);
-    const Mat3 gn = skew((1 / g.ln) * (c3 - dot(c3, g.e3) * g.e3));  // [P3 c3 / |n|]x
-    add_block(h, 0, 0, (-1.0) * (Sb * Hn * Sb));
-    add_block(h, 0, 3, Sb * Hn * Sa - gn);
-    add_block(h, 3, 0, Sa * Hn * Sb + gn);
-    add_block(h, 3, 3, (-1.0) * (Sa * Hn * Sa));
+    h[0][0] += (-1.0) * (SbHn * Sb);
+    h[1][0] += SaHn * Sb + skew((1 / g.ln) * (c3 - dot(c3, g.e3) * g.e3));  // + [P3 c3 / |n|]x
+    h[1][1] += (-1.0) * (SaHn * Sa);
   }
   // Product term M + M^T, M = J3^T (-[C2]x) J1 (only the a columns: J1 has no b part).
   {
-    const Mat3 SC = skew(C2);
-    const Mat3 Ma = (-1.0) * (transpose(j.e3_a) * SC * j.e1_a), Mb = (-1.0) * (transpose(j.e3_b) * SC * j.e1_a);
-    add_block(h, 0, 0, Ma + transpose(Ma));
-    add_block(h, 3, 0, Mb);
-    add_block(h, 0, 3, transpose(Mb));
+    const Mat3 SCJ1 = skew_times(C2, j.e1_a);
+    const Mat3 Ma = (-1.0) * (transpose(j.e3_a) * SCJ1), Mb = (-1.0) * (transpose(j.e3_b) * SCJ1);
+    h[0][0] += Ma + transpose(Ma);
+    h[1][0] += Mb;
   }
-  // (a, b) x dr_i: -J1^T [C1,i]x - J2^T [C2,i]x.
   for (int i = 0; i < 3; ++i) {
-    const Mat3 S1 = skew(C1i[i]), S2 = skew(C2i[i]);
-    const Mat3 ha = (-1.0) * (transpose(j.e1_a) * S1 + transpose(j.e2_a) * S2);
-    const Mat3 hb = (-1.0) * (transpose(j.e2_b) * S2);
-    add_block(h, 0, 6 + 3 * i, ha);
-    add_block(h, 3, 6 + 3 * i, hb);
-    add_block(h, 6 + 3 * i, 0, transpose(ha));
-    add_block(h, 6 + 3 * i, 3, transpose(hb));
-  }
-  // dr_i x dr_i: sum_a sym(e_a C_a,i^T) - (e_a . C_a,i) I.
-  for (int i = 0; i < 3; ++i) {
+    // dr_i x (a, b): the transpose of -J1^T [C1,i]x - J2^T [C2,i]x, i.e. [C1,i]x J1 + [C2,i]x J2.
+    h[2 + i][0] += skew_times(C1i[i], j.e1_a) + skew_times(C2i[i], j.e2_a);
+    h[2 + i][1] += skew_times(C2i[i], j.e2_b);
+    // dr_i x dr_i: sum_a sym(e_a C_a,i^T) - (e_a . C_a,i) I.
     Mat3 K = 0.5 * (outer(g.e1, C1i[i]) + outer(C1i[i], g.e1) + outer(g.e2, C2i[i]) + outer(C2i[i], g.e2));
     const double diag = dot(g.e1, C1i[i]) + dot(g.e2, C2i[i]);
     for (int k = 0; k < 3; ++k) K.m[k][k] -= diag;
-    add_block(h, 6 + 3 * i, 6 + 3 * i, K);
+    h[2 + i][2 + i] += K;
   }
 }
 
@@ -342,25 +361,27 @@ FASCIA_HD double shell_element_hessian(const ShellElementRest& e, const ShellMod
   constexpr int n = kShellElementDofs;
   const ElementState s = element_state(e, m, x, R, g);
   const Membrane& mem = s.mem;
-  const Bending& bend = s.bend;
-  // Bending and drilling in (a, b, dr_0, dr_1, dr_2), then theta: x_0 = -(a + b), x_1 = a, x_2 = b.
-  double hb[15][15];
-  bending_hessian(e, bend, s.j, s.C1, s.C2, hb);
-  double z[n][15];  // T^T hb: rows in theta, columns in (a, b, dr)
-  for (int c = 0; c < 15; ++c)
-    for (int k = 0; k < 3; ++k) {
-      z[k][c] = -(hb[k][c] + hb[3 + k][c]);
-      z[6 + k][c] = hb[k][c];
-      z[12 + k][c] = hb[3 + k][c];
-      for (int i = 0; i < 3; ++i) z[6 * i + 3 + k][c] = hb[6 + 3 * i + k][c];
-    }
-  for (int r = 0; r < n; ++r)
-    for (int k = 0; k < 3; ++k) {
-      H[n * r + k] = -(z[r][k] + z[r][3 + k]);
-      H[n * r + 6 + k] = z[r][k];
-      H[n * r + 12 + k] = z[r][3 + k];
-      for (int i = 0; i < 3; ++i) H[n * r + 6 * i + 3 + k] = z[r][6 + 3 * i + k];
-    }
+  // Bending and drilling in (a, b, dr_i), then theta's 3x3 blocks T[P][Q] on and below the block
+  // diagonal: dx_i = block 2i, dr_i = block 2i + 1, with x_0 = -(a + b), x_1 = a, x_2 = b.
+  Mat3 hr[kReducedBlocks][kReducedBlocks];
+  bending_hessian(e, s.bend, s.j, s.C1, s.C2, hr);
+  Mat3 T[6][6];
+  const Mat3 aa = hr[0][0], ba = hr[1][0], bb = hr[1][1], ab = transpose(ba);
+  T[0][0] = aa + ab + ba + bb;
+  T[2][0] = (-1.0) * (aa + ab);
+  T[2][2] = aa;
+  T[4][0] = (-1.0) * (ba + bb);
+  T[4][2] = ba;
+  T[4][4] = bb;
+  for (int i = 0; i < 3; ++i) {
+    const Mat3 ra = hr[2 + i][0], rb = hr[2 + i][1];  // dr_i x a, dr_i x b
+    const Mat3 r0 = (-1.0) * (ra + rb);                 // dr_i x x_0
+    const int row = 2 * i + 1;
+    T[row][0] = r0;  // dr_i x x_j, stored below the diagonal as x_j x dr_i where j > i
+    if (row > 2) T[row][2] = ra; else T[2][row] = transpose(ra);
+    if (row > 4) T[row][4] = rb; else T[4][row] = transpose(rb);
+    for (int k = 0; k <= i; ++k) T[row][2 * k + 1] = hr[2 + i][2 + k];
+  }
   // Membrane blocks in U: HU[c][d] (3x3 each), then d2W_m/dx_i dx_j = sum_cd c_ci c_dj HU[c][d].
   const double at = e.area * m.thickness, l = m.lambda, mu = m.mu;
   const Vec3 f0 = mem.f[0], f1 = mem.f[1];
@@ -373,19 +394,19 @@ FASCIA_HD double shell_element_hessian(const ShellElementRest& e, const ShellMod
     for (int d = 0; d < 2; ++d)
       for (int k = 0; k < 3; ++k) HU[c][d].m[k][k] += at * mem.S[c][d];
   for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) {
-      const Mat3 block = (mem.c[0][a] * mem.c[0][b]) * HU[0][0] + (mem.c[0][a] * mem.c[1][b]) * HU[0][1] +
+    for (int b = 0; b <= a; ++b)
+      T[2 * a][2 * b] += (mem.c[0][a] * mem.c[0][b]) * HU[0][0] + (mem.c[0][a] * mem.c[1][b]) * HU[0][1] +
                          (mem.c[1][a] * mem.c[0][b]) * HU[1][0] + (mem.c[1][a] * mem.c[1][b]) * HU[1][1];
+  // H from its lower triangle: exactly symmetric (K_b and the blocks' products are symmetric only
+  // to round-off).
+  for (int P = 0; P < 6; ++P) {
+    for (int Q = 0; Q < P; ++Q)
       for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) H[n * (6 * a + r) + 6 * b + c] += block.m[r][c];
-    }
-  // K_b is symmetric only to round-off: make H exactly symmetric.
-  for (int p = 0; p < n; ++p)
-    for (int q = 0; q < p; ++q) {
-      const double v = 0.5 * (H[n * p + q] + H[n * q + p]);
-      H[n * p + q] = H[n * q + p] = v;
-    }
-  return mem.energy + bend.energy;
+        for (int c = 0; c < 3; ++c) H[n * (3 * P + r) + 3 * Q + c] = H[n * (3 * Q + c) + 3 * P + r] = T[P][Q].m[r][c];
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c <= r; ++c) H[n * (3 * P + r) + 3 * P + c] = H[n * (3 * P + c) + 3 * P + r] = T[P][P].m[r][c];
+  }
+  return mem.energy + s.bend.energy;
 }
 
 }  // namespace fascia

@@ -124,6 +124,30 @@ TEST_CASE("shell tangent is symmetric and matches its blocks and triplets", "[me
       for (int c = 0; c < 6; ++c) REQUIRE(blocks[36 * i + 6 * r + c] == Approx(K.coeff(6 * i + r, 6 * i + c)).margin(1e-14));
 }
 
+TEST_CASE("shell tangent blocks are the same bits on any number of threads", "[mechanics][shell]") {
+  // prepare() sums each block's elements colour by colour, in parallel within a colour: the sums'
+  // order, and so their bits, must not depend on the threads (a checkpointed run resumes on
+  // another machine to the same bits).
+  const Model model = shell_model(cylinder_patch(0.05, 0.04, 8, 6, 0.06), kWall);
+  const State state = random_state(model, 13, 0.002, 0.5, 1.0);
+  std::vector<std::vector<Eigen::Triplet<double>>> triplets;
+  for (int threads : {1, 3, 4}) {
+    ShellForceField shell(model, model.shells.front(), threads);
+    shell.prepare(state);
+    triplets.emplace_back();
+    shell.add_triplets(triplets.back());
+  }
+  REQUIRE(triplets[0].size() > 0);
+  for (size_t k = 1; k < triplets.size(); ++k) {
+    REQUIRE(triplets[k].size() == triplets[0].size());
+    for (size_t t = 0; t < triplets[0].size(); ++t) {
+      REQUIRE(triplets[k][t].row() == triplets[0][t].row());
+      REQUIRE(triplets[k][t].col() == triplets[0][t].col());
+      REQUIRE(triplets[k][t].value() == triplets[0][t].value());
+    }
+  }
+}
+
 TEST_CASE("shell energy is invariant under rigid motions", "[mechanics][shell][invariance]") {
   const Model model = shell_model(cylinder_patch(0.05, 0.04, 3, 2, 0.06), kWall);
   ShellForceField shell(model, model.shells.front());
