@@ -17,6 +17,10 @@ constexpr int kBlockValues = 17;  // F (9), v S (6), v lambda, v mu
 // A pair's share of K d is stored as one 64-byte record (6 values, 2 zeros): the frame pass reads
 // it with two vector loads from one cache line.
 constexpr int kShareValues = 8;
+// Samples are put in lanes by neighbour count within windows of this many consecutive samples:
+// few empty slot lanes (pelvis: 3 % of 9,236, against 23 % of 11,592 in sample order; liver 3 %
+// against 23 %), while a block's samples stay near one another and read nearby frames.
+constexpr int kSortWindow = 64;
 
 // Lane l of a [k][L] matrix / vector stored from p.
 inline Mat3 lane_mat3(const double* p, int l) {
@@ -31,11 +35,11 @@ inline void lane_store_mat3(double* p, int l, const Mat3& a) {
 }
 
 // v dP for the non-StVK lanes of a block (scalar, generic law).
-void generic_lanes(const Model& model, const double* F, const MaterialCache* cache, int block, const double* dF,
-                   double* vdP) {
+void generic_lanes(const Model& model, const int* lane_samples, const double* F, const MaterialCache* cache, int block,
+                   const double* dF, double* vdP) {
   for (int l = 0; l < L; ++l) {
-    const int s = block * L + l;
-    if (s >= model.sample_count()) {
+    const int s = lane_samples[block * L + l];
+    if (s < 0) {
       lane_store_mat3(vdP, l, zero3());
       continue;
     }
@@ -47,6 +51,7 @@ void generic_lanes(const Model& model, const double* F, const MaterialCache* cac
 
 FASCIA_CLONES
 void pair_products_kernel(const int* __restrict block_slots, const std::uint8_t* __restrict generic,
+                          const int* __restrict lane_samples,
                           const int* __restrict slot_frames, const double* __restrict slot_data,
                           const double* __restrict block_data, const double* __restrict d,
                           double* __restrict slot_out, const Model& model, const double* F,
@@ -72,7 +77,7 @@ void pair_products_kernel(const int* __restrict block_slots, const std::uint8_t*
     // v dP (eq. 22-26).
     alignas(64) double vdP[9 * L];
     if (generic[b]) {
-      generic_lanes(model, F, cache, b, dF, vdP);
+      generic_lanes(model, lane_samples, F, cache, b, dF, vdP);
     } else {
       const double* mat = block_data + kBlockValues * L * b;
 #pragma omp simd
@@ -152,14 +157,24 @@ SampleLanes::SampleLanes(const Model& model) {
   const int s_count = model.sample_count();
   const int blocks = (s_count + L - 1) / L;
   const NeighbourTable& nb = model.neighbours;
+  auto pairs_of = [&](int s) { return nb.offsets[s + 1] - nb.offsets[s]; };
+  // Lane positions: the samples of each window of kSortWindow consecutive ones by decreasing
+  // neighbour count, so that a block's samples have about as many pairs and few slots are empty.
+  m_lane_samples.assign(static_cast<size_t>(L) * blocks, -1);
+  for (int s = 0; s < s_count; ++s) m_lane_samples[s] = s;
+  for (int w = 0; w < s_count; w += kSortWindow)
+    std::stable_sort(m_lane_samples.begin() + w, m_lane_samples.begin() + std::min(s_count, w + kSortWindow),
+                     [&](int x, int y) { return pairs_of(x) > pairs_of(y); });
+  m_sample_lanes.resize(s_count);
+  for (int k = 0; k < s_count; ++k) m_sample_lanes[m_lane_samples[k]] = k;
   m_block_slots.assign(blocks + 1, 0);
-  m_sample_slot.resize(s_count);
   m_generic.assign(blocks, 0);
   for (int b = 0; b < blocks; ++b) {
     int slots = 0;
-    for (int s = b * L; s < std::min(s_count, (b + 1) * L); ++s) {
-      slots = std::max(slots, nb.offsets[s + 1] - nb.offsets[s]);
-      m_sample_slot[s] = m_block_slots[b];
+    for (int l = 0; l < L; ++l) {
+      const int s = m_lane_samples[b * L + l];
+      if (s < 0) continue;
+      slots = std::max(slots, pairs_of(s));
       if (model.materials[model.samples.materials[s]].law != MaterialLaw::stvk) m_generic[b] = 1;
     }
     m_block_slots[b + 1] = m_block_slots[b] + slots;
@@ -173,7 +188,7 @@ SampleLanes::SampleLanes(const Model& model) {
   // first frame (any valid frame: their lever and gradient are zero) and are never gathered.
   std::vector<int> entry_of_pair(model.pair_count());
   for (int s = 0; s < s_count; ++s) {
-    const int b = s / L, l = s % L;
+    const int b = m_sample_lanes[s] / L, l = m_sample_lanes[s] % L;
     for (int q = m_block_slots[b]; q < m_block_slots[b + 1]; ++q) {
       const int k = q - m_block_slots[b];
       const int p = nb.offsets[s] + k;
@@ -195,8 +210,8 @@ SampleLanes::SampleLanes(const Model& model) {
 
 void SampleLanes::set_sample(int s, const Material& material, double volume, const Mat3& F,
                              const MaterialCache& cache) {
-  double* mat = &m_block_data[static_cast<size_t>(kBlockValues) * L * (s / L)];
-  const int l = s % L;
+  double* mat = &m_block_data[static_cast<size_t>(kBlockValues) * L * (m_sample_lanes[s] / L)];
+  const int l = m_sample_lanes[s] % L;
   lane_store_mat3(mat, l, F);
   if (material.law != MaterialLaw::stvk) return;  // generic lanes read Elasticity's arrays
   const Mat3& S = cache.a;
@@ -207,13 +222,13 @@ void SampleLanes::set_sample(int s, const Material& material, double volume, con
 }
 
 void SampleLanes::set_lever(int s, int k, const Mat3& lever) {
-  const int q = m_sample_slot[s] + k;
-  lane_store_mat3(&m_slot_data[static_cast<size_t>(kSlotValues) * L * q], s % L, lever);
+  const int q = m_block_slots[m_sample_lanes[s] / L] + k;
+  lane_store_mat3(&m_slot_data[static_cast<size_t>(kSlotValues) * L * q], m_sample_lanes[s] % L, lever);
 }
 
 void SampleLanes::pair_products(const double* d, const Model& model, const double* F, const MaterialCache* cache,
                                 int first, int last) {
-  pair_products_kernel(m_block_slots.data(), m_generic.data(), m_slot_frames.data(), m_slot_data.data(),
+  pair_products_kernel(m_block_slots.data(), m_generic.data(), m_lane_samples.data(), m_slot_frames.data(), m_slot_data.data(),
                        m_block_data.data(), d, m_slot_out.data(), model, F, cache, first, last);
 }
 

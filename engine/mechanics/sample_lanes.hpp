@@ -1,8 +1,8 @@
 // Host layout of the matrix-free tangent product K d for SIMD units (CPU only; the CUDA backend
 // has its own layout in kernels/sample_layout.hpp).
 //
-// Samples are taken kLanes at a time in blocks of consecutive samples (the last block padded with
-// empty lanes of zero volume). Slot k of a block holds the k-th neighbour pair of each of its
+// Samples are taken kLanes at a time in blocks of nearby samples with about as many neighbours
+// (the last block padded with empty lanes of zero volume). Slot k of a block holds the k-th neighbour pair of each of its
 // samples; a block has as many slots as its sample with the most neighbours, and a sample with
 // fewer neighbours has empty slots (zero lever and gradient). Every per-slot and per-block array is
 // structure-of-arrays across the lanes ([...][kLanes]), so the per-pair math of frame_sample.hpp
@@ -51,8 +51,9 @@ class SampleLanes {
   int block_count() const { return static_cast<int>(m_block_slots.size()) - 1; }
 
  private:
+  std::vector<int> m_lane_samples;      // [B][kLanes] the sample in each lane, -1: empty
+  std::vector<int> m_sample_lanes;      // [S] the lane position (kLanes b + l) of each sample
   std::vector<int> m_block_slots;       // [B+1] slot range of each block
-  std::vector<int> m_sample_slot;       // [S] first slot of sample s (in its block)
   std::vector<std::uint8_t> m_generic;  // [B] 1 where a lane holds a law other than StVK
   std::vector<int> m_slot_frames;       // [slots][kLanes] 6 i, i the frame of each slot lane
   std::vector<double> m_slot_data;      // [slots][12][kLanes] lever M (row-major) then g
