@@ -17,14 +17,16 @@ constexpr int kChunk = 1024;
 constexpr int kParallelMin = 1024;
 
 // F of sample s (eq. 8, as sample_deformation_gradient) and the rotated offsets a_p = R_i l_p of
-// its pairs, a[k] for the k-th pair, computed once for F and for the pair shares.
-Mat3 deformation_gradient_and_offsets(const NeighbourTable& nb, int s, const double* x, const double* R, Vec3* a) {
+// its pairs, a[3 k ..] for the k-th pair, computed once for F and for the pair shares. a is
+// written and read a double at a time: a Vec3 copied whole is stored as two doubles and reloaded
+// as one 16-byte vector, which the CPU cannot forward from the two stores (a stall per pair).
+Mat3 deformation_gradient_and_offsets(const NeighbourTable& nb, int s, const double* x, const double* R, double* a) {
   Mat3 F = zero3();
   for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
     const int i = nb.frames[p];
     const Mat3 Ri = load_mat3(R + 9 * i);
     const Vec3 ap = Ri * load3(&nb.rest_offsets[3 * p]);
-    a[p - nb.offsets[s]] = ap;
+    store3(a + 3 * (p - nb.offsets[s]), ap);
     F += outer(load3(x + 3 * i) + ap, load3(&nb.weight_gradients[3 * p])) + nb.weights[p] * Ri;
   }
   return F;
@@ -47,7 +49,7 @@ struct PreparedArrays {
 // and the rotational geometric block. Returns v psi, J. The Mat3 arithmetic is inlined into a
 // clone for AVX2 + FMA (core/target_clones.hpp).
 FASCIA_CLONES __attribute__((flatten)) double prepare_sample(const Model& model, int s, const double* x,
-                                                             const double* R, Vec3* a, const PreparedArrays& out) {
+                                                             const double* R, double* a, const PreparedArrays& out) {
   const NeighbourTable& nb = model.neighbours;
   const Mat3 F = deformation_gradient_and_offsets(nb, s, x, R, a);
   const Material& mat = model.materials[model.samples.materials[s]];
@@ -61,7 +63,7 @@ FASCIA_CLONES __attribute__((flatten)) double prepare_sample(const Model& model,
   for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
     const Mat3 Ri = load_mat3(R + 9 * nb.frames[p]);
     const Vec3 g = load3(&nb.weight_gradients[3 * p]);
-    const Vec3 ap = a[p - nb.offsets[s]];
+    const Vec3 ap = load3(a + 3 * (p - nb.offsets[s]));
     store3(&out.offsets[3 * p], ap);
     const Mat3 M = pair_lever(ap, g, nb.weights[p], Ri);
     out.lanes->set_lever(s, p - nb.offsets[s], M);
@@ -137,7 +139,7 @@ double Elasticity::prepare(const State& state) {
 #pragma omp parallel for schedule(static) num_threads(m_threads) if (chunks > 1)
   for (int c = 0; c < chunks; ++c) {
     double sum = 0;
-    std::vector<Vec3> a(m_max_pairs);
+    std::vector<double> a(3 * static_cast<size_t>(m_max_pairs));
     const int end = std::min(s_count, (c + 1) * kChunk);
     for (int s = c * kChunk; s < end; ++s) sum += prepare_sample(m_model, s, x, R, a.data(), arrays);
     m_chunk[c] = sum;
