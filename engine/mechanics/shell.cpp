@@ -27,17 +27,31 @@ void load_element(const ShellElementRest& e, const State& state, Vec3 x[3], Mat3
   }
 }
 
-// Triangle e's gradient g[18] and Hessian H[18][18] at the state, with the element functions
-// inlined into a clone for AVX2 + FMA (core/target_clones.hpp). Returns its energy, J.
-FASCIA_CLONES __attribute__((flatten)) double element_hessian(const ShellElementRest& e, const ShellModuli& moduli,
-                                                              const State& state, double* g, double* H) {
+// Adds triangle e's Hessian at the state into its nine node blocks, block (a, b) of its nodes at
+// blocks + 36 node_blocks[3 a + b] (column-major), with the element functions inlined into a
+// clone for AVX2 + FMA (core/target_clones.hpp).
+FASCIA_CLONES __attribute__((flatten)) void add_element_hessian(const ShellElementRest& e, const ShellModuli& moduli,
+                                                                const State& state, const int* node_blocks,
+                                                                double* blocks) {
   Vec3 x[3];
   Mat3 R[3];
   load_element(e, state, x, R);
-  return shell_element_hessian(e, moduli, x, R, g, H);
+  double g[kShellElementDofs], H[kShellElementDofs * kShellElementDofs];
+  shell_element_hessian(e, moduli, x, R, g, H);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      double* B = blocks + 36 * static_cast<size_t>(node_blocks[3 * a + b]);
+      // Column c of block (a, b) is row 6b + c of the symmetric H, from its column 6a.
+      for (int c = 0; c < 6; ++c) {
+        const double* h = &H[kShellElementDofs * (6 * b + c) + 6 * a];
+#pragma omp simd
+        for (int r = 0; r < 6; ++r) B[6 * c + r] += h[r];
+      }
+    }
 }
 
-// Triangle e's gradient g[18] at the state, as element_hessian. Returns its energy, J.
+// Triangle e's gradient g[18] at the state, inlined into clones as add_element_hessian. Returns
+// its energy, J.
 FASCIA_CLONES __attribute__((flatten)) double element_gradient(const ShellElementRest& e, const ShellModuli& moduli,
                                                                const State& state, double* g) {
   Vec3 x[3];
@@ -244,17 +258,7 @@ void ShellForceField::prepare(const State& state) {
 #pragma omp parallel for schedule(static) num_threads(m_threads)
     for (int k = begin; k < end; ++k) {
       const int t = m_colour_elements[k];
-      double g[kShellElementDofs], H[kShellElementDofs * kShellElementDofs];
-      element_hessian(m_elements[t], m_moduli, state, g, H);
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) {
-          double* B = &m_blocks[36 * static_cast<size_t>(m_element_blocks[9 * t + 3 * a + b])];
-          // Column c of block (a, b) is row 6b + c of the symmetric H, from its column 6a.
-          for (int c = 0; c < 6; ++c) {
-            const double* h = &H[kShellElementDofs * (6 * b + c) + 6 * a];
-            for (int r = 0; r < 6; ++r) B[6 * c + r] += h[r];
-          }
-        }
+      add_element_hessian(m_elements[t], m_moduli, state, &m_element_blocks[9 * t], m_blocks.data());
     }
   }
 }
