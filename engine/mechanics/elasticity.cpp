@@ -60,13 +60,14 @@ FASCIA_CLONES __attribute__((flatten)) double prepare_sample(const Model& model,
   store_mat3(&out.P[9 * s], P);
   out.lanes->set_sample(s, mat, v, F, out.cache[s]);
   const Mat3 vP = v * P;
+  double* levers = out.lanes->levers_of(s);
   for (int p = nb.offsets[s]; p < nb.offsets[s + 1]; ++p) {
     const Mat3 Ri = load_mat3(R + 9 * nb.frames[p]);
     const Vec3 g = load3(&nb.weight_gradients[3 * p]);
     const Vec3 ap = load3(a + 3 * (p - nb.offsets[s]));
     store3(&out.offsets[3 * p], ap);
     const Mat3 M = pair_lever(ap, g, nb.weights[p], Ri);
-    out.lanes->set_lever(s, p - nb.offsets[s], M);
+    SampleLanes::set_lever(levers, p - nb.offsets[s], M);
     // Pair buffer: energy gradient share (columns 0-5) ...
     pair_lever_virtual_work(vP, g, M, &out.pair[6 * p]);
     // ... and the pair's rotational geometric block, which with B = M (v P)^T is

@@ -12,7 +12,6 @@ namespace fascia {
 namespace {
 
 constexpr int L = kLanes;
-constexpr int kSlotValues = 12;   // lever M (9) then g (3)
 constexpr int kBlockValues = 17;  // F (9), v S (6), v lambda, v mu
 // A pair's share of K d is stored as one 64-byte record (6 values, 2 zeros): the frame pass reads
 // it with two vector loads from one cache line.
@@ -219,11 +218,6 @@ void SampleLanes::set_sample(int s, const Material& material, double volume, con
   for (int j = 0; j < 6; ++j) mat[(9 + j) * L + l] = volume * vs[j];
   mat[15 * L + l] = volume * material.lambda;
   mat[16 * L + l] = volume * material.mu;
-}
-
-void SampleLanes::set_lever(int s, int k, const Mat3& lever) {
-  const int q = m_block_slots[m_sample_lanes[s] / L] + k;
-  lane_store_mat3(&m_slot_data[static_cast<size_t>(kSlotValues) * L * q], m_sample_lanes[s] % L, lever);
 }
 
 void SampleLanes::pair_products(const double* d, const Model& model, const double* F, const MaterialCache* cache,

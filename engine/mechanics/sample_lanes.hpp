@@ -28,6 +28,8 @@
 namespace fascia {
 
 constexpr int kLanes = 4;
+// Values per slot lane: the lever M (9, row-major) then the weight gradient g (3).
+constexpr int kSlotValues = 12;
 
 class SampleLanes {
  public:
@@ -36,8 +38,16 @@ class SampleLanes {
 
   // Per-state data of one sample s: F, the material cache (S for StVK) and the volume.
   void set_sample(int s, const Material& material, double volume, const Mat3& F, const MaterialCache& cache);
-  // Per-state lever of the k-th neighbour pair of sample s.
-  void set_lever(int s, int k, const Mat3& lever);
+  // Where the levers of sample s go: set_lever(levers_of(s), k, M) stores its k-th pair's lever.
+  double* levers_of(int s) {
+    const int lane = m_sample_lanes[s];
+    return &m_slot_data[static_cast<size_t>(kSlotValues) * kLanes * m_block_slots[lane / kLanes] + lane % kLanes];
+  }
+  static void set_lever(double* levers, int k, const Mat3& lever) {
+    double* p = levers + static_cast<size_t>(kSlotValues) * kLanes * k;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) p[(3 * r + c) * kLanes] = lever.m[r][c];
+  }
 
   // The per-pair shares of K d for blocks [first, last).
   // d: [N][6]. F, cache: Elasticity's per-sample arrays, read only for non-StVK blocks.
@@ -56,7 +66,7 @@ class SampleLanes {
   std::vector<int> m_block_slots;       // [B+1] slot range of each block
   std::vector<std::uint8_t> m_generic;  // [B] 1 where a lane holds a law other than StVK
   std::vector<int> m_slot_frames;       // [slots][kLanes] 6 i, i the frame of each slot lane
-  std::vector<double> m_slot_data;      // [slots][12][kLanes] lever M (row-major) then g
+  std::vector<double> m_slot_data;      // [slots][kSlotValues][kLanes] lever M (row-major) then g
   std::vector<double> m_block_data;     // [B][17][kLanes] F, v S (xx yy zz yz xz xy), v lambda, v mu
   std::vector<double> m_slot_out;       // [slots][kLanes][8] per-pair shares of K d (6 values, 2 zeros)
   std::vector<int> m_frame_offsets;     // [N+1]
