@@ -46,6 +46,16 @@ FASCIA_HD void store3(double* p, const Vec3& v) {
   p[2] = v.z;
 }
 template <class T>
+FASCIA_HD Vec3T<T> load3(const T* p) {
+  return Vec3T<T>{p[0], p[1], p[2]};
+}
+template <class T>
+FASCIA_HD void store3(T* p, const Vec3T<T>& v) {
+  p[0] = v.x;
+  p[1] = v.y;
+  p[2] = v.z;
+}
+template <class T>
 FASCIA_HD Vec3T<T> operator+(const Vec3T<T>& a, const Vec3T<T>& b) {
   return {a.x + b.x, a.y + b.y, a.z + b.z};
 }
@@ -78,7 +88,8 @@ FASCIA_HD Vec3T<T> cross(const Vec3T<T>& a, const Vec3T<T>& b) {
 }
 template <class T>
 FASCIA_HD T norm(const Vec3T<T>& a) {
-  return std::sqrt(dot(a, a));
+  using std::sqrt;  // and a lane type's own sqrt (core/double_lanes.hpp)
+  return sqrt(dot(a, a));
 }
 
 template <class T = double>

@@ -1,5 +1,6 @@
 #include "mechanics/shell.hpp"
 
+#include "core/double_lanes.hpp"
 #include "core/rotation.hpp"
 #include "core/target_clones.hpp"
 
@@ -27,37 +28,99 @@ void load_element(const ShellElementRest& e, const State& state, Vec3 x[3], Mat3
   }
 }
 
-// Adds triangle e's Hessian at the state into its nine node blocks, block (a, b) of its nodes at
-// blocks + 36 node_blocks[3 a + b] (column-major), with the element functions inlined into a
-// clone for AVX2 + FMA (core/target_clones.hpp).
-FASCIA_CLONES __attribute__((flatten)) void add_element_hessian(const ShellElementRest& e, const ShellModuli& moduli,
-                                                                const State& state, const int* node_blocks,
-                                                                double* blocks) {
-  Vec3 x[3];
-  Mat3 R[3];
-  load_element(e, state, x, R);
-  double g[kShellElementDofs], H[kShellElementDofs * kShellElementDofs];
-  shell_element_hessian(e, moduli, x, R, g, H);
-  for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) {
-      double* B = blocks + 36 * static_cast<size_t>(node_blocks[3 * a + b]);
-      // Column c of block (a, b) is row 6b + c of the symmetric H, from its column 6a.
-      for (int c = 0; c < 6; ++c) {
-        const double* h = &H[kShellElementDofs * (6 * b + c) + 6 * a];
-#pragma omp simd
-        for (int r = 0; r < 6; ++r) B[6 * c + r] += h[r];
-      }
+// Node positions and rotations of the kDoubleLanes triangles of one lane group, lane l holding
+// triangle members[l] (-1: an empty lane, which repeats the group's first triangle).
+FASCIA_CLONE_INLINE void load_lanes(const ShellElementRest* elements, const int* members, const State& state,
+                                    Vec3T<DoubleLanes> x[3], Mat3T<DoubleLanes> R[3]) {
+  for (int l = 0; l < kDoubleLanes; ++l) {
+    Vec3 xl[3];
+    Mat3 Rl[3];
+    load_element(elements[members[l] >= 0 ? members[l] : members[0]], state, xl, Rl);
+    for (int i = 0; i < 3; ++i) {
+      x[i].x[l] = xl[i].x, x[i].y[l] = xl[i].y, x[i].z[l] = xl[i].z;
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) R[i].m[r][c][l] = Rl[i].m[r][c];
     }
+  }
 }
 
-// Triangle e's gradient g[18] at the state, inlined into clones as add_element_hessian. Returns
-// its energy, J.
-FASCIA_CLONES __attribute__((flatten)) double element_gradient(const ShellElementRest& e, const ShellModuli& moduli,
-                                                               const State& state, double* g) {
-  Vec3 x[3];
-  Mat3 R[3];
-  load_element(e, state, x, R);
-  return shell_element_gradient(e, moduli, x, R, g);
+// Adds the Hessians at the state of the triangles of one lane group (e, packed by lane_element)
+// into their node blocks: triangle t's block (a, b) of its nodes is at blocks + 36
+// element_blocks[9 t + 3 a + b] (column-major). The element functions run on DoubleLanes,
+// inlined into a clone for AVX2 + FMA (core/target_clones.hpp): four triangles per instruction.
+FASCIA_CLONES __attribute__((flatten)) void add_lane_hessians(const ShellElementRestT<DoubleLanes>& e,
+                                                              const ShellElementRest* elements, const int* members,
+                                                              const ShellModuli& moduli, const State& state,
+                                                              const int* element_blocks, double* blocks) {
+  Vec3T<DoubleLanes> x[3];
+  Mat3T<DoubleLanes> R[3];
+  load_lanes(elements, members, state, x, R);
+  DoubleLanes g[kShellElementDofs], H[kShellElementDofs * kShellElementDofs];
+  shell_element_hessian(e, moduli, x, R, g, H);
+  for (int l = 0; l < kDoubleLanes; ++l) {
+    if (members[l] < 0) continue;
+    const int* node_blocks = element_blocks + 9 * members[l];
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) {
+        double* B = blocks + 36 * static_cast<size_t>(node_blocks[3 * a + b]);
+        // Column c of block (a, b) is row 6b + c of the symmetric H, from its column 6a.
+        for (int c = 0; c < 6; ++c) {
+          const DoubleLanes* h = &H[kShellElementDofs * (6 * b + c) + 6 * a];
+          for (int r = 0; r < 6; ++r) B[6 * c + r] += h[r][l];
+        }
+      }
+  }
+}
+
+// The gradients [T][18] and energies [T] (J) at the state of the triangles of one lane group, as
+// add_lane_hessians.
+FASCIA_CLONES __attribute__((flatten)) void lane_gradients(const ShellElementRestT<DoubleLanes>& e,
+                                                           const ShellElementRest* elements, const int* members,
+                                                           const ShellModuli& moduli, const State& state,
+                                                           double* gradients, double* energies) {
+  Vec3T<DoubleLanes> x[3];
+  Mat3T<DoubleLanes> R[3];
+  load_lanes(elements, members, state, x, R);
+  DoubleLanes g[kShellElementDofs];
+  const DoubleLanes w = shell_element_gradient(e, moduli, x, R, g);
+  for (int l = 0; l < kDoubleLanes; ++l) {
+    const int t = members[l];
+    if (t < 0) continue;
+    energies[t] = w[l];
+    for (int k = 0; k < kShellElementDofs; ++k) gradients[kShellElementDofs * t + k] = g[k][l];
+  }
+}
+
+// The energies [T] (J) at the state of the triangles of one lane group, as add_lane_hessians.
+FASCIA_CLONES __attribute__((flatten)) void lane_energies(const ShellElementRestT<DoubleLanes>& e,
+                                                          const ShellElementRest* elements, const int* members,
+                                                          const ShellModuli& moduli, const State& state,
+                                                          double* energies) {
+  Vec3T<DoubleLanes> x[3];
+  Mat3T<DoubleLanes> R[3];
+  load_lanes(elements, members, state, x, R);
+  const DoubleLanes w = shell_element_energy(e, moduli, x, R);
+  for (int l = 0; l < kDoubleLanes; ++l)
+    if (members[l] >= 0) energies[members[l]] = w[l];
+}
+
+// Triangles members[0 .. kDoubleLanes) packed lane by lane (an empty lane, -1, repeats the first).
+ShellElementRestT<DoubleLanes> lane_element(const std::vector<ShellElementRest>& elements, const int* members) {
+  ShellElementRestT<DoubleLanes> p;
+  for (int l = 0; l < kDoubleLanes; ++l) {
+    const ShellElementRest& e = elements[members[l] >= 0 ? members[l] : members[0]];
+    for (int i = 0; i < 3; ++i) p.nodes[i] = -1;  // the lanes' nodes are their triangles'
+    for (int r = 0; r < 2; ++r)
+      for (int c = 0; c < 2; ++c) p.dm_inverse[r][c][l] = e.dm_inverse[r][c];
+    p.area[l] = e.area;
+    for (int i = 0; i < 3; ++i) {
+      p.axes[i].x[l] = e.axes[i].x, p.axes[i].y[l] = e.axes[i].y, p.axes[i].z[l] = e.axes[i].z;
+      p.rest[i].x[l] = e.rest[i].x, p.rest[i].y[l] = e.rest[i].y, p.rest[i].z[l] = e.rest[i].z;
+    }
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) p.bending[r][c][l] = e.bending[r][c];
+  }
+  return p;
 }
 
 }  // namespace
@@ -205,12 +268,18 @@ void ShellForceField::build_block_structure() {
     colours = std::max(colours, c + 1);
     for (int node : m_elements[t].nodes) node_colours[node].push_back(c);
   }
-  m_colour_offsets.assign(colours + 1, 0);
-  for (int c : colour) ++m_colour_offsets[c + 1];
-  for (int c = 0; c < colours; ++c) m_colour_offsets[c + 1] += m_colour_offsets[c];
-  m_colour_elements.resize(m_elements.size());
-  std::vector<int> next(m_colour_offsets.begin(), m_colour_offsets.end() - 1);
-  for (size_t t = 0; t < m_elements.size(); ++t) m_colour_elements[next[colour[t]]++] = static_cast<int>(t);
+  // Each colour's triangles in lane groups of kDoubleLanes, its last group padded with empty lanes.
+  std::vector<int> count(colours, 0);
+  for (int c : colour) ++count[c];
+  m_colour_groups.assign(colours + 1, 0);
+  for (int c = 0; c < colours; ++c) m_colour_groups[c + 1] = m_colour_groups[c] + (count[c] + kDoubleLanes - 1) / kDoubleLanes;
+  m_group_members.assign(static_cast<size_t>(kDoubleLanes) * m_colour_groups[colours], -1);
+  std::vector<int> next(colours);
+  for (int c = 0; c < colours; ++c) next[c] = kDoubleLanes * m_colour_groups[c];
+  for (size_t t = 0; t < m_elements.size(); ++t) m_group_members[next[colour[t]]++] = static_cast<int>(t);
+  m_lane_elements.clear();
+  for (int g = 0; g < m_colour_groups[colours]; ++g)
+    m_lane_elements.push_back(lane_element(m_elements, &m_group_members[static_cast<size_t>(kDoubleLanes) * g]));
 }
 
 double ShellForceField::bending_stiffness() const {
@@ -218,14 +287,11 @@ double ShellForceField::bending_stiffness() const {
 }
 
 double ShellForceField::energy(const State& state) {
-  const int t_count = element_count();
+  const int groups = static_cast<int>(m_lane_elements.size());
 #pragma omp parallel for schedule(static) num_threads(m_threads)
-  for (int t = 0; t < t_count; ++t) {
-    Vec3 x[3];
-    Mat3 R[3];
-    load_element(m_elements[t], state, x, R);
-    m_element_energies[t] = shell_element_energy(m_elements[t], m_moduli, x, R);
-  }
+  for (int g = 0; g < groups; ++g)
+    lane_energies(m_lane_elements[g], m_elements.data(), &m_group_members[static_cast<size_t>(kDoubleLanes) * g],
+                  m_moduli, state, m_element_energies.data());
   double w = 0;
   for (double v : m_element_energies) w += v;  // fixed order: independent of the thread count
   return w;
@@ -233,10 +299,11 @@ double ShellForceField::energy(const State& state) {
 
 double ShellForceField::add_gradient(const State& state, double* gradient) {
   const int t_count = element_count();
+  const int groups = static_cast<int>(m_lane_elements.size());
 #pragma omp parallel for schedule(static) num_threads(m_threads)
-  for (int t = 0; t < t_count; ++t)
-    m_element_energies[t] =
-        element_gradient(m_elements[t], m_moduli, state, &m_element_gradients[kShellElementDofs * t]);
+  for (int g = 0; g < groups; ++g)
+    lane_gradients(m_lane_elements[g], m_elements.data(), &m_group_members[static_cast<size_t>(kDoubleLanes) * g],
+                   m_moduli, state, m_element_gradients.data(), m_element_energies.data());
   double w = 0;
   for (int t = 0; t < t_count; ++t) {  // serial scatter: deterministic
     w += m_element_energies[t];
@@ -253,13 +320,12 @@ void ShellForceField::prepare(const State& state) {
   // one colour share no node, so they write disjoint blocks in parallel, and every block sums its
   // elements in colour order, whatever the thread count.
   std::fill(m_blocks.begin(), m_blocks.end(), 0.0);
-  for (size_t colour = 0; colour + 1 < m_colour_offsets.size(); ++colour) {
-    const int begin = m_colour_offsets[colour], end = m_colour_offsets[colour + 1];
+  for (size_t colour = 0; colour + 1 < m_colour_groups.size(); ++colour) {
+    const int begin = m_colour_groups[colour], end = m_colour_groups[colour + 1];
 #pragma omp parallel for schedule(static) num_threads(m_threads)
-    for (int k = begin; k < end; ++k) {
-      const int t = m_colour_elements[k];
-      add_element_hessian(m_elements[t], m_moduli, state, &m_element_blocks[9 * t], m_blocks.data());
-    }
+    for (int g = begin; g < end; ++g)
+      add_lane_hessians(m_lane_elements[g], m_elements.data(), &m_group_members[static_cast<size_t>(kDoubleLanes) * g],
+                        m_moduli, state, m_element_blocks.data(), m_blocks.data());
   }
 }
 

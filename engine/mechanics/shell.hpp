@@ -24,11 +24,13 @@
 // The rest state is stress free for curved surfaces (each triangle measures slopes against its
 // own rest normal). Gradient and Hessian of theta -> W(q (+) theta) are exact and in closed form
 // (mechanics/shell_element.hpp, which holds the per-triangle body shared with CUDA drivers).
+// The triangles are evaluated four at a time, one per lane of DoubleLanes (core/double_lanes.hpp).
 // prepare() sums the element Hessians into one 6x6 block per pair of frames that share a
 // triangle, colour by colour (triangles of a colour share no frame); products, diagonal blocks and
 // triplets read those blocks.
 #pragma once
 
+#include "core/double_lanes.hpp"
 #include "core/small_math.hpp"
 #include "mechanics/force_field.hpp"
 #include "mechanics/shell_element.hpp"
@@ -71,8 +73,11 @@ class ShellForceField : public ForceField {
   std::vector<int> m_block_frames;          // [blocks] column frame of each block
   std::vector<int> m_diagonal_blocks;       // [rows] the (frame, frame) block of each row
   std::vector<int> m_element_blocks;        // [T][3][3] the block of each element's node pair (a, b)
-  std::vector<int> m_colour_offsets;        // [colours+1] triangles of colour c: [offsets[c], offsets[c+1])
-  std::vector<int> m_colour_elements;       // [T] triangles by colour, then index; no two of a colour share a node
+  // Triangles by colour (no two of a colour share a node), then index, in lane groups of
+  // kDoubleLanes, evaluated together.
+  std::vector<int> m_colour_groups;                            // [colours+1] groups of colour c
+  std::vector<int> m_group_members;                            // [G][kDoubleLanes] triangle per lane, -1: empty
+  std::vector<ShellElementRestT<DoubleLanes>> m_lane_elements;  // [G] the groups' rest data, lane-packed
   std::vector<double> m_blocks;             // [blocks][6][6] column-major: entry (r, c) at 6 c + r
   std::vector<double> m_element_gradients;  // [T][18] scratch
   std::vector<double> m_element_energies;   // [T] scratch
