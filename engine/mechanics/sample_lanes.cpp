@@ -12,7 +12,7 @@ namespace fascia {
 namespace {
 
 constexpr int L = kLanes;
-constexpr int kBlockValues = 17;  // F (9), v S (6), v lambda, v mu
+constexpr int kBlockValues = 17;  // F or F^-T (9), v S (6) or v c (1), v lambda, v mu
 // A pair's share of K d is stored as one 64-byte record (6 values, 2 zeros): the frame pass reads
 // it with two vector loads from one cache line.
 constexpr int kShareValues = 8;
@@ -33,7 +33,11 @@ inline void lane_store_mat3(double* p, int l, const Mat3& a) {
     for (int c = 0; c < 3; ++c) p[(3 * r + c) * L + l] = a.m[r][c];
 }
 
-// v dP for the non-StVK lanes of a block (scalar, generic law).
+// The law of a block's lanes: all StVK, all neo-Hookean (each with the lane code of its own), or
+// mixed or another law (pk1_differential lane by lane).
+enum BlockLaw : std::uint8_t { kStvk, kNeoHookean, kGeneric };
+
+// v dP for a block of mixed laws or another law (scalar, generic law).
 void generic_lanes(const Model& model, const int* lane_samples, const double* F, const MaterialCache* cache, int block,
                    const double* dF, double* vdP) {
   for (int l = 0; l < L; ++l) {
@@ -49,7 +53,7 @@ void generic_lanes(const Model& model, const int* lane_samples, const double* F,
 }
 
 FASCIA_CLONES
-void pair_products_kernel(const int* __restrict block_slots, const std::uint8_t* __restrict generic,
+void pair_products_kernel(const int* __restrict block_slots, const std::uint8_t* __restrict laws,
                           const int* __restrict lane_samples,
                           const int* __restrict slot_frames, const double* __restrict slot_data,
                           const double* __restrict block_data, const double* __restrict d,
@@ -75,8 +79,18 @@ void pair_products_kernel(const int* __restrict block_slots, const std::uint8_t*
     }
     // v dP (eq. 22-26).
     alignas(64) double vdP[9 * L];
-    if (generic[b]) {
+    if (laws[b] == kGeneric) {
       generic_lanes(model, lane_samples, F, cache, b, dF, vdP);
+    } else if (laws[b] == kNeoHookean) {
+      const double* mat = block_data + kBlockValues * L * b;
+#pragma omp simd
+      for (int l = 0; l < L; ++l) {
+        // v dP = v mu dF + v c F^-T dF^T F^-T + v lambda (F^-T : dF) F^-T (neo_hookean.hpp).
+        const Mat3 Fit = lane_mat3(mat, l);
+        const Mat3 dFl = lane_mat3(dF, l);
+        const double vc = mat[9 * L + l], vlambda = mat[15 * L + l], vmu = mat[16 * L + l];
+        lane_store_mat3(vdP, l, vmu * dFl + vc * (Fit * transpose(dFl) * Fit) + (vlambda * ddot(Fit, dFl)) * Fit);
+      }
     } else {
       const double* mat = block_data + kBlockValues * L * b;
 #pragma omp simd
@@ -167,15 +181,19 @@ SampleLanes::SampleLanes(const Model& model) {
   m_sample_lanes.resize(s_count);
   for (int k = 0; k < s_count; ++k) m_sample_lanes[m_lane_samples[k]] = k;
   m_block_slots.assign(blocks + 1, 0);
-  m_generic.assign(blocks, 0);
+  m_laws.assign(blocks, kGeneric);
   for (int b = 0; b < blocks; ++b) {
     int slots = 0;
+    bool stvk = true, neo_hookean = true;
     for (int l = 0; l < L; ++l) {
       const int s = m_lane_samples[b * L + l];
       if (s < 0) continue;
       slots = std::max(slots, pairs_of(s));
-      if (model.materials[model.samples.materials[s]].law != MaterialLaw::stvk) m_generic[b] = 1;
+      const MaterialLaw law = model.materials[model.samples.materials[s]].law;
+      stvk = stvk && law == MaterialLaw::stvk;
+      neo_hookean = neo_hookean && law == MaterialLaw::neo_hookean;
     }
+    m_laws[b] = stvk ? kStvk : neo_hookean ? kNeoHookean : kGeneric;
     m_block_slots[b + 1] = m_block_slots[b] + slots;
   }
   const int slot_count = m_block_slots[blocks];
@@ -211,6 +229,13 @@ void SampleLanes::set_sample(int s, const Material& material, double volume, con
                              const MaterialCache& cache) {
   double* mat = &m_block_data[static_cast<size_t>(kBlockValues) * L * (m_sample_lanes[s] / L)];
   const int l = m_sample_lanes[s] % L;
+  if (material.law == MaterialLaw::neo_hookean) {  // F^-T, v c, v lambda, v mu
+    lane_store_mat3(mat, l, cache.a);
+    mat[9 * L + l] = volume * cache.c;
+    mat[15 * L + l] = volume * material.lambda;
+    mat[16 * L + l] = volume * material.mu;
+    return;
+  }
   lane_store_mat3(mat, l, F);
   if (material.law != MaterialLaw::stvk) return;  // generic lanes read Elasticity's arrays
   const Mat3& S = cache.a;
@@ -222,7 +247,7 @@ void SampleLanes::set_sample(int s, const Material& material, double volume, con
 
 void SampleLanes::pair_products(const double* d, const Model& model, const double* F, const MaterialCache* cache,
                                 int first, int last) {
-  pair_products_kernel(m_block_slots.data(), m_generic.data(), m_lane_samples.data(), m_slot_frames.data(), m_slot_data.data(),
+  pair_products_kernel(m_block_slots.data(), m_laws.data(), m_lane_samples.data(), m_slot_frames.data(), m_slot_data.data(),
                        m_block_data.data(), d, m_slot_out.data(), model, F, cache, first, last);
 }
 

@@ -2,20 +2,23 @@
 // has its own layout in kernels/sample_layout.hpp).
 //
 // Samples are taken kLanes at a time in blocks of nearby samples with about as many neighbours
-// (the last block padded with empty lanes of zero volume). Slot k of a block holds the k-th neighbour pair of each of its
-// samples; a block has as many slots as its sample with the most neighbours, and a sample with
-// fewer neighbours has empty slots (zero lever and gradient). Every per-slot and per-block array is
-// structure-of-arrays across the lanes ([...][kLanes]), so the per-pair math of frame_sample.hpp
-// runs on kLanes samples at once and the product streams each array once.
+// (the last block padded with empty lanes of zero volume). Slot k of a block holds the k-th
+// neighbour pair of each of its samples; a block has as many slots as its sample with the most
+// neighbours, and a sample with fewer neighbours has empty slots (zero lever and gradient). Every
+// per-slot and per-block array is structure-of-arrays across the lanes ([...][kLanes]), so the
+// per-pair math of frame_sample.hpp runs on kLanes samples at once and the product streams each
+// array once.
 //
 // Per state (Elasticity::prepare) a slot holds the pair's lever M = a g^T + w R and its weight
-// gradient g; a block holds, per lane, F, v S (StVK) and v lambda, v mu. The product is then
+// gradient g; a block holds, per lane, F, v S, v lambda, v mu (StVK) or F^-T, v c, v lambda,
+// v mu (neo-Hookean, c = mu - lambda ln J). The product is then
 //   dF_s = sum_p dx_i g_p^T + [dr_i]x M_p               (eq. 11)
 //   v dP = dF (v S) + F (v lambda tr(dE) I + 2 v mu dE),  dE = sym(F^T dF)   (eq. 22-26, StVK)
+//   v dP = v mu dF + v c F^-T dF^T F^-T + v lambda (F^-T : dF) F^-T         (neo-Hookean)
 //   out_p = [v dP g_p, axial(M_p (v dP)^T)]           (eq. 21, 23, 25-26)
-// written to a share buffer (one cache line per pair), then summed per frame in a fixed order (no atomics, the result does not
-// depend on the number of threads). Blocks holding a law other than StVK take v dP from the
-// generic pk1_differential, lane by lane.
+// written to a share buffer (one cache line per pair), then summed per frame in a fixed order (no
+// atomics, the result does not depend on the number of threads). Blocks of mixed laws or of
+// another law take v dP from the generic pk1_differential, lane by lane.
 #pragma once
 
 #include "core/small_math.hpp"
@@ -64,7 +67,7 @@ class SampleLanes {
   std::vector<int> m_lane_samples;      // [B][kLanes] the sample in each lane, -1: empty
   std::vector<int> m_sample_lanes;      // [S] the lane position (kLanes b + l) of each sample
   std::vector<int> m_block_slots;       // [B+1] slot range of each block
-  std::vector<std::uint8_t> m_generic;  // [B] 1 where a lane holds a law other than StVK
+  std::vector<std::uint8_t> m_laws;     // [B] the law of the block's lanes (sample_lanes.cpp)
   std::vector<int> m_slot_frames;       // [slots][kLanes] 6 i, i the frame of each slot lane
   std::vector<double> m_slot_data;      // [slots][kSlotValues][kLanes] lever M (row-major) then g
   std::vector<double> m_block_data;     // [B][17][kLanes] F, v S (xx yy zz yz xz xy), v lambda, v mu

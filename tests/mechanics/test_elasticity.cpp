@@ -120,11 +120,14 @@ TEST_CASE("translation block of the tangent is the derivative of the forces", "[
 
 TEST_CASE("SIMD tangent product matches the per-pair formulas, any thread count, mixed laws", "[mechanics]") {
   // 9 x 5 x 5 cells of 6 tetrahedra: 1350 samples, above the serial threshold (1024) and not a
-  // multiple of the lane count, so the last block has empty lanes. Every third sample is
-  // neo-Hookean: blocks mix laws and take the generic material path.
+  // multiple of the lane count, so the last block has empty lanes. The first third of the samples
+  // is neo-Hookean, and every third sample of the second third: blocks of one law take that law's
+  // lane code (StVK, neo-Hookean), blocks that mix laws the generic material path.
   Model model = small_box_model(CellType::tetrahedron, MaterialLaw::stvk, 9, 5, 5);
   model.materials.push_back(make_material(MaterialLaw::neo_hookean, 2.0e4, 0.35, 1000.0));
-  for (int s = 0; s < model.sample_count(); s += 3) model.samples.materials[s] = 1;
+  const int third = model.sample_count() / 3;
+  for (int s = 0; s < 2 * third; ++s)
+    if (s < third || s % 3 == 0) model.samples.materials[s] = 1;
   const State state = random_state(model, 21, 0.001, 0.3, 0.7);
   const std::vector<double> d = random_direction(model, 8, 0.1);
   std::vector<double> extra(10 * model.frame_count());
