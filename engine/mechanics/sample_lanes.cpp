@@ -84,13 +84,10 @@ void pair_products_kernel(const int* __restrict block_slots, const std::uint8_t*
     } else if (laws[b] == kNeoHookean) {
       const double* mat = block_data + kBlockValues * L * b;
 #pragma omp simd
-      for (int l = 0; l < L; ++l) {
-        // v dP = v mu dF + v c F^-T dF^T F^-T + v lambda (F^-T : dF) F^-T (neo_hookean.hpp).
-        const Mat3 Fit = lane_mat3(mat, l);
-        const Mat3 dFl = lane_mat3(dF, l);
-        const double vc = mat[9 * L + l], vlambda = mat[15 * L + l], vmu = mat[16 * L + l];
-        lane_store_mat3(vdP, l, vmu * dFl + vc * (Fit * transpose(dFl) * Fit) + (vlambda * ddot(Fit, dFl)) * Fit);
-      }
+      for (int l = 0; l < L; ++l)  // the law's differential with v in its moduli: v dP
+        lane_store_mat3(vdP, l,
+                        neo_hookean_pk1_differential<double>(mat[15 * L + l], mat[16 * L + l], lane_mat3(mat, l),
+                                                             mat[9 * L + l], lane_mat3(dF, l)));
     } else {
       const double* mat = block_data + kBlockValues * L * b;
 #pragma omp simd
