@@ -1,5 +1,7 @@
 #include "sample_layout.hpp"
 
+#include "core/morton_order.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -9,17 +11,6 @@
 
 namespace fascia::gpu {
 namespace {
-
-// Spreads the low 21 bits of v to every third bit.
-std::uint64_t spread_bits(std::uint64_t v) {
-  v &= 0x1fffff;
-  v = (v | v << 32) & 0x1f00000000ffffULL;
-  v = (v | v << 16) & 0x1f0000ff0000ffULL;
-  v = (v | v << 8) & 0x100f00f00f00f00fULL;
-  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-  v = (v | v << 2) & 0x1249249249249249ULL;
-  return v;
-}
 
 // Calls visit(e) for the ELL entries that one warp of the coalesced pass stores together, group
 // by group, calling end_group() after each: pair j of 32 consecutive block-local samples (one
@@ -78,30 +69,7 @@ void interleave_positions(const NeighbourTable& nb, BlockLayout& L, int b) {
 
 }  // namespace
 
-std::vector<int> spatial_sample_order(const Model& model) {
-  const int s_count = model.sample_count();
-  const std::vector<double>& x = model.samples.rest_positions;
-  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-  for (int s = 0; s < s_count; ++s)
-    for (int k = 0; k < 3; ++k) {
-      lo[k] = std::min(lo[k], x[3 * s + k]);
-      hi[k] = std::max(hi[k], x[3 * s + k]);
-    }
-  // One cell size for all axes keeps the curve's cells cubic.
-  const double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-300});
-  const double scale = ((1 << 21) - 1) / extent;
-  std::vector<std::uint64_t> code(s_count);
-  for (int s = 0; s < s_count; ++s) {
-    std::uint64_t c = 0;
-    for (int k = 0; k < 3; ++k)
-      c |= spread_bits(static_cast<std::uint64_t>((x[3 * s + k] - lo[k]) * scale)) << k;
-    code[s] = c;
-  }
-  std::vector<int> order(s_count);
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return code[a] < code[b]; });
-  return order;
-}
+std::vector<int> spatial_sample_order(const Model& model) { return morton_order(model.samples.rest_positions); }
 
 Model reorder_samples(const Model& model, const std::vector<int>& order) {
   Model out;

@@ -1,5 +1,6 @@
 #include "discretise/meshless.hpp"
 
+#include "core/morton_order.hpp"
 #include "discretise/point_grid.hpp"
 #include "discretise/poisson_disk.hpp"
 #include "discretise/sample_volumes.hpp"
@@ -9,8 +10,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdint>
-#include <utility>
 #include <cmath>
 #include <optional>
 #include <sstream>
@@ -77,37 +76,14 @@ double frame_lattice_spacing(double frame_spacing) { return frame_spacing / std:
 
 namespace {
 
-// Bits of a 21-bit integer spread to every third bit (Morton code).
-std::uint64_t spread_bits(std::uint64_t v) {
-  v &= 0x1fffff;
-  v = (v | v << 32) & 0x1f00000000ffffull;
-  v = (v | v << 16) & 0x1f0000ff0000ffull;
-  v = (v | v << 8) & 0x100f00f00f00f00full;
-  v = (v | v << 4) & 0x10c30c30c30c30c3ull;
-  v = (v | v << 2) & 0x1249249249249249ull;
-  return v;
-}
-
-// The points [M][3] (m) along a Morton curve over cells of size `cell` (m): nearby points get
-// nearby indices, so that the per-sample loops read nearby frames and a frame's samples lie
-// close together in memory. Ties keep the points' order (deterministic).
-std::vector<double> in_space_filling_order(const std::vector<double>& points, double cell) {
-  const std::size_t m = points.size() / 3;
-  if (m == 0) return points;
-  double lo[3] = {points[0], points[1], points[2]};
-  for (std::size_t k = 0; k < m; ++k)
-    for (int c = 0; c < 3; ++c) lo[c] = std::min(lo[c], points[3 * k + c]);
-  std::vector<std::pair<std::uint64_t, std::size_t>> keys(m);
-  for (std::size_t k = 0; k < m; ++k) {
-    std::uint64_t code = 0;
-    for (int c = 0; c < 3; ++c)
-      code |= spread_bits(static_cast<std::uint64_t>((points[3 * k + c] - lo[c]) / cell)) << c;
-    keys[k] = {code, k};
-  }
-  std::sort(keys.begin(), keys.end());
+// The points [M][3] along a Morton curve (core/morton_order.hpp): nearby points get nearby
+// indices, so that the per-sample loops read nearby frames and a frame's samples lie close
+// together in memory.
+std::vector<double> in_morton_order(const std::vector<double>& points) {
+  const std::vector<int> order = morton_order(points);
   std::vector<double> sorted(points.size());
-  for (std::size_t k = 0; k < m; ++k)
-    for (int c = 0; c < 3; ++c) sorted[3 * k + c] = points[3 * keys[k].second + c];
+  for (std::size_t k = 0; k < order.size(); ++k)
+    for (int c = 0; c < 3; ++c) sorted[3 * k + c] = points[3 * static_cast<std::size_t>(order[k]) + c];
   return sorted;
 }
 
@@ -174,13 +150,13 @@ MeshlessBuild build_on(const VoxelDomain& domain, const VoxelDomain& frame_domai
 
   auto t0 = std::chrono::steady_clock::now();
   // Caller-placed frames count as already placed: Poisson-disk frames keep r_f from them.
-  std::vector<double> frames = in_space_filling_order(
-      poisson_disk_sample(frame_domain, PoissonDiskOptions{rf, options.seed, 30, options.extra_frames}), rf);
+  std::vector<double> frames =
+      in_morton_order(poisson_disk_sample(frame_domain, PoissonDiskOptions{rf, options.seed, 30, options.extra_frames}));
   frames.insert(frames.end(), options.extra_frames.begin(), options.extra_frames.end());
   st.seconds_frames = seconds_since(t0);
   t0 = std::chrono::steady_clock::now();
-  const std::vector<double> samples = in_space_filling_order(
-      poisson_disk_sample(domain, PoissonDiskOptions{rs, options.seed ^ 0x5bd1e9955bd1e995ull, 30, {}}), rs);
+  const std::vector<double> samples =
+      in_morton_order(poisson_disk_sample(domain, PoissonDiskOptions{rs, options.seed ^ 0x5bd1e9955bd1e995ull, 30, {}}));
   st.seconds_samples = seconds_since(t0);
   if (frames.empty()) {
     std::ostringstream out;
