@@ -1,6 +1,7 @@
 // Energy, gradient and Hessian of one corotational shell triangle (the element of mechanics/shell.hpp),
-// in closed form, written once for the CPU driver (mechanics/shell.cpp) and CUDA drivers: FASCIA_HD
-// functions on fixed-size arrays, no allocation.
+// in closed form, written once for the CPU driver (mechanics/shell.cpp) and the CUDA driver: FASCIA_HD
+// function templates on the scalar type T, on fixed-size arrays, no allocation. T = double on the
+// device; the CPU evaluates four triangles at once with T = DoubleLanes (core/double_lanes.hpp).
 //
 // Unknowns of a triangle: theta = [dx_0, dr_0, dx_1, dr_1, dx_2, dr_2] (18, m and rad), the increments
 // x_i + dx_i, R_i <- exp([dr_i]x) R_i. The gradient and Hessian are those of theta -> W(q (+) theta) at
@@ -32,8 +33,8 @@
 //    and the mixed (x, dr_i) derivative of e . d is (de/dx)^T (-[d]x).
 // All terms are exact at theta = 0 (no truncation); tests/mechanics/test_shell_element.cpp checks
 // every entry against central differences of the element energy, tests/mechanics/test_shell.cpp
-// the assembled field's forces, products, blocks and triplets. The CUDA instantiation is
-// kernels/shell_element_device.cu.
+// the assembled field's forces, products, blocks and triplets. The CUDA driver is
+// kernels/device_shell.cu.
 #pragma once
 
 #include "core/small_math.hpp"
