@@ -39,7 +39,8 @@ class SampleLanes {
   // Builds the layout (block slots, slot frames, weight gradients, reverse positions) for model.
   explicit SampleLanes(const Model& model);
 
-  // Per-state data of one sample s: F, the material cache (S for StVK) and the volume.
+  // Per-state data of one sample s: F, the material cache (S for StVK, F^-T and c for
+  // neo-Hookean) and the volume.
   void set_sample(int s, const Material& material, double volume, const Mat3& F, const MaterialCache& cache);
   // Where the levers of sample s go: set_lever(levers_of(s), k, M) stores its k-th pair's lever.
   double* levers_of(int s) {
@@ -53,7 +54,7 @@ class SampleLanes {
   }
 
   // The per-pair shares of K d for blocks [first, last).
-  // d: [N][6]. F, cache: Elasticity's per-sample arrays, read only for non-StVK blocks.
+  // d: [N][6]. F, cache: Elasticity's per-sample arrays, read only for blocks of mixed or other laws.
   void pair_products(const double* d, const Model& model, const double* F, const MaterialCache* cache, int first,
                      int last);
   // out_i = sum of frame i's pair shares + [t_i dx_i, (G_i + Q_i) dr_i] for frames [first, last),
@@ -70,7 +71,7 @@ class SampleLanes {
   std::vector<std::uint8_t> m_laws;     // [B] the law of the block's lanes (sample_lanes.cpp)
   std::vector<int> m_slot_frames;       // [slots][kLanes] 6 i, i the frame of each slot lane
   std::vector<double> m_slot_data;      // [slots][kSlotValues][kLanes] lever M (row-major) then g
-  std::vector<double> m_block_data;     // [B][17][kLanes] F, v S (xx yy zz yz xz xy), v lambda, v mu
+  std::vector<double> m_block_data;     // [B][17][kLanes] F, v S (xx yy zz yz xz xy) or F^-T, v c; v lambda, v mu
   std::vector<double> m_slot_out;       // [slots][kLanes][8] per-pair shares of K d (6 values, 2 zeros)
   std::vector<int> m_frame_offsets;     // [N+1]
   std::vector<int> m_frame_entries;     // [P] index of the share's first value in m_slot_out

@@ -107,9 +107,9 @@ FASCIA_CLONES __attribute__((flatten)) void lane_energies(const ShellElementRest
 // Triangles members[0 .. kDoubleLanes) packed lane by lane (an empty lane, -1, repeats the first).
 ShellElementRestT<DoubleLanes> lane_element(const std::vector<ShellElementRest>& elements, const int* members) {
   ShellElementRestT<DoubleLanes> p;
+  for (int i = 0; i < 3; ++i) p.nodes[i] = -1;  // the lanes' nodes are their triangles'
   for (int l = 0; l < kDoubleLanes; ++l) {
     const ShellElementRest& e = elements[members[l] >= 0 ? members[l] : members[0]];
-    for (int i = 0; i < 3; ++i) p.nodes[i] = -1;  // the lanes' nodes are their triangles'
     for (int r = 0; r < 2; ++r)
       for (int c = 0; c < 2; ++c) p.dm_inverse[r][c][l] = e.dm_inverse[r][c];
     p.area[l] = e.area;
