@@ -4,6 +4,7 @@
 #include "io/sample_point.hpp"
 #include "io/vertex_fields.hpp"
 
+#include <algorithm>
 #include <type_traits>
 
 namespace fascia::gpu {
@@ -107,6 +108,11 @@ struct DeviceSampleFields::Impl {
   DeviceBuffer<double> volumes, averages;
   FieldColumns columns{};
   size_t field_count = 0;
+  // Pinned host memory the fields and positions come down to in one copy, at the bus's rate (a
+  // copy to pageable memory goes through the driver's staging in pieces), then copied into the
+  // fields: [fields' values..., positions].
+  double* host = nullptr;
+  size_t host_size = 0;
 
   explicit Impl(const Model& m) : model(m) {
     FASCIA_CUDA(cudaStreamCreateWithFlags(&stream, cudaStreamNonBlocking));
@@ -141,7 +147,17 @@ struct DeviceSampleFields::Impl {
     mask.resize(static_cast<size_t>(n));
   }
   ~Impl() {
+    if (host) cudaFreeHost(host);
     if (stream) cudaStreamDestroy(stream);
+  }
+  double* staging(size_t n) {
+    if (n > host_size) {
+      if (host) FASCIA_CUDA(cudaFreeHost(host));
+      host = nullptr;
+      FASCIA_CUDA(cudaMallocHost(&host, sizeof(double) * n));
+      host_size = n;
+    }
+    return host;
   }
 
   void up(DeviceBuffer<double>& to, const std::vector<double>& from, size_t n) {
@@ -175,15 +191,16 @@ void DeviceSampleFields::compute(const State& state, const std::vector<double>& 
   k_sample_fields<<<static_cast<unsigned>((samples + kThreads - 1) / kThreads), kThreads, 0, m.stream>>>(
       m.inputs, m.x.data(), m.R.data(), m.velocities.data(), columns, m.out.data(), m.positions.data());
   FASCIA_CUDA(cudaGetLastError());
-  for (size_t f = 0; f < fields.size(); ++f)
-    FASCIA_CUDA(cudaMemcpyAsync(fields[f].values.data(), m.out.data() + columns.base[f],
-                                sizeof(double) * fields[f].values.size(), cudaMemcpyDeviceToHost, m.stream));
-  if (positions) {
-    positions->resize(3 * samples);
-    FASCIA_CUDA(cudaMemcpyAsync(positions->data(), m.positions.data(), sizeof(double) * 3 * samples,
+  const size_t values = static_cast<size_t>(at);
+  double* host = m.staging(values + (positions ? 3 * samples : 0));
+  FASCIA_CUDA(cudaMemcpyAsync(host, m.out.data(), sizeof(double) * values, cudaMemcpyDeviceToHost, m.stream));
+  if (positions)
+    FASCIA_CUDA(cudaMemcpyAsync(host + values, m.positions.data(), sizeof(double) * 3 * samples,
                                 cudaMemcpyDeviceToHost, m.stream));
-  }
   FASCIA_CUDA(cudaStreamSynchronize(m.stream));
+  for (size_t f = 0; f < fields.size(); ++f)
+    std::copy_n(host + columns.base[f], fields[f].values.size(), fields[f].values.data());
+  if (positions) positions->assign(host + values, host + values + 3 * samples);
 }
 
 std::vector<Field> DeviceSampleFields::frame_averages(const std::vector<unsigned char>* frames) {
