@@ -224,13 +224,18 @@ MeshlessTable build_meshless_table(const MeshlessShape &shape,
         const Vec3 p = load3(&points[3 * s]);
         idx.clear();
         matches.clear();
+        // The frames within the largest support, in the tree's order (sorting
+        // them by distance would cost as much as the search), then those whose
+        // own support covers p, in increasing index: the frames are numbered
+        // along a space-filling curve, so a sample's frames lie close in memory.
         tree.radiusSearch(&points[3 * s], reach * reach, matches,
-                          nanoflann::SearchParams(32, 0, true));
+                          nanoflann::SearchParams(32, 0, false));
         for (const auto &m : matches) {
           const double r = shape.supports[m.first];
           if (m.second < r * r)
             idx.push_back(m.first);
         }
+        std::sort(idx.begin(), idx.end());
         bool ok = !idx.empty();
         if (!ok) { // no frame covers p: nearest frame, rigidly attached,
                    // reported as failed

@@ -87,7 +87,8 @@ struct MeshlessTable {
 
 // The shape functions at `points` ([S][3] m): neighbour search with a nanoflann
 // kd-tree, OpenMP over blocks of points, output independent of the thread
-// count. No cap on the neighbours.
+// count. No cap on the neighbours; a point's neighbours in increasing frame
+// index.
 MeshlessTable build_meshless_table(const MeshlessShape &shape,
                                    const std::vector<double> &points);
 
