@@ -258,7 +258,7 @@ MeshlessBuild build_on(const VoxelDomain& domain, const VoxelDomain& frame_domai
   SurfaceQuadrature rule = surface_quadrature(boundary, rs);
   if (signed_volume < 0)
     for (double& a : rule.normals) a = -a;
-  const MeshlessTable boundary_table = build_meshless_table(build.shape, rule.points);
+  const MeshlessTable boundary_table = build_meshless_table(build.shape, rule.points, /*weights_only=*/true);
   if (!boundary_table.failed.empty()) {
     const Vec3 b = load3(&rule.points[3 * boundary_table.failed.front()]);
     throw std::runtime_error("meshless: " + std::to_string(boundary_table.failed.size()) +

@@ -47,7 +47,10 @@ bool meshless_shape(const Vec3 &x, const Vec3 *frames, const double *supports,
   // Kernel values are stored in the outputs first.
   double sum = 0, h = 0;
   for (int i = 0; i < count; ++i) {
-    kernel(x, frames[i], supports[i], weights[i], gradients[i]);
+    if (gradients)
+      kernel(x, frames[i], supports[i], weights[i], gradients[i]);
+    else
+      weights[i] = wendland_c2(norm(x - frames[i]) / supports[i]);
     sum += weights[i];
     h += supports[i];
   }
@@ -69,8 +72,9 @@ bool meshless_shape(const Vec3 &x, const Vec3 *frames, const double *supports,
     const Vec4 P = basis(frames[i]);
     const Eigen::Matrix4d PP = P * P.transpose();
     A += weights[i] * PP;
-    dA[0] += gradients[i].x * PP, dA[1] += gradients[i].y * PP,
-        dA[2] += gradients[i].z * PP;
+    if (gradients)
+      dA[0] += gradients[i].x * PP, dA[1] += gradients[i].y * PP,
+          dA[2] += gradients[i].z * PP;
   }
   const Eigen::LDLT<Eigen::Matrix4d> ldlt(A);
   // A is positive semi-definite; relative pivot below 1e-12 means a (near)
@@ -80,6 +84,11 @@ bool meshless_shape(const Vec3 &x, const Vec3 *frames, const double *supports,
     return false;
   const Vec4 Px(1, 0, 0, 0);
   const Vec4 gamma = ldlt.solve(Px);
+  if (!gradients) {
+    for (int i = 0; i < count; ++i)
+      weights[i] *= gamma.dot(basis(frames[i]));
+    return true;
+  }
   Vec4 dgamma[3];
   for (int k = 0; k < 3; ++k) {
     Vec4 dP = Vec4::Zero();
@@ -195,7 +204,8 @@ MeshlessShape make_meshless_shape(std::vector<double> frames,
 }
 
 MeshlessTable build_meshless_table(const MeshlessShape &shape,
-                                   const std::vector<double> &points) {
+                                   const std::vector<double> &points,
+                                   bool weights_only) {
   const std::vector<double> &frames = shape.frames;
   const int s_count = static_cast<int>(points.size() / 3);
   if (frames.empty())
@@ -249,10 +259,12 @@ MeshlessTable build_meshless_table(const MeshlessShape &shape,
         for (int j = 0; j < count; ++j)
           xs[j] = load3(&frames[3 * idx[j]]), rho[j] = shape.supports[idx[j]];
         Vec3 weak{0, 0, 1};
-        double spread =
-            ok ? neighbour_spread(p, xs.data(), rho.data(), count, weak) : 0;
+        double spread = ok && !weights_only
+                            ? neighbour_spread(p, xs.data(), rho.data(), count,
+                                               weak)
+                            : 0;
         ok = ok && meshless_shape(p, xs.data(), rho.data(), count, w.data(),
-                                  g.data());
+                                  weights_only ? nullptr : g.data());
         if (!ok) {
           blk.failed.push_back(s);
           spread = 0;
@@ -263,12 +275,16 @@ MeshlessTable build_meshless_table(const MeshlessShape &shape,
         for (int j = 0; j < count; ++j) {
           blk.frames.push_back(idx[j]);
           blk.weights.push_back(w[j]);
-          blk.gradients.insert(blk.gradients.end(), {g[j].x, g[j].y, g[j].z});
+          if (!weights_only)
+            blk.gradients.insert(blk.gradients.end(),
+                                 {g[j].x, g[j].y, g[j].z});
           const Vec3 l = p - xs[j]; // eq. (2) with rest orientation I
           blk.offsets.insert(blk.offsets.end(), {l.x, l.y, l.z});
         }
-        blk.spreads.push_back(spread);
-        blk.weak.insert(blk.weak.end(), {weak.x, weak.y, weak.z});
+        if (!weights_only) {
+          blk.spreads.push_back(spread);
+          blk.weak.insert(blk.weak.end(), {weak.x, weak.y, weak.z});
+        }
       }
     }
   }
@@ -280,7 +296,9 @@ MeshlessTable build_meshless_table(const MeshlessShape &shape,
   nb.offsets.reserve(s_count + 1);
   nb.offsets.push_back(0);
   nb.frames.reserve(pairs), nb.weights.reserve(pairs);
-  nb.weight_gradients.reserve(3 * pairs), nb.rest_offsets.reserve(3 * pairs);
+  if (!weights_only)
+    nb.weight_gradients.reserve(3 * pairs);
+  nb.rest_offsets.reserve(3 * pairs);
   for (Block &blk : out) {
     for (int c : blk.counts)
       nb.offsets.push_back(nb.offsets.back() + c);

@@ -40,8 +40,10 @@ double wendland_c2(double q);
 double wendland_c2_derivative(double q);
 
 // Weights and rest-space gradients (1/m) at x of the `count` frames at `frames`
-// with supports `supports` (m). Returns false (outputs unspecified) when the
-// moment matrix is singular (fewer than 4 frames cover x, or all coplanar).
+// with supports `supports` (m); gradients null: the weights alone (the same
+// bits), without the moment matrix's derivatives. Returns false (outputs
+// unspecified) when the moment matrix is singular (fewer than 4 frames cover x,
+// or all coplanar).
 bool meshless_shape(const Vec3 &x, const Vec3 *frames, const double *supports,
                     int count, double *weights, Vec3 *gradients);
 
@@ -88,8 +90,11 @@ struct MeshlessTable {
 // The shape functions at `points` ([S][3] m): neighbour search with a nanoflann
 // kd-tree, OpenMP over blocks of points, output independent of the thread
 // count. No cap on the neighbours; a point's neighbours in increasing frame
-// index.
+// index. weights_only: no weight gradients (neighbours.weight_gradients empty),
+// spreads or weak directions (empty), for points that only interpolate (the
+// boundary rule of consistent_integration.hpp).
 MeshlessTable build_meshless_table(const MeshlessShape &shape,
-                                   const std::vector<double> &points);
+                                   const std::vector<double> &points,
+                                   bool weights_only = false);
 
 } // namespace fascia
