@@ -199,3 +199,32 @@ TEST_CASE("meshless table: every frame whose support covers the point, no "
     REQUIRE(sw == Approx(1).epsilon(1e-13));
   }
 }
+
+TEST_CASE("meshless table: a point's frames in increasing index; the weights "
+          "alone are the full table's bits",
+          "[shape][meshless]") {
+  const MeshlessShape shape =
+      make_meshless_shape(frame_cloud(5), MeshlessShapeOptions{});
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.5, 1.5);
+  std::vector<double> points;
+  for (int s = 0; s < 200; ++s)
+    points.insert(points.end(), {u(rng), u(rng), u(rng)});
+  points.insert(points.end(), {9.0, 9.0, 9.0}); // outside every support
+  const MeshlessTable full = build_meshless_table(shape, points);
+  const MeshlessTable weights = build_meshless_table(shape, points, true);
+  const NeighbourTable &a = full.neighbours, &b = weights.neighbours;
+  for (int s = 0; s + 1 < static_cast<int>(a.offsets.size()); ++s)
+    for (int p = a.offsets[s] + 1; p < a.offsets[s + 1]; ++p)
+      REQUIRE(a.frames[p - 1] < a.frames[p]);
+  REQUIRE(b.offsets == a.offsets);
+  REQUIRE(b.frames == a.frames);
+  REQUIRE(b.weights == a.weights); // bitwise: the same operations
+  REQUIRE(b.rest_offsets == a.rest_offsets);
+  REQUIRE(weights.failed == full.failed);
+  REQUIRE(full.failed == std::vector<int>{200});
+  REQUIRE(a.weight_gradients.size() == 3 * a.frames.size());
+  REQUIRE(b.weight_gradients.empty());
+  REQUIRE(weights.spreads.empty());
+  REQUIRE(weights.weak_directions.empty());
+}
