@@ -448,12 +448,11 @@ __global__ void k_frame_sums(ModelView<R> m, const R* slot_partials, const R* ge
 // own column of shared memory; the parts are then summed in part order. With K_ii the sums are
 // stored as sums [N][kPrepareSums] (K_ii row-major, then Kr row-major) and k_frame_finish, one
 // thread per frame, stores Kr and K_ii (frame_prepare_blocks); without, Kr goes to geo [N][9]
-// directly, from a fifth of the shared memory. Two warps per frame: meshless frames meet hundreds
-// of samples (about 670 pairs per frame in the pelvis at 56 k samples, more on frames shared with
-// a shell), whose pairs one thread each would walk in turn with the grid's few thousand threads
-// mostly idle; on an H200 two warps gave the scenes 1-3 % shorter steps than one, four did no better.
-constexpr int kColumnParts = 64;  // k_frame_columns: threads per frame
-constexpr int kColumnFrames = 1;  // k_frame_columns: frames per block, 64 threads (blocks spread evenly)
+// directly, from a fifth of the shared memory. A warp per frame: meshless frames meet hundreds of
+// samples (about 670 pairs per frame in the pelvis at 56 k samples), whose pairs one thread each
+// would walk in turn with the grid's few thousand threads mostly idle.
+constexpr int kColumnParts = 32;  // k_frame_columns: threads per frame
+constexpr int kColumnFrames = 2;  // k_frame_columns: frames per block, 64 threads (blocks spread evenly)
 
 template <class R, bool WithK>
 __global__ void __launch_bounds__(kColumnParts * kColumnFrames)
