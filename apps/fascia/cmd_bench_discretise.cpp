@@ -18,7 +18,8 @@ void add_bench_discretise(CLI::App& bench, Action& action) {
   auto phantom_size = std::make_shared<int>(0);
   auto image = std::make_shared<std::string>();
   CLI::App* cmd = bench.add_subcommand(
-      "discretise", "Time the meshless discretisation (voxelise, frames, samples, volumes, shape functions, consistent integration)");
+      "discretise",
+      "Time the meshless discretisation (voxelise, frames, samples, volumes, shape functions, consistent integration)");
   cmd->add_option("--samples", options->sample_counts, "Target sample counts (about 10 per frame)")
       ->capture_default_str();
   cmd->add_option("--neighbours", options->neighbours,

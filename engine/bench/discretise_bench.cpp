@@ -34,12 +34,14 @@ void write_bench_row(std::ostream& out, const DiscretiseBenchRow& row, bool json
         << ", \"threads\": " << omp_get_max_threads() << ", \"stages\": {\"voxelise\": " << s.seconds_voxelise
         << ", \"frames\": " << s.seconds_frames << ", \"samples\": " << s.seconds_samples
         << ", \"volumes\": " << s.seconds_volumes << ", \"shape_functions\": " << s.seconds_shape
-        << ", \"consistent_integration\": " << s.seconds_integration << "}, \"volume_error\": " << s.volume_error << "}\n";
+        << ", \"consistent_integration\": " << s.seconds_integration << "}, \"volume_error\": " << s.volume_error
+        << "}\n";
   } else {
     out << std::setprecision(4) << s.samples << " samples, " << s.frames << " frames: " << s.seconds_total
         << " s (voxelise " << s.seconds_voxelise << ", frames " << s.seconds_frames << ", samples "
         << s.seconds_samples << ", volumes " << s.seconds_volumes << ", shape functions " << s.seconds_shape
-        << ", consistent integration " << s.seconds_integration << "; " << s.voxels << " voxels, " << omp_get_max_threads() << " threads)\n";
+        << ", consistent integration " << s.seconds_integration << "; " << s.voxels << " voxels, "
+        << omp_get_max_threads() << " threads)\n";
   }
   out.flush();
 }
