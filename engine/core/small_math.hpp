@@ -39,12 +39,7 @@ using Vec3 = Vec3T<double>;
 using Mat3 = Mat3T<double>;
 
 FASCIA_HD Vec3 vec3(double x, double y, double z) { return Vec3{x, y, z}; }
-FASCIA_HD Vec3 load3(const double* p) { return Vec3{p[0], p[1], p[2]}; }
-FASCIA_HD void store3(double* p, const Vec3& v) {
-  p[0] = v.x;
-  p[1] = v.y;
-  p[2] = v.z;
-}
+// A 3-vector from p[0..2], and back (T: double, float, or a lane type).
 template <class T>
 FASCIA_HD Vec3T<T> load3(const T* p) {
   return Vec3T<T>{p[0], p[1], p[2]};
