@@ -79,10 +79,10 @@ namespace shell_detail {
 // Membrane strain and stress of one triangle (displacement form, shell.hpp).
 template <class T>
 struct Membrane {
-  T energy;   // W_m, J
-  Vec3T<T> f[2];       // deformed in-plane columns of F, f_c = E_c + U_c
-  T S[2][2];  // plane-stress S, Pa
-  T c[2][3];  // dU_c / du_i (the columns of Dm^{-1} with node 0 = -(node 1 + node 2)), 1/m
+  T energy;       // W_m, J
+  Vec3T<T> f[2];  // deformed in-plane columns of F, f_c = E_c + U_c
+  T S[2][2];      // plane-stress S, Pa
+  T c[2][3];      // dU_c / du_i (the columns of Dm^{-1} with node 0 = -(node 1 + node 2)), 1/m
 };
 
 template <class T>
@@ -114,14 +114,14 @@ FASCIA_HD Membrane<T> membrane(const ShellElementRestT<T>& e, const ShellModuli&
 // Corotational axes of the deformed triangle and the 9 scalars s of the bending and drilling terms.
 template <class T>
 struct Bending {
-  Vec3T<T> a, b;            // x1 - x0, x2 - x0, m
-  T la, ln;        // |a| (m), |a x b| (m^2)
-  Vec3T<T> e1, e2, e3;      // corotational axes
-  Vec3T<T> d[3][3];         // directors d[i][k] = R_i E_k
-  T s[9];          // beta (6), psi (3)
-  T phi1[9];       // Phi' = (K_b beta, k_d psi)
-  T energy;        // Phi(s) = W_b + W_d, J
-  T k_drill;       // k_d, J
+  Vec3T<T> a, b;        // x1 - x0, x2 - x0, m
+  T la, ln;             // |a| (m), |a x b| (m^2)
+  Vec3T<T> e1, e2, e3;  // corotational axes
+  Vec3T<T> d[3][3];     // directors d[i][k] = R_i E_k
+  T s[9];               // beta (6), psi (3)
+  T phi1[9];            // Phi' = (K_b beta, k_d psi)
+  T energy;             // Phi(s) = W_b + W_d, J
+  T k_drill;            // k_d, J
 };
 
 template <class T>
