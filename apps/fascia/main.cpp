@@ -1,10 +1,13 @@
 // fascia: frame-based simulation of connective tissues from the command line.
 #include "commands.hpp"
+#include "solve/blas_core.hpp"
 #include "unexpected_error.hpp"
 
 #include <iostream>
 
 int main(int argc, char** argv) {
+  // Before any BLAS call: OpenBLAS's kernels for this CPU where its detection fell back to generic ones.
+  fascia::select_blas_core();
   fascia::app::install_terminate_handler();
   CLI::App app{"fascia " FASCIA_VERSION " - frame-based simulation of connective tissues"};
   app.set_version_flag("--version", "fascia " FASCIA_VERSION);

@@ -52,7 +52,8 @@ class SparseCholesky {
 
  private:
   class Factor;  // CHOLMOD's factorisation, with its factor's arrays readable (sparse_cholesky.cpp)
-  // OpenMP team for CHOLMOD and OpenBLAS on the analysed factor: one below kSerialNonzeros.
+  // OpenMP team for CHOLMOD and OpenBLAS on the analysed factor: one below kSerialNonzeros, at
+  // most kMaxFactorThreads above.
   int team_size() const;
   std::unique_ptr<Factor> m_factor;
   std::vector<int> m_index;                        // [n] free index of each DOF, -1 if fixed
