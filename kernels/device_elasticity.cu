@@ -5,6 +5,7 @@
 #include "group_kernels.cuh"
 #include "group_layout.hpp"
 #include "sample_layout.hpp"
+#include "tangent_terms.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -396,44 +397,22 @@ class System final : public DeviceElasticity::Impl {
   void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
                           const std::vector<int>& diagonal_blocks) override {
     m_diagonal_blocks.upload(diagonal_blocks);
-    std::vector<int> offsets(m_offsets.size()), frames(m_frames.size()), rev_offsets(m_rev_offsets.size()),
-        rev_pairs(m_rev_pairs.size()), pair_samples(m_pair_samples.size());
-    m_offsets.download(offsets.data());
-    m_frames.download(frames.data());
-    m_rev_offsets.download(rev_offsets.data());
-    m_rev_pairs.download(rev_pairs.data());
-    m_pair_samples.download(pair_samples.data());
+    NeighbourTable nb;
+    ReverseTable rev;
+    nb.offsets.resize(m_offsets.size());
+    nb.frames.resize(m_frames.size());
+    rev.offsets.resize(m_rev_offsets.size());
+    rev.pairs.resize(m_rev_pairs.size());
+    rev.pair_samples.resize(m_pair_samples.size());
+    m_offsets.download(nb.offsets.data());
+    m_frames.download(nb.frames.data());
+    m_rev_offsets.download(rev.offsets.data());
+    m_rev_pairs.download(rev.pairs.data());
+    m_pair_samples.download(rev.pair_samples.data());
     m_block_count = static_cast<int>(block_frames.size());
-    std::vector<int> position(static_cast<size_t>(m_n), -1), counts(block_frames.size() + 1, 0), contributions;
-    contributions.reserve(2 * static_cast<size_t>(m_p));
-    // Row a's blocks by column frame (position), then frame a's pairs against their samples' pairs.
-    auto each_term = [&](int a, auto&& term) {
-      for (int r = rev_offsets[static_cast<size_t>(a)]; r < rev_offsets[static_cast<size_t>(a) + 1]; ++r) {
-        const int pa = rev_pairs[static_cast<size_t>(r)], s = pair_samples[static_cast<size_t>(pa)];
-        for (int pb = offsets[static_cast<size_t>(s)]; pb < offsets[static_cast<size_t>(s) + 1]; ++pb) {
-          const int p = position[static_cast<size_t>(frames[static_cast<size_t>(pb)])];
-          if (p >= 0) term(p, pa, pb);
-        }
-      }
-    };
-    for (int a = 0; a < m_n; ++a) {
-      const int first = block_offsets[static_cast<size_t>(a)], last = block_offsets[static_cast<size_t>(a) + 1];
-      if (first == last) continue;
-      for (int p = first; p < last; ++p)
-        if (block_frames[static_cast<size_t>(p)] <= a) position[static_cast<size_t>(block_frames[static_cast<size_t>(p)])] = p;
-      each_term(a, [&](int p, int, int) { ++counts[static_cast<size_t>(p) + 1]; });
-      for (int p = first; p < last; ++p) counts[static_cast<size_t>(p) + 1] += counts[static_cast<size_t>(p)];
-      contributions.resize(2 * static_cast<size_t>(counts[static_cast<size_t>(last)]));
-      std::vector<int> next(counts.begin() + first, counts.begin() + last);
-      each_term(a, [&](int p, int pa, int pb) {
-        const size_t at = static_cast<size_t>(next[static_cast<size_t>(p - first)]++);
-        contributions[2 * at] = pa;
-        contributions[2 * at + 1] = pb;
-      });
-      for (int p = first; p < last; ++p) position[static_cast<size_t>(block_frames[static_cast<size_t>(p)])] = -1;
-    }
-    m_contribution_offsets.upload(counts);
-    m_contributions.upload(contributions);
+    const TangentTerms terms = tangent_terms(nb, rev, block_offsets, block_frames);
+    m_contribution_offsets.upload(terms.offsets);
+    m_contributions.upload(terms.pairs);
     m_pair_columns.resize(static_cast<size_t>(kPairColumns) * static_cast<size_t>(m_p));
   }
 

@@ -148,20 +148,26 @@ BlockLayout build_block_layout(const Model& model, int max_samples, int max_pair
   const int blocks = L.block_count();
   L.block_slots.push_back(0);
   L.slot_pair_offsets.push_back(0);
-  std::vector<std::pair<int, int>> frame_pair;  // (frame, local pair), sorted
+  // Each block's (frame, local pair), sorted (in parallel over blocks), then its slots in order.
+  std::vector<std::pair<int, int>> frame_pairs(nb.frames.size());
+#pragma omp parallel for schedule(dynamic, 16)
   for (int b = 0; b < blocks; ++b) {
     const int p0 = nb.offsets[L.block_samples[b]], p1 = nb.offsets[L.block_samples[b + 1]];
-    frame_pair.clear();
-    for (int p = p0; p < p1; ++p) frame_pair.emplace_back(nb.frames[p], p - p0);
-    std::sort(frame_pair.begin(), frame_pair.end());
-    for (size_t k = 0; k < frame_pair.size(); ++k) {
+    for (int p = p0; p < p1; ++p) frame_pairs[static_cast<size_t>(p)] = {nb.frames[p], p - p0};
+    std::sort(frame_pairs.begin() + p0, frame_pairs.begin() + p1);
+  }
+  for (int b = 0; b < blocks; ++b) {
+    const int p0 = nb.offsets[L.block_samples[b]], p1 = nb.offsets[L.block_samples[b + 1]];
+    const std::pair<int, int>* frame_pair = frame_pairs.data() + p0;
+    const size_t count = static_cast<size_t>(p1 - p0);
+    for (size_t k = 0; k < count; ++k) {
       if (k == 0 || frame_pair[k].first != frame_pair[k - 1].first) {
         if (k > 0) L.slot_pair_offsets.push_back(static_cast<int>(L.slot_pairs.size()));
         L.slot_frames.push_back(frame_pair[k].first);
       }
       L.slot_pairs.push_back(frame_pair[k].second);
     }
-    if (!frame_pair.empty()) L.slot_pair_offsets.push_back(static_cast<int>(L.slot_pairs.size()));
+    if (count > 0) L.slot_pair_offsets.push_back(static_cast<int>(L.slot_pairs.size()));
     L.block_slots.push_back(static_cast<int>(L.slot_frames.size()));
   }
   // Frame -> its slots, in slot (= block) order.
@@ -191,6 +197,8 @@ void build_ell_order(const Model& model, BlockLayout& L) {
   }
   L.ell_slot.assign(L.ell_count(), 0);
   L.ell_pos.assign(L.ell_count(), 0);
+  // Each block writes its own entries only.
+#pragma omp parallel for schedule(dynamic, 4)
   for (int b = 0; b < blocks; ++b) {
     const int p0 = nb.offsets[L.block_samples[b]], q0 = L.block_slots[b];
     for (int q = q0; q < L.block_slots[b + 1]; ++q)

@@ -1,6 +1,7 @@
 #include "integrate/tangent_probing.hpp"
 
 #include <algorithm>
+#include <utility>
 
 namespace fascia {
 
@@ -21,37 +22,54 @@ TangentProbing tangent_probing(const Model& model) {
 
   // The coupling groups: each sample's frames, then each shell triangle's; each unknown's groups.
   const auto& nb = model.neighbours;
-  std::vector<std::vector<int>> groups;
-  for (int s = 0; s < model.sample_count(); ++s)
-    groups.emplace_back(nb.frames.begin() + nb.offsets[static_cast<size_t>(s)],
-                        nb.frames.begin() + nb.offsets[static_cast<size_t>(s) + 1]);
+  const int samples = model.sample_count();
+  std::vector<const int*> triangles;
   for (const Shell& shell : model.shells)
-    for (size_t k = 0; k + 2 < shell.triangles.size(); k += 3)
-      groups.push_back({shell.triangles[k], shell.triangles[k + 1], shell.triangles[k + 2]});
+    for (size_t k = 0; k + 2 < shell.triangles.size(); k += 3) triangles.push_back(&shell.triangles[k]);
+  const auto group = [&](int g) -> std::pair<const int*, const int*> {
+    if (g < samples) return {nb.frames.data() + nb.offsets[static_cast<size_t>(g)], nb.frames.data() + nb.offsets[static_cast<size_t>(g) + 1]};
+    const int* corners = triangles[static_cast<size_t>(g - samples)];
+    return {corners, corners + 3};
+  };
+  const int group_count = samples + static_cast<int>(triangles.size());
   std::vector<std::vector<int>> member(frames);
-  for (size_t g = 0; g < groups.size(); ++g)
-    for (int f : groups[g]) {
-      auto& m = member[static_cast<size_t>(f)];
-      if (!mapped[static_cast<size_t>(f)] && (m.empty() || m.back() != static_cast<int>(g))) m.push_back(static_cast<int>(g));
+  for (int g = 0; g < group_count; ++g) {
+    const auto [first, last] = group(g);
+    for (const int* f = first; f != last; ++f) {
+      auto& m = member[static_cast<size_t>(*f)];
+      if (!mapped[static_cast<size_t>(*f)] && (m.empty() || m.back() != g)) m.push_back(g);
     }
+  }
 
-  // Row a: a itself and the unknowns of a's groups, deduplicated with a stamp per frame.
-  std::vector<size_t> stamp(frames, frames);
+  // Row a: a itself and the unknowns of a's groups, deduplicated with a stamp per frame, sorted
+  // (in parallel over rows), then the rows in order.
+  std::vector<std::vector<int>> rows(frames);
+#pragma omp parallel
+  {
+    std::vector<size_t> stamp(frames, frames);
+#pragma omp for schedule(dynamic, 16)
+    for (int ia = 0; ia < n; ++ia) {
+      const size_t a = static_cast<size_t>(ia);
+      if (mapped[a]) continue;
+      std::vector<int>& row = rows[a];
+      row.push_back(ia);
+      stamp[a] = a;
+      for (int g : member[a]) {
+        const auto [first, last] = group(g);
+        for (const int* f = first; f != last; ++f)
+          if (!mapped[static_cast<size_t>(*f)] && stamp[static_cast<size_t>(*f)] != a) {
+            stamp[static_cast<size_t>(*f)] = a;
+            row.push_back(*f);
+          }
+      }
+      std::sort(row.begin(), row.end());
+    }
+  }
   t.block_offsets.assign(1, 0);
   t.diagonal_blocks.assign(frames, -1);
-  std::vector<int> row;
   for (size_t a = 0; a < frames; ++a) {
-    row.clear();
+    const std::vector<int>& row = rows[a];
     if (!mapped[a]) {
-      row.push_back(static_cast<int>(a));
-      stamp[a] = a;
-      for (int g : member[a])
-        for (int f : groups[static_cast<size_t>(g)])
-          if (!mapped[static_cast<size_t>(f)] && stamp[static_cast<size_t>(f)] != a) {
-            stamp[static_cast<size_t>(f)] = a;
-            row.push_back(f);
-          }
-      std::sort(row.begin(), row.end());
       const auto self = std::lower_bound(row.begin(), row.end(), static_cast<int>(a));
       t.diagonal_blocks[a] = t.block_offsets.back() + static_cast<int>(self - row.begin());
     }
