@@ -43,7 +43,11 @@ double kinetic_energy(const Model& model, const State& state) {
 struct Simulation::Impl {
   Impl(const Model& model, const ExternalLoads& loads, const SimulationSettings& settings)
       : backend(make_backend(model, loads, settings, refusal)),
-        potential(model, loads, settings.threads, backend ? ElasticityFactory{} : settings.elasticity) {}
+        potential(model, loads, settings.threads, backend ? ElasticityFactory{} : settings.elasticity) {
+    // The CPU engine's elasticity now, so that a factory's refusal stops the construction; a
+    // backend's run never makes it.
+    if (!backend) potential.elasticity();
+  }
   static std::unique_ptr<StepBackend> make_backend(const Model& model, const ExternalLoads& loads,
                                                    const SimulationSettings& settings, std::string& why) {
     if (!settings.step_backend) return nullptr;

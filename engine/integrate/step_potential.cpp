@@ -18,7 +18,6 @@ StepPotential::StepPotential(const Model& model, const ExternalLoads& loads, int
       m_frame_loads(model, loads),
       m_threads(threads > 0 ? threads : omp_get_max_threads()),
       m_factory(elasticity),
-      m_elasticity(make_elasticity(elasticity, model, m_threads)),
       m_mapping(model) {
   m_load_blocks.assign(9 * model.frame_count(), 0.0);
   for (const Shell& shell : model.shells) m_fields.push_back(std::make_unique<ShellForceField>(model, shell, threads));
@@ -26,8 +25,20 @@ StepPotential::StepPotential(const Model& model, const ExternalLoads& loads, int
   m_fixed = m_mapping.reduced_fixed(model);
 }
 
+VolumetricElasticity& StepPotential::elasticity() {
+  if (!m_elasticity) m_elasticity = make_elasticity(m_factory, m_model, m_threads);
+  return *m_elasticity;
+}
+
+void StepPotential::prepare_start() {
+  if (!m_dynamic || !(m_beta > 0) || m_start_prepared) return;
+  if (!m_start_elasticity) m_start_elasticity = make_elasticity(m_factory, m_model, m_threads, ElasticityUse::damping);
+  m_start_elasticity->prepare(m_start);
+  m_start_prepared = true;
+}
+
 double StepPotential::elastic_energy(const State& state) {
-  double w = m_elasticity->energy(state);
+  double w = elasticity().energy(state);
   for (auto& field : m_fields) w += field->energy(state);
   return w;
 }
@@ -62,10 +73,7 @@ void StepPotential::set_dynamic(const State& start, double dt, double rayleigh_m
     const Mat3 R = rotation_matrix(load_quat(&start.orientations[4 * i]));
     store_mat3(&m_world_inertia[9 * i], R * load_mat3(&m_model.frame_inertias[9 * i]) * transpose(R));
   }
-  if (m_beta > 0) {
-    if (!m_start_elasticity) m_start_elasticity = make_elasticity(m_factory, m_model, m_threads, ElasticityUse::damping);
-    m_start_elasticity->prepare(start);
-  }
+  m_start_prepared = false;
 }
 
 void StepPotential::increments(const State& state, std::vector<double>& delta) const {
@@ -110,18 +118,24 @@ double StepPotential::inertia_value(const State& state, std::vector<double>* gra
 double StepPotential::value(const State& state) {
   double phi = elastic_energy(state) + m_frame_loads.value(state, m_loads.scale);
   if (stabilised()) phi += m_stabilisation->energy(state);
-  if (m_dynamic) phi += inertia_value(state, nullptr);
+  if (m_dynamic) {
+    prepare_start();
+    phi += inertia_value(state, nullptr);
+  }
   return phi;
 }
 
 double StepPotential::full_gradient(const State& state, std::vector<double>& g) {
   g.assign(m_model.dof_count(), 0.0);
-  double phi = m_elasticity->gradient(state, g.data());
+  double phi = elasticity().gradient(state, g.data());
   for (auto& field : m_fields) phi += field->add_gradient(state, g.data());
   if (stabilised()) phi += m_stabilisation->add_gradient(state, g.data());
   m_frame_loads.add_gradient(state, m_loads.scale, g.data());
   phi += m_frame_loads.value(state, m_loads.scale);
-  if (m_dynamic) phi += inertia_value(state, &g);
+  if (m_dynamic) {
+    prepare_start();
+    phi += inertia_value(state, &g);
+  }
   return phi;
 }
 
@@ -149,7 +163,7 @@ void StepPotential::prepare_hessian(const State& state) {
     m_mapping.set_state(state);
     m_mapping.set_geometric(same ? last.g.data() : m_scratch.data());
   }
-  m_elasticity->prepare(state);
+  elasticity().prepare(state);
   for (auto& field : m_fields) field->prepare(state);
   m_stabilised = stabilised();
   if (m_stabilised) m_stabilisation->prepare(state);
@@ -158,6 +172,8 @@ void StepPotential::prepare_hessian(const State& state) {
 }
 
 LinearSystem StepPotential::system() {
+  elasticity();
+  prepare_start();
   LinearSystem sys;
   sys.size = m_model.dof_count();
   sys.fixed = m_fixed.data();

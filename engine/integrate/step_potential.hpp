@@ -75,7 +75,9 @@ class StepPotential : public Potential {
   const std::vector<std::unique_ptr<ForceField>>& force_fields() const { return m_fields; }
   const RigidMapping& rigid_mapping() const { return m_mapping; }
 
-  VolumetricElasticity& elasticity() { return *m_elasticity; }
+  // The volumetric elasticity, made at its first use: a run whose steps a StepBackend solves uses
+  // this potential for its prescribed motions, rigid mapping and loads only, and never makes it.
+  VolumetricElasticity& elasticity();
   int threads() const { return m_threads; }  // OpenMP threads of the CPU work (0 resolved)
   const ExternalLoads& loads() const { return m_loads; }
   // The loads summed per frame (V, its gradient and blocks at the load factor loads().scale).
@@ -91,6 +93,9 @@ class StepPotential : public Potential {
 
  private:
   double inertia_value(const State& state, std::vector<double>* gradient) const;
+  // Prepares m_start_elasticity at m_start where the dynamic potential has stiffness damping and
+  // it is not prepared yet (before inertia_value and the system's damping terms).
+  void prepare_start();
   // Phi and its gradient before the rigid mapping's reduction.
   double full_gradient(const State& state, std::vector<double>& g);
 
@@ -101,7 +106,10 @@ class StepPotential : public Potential {
   ElasticityFactory m_factory;
   std::unique_ptr<VolumetricElasticity> m_elasticity;
   std::unique_ptr<TangentAssembler> m_assembler;  // built on the first direct solve
-  std::unique_ptr<VolumetricElasticity> m_start_elasticity;  // K_n for stiffness-proportional damping
+  // K_n for stiffness-proportional damping, prepared at the step start when first used after
+  // set_dynamic (prepare_start).
+  std::unique_ptr<VolumetricElasticity> m_start_elasticity;
+  bool m_start_prepared = false;
   std::vector<double> m_load_blocks;               // [N][9] rotational Hessian of V
   bool m_dynamic = false;
   State m_start;
