@@ -12,8 +12,10 @@ TangentTerms tangent_terms(const NeighbourTable& nb, const ReverseTable& rev, co
   // handed to term(p, p_a, p_b).
   auto each_term = [&](int a, std::vector<int>& position, auto&& term) {
     const int first = block_offsets[static_cast<size_t>(a)], last = block_offsets[static_cast<size_t>(a) + 1];
-    for (int p = first; p < last; ++p)
-      if (block_frames[static_cast<size_t>(p)] <= a) position[static_cast<size_t>(block_frames[static_cast<size_t>(p)])] = p;
+    for (int p = first; p < last; ++p) {
+      const int b = block_frames[static_cast<size_t>(p)];
+      if (b <= a) position[static_cast<size_t>(b)] = p;
+    }
     for (int r = rev.offsets[static_cast<size_t>(a)]; r < rev.offsets[static_cast<size_t>(a) + 1]; ++r) {
       const int pa = rev.pairs[static_cast<size_t>(r)], s = rev.pair_samples[static_cast<size_t>(pa)];
       for (int pb = nb.offsets[static_cast<size_t>(s)]; pb < nb.offsets[static_cast<size_t>(s) + 1]; ++pb) {
@@ -28,7 +30,8 @@ TangentTerms tangent_terms(const NeighbourTable& nb, const ReverseTable& rev, co
   {
     std::vector<int> position(static_cast<size_t>(n), -1);
 #pragma omp for schedule(dynamic, 16)
-    for (int a = 0; a < n; ++a) each_term(a, position, [&](int p, int, int) { ++t.offsets[static_cast<size_t>(p) + 1]; });
+    for (int a = 0; a < n; ++a)
+      each_term(a, position, [&](int p, int, int) { ++t.offsets[static_cast<size_t>(p) + 1]; });
   }
   for (size_t p = 0; p < blocks; ++p) t.offsets[p + 1] += t.offsets[p];
   t.pairs.resize(2 * static_cast<size_t>(t.offsets[blocks]));

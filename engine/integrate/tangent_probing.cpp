@@ -27,7 +27,10 @@ TangentProbing tangent_probing(const Model& model) {
   for (const Shell& shell : model.shells)
     for (size_t k = 0; k + 2 < shell.triangles.size(); k += 3) triangles.push_back(&shell.triangles[k]);
   const auto group = [&](int g) -> std::pair<const int*, const int*> {
-    if (g < samples) return {nb.frames.data() + nb.offsets[static_cast<size_t>(g)], nb.frames.data() + nb.offsets[static_cast<size_t>(g) + 1]};
+    if (g < samples) {
+      const int* frames_of = nb.frames.data();
+      return {frames_of + nb.offsets[static_cast<size_t>(g)], frames_of + nb.offsets[static_cast<size_t>(g) + 1]};
+    }
     const int* corners = triangles[static_cast<size_t>(g - samples)];
     return {corners, corners + 3};
   };

@@ -39,7 +39,8 @@ void check_terms(const Model& model) {
   for (int a = 0; a < model.frame_count(); ++a)
     for (int p = t.block_offsets[a]; p < t.block_offsets[a + 1]; ++p) {
       const std::vector<int> expected = direct_terms(model, a, t.block_frames[p]);
-      const std::vector<int> got(terms.pairs.begin() + 2 * terms.offsets[p], terms.pairs.begin() + 2 * terms.offsets[p + 1]);
+      const std::vector<int> got(terms.pairs.begin() + 2 * terms.offsets[p],
+                                 terms.pairs.begin() + 2 * terms.offsets[p + 1]);
       REQUIRE(got == expected);
       listed += static_cast<long long>(got.size()) / 2;
     }

@@ -34,7 +34,8 @@ double solve_error(const Eigen::MatrixXd& a) {
   for (int k = 0; k < n; ++k) b[static_cast<size_t>(k)] = std::cos(0.3 * k);
   chol.solve(b, x);
   const Eigen::VectorXd ref = a.llt().solve(Eigen::Map<const Eigen::VectorXd>(b.data(), n));
-  return (Eigen::Map<const Eigen::VectorXd>(x.data(), n) - ref).lpNorm<Eigen::Infinity>() / ref.lpNorm<Eigen::Infinity>();
+  const Eigen::VectorXd error = Eigen::Map<const Eigen::VectorXd>(x.data(), n) - ref;
+  return error.lpNorm<Eigen::Infinity>() / ref.lpNorm<Eigen::Infinity>();
 }
 
 }  // namespace
