@@ -42,6 +42,11 @@ DeviceInfo device_info() {
   return info;
 }
 
+void create_context() {
+  cudaFree(nullptr);
+  cudaGetLastError();
+}
+
 namespace {
 
 constexpr int kThreads = 128;  // the per-frame and per-sample kernels

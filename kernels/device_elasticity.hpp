@@ -39,6 +39,11 @@ struct DeviceInfo {
 // Never throws; device_count = 0 without a usable device.
 DeviceInfo device_info();
 
+// Creates the device's context (the runtime's primary context of the current device) now: about
+// 0.1 s that the first call needing it would otherwise wait for. Never throws; errors are left to
+// that call.
+void create_context();
+
 // What a user chooses; the kernels and their sizes are fixed (docs/gpu.md).
 struct DeviceOptions {
   Precision precision = Precision::double_precision;

@@ -43,6 +43,7 @@ int resolve_backend(const char* command, const BackendOptions& options, Backend&
               << "use --backend cpu\n";
     return kUnavailable;
   }
+  backend.context = std::async(std::launch::async, [] { gpu::create_context(); }).share();
   gpu::DeviceOptions device;
   device.precision = options.precision == "single" ? gpu::Precision::single_precision : gpu::Precision::double_precision;
   backend.elasticity = gpu::cuda_elasticity_factory(device);

@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <future>
 #include <string>
 
 namespace fascia::app {
@@ -31,6 +32,9 @@ struct Backend {
   // cuda: why a run of the model with the settings would not fit in the device's free memory
   // ("" when it fits; kernels/device_memory.hpp).
   std::function<std::string(const Model&, const SimulationSettings&)> memory_refusal;
+  // cuda: the device's context, created on another thread while the scene is discretised
+  // (gpu::create_context); the last copy's destruction waits for it.
+  std::shared_future<void> context;
   nlohmann::json provenance;     // {"backend", and for cuda "gpu", "precision"}
   std::string description;       // for logs: "cpu" or "cuda (NVIDIA H200, double)"
 };
