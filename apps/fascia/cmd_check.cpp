@@ -36,7 +36,15 @@ int check(const CheckOptions& options) {
             {"frame_voxel_size_m", m.frame_voxel_size},
             {"surface_volume_m3", m.surface_volume},
             {"volume_error", m.volume_error},
-            {"sample_volume_m3", m.sample_volume}};
+            {"sample_volume_m3", m.sample_volume},
+            {"seconds",
+             {{"voxelise", m.seconds_voxelise},
+              {"frames", m.seconds_frames},
+              {"samples", m.seconds_samples},
+              {"volumes", m.seconds_volumes},
+              {"shape_functions", m.seconds_shape},
+              {"consistent_integration", m.seconds_integration},
+              {"total", m.seconds_total}}}};
       }
     std::cout << out.dump(2) << "\n";
     return kOk;

@@ -68,7 +68,10 @@ std::string MeshlessStatistics::describe() const {
       << "volume: surface " << surface_volume << " m^3, voxels " << voxel_volume << " m^3 (error "
       << 100 * volume_error << " %";
   if (unassigned_volume > 0) out << ", " << unassigned_volume << " m^3 without a sample in reach";
-  out << "), samples " << sample_volume << " m^3 (voxel shares scaled by " << volume_scale << ")\n";
+  out << "), samples " << sample_volume << " m^3 (voxel shares scaled by " << volume_scale << ")\n"
+      << "seconds: voxelise " << seconds_voxelise << ", frames " << seconds_frames << ", samples " << seconds_samples
+      << ", volumes " << seconds_volumes << ", shape functions " << seconds_shape << ", consistent integration "
+      << seconds_integration << ", total " << seconds_total << "\n";
   return out.str();
 }
 

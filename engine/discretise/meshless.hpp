@@ -77,6 +77,7 @@ struct MeshlessStatistics {
   double integration_defect_before = 0;     // consistent_integration.hpp, relative
   double integration_defect = 0;            // after the correction
   int integration_iterations = 0;
+  // Wall seconds of the stages (disjoint parts of the total, which has the checks besides).
   double seconds_voxelise = 0, seconds_frames = 0, seconds_samples = 0, seconds_volumes = 0,
          seconds_shape = 0, seconds_integration = 0, seconds_total = 0;
 

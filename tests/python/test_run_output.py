@@ -260,6 +260,26 @@ run: {{steps: 1}}
     assert json.loads(r.stdout)["discretisation"]["frames"] == 16 + 42 + 1 - 21
 
 
+def test_check_reports_the_meshless_stages_seconds(fascia_bin, root):
+    """`fascia check --json` gives each meshless object's stage times: disjoint parts of its
+    discretisation's wall time, measured on one steady clock, so their sum cannot exceed the total
+    (1e-9 s covers the rounding of the differences)."""
+    r = run_fascia(fascia_bin, root, "check", "scenes/meshless_slab.yaml", "--json")
+    assert r.returncode == 0, r.stderr
+    meshless = json.loads(r.stdout)["meshless"]
+    assert meshless
+    stages = ["voxelise", "frames", "samples", "volumes", "shape_functions", "consistent_integration"]
+    for name, obj in meshless.items():
+        seconds = obj["seconds"]
+        assert sorted(seconds) == sorted(stages + ["total"]), name
+        assert all(seconds[s] >= 0 for s in stages), seconds
+        assert sum(seconds[s] for s in stages) <= seconds["total"] + 1e-9, seconds
+        assert seconds["total"] > 0, seconds
+    r = run_fascia(fascia_bin, root, "check", "scenes/meshless_slab.yaml")
+    assert r.returncode == 0, r.stderr
+    assert "seconds: voxelise " in r.stdout
+
+
 def test_rows_written_beside_the_steps_equal_rows_written_in_turn(fascia_bin, root, tmp_path):
     """With fewer step threads than the cores the process may use, each row is formed and written
     on an output thread while the next step runs; on one core, in turn with the steps. The two
