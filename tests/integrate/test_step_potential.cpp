@@ -95,7 +95,8 @@ TEST_CASE("stiffness-proportional damping makes its start-of-step tangent for da
     made.push_back(use);
     return make_cpu_elasticity(m, threads);
   };
-  StepPotential potential(model, ExternalLoads{}, 1, recording);
+  const ExternalLoads loads;  // outlives the potential, which keeps a reference
+  StepPotential potential(model, loads, 1, recording);
   CHECK(made.empty());
   const State start = rest_state(model);
   std::vector<double> g;
