@@ -3,7 +3,7 @@
 //
 // OpenBLAS picks its kernels by CPU model when it is loaded, and on a model newer than its table
 // it falls back to its generic SSE3 kernels ("Prescott"), whatever the CPU supports: Debian 12's
-// OpenBLAS 0.3.21 does so on Xeon Sapphire and Emerald Rapids (family 6, models 143 and 207).
+// OpenBLAS 0.3.21 does so on the Emerald Rapids Xeon (family 6, model 207) of an H200 host.
 // There the consistent integration of the pelvis with its finest fasciae (n 9,068, 12.3 M
 // nonzeros in L) factorised in 1.29 s on an H200 host's 16 cores against 1.05 s with the AVX-512
 // kernels ("SkylakeX"), and in 1.63 s against 0.89 s on two. select_blas_core() selects
