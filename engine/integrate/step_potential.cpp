@@ -172,7 +172,7 @@ void StepPotential::prepare_hessian(const State& state) {
 }
 
 LinearSystem StepPotential::system() {
-  elasticity();
+  VolumetricElasticity* elastic = &elasticity();
   prepare_start();
   LinearSystem sys;
   sys.size = m_model.dof_count();
@@ -196,14 +196,14 @@ LinearSystem StepPotential::system() {
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) e[1 + 3 * r + c] = block[6 * (3 + r) + 3 + c] + m_load_blocks[9 * i + 3 * r + c];
   }
-  sys.apply = [this, n](const double* d_reduced, double* out) {
+  sys.apply = [this, n, elastic](const double* d_reduced, double* out) {
     const double* d = d_reduced;
     if (!m_mapping.empty()) {
       m_expanded.assign(d_reduced, d_reduced + 6 * n);
       m_mapping.expand(m_expanded.data());
       d = m_expanded.data();
     }
-    m_elasticity->apply_tangent(d, out, m_frame_diagonal.data());
+    elastic->apply_tangent(d, out, m_frame_diagonal.data());
     for (const auto& field : m_fields) field->add_tangent(d, out);
     if (m_stabilised) m_stabilisation->add_tangent(d, out);
     if (m_dynamic && m_beta > 0) {
@@ -216,8 +216,8 @@ LinearSystem StepPotential::system() {
       m_mapping.add_geometric(d_reduced, out);
     }
   };
-  sys.diagonal_blocks = [this, n, inertia_block](double* blocks) {
-    m_elasticity->tangent_diagonal_blocks(blocks);
+  sys.diagonal_blocks = [this, n, inertia_block, elastic](double* blocks) {
+    elastic->tangent_diagonal_blocks(blocks);
     std::vector<double> start_blocks;
     if (m_dynamic && m_beta > 0) {
       start_blocks.resize(36 * n);
@@ -237,7 +237,7 @@ LinearSystem StepPotential::system() {
     if (m_stabilised) m_stabilisation->add_diagonal_blocks(blocks);
     if (!m_mapping.empty()) m_mapping.reduce_diagonal_blocks(blocks);
   };
-  sys.assemble = [this, n, inertia_block]() {
+  sys.assemble = [this, n, inertia_block, elastic]() {
     m_assembled_at.start = m_dynamic ? m_start : State{};
     m_assembled_at.state = m_prepared;
     m_assembled_at.dt = m_dynamic ? m_dt : 0.0;
@@ -256,7 +256,7 @@ LinearSystem StepPotential::system() {
     for (const auto& field : m_fields) field->add_triplets(t);
     if (m_stabilised) m_stabilisation->add_triplets(t);
     if (!m_assembler) m_assembler = std::make_unique<TangentAssembler>(m_model, t);
-    Eigen::SparseMatrix<double> H = m_assembler->assemble(m_elasticity->prepared_reference(), t);
+    Eigen::SparseMatrix<double> H = m_assembler->assemble(elastic->prepared_reference(), t);
     if (m_dynamic && m_beta > 0) H += (m_beta / m_dt) * assemble_tangent(m_start_elasticity->prepared_reference());
     if (!m_mapping.empty()) {
       const Eigen::SparseMatrix<double> P = m_mapping.projection(6 * n);
