@@ -93,6 +93,7 @@ struct DeviceElasticity::Impl {
   virtual double energy() = 0;
   virtual double gradient(double* g) = 0;
   virtual double prepare(bool diagonal_blocks) = 0;
+  virtual void prepare_on_device(bool diagonal_blocks) = 0;
   virtual void apply_tangent(const double* d, double* out) = 0;
   virtual void diagonal_blocks(double* blocks) = 0;
   virtual void* stream() const = 0;
@@ -100,7 +101,8 @@ struct DeviceElasticity::Impl {
   // The state on the device: positions [N][3], orientations [N][4].
   virtual const double* positions_on_device() const = 0;
   virtual const double* orientations_on_device() const = 0;
-  virtual double gradient_on_device(double* g) = 0;
+  virtual void gradient_on_device(double* g) = 0;
+  virtual const double* energy_on_device() const = 0;
   virtual void apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal) = 0;
   virtual void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
                                   const std::vector<int>& diagonal_blocks) = 0;
@@ -331,15 +333,16 @@ class System final : public DeviceElasticity::Impl {
     return e;
   }
 
+  double prepare(bool diagonal_blocks) override {
+    prepare_on_device(diagonal_blocks);
+    return read_scalars().energy;
+  }
+
   // The force pass is skipped where the state is the last pass's (Newton prepares the state whose
   // gradient its line search has just taken): F, the cache and the samples' state are its.
-  double prepare(bool diagonal_blocks) override {
-    int changed = 1;
-    FASCIA_CUDA(cudaMemcpyAsync(&changed, m_changed.data(), sizeof(int), cudaMemcpyDeviceToHost, m_stream));
-    FASCIA_CUDA(cudaStreamSynchronize(m_stream));
-    if (changed) enqueue_gradient_pass(nullptr);
+  void prepare_on_device(bool diagonal_blocks) override {
+    enqueue_gradient_pass(nullptr, true);
     enqueue_frame_prepare(diagonal_blocks);
-    return read_scalars().energy;
   }
 
   void apply_tangent(const double* d, double* out) override {
@@ -367,10 +370,9 @@ class System final : public DeviceElasticity::Impl {
   const double* positions_on_device() const override { return m_positions.data(); }
   const double* orientations_on_device() const override { return m_orientations.data(); }
 
-  double gradient_on_device(double* g) override {
-    enqueue_gradient_pass(g);
-    return read_scalars().energy;
-  }
+  void gradient_on_device(double* g) override { enqueue_gradient_pass(g); }
+
+  const double* energy_on_device() const override { return &m_scalars.data()->energy; }
 
   void apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal) override {
     if constexpr (std::is_same_v<R, double>) {
@@ -570,15 +572,16 @@ class System final : public DeviceElasticity::Impl {
 
   // Kinematics and the force pass: energy into the scalars, F, the material cache and the samples'
   // state of the tangent product stored, the gradient [N][6] into `gradient` (device memory) where
-  // it is set.
-  void enqueue_gradient_pass(double* gradient) {
+  // it is set; with `if_changed`, the force pass only where the state differs from the last
+  // pass's (decided on the device).
+  void enqueue_gradient_pass(double* gradient, bool if_changed = false) {
     k_kinematics<R><<<grid_for(m_n, kThreads), kThreads, 0, m_stream>>>(
         m_n, m_positions.data(), m_orientations.data(), m_origin, m_x.data(), m_rot.data(), m_frame_rest.data(),
         m_levers.data());
     check_launch();
     force_kernel()<<<m_blocks, kBlockSamples, m_shared_bytes, m_stream>>>(
         m_view, m_frame_view, m_F.data(), m_cache.data(), m_P.data(), m_partials.data(), reduction(),
-        m_sample_state.data());
+        m_sample_state.data(), if_changed ? m_changed.data() : nullptr);
     check_launch();
     FASCIA_CUDA(cudaMemsetAsync(m_changed.data(), 0, sizeof(int), m_stream));
     if (gradient) enqueue_frame_rows(m_view, m_partials.data(), nullptr, nullptr, nullptr, gradient);
@@ -637,7 +640,7 @@ class System final : public DeviceElasticity::Impl {
   }
 
   // The force pass's kernel, with the tangent pass's threads per sample (its blocks' samples).
-  using ForceKernel = void (*)(ModelView<R>, FrameView<R>, R*, R*, R*, R*, Reduction, R*);
+  using ForceKernel = void (*)(ModelView<R>, FrameView<R>, R*, R*, R*, R*, Reduction, R*, const int*);
   ForceKernel force_kernel() const { return m_lanes == 1 ? &k_fused_samples<R, 1> : &k_fused_samples<R, kSampleLanes>; }
 
   // The launched coalesced tangent kernel for `keep` held ELL entries per lane (2, 4, else 8) and
@@ -739,13 +742,18 @@ double DeviceElasticity::prepare(bool diagonal_blocks) {
   if (m_forces) m_impl->set_state_on_device(m_forces->positions_on_device(), m_forces->orientations_on_device());
   return m_impl->prepare(diagonal_blocks);
 }
+void DeviceElasticity::prepare_on_device(bool diagonal_blocks) {
+  if (m_forces) m_impl->set_state_on_device(m_forces->positions_on_device(), m_forces->orientations_on_device());
+  m_impl->prepare_on_device(diagonal_blocks);
+}
 void DeviceElasticity::apply_tangent(const double* d, double* out) { m_impl->apply_tangent(d, out); }
 void DeviceElasticity::tangent_diagonal_blocks(double* blocks) { m_impl->diagonal_blocks(blocks); }
 void* DeviceElasticity::stream() const { return m_impl->stream(); }
 void DeviceElasticity::set_state_on_device(const double* positions, const double* orientations) {
   forces().set_state_on_device(positions, orientations);
 }
-double DeviceElasticity::gradient_on_device(double* gradient) { return forces().gradient_on_device(gradient); }
+void DeviceElasticity::gradient_on_device(double* gradient) { forces().gradient_on_device(gradient); }
+const double* DeviceElasticity::energy_on_device() const { return forces().energy_on_device(); }
 void DeviceElasticity::apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal) {
   m_impl->apply_tangent_on_device(d, out, frame_diagonal);
 }

@@ -91,6 +91,8 @@ class DeviceElasticity {
   // the preparation's work) are left out: tangent_diagonal_blocks and diagonal_blocks_on_device
   // are then not valid.
   double prepare(bool diagonal_blocks = true);
+  // The same with nothing read back (the device-resident step's).
+  void prepare_on_device(bool diagonal_blocks = true);
   // out = K d, [N][6] host memory, as Elasticity::apply_tangent.
   void apply_tangent(const double* d, double* out);
   // K_ii [N][36] row-major, as Elasticity::tangent_diagonal_blocks.
@@ -99,12 +101,14 @@ class DeviceElasticity {
   // The same on device memory, for the device-resident step (device_potential.hpp): every
   // pointer is a device array of doubles, the work is enqueued in order on stream() (a
   // cudaStream_t). set_state_on_device copies positions [N][3] and orientations [N][4];
-  // gradient_on_device writes [N][6] and returns the energy (one scalar read); out = K d
+  // gradient_on_device writes [N][6] (gradient null: none) and the energy, one double at
+  // energy_on_device() until the next pass, with no read back; out = K d
   // [N][6], plus D d with frame_diagonal [N][10] (t_i, then Q_i row-major; may be null), as
   // Elasticity::apply_tangent; the diagonal blocks K_ii [N][36] are those of the last prepare().
   void* stream() const;
   void set_state_on_device(const double* positions, const double* orientations);
-  double gradient_on_device(double* gradient);
+  void gradient_on_device(double* gradient);
+  const double* energy_on_device() const;
   void apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal = nullptr);
   const double* diagonal_blocks_on_device() const;
   // The elastic tangent's blocks between frames that share a sample, sum_s v B_a^T C[B_b], and on

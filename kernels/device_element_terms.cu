@@ -113,8 +113,8 @@ DeviceElementTerms::DeviceElementTerms(int nodes_per_element, const std::vector<
   m_hessians.resize(static_cast<size_t>(m_elements) * dofs * dofs);
 }
 
-double DeviceElementTerms::energy_sum(const VectorOps& ops) {
-  return empty() ? 0.0 : ops.dot(m_energies.data(), nullptr, m_elements);
+void DeviceElementTerms::energy_sum(const VectorOps& ops) const {
+  if (!empty()) ops.dot_pending(m_energies.data(), nullptr, m_elements);
 }
 
 void DeviceElementTerms::gather(double* out, cudaStream_t stream) const {

@@ -41,8 +41,9 @@ class DeviceElementTerms {
   double* energies() { return m_energies.data(); }
   double* values() { return m_values.data(); }
   double* hessians() { return m_hessians.data(); }
-  // The sum of the elements' energies (J), in a fixed order.
-  double energy_sum(const VectorOps& ops);
+  // The sum of the elements' energies (J), in a fixed order, as ops's next pending term
+  // (VectorOps::dot_pending).
+  void energy_sum(const VectorOps& ops) const;
   // out [N][6] += each frame's entries of values() (gradients: after the driver stored them).
   void gather(double* out, cudaStream_t stream) const;
 

@@ -309,22 +309,35 @@ struct DevicePotential::Impl {
   // Makes `e` evaluate s.
   static void select(DeviceElasticity& e, const DeviceFrames& s) { e.set_state_on_device(s.positions(), s.orientations()); }
 
-  // Phi and its gradient at s before the rigid mapping's reduction, into g.
+  // Phi and its gradient at s before the rigid mapping's reduction, into g: the terms' energies
+  // summed on the host in a fixed order (elasticity, shells, stabilisation, frame terms), read
+  // back together.
   double full_gradient(const DeviceFrames& s, double* g, long long dofs) {
-    double w = 0;
     if (elasticity) {
       select(*elasticity, s);
-      w = elasticity->gradient_on_device(g);
+      elasticity->gradient_on_device(g);
+      ops.copy_pending(elasticity->energy_on_device());
     } else {
       ops.fill(g, 0.0, dofs);
     }
-    w += shells.add_gradient(s.positions(), s.orientations(), g, ops);
-    if (equilibrium) w += stabilisation.add_gradient(s.orientations(), g, ops);
+    shells.add_gradient(s.positions(), s.orientations(), g, ops);
+    if (equilibrium) stabilisation.add_gradient(s.orientations(), g, ops);
     damping_forces(s);
     k_frame_terms<<<kReduceBlocks, kReduceThreads, 0, stream>>>(terms, s.positions(), s.orientations(), g,
                                                               ops.partials());
     check();
-    return w + ops.finish();
+    ops.finish_pending();
+    return ops.read_pending();
+  }
+
+  // The elastic energy at s (elasticity, shells) as pending terms of ops.
+  void elastic_energy(const DeviceFrames& s) {
+    if (elasticity) {
+      select(*elasticity, s);
+      elasticity->gradient_on_device(nullptr);
+      ops.copy_pending(elasticity->energy_on_device());
+    }
+    shells.energy(s.positions(), s.orientations(), ops);
   }
 
   PotentialStream device;
@@ -398,7 +411,7 @@ void DevicePotential::set_dynamic(const State& start, double dt, double rayleigh
   m.terms.kd = nullptr;
   if (!m.start_elasticity) return;
   m.start_elasticity->set_state(start);
-  m.start_elasticity->prepare(false);
+  m.start_elasticity->prepare_on_device(false);
   m.start_diagonal = m.start_blocks_formed = false;
   m.terms.kd = m.kd.data();
 }
@@ -416,24 +429,20 @@ void DevicePotential::increments(const DeviceFrames& q, double* delta_host) {
 }
 
 double DevicePotential::elastic_energy(const DeviceFrames& q) {
-  Impl& m = *m_impl;
-  double w = 0;
-  if (m.elasticity) {
-    m.select(*m.elasticity, q);
-    w = m.elasticity->energy();
-  }
-  return w + m.shells.energy(q.positions(), q.orientations(), m.ops);
+  m_impl->elastic_energy(q);
+  return m_impl->ops.read_pending();
 }
 
 double DevicePotential::value(const DeviceFrames& q) {
   Impl& m = *m_impl;
-  double w = elastic_energy(q);
-  if (m.equilibrium) w += m.stabilisation.energy(q.orientations(), m.ops);
+  m.elastic_energy(q);
+  if (m.equilibrium) m.stabilisation.energy(q.orientations(), m.ops);
   m.damping_forces(q);
   k_frame_terms<<<kReduceBlocks, kReduceThreads, 0, m.stream>>>(m.terms, q.positions(), q.orientations(), nullptr,
                                                                 m.ops.partials());
   check();
-  return w + m.ops.finish();
+  m.ops.finish_pending();
+  return m.ops.read_pending();
 }
 
 double DevicePotential::gradient(const DeviceFrames& q, double* g) {
@@ -456,7 +465,7 @@ void DevicePotential::prepare_hessian(const DeviceFrames& q, bool preconditioner
   }
   if (m.elasticity) {
     m.select(*m.elasticity, q);
-    m.elasticity->prepare(preconditioner);
+    m.elasticity->prepare_on_device(preconditioner);
   }
   m.shells.prepare(q.positions(), q.orientations(), m.stream);
   m.stabilised = m.equilibrium;
@@ -471,7 +480,7 @@ void DevicePotential::prepare_hessian(const DeviceFrames& q, bool preconditioner
   m.shells.add_diagonal_blocks(m.blocks.data(), m.stream);
   if (m.stabilised) m.stabilisation.add_diagonal_blocks(m.blocks.data(), m.stream);
   if (m.damped()) {
-    if (!m.start_diagonal) m.start_elasticity->prepare(true);
+    if (!m.start_diagonal) m.start_elasticity->prepare_on_device(true);
     m.start_diagonal = true;
     m.ops.axpy(m.terms.beta / m.terms.h, m.start_elasticity->diagonal_blocks_on_device(), m.blocks.data(), 36LL * n);
   }

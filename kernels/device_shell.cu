@@ -52,21 +52,21 @@ constexpr int kHessianThreads = 32;
 
 }  // namespace
 
-double DeviceShells::energy(const double* x, const double* q, const VectorOps& ops) {
-  if (empty()) return 0.0;
+void DeviceShells::energy(const double* x, const double* q, const VectorOps& ops) {
+  if (empty()) return;
   k_shell_elements<ElementOutput::energy><<<grid(count()), kThreads, 0, ops.stream()>>>(
       count(), m_elements.data(), m_moduli.data(), x, q, energies(), nullptr, nullptr);
   check();
-  return energy_sum(ops);
+  energy_sum(ops);
 }
 
-double DeviceShells::add_gradient(const double* x, const double* q, double* g, const VectorOps& ops) {
-  if (empty()) return 0.0;
+void DeviceShells::add_gradient(const double* x, const double* q, double* g, const VectorOps& ops) {
+  if (empty()) return;
   k_shell_elements<ElementOutput::gradient><<<grid(count()), kThreads, 0, ops.stream()>>>(
       count(), m_elements.data(), m_moduli.data(), x, q, energies(), values(), nullptr);
   check();
   gather(g, ops.stream());
-  return energy_sum(ops);
+  energy_sum(ops);
 }
 
 void DeviceShells::prepare(const double* x, const double* q, cudaStream_t stream) {

@@ -25,10 +25,11 @@ class DeviceShells : public DeviceElementTerms {
   explicit DeviceShells(const Model& model);
 
   // Device arrays: x [N][3], q [N][4], vectors [N][6]; work on ops.stream().
-  // W of the shells at (x, q) (J).
-  double energy(const double* x, const double* q, const VectorOps& ops);
-  // Adds dW/d(theta) to g; returns W.
-  double add_gradient(const double* x, const double* q, double* g, const VectorOps& ops);
+  // W of the shells at (x, q) (J) as ops's next pending term (VectorOps::read_pending; none
+  // without shells).
+  void energy(const double* x, const double* q, const VectorOps& ops);
+  // Adds dW/d(theta) to g; W as energy() leaves it.
+  void add_gradient(const double* x, const double* q, double* g, const VectorOps& ops);
   // Stores every triangle's Hessian at (x, q).
   void prepare(const double* x, const double* q, cudaStream_t stream);
 

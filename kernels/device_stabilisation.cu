@@ -62,21 +62,21 @@ DeviceStabilisation::DeviceStabilisation(const std::vector<EdgeTwist>& edges)
   if (!empty()) m_twists.upload(edges);
 }
 
-double DeviceStabilisation::energy(const double* q, const VectorOps& ops) {
-  if (empty()) return 0.0;
+void DeviceStabilisation::energy(const double* q, const VectorOps& ops) {
+  if (empty()) return;
   k_edge_twists<EdgeOutput::energy><<<grid(count()), kThreads, 0, ops.stream()>>>(count(), m_twists.data(), q,
                                                                                  energies(), nullptr, nullptr);
   check();
-  return energy_sum(ops);
+  energy_sum(ops);
 }
 
-double DeviceStabilisation::add_gradient(const double* q, double* g, const VectorOps& ops) {
-  if (empty()) return 0.0;
+void DeviceStabilisation::add_gradient(const double* q, double* g, const VectorOps& ops) {
+  if (empty()) return;
   k_edge_twists<EdgeOutput::gradient><<<grid(count()), kThreads, 0, ops.stream()>>>(
       count(), m_twists.data(), q, energies(), values(), nullptr);
   check();
   gather(g, ops.stream());
-  return energy_sum(ops);
+  energy_sum(ops);
 }
 
 void DeviceStabilisation::prepare(const double* q, cudaStream_t stream) {

@@ -24,10 +24,10 @@ class DeviceStabilisation : public DeviceElementTerms {
   explicit DeviceStabilisation(const Model& model);
 
   // Device arrays: q [N][4], vectors [N][6]; work on ops.stream().
-  // S at q (J).
-  double energy(const double* q, const VectorOps& ops);
-  // Adds dS/d(theta) to g; returns S.
-  double add_gradient(const double* q, double* g, const VectorOps& ops);
+  // S at q (J) as ops's next pending term (VectorOps::read_pending; none without edges).
+  void energy(const double* q, const VectorOps& ops);
+  // Adds dS/d(theta) to g; S as energy() leaves it.
+  void add_gradient(const double* q, double* g, const VectorOps& ops);
   // Stores every edge's Hessian at q.
   void prepare(const double* q, cudaStream_t stream);
 

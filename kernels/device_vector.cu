@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <functional>
+#include <stdexcept>
 
 namespace fascia::gpu {
 namespace {
@@ -243,10 +244,10 @@ void DeviceVector::release() {
 
 VectorOps::VectorOps(cudaStream_t stream) : m_stream(stream) {
   m_partials.resize(kReduceBlocks);
-  m_result.resize(1);
+  m_pending.resize(kPendingTerms);
   m_counter.resize(1);
   FASCIA_CUDA(cudaMemset(m_counter.data(), 0, sizeof(unsigned)));
-  FASCIA_CUDA(cudaMallocHost(&m_host, sizeof(double)));
+  FASCIA_CUDA(cudaMallocHost(&m_host, sizeof(double) * kPendingTerms));
   FASCIA_CUDA(cudaMalloc(reinterpret_cast<void**>(&m_cg), sizeof(CgState)));
   FASCIA_CUDA(cudaMallocHost(reinterpret_cast<void**>(&m_cg_host), sizeof(CgState)));
 }
@@ -297,17 +298,46 @@ void VectorOps::block_apply(const double* blocks, const double* x, double* y, in
 }
 
 double VectorOps::dot(const double* x, const double* y, long long n) const {
-  k_dot_partials<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, x, y, m_partials.data());
-  check();
-  return finish();
+  if (m_pending_count != 0) throw std::logic_error("VectorOps::dot: terms are pending");
+  dot_pending(x, y, n);
+  return read_pending();
 }
 
 double VectorOps::finish() const {
-  k_sum_partials<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), m_result.data());
+  if (m_pending_count != 0) throw std::logic_error("VectorOps::finish: terms are pending");
+  finish_pending();
+  return read_pending();
+}
+
+double* VectorOps::next_pending() const {
+  if (m_pending_count == kPendingTerms) throw std::logic_error("VectorOps: more pending terms than slots");
+  return m_pending.data() + m_pending_count++;
+}
+
+void VectorOps::dot_pending(const double* x, const double* y, long long n) const {
+  k_dot_partials<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, x, y, m_partials.data());
   check();
-  FASCIA_CUDA(cudaMemcpyAsync(m_host, m_result.data(), sizeof(double), cudaMemcpyDeviceToHost, m_stream));
+  finish_pending();
+}
+
+void VectorOps::finish_pending() const {
+  k_sum_partials<<<1, kReduceThreads, 0, m_stream>>>(m_partials.data(), next_pending());
+  check();
+}
+
+void VectorOps::copy_pending(const double* value) const {
+  FASCIA_CUDA(cudaMemcpyAsync(next_pending(), value, sizeof(double), cudaMemcpyDeviceToDevice, m_stream));
+}
+
+double VectorOps::read_pending() const {
+  const int count = m_pending_count;
+  m_pending_count = 0;
+  if (count == 0) return 0.0;
+  FASCIA_CUDA(cudaMemcpyAsync(m_host, m_pending.data(), sizeof(double) * count, cudaMemcpyDeviceToHost, m_stream));
   FASCIA_CUDA(cudaStreamSynchronize(m_stream));
-  return *m_host;
+  double sum = m_host[0];
+  for (int k = 1; k < count; ++k) sum += m_host[k];
+  return sum;
 }
 
 void VectorOps::cg_start(const double* r, const double* z, long long n, double b_norm, double tolerance) const {

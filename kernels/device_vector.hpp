@@ -5,9 +5,9 @@
 // Reductions are deterministic: kReduceBlocks blocks of kReduceThreads threads stride over the
 // array in a fixed pattern, each block sums its values in a fixed tree, and one block sums the
 // partials in a fixed tree (device_vector.cuh). The order depends on neither the device nor the
-// launch, so repeated runs give bitwise-identical results. Each reduction returns to the host
-// through a pinned 8-byte read: with the energies of the line search, the only data that cross
-// the bus inside a solve.
+// launch, so repeated runs give bitwise-identical results. Reductions return to the host through
+// pinned reads, the scalars of one evaluation (an energy's terms) in one: with the energies of the
+// line search, the only data that cross the bus inside a solve.
 //
 // All work of one solve is enqueued in order on one stream; device memory of vectors and states
 // comes from the stream-ordered allocator (cudaMallocAsync), so the solvers' temporaries cost no
@@ -71,6 +71,15 @@ class VectorOps {
   double dot(const double* x, const double* y, long long n) const;
   // Sums the kReduceBlocks partials that a fused kernel left in partials() and returns the sum.
   double finish() const;
+  // The terms of one scalar read back together: each *_pending enqueues a term into the next of
+  // kPendingTerms device slots without a read; read_pending() copies the slots back in one
+  // transfer and returns their sum in slot order (the order they were enqueued), emptying them.
+  // dot() and finish() are a term and its read, with no other terms pending.
+  static constexpr int kPendingTerms = 8;
+  void dot_pending(const double* x, const double* y, long long n) const;
+  void finish_pending() const;
+  void copy_pending(const double* value) const;  // a term already on the device (one double)
+  double read_pending() const;
 
   // The PCG scalars of DeviceVectorOps (the CgScalars concept of engine/solve/vector_ops.hpp), in
   // device memory: each operation is enqueued without a read back; cg_status() reads them.
@@ -93,9 +102,13 @@ class VectorOps {
 
  private:
   cudaStream_t m_stream;
-  mutable DeviceBuffer<double> m_partials, m_result;
+  // The next pending term's slot, after checking that one is free.
+  double* next_pending() const;
+
+  mutable DeviceBuffer<double> m_partials, m_pending;  // m_pending: [kPendingTerms]
   mutable DeviceBuffer<unsigned> m_counter;  // the PCG kernels' blocks done (zero between kernels)
-  double* m_host = nullptr;  // pinned
+  mutable int m_pending_count = 0;
+  double* m_host = nullptr;  // pinned [kPendingTerms]
   CgState* m_cg = nullptr;       // device
   CgState* m_cg_host = nullptr;  // pinned
   mutable cudaGraphExec_t m_record = nullptr;  // the last record()

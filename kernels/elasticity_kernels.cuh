@@ -147,11 +147,13 @@ __device__ inline void butterfly_sum(Mat3T<T>& A, unsigned mask) {
 // kBlockSamples / Lanes samples), their partial F added by an xor butterfly; dynamic shared memory
 // holds one 6-vector per pair of the block, summed per slot. Lane 0 of each sample also packs its
 // state for the tangent passes (pack_sample_state, component-major) from the F and cache it has
-// just stored.
+// just stored. Where `changed` is set and *changed is 0 (the state is the last pass's, whose
+// outputs stand) every block returns at once.
 template <class R, int Lanes>
 __global__ void k_fused_samples(ModelView<R> m, FrameView<R> f, R* F_out, R* cache_out, R* P_out, R* slot_partials,
-                                Reduction red, R* state_out) {
+                                Reduction red, R* state_out, const int* changed) {
   static_assert(Lanes >= 1 && Lanes <= 32 && (Lanes & (Lanes - 1)) == 0, "Lanes: a power of two <= 32");
+  if (changed && *changed == 0) return;
   extern __shared__ unsigned char shared_raw[];
   R* local = reinterpret_cast<R*>(shared_raw);
   const int b = blockIdx.x;
