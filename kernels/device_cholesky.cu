@@ -139,13 +139,33 @@ __global__ void k_finish(const std::uint8_t* fixed, double* A, double* diag, lon
 }
 
 // Restores the lower triangle from the strict upper one and shifts the diagonal:
-// A_ii = diag_i + tau max(|diag_i|, floor) on free DOFs. One thread per column.
+// A_ii = diag_i + tau max(|diag_i|, floor) on free DOFs. One block of kRestoreTile x
+// kRestoreRows threads per tile of kRestoreTile^2 entries (tile row I >= tile column J of the
+// lower triangle), transposed through shared memory so that the upper triangle's columns are read
+// and the lower triangle's columns written in whole rows of the tile (coalesced both ways).
+constexpr int kRestoreTile = 32, kRestoreRows = 8;
+
 __global__ void k_restore_shifted(const std::uint8_t* fixed, const double* diag, double tau, double floor, double* A,
                                   long long n) {
-  const long long j = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
-  if (j >= n) return;
-  for (long long i = j + 1; i < n; ++i) A[j * n + i] = A[i * n + j];
-  A[j * n + j] = fixed[j] ? 1.0 : diag[j] + tau * fmax(fabs(diag[j]), floor);
+  __shared__ double tile[kRestoreTile][kRestoreTile + 1];  // +1: no bank conflicts on the transpose
+  const long long I = blockIdx.x, J = blockIdx.y;          // the tile's rows i in I, columns j in J
+  if (I < J) return;
+  const long long i0 = I * kRestoreTile, j0 = J * kRestoreTile;
+  // Upper entries (j, i), i in I, j in J: column i of A, rows j0 + threadIdx.x.
+  for (int r = threadIdx.y; r < kRestoreTile; r += kRestoreRows) {
+    const long long i = i0 + r, j = j0 + threadIdx.x;
+    if (i < n && j < n) tile[threadIdx.x][r] = A[i * n + j];
+  }
+  __syncthreads();
+  // Lower entries (i, j) with i > j: column j of A, rows i0 + threadIdx.x.
+  for (int c = threadIdx.y; c < kRestoreTile; c += kRestoreRows) {
+    const long long j = j0 + c, i = i0 + threadIdx.x;
+    if (i >= n || j >= n) continue;
+    if (i > j)
+      A[j * n + i] = tile[c][threadIdx.x];
+    else if (i == j)
+      A[j * n + j] = fixed[j] ? 1.0 : diag[j] + tau * fmax(fabs(diag[j]), floor);
+  }
 }
 
 // The lower triangle of A (n x n, column-major) in single precision into S (leading dimension
@@ -494,8 +514,9 @@ LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
           }
         mean = free > 0 ? sum / free : 1.0;
       }
-      k_restore_shifted<<<blocks_for(n), kThreads, 0, stream>>>(m.fixed, m.diag.data(), kShifts[k], 1e-12 * mean,
-                                                                m.A.data(), n);
+      const unsigned tiles = static_cast<unsigned>((n + kRestoreTile - 1) / kRestoreTile);
+      k_restore_shifted<<<dim3(tiles, tiles), dim3(kRestoreTile, kRestoreRows), 0, stream>>>(
+          m.fixed, m.diag.data(), kShifts[k], 1e-12 * mean, m.A.data(), n);
       FASCIA_CUDA(cudaGetLastError());
     }
     return m.invert();

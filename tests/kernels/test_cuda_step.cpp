@@ -341,9 +341,9 @@ TEST_CASE("device Cholesky factor solves the step tangent as CHOLMOD does", "[gp
     double worst = 0;  // the largest difference over its bound
     for (size_t i = 0; i < n; ++i)
       worst = std::max(worst, std::abs(z_dev[i] - z_cpu[i]) / ((n + 2) * u * bound[i] + 1e-9 * std::abs(largest)));
-    std::printf("[device Cholesky %s %s, state %d] %d products, solve rel. diff %.2e, %.2e of the bound\n",
-                dynamic ? "dynamic" : "static", to_string(kind), seed, factor.products(), relative_difference(z_dev, z_cpu),
-                worst);
+    std::printf("[device Cholesky %s %s, state %d] %d products, %s, solve rel. diff %.2e, %.2e of the bound\n",
+                dynamic ? "dynamic" : "static", to_string(kind), seed, factor.products(),
+                f.shifted ? "shifted" : "not shifted", relative_difference(z_dev, z_cpu), worst);
     CHECK(worst <= 1.0);
   }
 }
