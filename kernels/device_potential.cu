@@ -313,13 +313,10 @@ struct DevicePotential::Impl {
   // summed on the host in a fixed order (elasticity, shells, stabilisation, frame terms), read
   // back together.
   double full_gradient(const DeviceFrames& s, double* g, long long dofs) {
-    if (elasticity) {
-      select(*elasticity, s);
-      elasticity->gradient_on_device(g);
-      ops.copy_pending(elasticity->energy_on_device());
-    } else {
+    if (elasticity)
+      elasticity_term(s, g);
+    else
       ops.fill(g, 0.0, dofs);
-    }
     shells.add_gradient(s.positions(), s.orientations(), g, ops);
     if (equilibrium) stabilisation.add_gradient(s.orientations(), g, ops);
     damping_forces(s);
@@ -332,12 +329,16 @@ struct DevicePotential::Impl {
 
   // The elastic energy at s (elasticity, shells) as pending terms of ops.
   void elastic_energy(const DeviceFrames& s) {
-    if (elasticity) {
-      select(*elasticity, s);
-      elasticity->gradient_on_device(nullptr);
-      ops.copy_pending(elasticity->energy_on_device());
-    }
+    if (elasticity) elasticity_term(s, nullptr);
     shells.energy(s.positions(), s.orientations(), ops);
+  }
+
+  // The elasticity's force pass at s (the gradient into g where it is set) and its energy as the
+  // next pending term of ops.
+  void elasticity_term(const DeviceFrames& s, double* g) {
+    select(*elasticity, s);
+    elasticity->gradient_on_device(g);
+    ops.copy_pending(elasticity->energy_on_device());
   }
 
   PotentialStream device;
