@@ -5,6 +5,7 @@
 #include "io/vertex_fields.hpp"
 
 #include <algorithm>
+#include <vector>
 #include <type_traits>
 
 namespace fascia::gpu {
@@ -198,9 +199,26 @@ void DeviceSampleFields::compute(const State& state, const std::vector<double>& 
     FASCIA_CUDA(cudaMemcpyAsync(host + values, m.positions.data(), sizeof(double) * 3 * samples,
                                 cudaMemcpyDeviceToHost, m.stream));
   FASCIA_CUDA(cudaStreamSynchronize(m.stream));
+  // Into the fields, in blocks of 32 Ki values on the calling thread's OpenMP team (about 2.7 M
+  // values per row of the pelvis at 56 k samples: about 3 ms on one thread).
+  if (positions) positions->resize(3 * samples);
+  constexpr size_t kBlock = size_t(1) << 15;
+  struct Block {
+    double* to;
+    size_t from, count;  // of the staging's values
+  };
+  std::vector<Block> blocks;
+  auto add = [&](double* to, size_t from, size_t count) {
+    for (size_t first = 0; first < count; first += kBlock) blocks.push_back({to + first, from + first, std::min(kBlock, count - first)});
+  };
   for (size_t f = 0; f < fields.size(); ++f)
-    std::copy_n(host + columns.base[f], fields[f].values.size(), fields[f].values.data());
-  if (positions) positions->assign(host + values, host + values + 3 * samples);
+    add(fields[f].values.data(), static_cast<size_t>(columns.base[f]), fields[f].values.size());
+  if (positions) add(positions->data(), values, 3 * samples);
+#pragma omp parallel for schedule(static)
+  for (long long b = 0; b < static_cast<long long>(blocks.size()); ++b) {
+    const Block& block = blocks[static_cast<size_t>(b)];
+    std::copy_n(host + block.from, block.count, block.to);
+  }
 }
 
 std::vector<Field> DeviceSampleFields::frame_averages(const std::vector<unsigned char>* frames) {

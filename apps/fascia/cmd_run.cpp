@@ -474,11 +474,13 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   // (the frames', about 0.1 MB at 56 k samples).
   const int step_threads = omp_get_max_threads();
   const bool spare_cores = !simulation.on_step_backend() && step_threads < process_threads();
-  // The output thread's OpenMP team; 0: the output runs in turn with the steps.
+  // The output and writer threads' OpenMP teams (the writer rounds and checks a row's values in
+  // parallel before it writes them: TrajectoryWriter::append); 0: the output runs in turn with
+  // the steps.
   const int output_threads = simulation.on_step_backend() ? std::max(1, step_threads - 1)
                              : spare_cores                ? process_threads() - step_threads
                                                           : 0;
-  OutputThread writer_thread(output_threads > 0, 1, 1);
+  OutputThread writer_thread(output_threads > 0, output_threads, 1);
   OutputThread output_thread(output_threads > 0, output_threads, 4);
   // An HDF5 job, in order with the rows submitted before it.
   auto submit_write = [&](std::function<void()> job) {

@@ -182,7 +182,10 @@ TEST_CASE("writing to an impossible path is an I/O error", "[io]") {
 
 TEST_CASE("a float32 field larger than half its file reads back", "[io]") {
   // The reader checks that a read fits in the file by the stored elements' size: a one-row file
-  // whose float32 field is most of it holds fewer bytes than that field read as doubles.
+  // whose float32 field is most of it holds fewer bytes than that field read as doubles. The
+  // writer rounds and checks such a row in blocks of 32 Ki values, in parallel: values it must
+  // refuse in the last block of the float field (180,000 values) and of the samples' positions
+  // (60,000) are found there too.
   const fs::path path = fs::temp_directory_path() / "fascia_test_single_field.h5";
   TrajectoryLayout layout;
   layout.frames = 1;
@@ -198,6 +201,13 @@ TEST_CASE("a float32 field larger than half its file reads back", "[io]") {
     s.frame_orientations = q.data();
     s.sample_positions = p.data();
     s.fields = {stress.data()};
+    stress[stress.size() - 2] = 1e39;
+    CHECK_THROWS_WITH(writer.append(s), Catch::Contains("beyond float32's range of samples/cauchy_stress"));
+    stress[stress.size() - 2] = 0.5 * static_cast<double>(stress.size() - 2);
+    p[p.size() - 1] = std::nan("");
+    CHECK_THROWS_WITH(writer.append(s), Catch::Contains("non-finite values of samples/position"));
+    p[p.size() - 1] = 0;
+    CHECK(writer.steps_written() == 0);
     writer.append(s);
   }
   REQUIRE(fs::file_size(path) < 2 * sizeof(float) * stress.size());
