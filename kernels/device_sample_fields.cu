@@ -5,8 +5,8 @@
 #include "io/vertex_fields.hpp"
 
 #include <algorithm>
-#include <vector>
 #include <type_traits>
+#include <vector>
 
 namespace fascia::gpu {
 namespace {
