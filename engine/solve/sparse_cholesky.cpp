@@ -211,37 +211,49 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
     // (the shift below writes there without changing the pattern) and every entry of the
     // analysed pattern (assemblies leave out entries that happen to be zero, e.g. load blocks at
     // rest), so that a matrix whose pattern is contained in the analysed one keeps that analysis.
-    std::vector<Eigen::Triplet<double>> t;
-    t.reserve(static_cast<size_t>(h_nonzeros) / 2 + free + (m_analysed ? m_inner.size() : 0));
-    for (int k = 0; k < free; ++k) t.emplace_back(k, k, 0.0);
-    if (m_analysed && static_cast<int>(m_outer.size()) == free + 1)
-      for (int c = 0; c < free; ++c)
-        for (int k = m_outer[c]; k < m_outer[c + 1]; ++k) t.emplace_back(m_inner[k], c, 0.0);
-    for (int c = 0; c < n; ++c)
+    // Column by column in parallel (the free DOFs keep H's order, so a column's rows are H's
+    // column's, mapped): its rows sorted, then each entry of H's at its position (-1: a fixed
+    // row or column, or the upper triangle), which the factorisations' values are scattered by.
+    const bool keep_analysed = m_analysed && static_cast<int>(m_outer.size()) == free + 1;
+    std::vector<std::vector<int>> columns(static_cast<size_t>(free));
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int col = 0; col < free; ++col) {
+      std::vector<int>& rows = columns[static_cast<size_t>(col)];
+      const int c = m_free_dofs[static_cast<size_t>(col)];
+      rows.push_back(col);
       for (int k = h_outer[c]; k < h_outer[c + 1]; ++k) {
-        const int r = m_index[h_inner[k]], col = m_index[c];
-        if (r >= 0 && col >= 0 && r >= col) t.emplace_back(r, col, 0.0);
+        const int r = m_index[h_inner[k]];
+        if (r >= col) rows.push_back(r);
       }
-    m_reduced = Eigen::SparseMatrix<double>(free, free);
-    m_reduced.setFromTriplets(t.begin(), t.end());
-    m_reduced.makeCompressed();
-    // Where each entry of H goes (-1: a fixed row or column, or the upper triangle).
+      if (keep_analysed) rows.insert(rows.end(), m_inner.begin() + m_outer[col], m_inner.begin() + m_outer[col + 1]);
+      std::sort(rows.begin(), rows.end());
+      rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
+    }
+    std::vector<int> outer(static_cast<size_t>(free) + 1, 0);
+    for (int col = 0; col < free; ++col)
+      outer[static_cast<size_t>(col) + 1] = outer[static_cast<size_t>(col)] + static_cast<int>(columns[static_cast<size_t>(col)].size());
+    m_reduced.resize(free, free);
+    m_reduced.resizeNonZeros(outer.back());
+    std::copy(outer.begin(), outer.end(), m_reduced.outerIndexPtr());
+    int* inner = m_reduced.innerIndexPtr();
     m_source_outer.assign(h_outer, h_outer + n + 1);
     m_source_inner.assign(h_inner, h_inner + h_nonzeros);
     m_scatter.assign(static_cast<size_t>(h_nonzeros), -1);
-    const int* outer = m_reduced.outerIndexPtr();
-    const int* inner = m_reduced.innerIndexPtr();
-    for (int c = 0; c < n; ++c)
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int col = 0; col < free; ++col) {
+      const std::vector<int>& rows = columns[static_cast<size_t>(col)];
+      const int first = outer[static_cast<size_t>(col)];
+      std::copy(rows.begin(), rows.end(), inner + first);
+      const int c = m_free_dofs[static_cast<size_t>(col)];
       for (int k = h_outer[c]; k < h_outer[c + 1]; ++k) {
-        const int r = m_index[h_inner[k]], col = m_index[c];
-        if (r < 0 || col < 0 || r < col) continue;
-        m_scatter[k] = static_cast<int>(std::lower_bound(inner + outer[col], inner + outer[col + 1], r) - inner);
+        const int r = m_index[h_inner[k]];
+        if (r >= col) m_scatter[static_cast<size_t>(k)] = first + static_cast<int>(std::lower_bound(rows.begin(), rows.end(), r) - rows.begin());
       }
-    const std::vector<int> reduced_outer(outer, outer + free + 1);
+    }
     const std::vector<int> reduced_inner(inner, inner + m_reduced.nonZeros());
-    if (!m_analysed || reduced_outer != m_outer || reduced_inner != m_inner) {
+    if (!m_analysed || outer != m_outer || reduced_inner != m_inner) {
       m_factor->analyzePattern(m_reduced);
-      m_outer = reduced_outer;
+      m_outer = outer;
       m_inner = reduced_inner;
       m_analysed = true;
       ++m_analyses;
