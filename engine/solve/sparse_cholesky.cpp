@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstddef>
 #include <optional>
+#include <utility>
 
 namespace fascia {
 
@@ -250,11 +251,12 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
         if (r >= col) m_scatter[static_cast<size_t>(k)] = first + static_cast<int>(std::lower_bound(rows.begin(), rows.end(), r) - rows.begin());
       }
     }
-    const std::vector<int> reduced_inner(inner, inner + m_reduced.nonZeros());
-    if (!m_analysed || outer != m_outer || reduced_inner != m_inner) {
+    const int* inner_begin = inner;
+    const int* inner_end = inner + m_reduced.nonZeros();
+    if (!m_analysed || outer != m_outer || !std::equal(inner_begin, inner_end, m_inner.begin(), m_inner.end())) {
       m_factor->analyzePattern(m_reduced);
-      m_outer = outer;
-      m_inner = reduced_inner;
+      m_outer = std::move(outer);
+      m_inner.assign(inner_begin, inner_end);
       m_analysed = true;
       ++m_analyses;
       std::uint64_t h = fnv1a_bytes(kFnv1aOffset, m_fixed.data(), m_fixed.size());
