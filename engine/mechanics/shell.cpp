@@ -14,10 +14,18 @@
 namespace fascia {
 namespace {
 
-// A tangent product costs about 0.06 us per block row (7 blocks on a closed surface, SSE2): below
-// this many rows (~0.25 ms) a parallel region's start and barrier, and the delay of a core that
-// is busy with another process in joining it, cost more than they save.
-constexpr int kParallelTangentRows = 4096;
+// A loop runs on the step's threads where its work exceeds about 0.25 ms; below that, a parallel
+// region's start and barrier (tens of µs where the idle threads sleep, as under the passive wait
+// policy on a VM: apps/fascia/wait_policy.cpp), and the delay of a core that is busy with another
+// process in joining it, cost more than they save. Costs per item on one core (AVX2): a tangent
+// product's block row 0.06 µs (7 blocks on a closed surface), a lane group's Hessian 1.9 µs, its
+// gradient 0.65 µs, its energy 0.4 µs. On a 2-core VM, the pelvis's two shells (80 lane groups
+// each, 10 per colour) running these loops on two threads made its step 45 % slower than on one.
+constexpr double kParallelWorkUs = 250;
+constexpr int kParallelTangentRows = static_cast<int>(kParallelWorkUs / 0.06);
+constexpr int kParallelHessianGroups = static_cast<int>(kParallelWorkUs / 1.9);
+constexpr int kParallelGradientGroups = static_cast<int>(kParallelWorkUs / 0.65);
+constexpr int kParallelEnergyGroups = static_cast<int>(kParallelWorkUs / 0.4);
 
 // Node positions and rotations of triangle e.
 void load_element(const ShellElementRest& e, const State& state, Vec3 x[3], Mat3 R[3]) {
@@ -288,7 +296,7 @@ double ShellForceField::bending_stiffness() const {
 
 double ShellForceField::energy(const State& state) {
   const int groups = static_cast<int>(m_lane_elements.size());
-#pragma omp parallel for schedule(static) num_threads(m_threads)
+#pragma omp parallel for schedule(static) num_threads(m_threads) if (groups >= kParallelEnergyGroups)
   for (int g = 0; g < groups; ++g)
     lane_energies(m_lane_elements[g], m_elements.data(), &m_group_members[static_cast<size_t>(kDoubleLanes) * g],
                   m_moduli, state, m_element_energies.data());
@@ -300,7 +308,7 @@ double ShellForceField::energy(const State& state) {
 double ShellForceField::add_gradient(const State& state, double* gradient) {
   const int t_count = element_count();
   const int groups = static_cast<int>(m_lane_elements.size());
-#pragma omp parallel for schedule(static) num_threads(m_threads)
+#pragma omp parallel for schedule(static) num_threads(m_threads) if (groups >= kParallelGradientGroups)
   for (int g = 0; g < groups; ++g)
     lane_gradients(m_lane_elements[g], m_elements.data(), &m_group_members[static_cast<size_t>(kDoubleLanes) * g],
                    m_moduli, state, m_element_gradients.data(), m_element_energies.data());
@@ -322,7 +330,7 @@ void ShellForceField::prepare(const State& state) {
   std::fill(m_blocks.begin(), m_blocks.end(), 0.0);
   for (size_t colour = 0; colour + 1 < m_colour_groups.size(); ++colour) {
     const int begin = m_colour_groups[colour], end = m_colour_groups[colour + 1];
-#pragma omp parallel for schedule(static) num_threads(m_threads)
+#pragma omp parallel for schedule(static) num_threads(m_threads) if (end - begin >= kParallelHessianGroups)
     for (int g = begin; g < end; ++g)
       add_lane_hessians(m_lane_elements[g], m_elements.data(), &m_group_members[static_cast<size_t>(kDoubleLanes) * g],
                         m_moduli, state, m_element_blocks.data(), m_blocks.data());
