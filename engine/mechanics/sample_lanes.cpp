@@ -53,7 +53,9 @@ void generic_lanes(const Model& model, const int* lane_samples, const double* F,
   }
 }
 
-FASCIA_CLONES
+// AVX2 at most: its AVX-512 clone took 10-54 % more time on the shipped scenes (perf, one
+// thread, on a 2-core Intel Xeon VM: quasi_static_press, tool_pull, liver).
+FASCIA_CLONES_AVX2
 void pair_products_kernel(const int* __restrict block_slots, const std::uint8_t* __restrict laws,
                           const int* __restrict lane_samples,
                           const int* __restrict slot_frames, const double* __restrict slot_data,
