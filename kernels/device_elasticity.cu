@@ -75,11 +75,16 @@ constexpr int kLanedSlots = 8;
 constexpr int kFrameLanes = 8;
 int grid_for(long long count, int threads) { return static_cast<int>(std::max<long long>(1, (count + threads - 1) / threads)); }
 
-// y = x for n values, *changed = 1 where a value's bits differ (every writer writes 1).
-__global__ void k_take_state(long long n, const double* x, double* y, int* changed) {
+// The frames' state [N][3] positions x and [N][4] orientations q into y_x and y_q (one thread per
+// value, the positions' 3N first), *changed = 1 where a value's bits differ (every writer writes 1).
+__global__ void k_take_state(long long frames, const double* x, const double* q, double* y_x, double* y_q,
+                             int* changed) {
   const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
-  if (i >= n || __double_as_longlong(x[i]) == __double_as_longlong(y[i])) return;
-  y[i] = x[i];
+  if (i >= 7 * frames) return;
+  const double* from = i < 3 * frames ? x + i : q + (i - 3 * frames);
+  double* to = i < 3 * frames ? y_x + i : y_q + (i - 3 * frames);
+  if (__double_as_longlong(*from) == __double_as_longlong(*to)) return;
+  *to = *from;
   *changed = 1;
 }
 
@@ -360,10 +365,8 @@ class System final : public DeviceElasticity::Impl {
   void* stream() const override { return m_stream; }
 
   void set_state_on_device(const double* positions, const double* orientations) override {
-    k_take_state<<<grid_for(3LL * m_n, kThreads), kThreads, 0, m_stream>>>(3LL * m_n, positions, m_positions.data(),
-                                                                            m_changed.data());
-    k_take_state<<<grid_for(4LL * m_n, kThreads), kThreads, 0, m_stream>>>(4LL * m_n, orientations,
-                                                                            m_orientations.data(), m_changed.data());
+    k_take_state<<<grid_for(7LL * m_n, kThreads), kThreads, 0, m_stream>>>(
+        m_n, positions, orientations, m_positions.data(), m_orientations.data(), m_changed.data());
     check_launch();
   }
 

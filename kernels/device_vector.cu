@@ -31,10 +31,6 @@ __device__ double sum_partials(const double* partials) {
   return s[0];
 }
 
-__global__ void k_dot_partials(long long n, const double* x, const double* y, double* partials) {
-  dot_partial(n, x, y, partials);
-}
-
 // out[0] = sum of the kReduceBlocks partials (one block).
 __global__ void k_sum_partials(const double* partials, double* out) {
   const double s = sum_partials(partials);
@@ -118,13 +114,23 @@ __device__ bool last_block(unsigned* counter) {
   return last;
 }
 
-// rho = r^T z; the state of a solve that has just started.
-__global__ void k_cg_start(long long n, const double* r, const double* z, double* partials, unsigned* counter,
-                           double b_norm, double tolerance, VectorOps::CgState* cg) {
-  dot_partial(n, r, z, partials);
+// out[0] = x^T y (y null: sum_k x_k): the partials, then the last block sums them.
+__global__ void k_dot(long long n, const double* x, const double* y, double* partials, unsigned* counter, double* out) {
+  dot_partial(n, x, y, partials);
   if (!last_block(counter)) return;
-  const double rho = sum_partials(partials);
-  if (threadIdx.x == 0) *cg = VectorOps::CgState{rho, 0, 0, b_norm, tolerance, 0, 0, 0, 0, kCgIdle, r == z};
+  const double s = sum_partials(partials);
+  if (threadIdx.x == 0) out[0] = s;
+}
+
+// The state of a solve that has just started from r = P b (x = 0): |b| from r^T r, which is also
+// plain CG's rho (a preconditioned solve's first k_cg_rho sets its own); stopped where b = 0.
+__global__ void k_cg_start(long long n, const double* r, const double* z, double* partials, unsigned* counter,
+                           double tolerance, VectorOps::CgState* cg) {
+  dot_partial(n, r, r, partials);
+  if (!last_block(counter)) return;
+  const double rr = sum_partials(partials);
+  if (threadIdx.x == 0)
+    *cg = VectorOps::CgState{rr, 0, 0, sqrt(rr), tolerance, 0, 0, rr == 0, 0, kCgIdle, r == z};
 }
 
 // From c = p^T H p: alpha = rho / c, or the breakdown.
@@ -191,7 +197,7 @@ __global__ void k_cg_rho(long long n, const double* r, const double* z, double* 
   if (!last_block(counter)) return;
   const double rho = sum_partials(partials);
   if (threadIdx.x != 0 || cg->stopped) return;
-  cg->beta = rho / cg->rho;
+  cg->beta = cg->iterations > 0 ? rho / cg->rho : 0.0;  // the first direction is P z
   cg->rho = rho;
 }
 
@@ -315,9 +321,8 @@ double* VectorOps::next_pending() const {
 }
 
 void VectorOps::dot_pending(const double* x, const double* y, long long n) const {
-  k_dot_partials<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, x, y, m_partials.data());
+  k_dot<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, x, y, m_partials.data(), m_counter.data(), next_pending());
   check();
-  finish_pending();
 }
 
 void VectorOps::finish_pending() const {
@@ -340,9 +345,9 @@ double VectorOps::read_pending() const {
   return sum;
 }
 
-void VectorOps::cg_start(const double* r, const double* z, long long n, double b_norm, double tolerance) const {
-  k_cg_start<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, r, z, m_partials.data(), m_counter.data(), b_norm,
-                                                              tolerance, m_cg);
+void VectorOps::cg_start(const double* r, const double* z, long long n, double tolerance) const {
+  k_cg_start<<<kReduceBlocks, kReduceThreads, 0, m_stream>>>(n, r, z, m_partials.data(), m_counter.data(), tolerance,
+                                                              m_cg);
   check();
 }
 

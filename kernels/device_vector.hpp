@@ -83,7 +83,7 @@ class VectorOps {
 
   // The PCG scalars of DeviceVectorOps (the CgScalars concept of engine/solve/vector_ops.hpp), in
   // device memory: each operation is enqueued without a read back; cg_status() reads them.
-  void cg_start(const double* r, const double* z, long long n, double b_norm, double tolerance) const;
+  void cg_start(const double* r, const double* z, long long n, double tolerance) const;
   // fixed: the projection P of hp and z (null: none).
   void cg_step(const double* p, const double* hp, const double* z, const std::uint8_t* fixed, double* x, double* r,
                long long n) const;
@@ -143,8 +143,8 @@ class DeviceVectorOps {
 
   static constexpr bool kScalarsOnHost = false;
   struct CgScalars {};  // held by the VectorOps (one solve at a time per stream)
-  void cg_start(CgScalars&, const Vector& r, const Vector& z, double b_norm, double tolerance) const {
-    m_ops.cg_start(r.data(), z.data(), m_n, b_norm, tolerance);
+  void cg_start(CgScalars&, const Vector& r, const Vector& z, double tolerance) const {
+    m_ops.cg_start(r.data(), z.data(), m_n, tolerance);
   }
   void cg_step(CgScalars&, const Vector& p, const Vector& hp, const Vector& z, Vector& x, Vector& r) const {
     m_ops.cg_step(p.data(), hp.data(), z.data(), m_fixed, x.data(), r.data(), m_n);

@@ -10,14 +10,14 @@
 // preconditioned residual when no step was taken: still a descent direction for Newton
 // (Steihaug's truncation; Nocedal & Wright, Numerical Optimization, Alg. 7.2).
 //
-// The iteration's scalars (rho = r^T z, alpha, beta, |r|) and its stopping tests live with the
-// backend (Ops::CgScalars): an iteration that stops leaves x and r as they are, and the ones
+// The iteration's scalars (rho = r^T z, alpha, beta, |b|, |r|) and its stopping tests live with
+// the backend (Ops::CgScalars): an iteration that stops leaves x and r as they are, and the ones
 // after it change nothing. The loop reads them with cg_status(): every iteration where they are
 // host values; on a device, which would wait for its queue at each read, at the iterations where
 // the residual's rate so far predicts the tolerance (next_status_read), so a solve runs its
-// iterations without waiting and reads back a few times, and an iteration is recorded once per
-// solve and the record replayed (Ops::repeated). Either way the result is that of the iteration
-// that stopped.
+// iterations without waiting and reads back a few times, and every iteration, the first
+// included, is one record made once per solve and replayed (Ops::repeated). Either way the result
+// is that of the iteration that stopped.
 #pragma once
 
 #include "core/stop_request.hpp"
@@ -53,7 +53,7 @@ inline int next_status_read(int k_previous, double previous, int k, double resid
 
 // @param apply          callable (const Vector& p, Vector& out): out = H p (projection not needed)
 // @param precondition   callable (const Vector& r, Vector& z): z = M^{-1} r, M symmetric positive
-//                       definite on the free DOFs (z is projected afterwards)
+//                       definite on the free DOFs (z is read through the projection)
 // @param b              right-hand side [n]; projected here
 // @param x              solution [n], resized; starts from zero
 template <class Ops>
@@ -65,39 +65,27 @@ LinearResult pcg(const Ops& ops, Apply&& apply, Precondition&& precondition, con
   using Vector = typename Ops::Vector;
   // Plain CG: z is r itself (r is projected), with no copy and no product of its own.
   constexpr bool kIdentity = std::is_same_v<std::decay_t<Precondition>, IdentityPreconditioner<Ops>>;
-  Vector b, r, z_own, p, hp;
+  Vector r, z_own, p, hp;
   Vector& z = kIdentity ? r : z_own;
-  ops.copy(b_in, b);
-  ops.project(b);
+  ops.copy(b_in, r);  // r = P b: the residual of x = 0
+  ops.project(r);
   ops.fill(x, 0.0);
-  ops.copy(b, r);
+  ops.fill(p, 0.0);  // the first direction is P z + 0 p
   if constexpr (!kIdentity) ops.resize(z);
   ops.resize(hp);
   LinearResult result;
-  const double b_norm = ops.norm(b);
-  if (b_norm == 0) {
-    result.converged = true;
-    return result;
-  }
-  if constexpr (!kIdentity) {
-    precondition(r, z);
-    ops.project(z);
-  }
-  ops.copy(z, p);
   typename Ops::CgScalars scalars;
-  ops.cg_start(scalars, r, z, b_norm, settings.fixed_iterations ? -1.0 : settings.tolerance);
-  // An iteration: H p and the step along p, then the next direction (the first direction is z).
-  // cg_step and cg_direction read H p and z through the projection. The iterations between two
-  // reads of the status have no host reads: the backend may record an iteration once per solve
-  // and replay the record (Ops::repeated).
-  auto product_and_step = [&] {
-    apply(p, hp);
-    ops.cg_step(scalars, p, hp, z, x, r);  // alpha = rho / p^T H p, x += alpha p, r -= alpha P H p
-  };
+  // |b| and the stopping test from r; b = 0 stops here with x = 0.
+  ops.cg_start(scalars, r, z, settings.fixed_iterations ? -1.0 : settings.tolerance);
+  // An iteration: the next direction (the first is P z), then H p and the step along p. cg_step and
+  // cg_direction read H p and z through the projection. The iterations between two reads of the
+  // status have no host reads: the backend may record an iteration once per solve and replay the
+  // record (Ops::repeated).
   auto iteration = [&] {
     if constexpr (!kIdentity) precondition(r, z);
-    ops.cg_direction(scalars, r, z, p);  // beta = rho' / rho, p = P z + beta p
-    product_and_step();
+    ops.cg_direction(scalars, r, z, p);  // beta = rho' / rho (0 at first), p = P z + beta p
+    apply(p, hp);
+    ops.cg_step(scalars, p, hp, z, x, r);  // alpha = rho / p^T H p, x += alpha p, r -= alpha P H p
   };
   auto repeated = ops.repeated(iteration);
   CgStatus status;  // as of the last read
@@ -106,10 +94,6 @@ LinearResult pcg(const Ops& ops, Apply&& apply, Precondition&& precondition, con
   while (k < settings.max_iterations) {
     throw_if_stop_requested();  // a stop takes effect within kMaxIterationsBetweenReads products
     const int read_at = std::min(next_read, settings.max_iterations);
-    if (k == 0) {
-      product_and_step();
-      k = 1;
-    }
     repeated.run(read_at - k);
     k = read_at;
     status = ops.cg_status(scalars);

@@ -22,15 +22,18 @@
 //
 //   static constexpr bool kScalarsOnHost;            cg_status() costs nothing (read every iteration)
 //   using CgScalars = ...;                           rho = r^T z, alpha, beta, the status below
-//   void cg_start(CgScalars& s, const Vector& r, const Vector& z, double b_norm, double tolerance) const;
-//       rho = r^T z; running; stop when |r| <= tolerance b_norm (negative: never)
+//   void cg_start(CgScalars& s, const Vector& r, const Vector& z, double tolerance) const;
+//       r = P b, the residual of x = 0 (z: the preconditioned residual's vector, r itself in
+//       plain CG): b_norm = |r|; running, no iteration taken, beta = 0 (the first direction is
+//       P z); stop when |r| <= tolerance b_norm (negative: never); stopped at once where b = 0
 //   void cg_step(CgScalars& s, const Vector& p, const Vector& hp, const Vector& z, Vector& x, Vector& r) const;
 //       while running, with p and r projected and hp, z read through the projection P: c = p^T hp;
 //       c > 0: alpha = rho / c, x += alpha p, r -= alpha P hp, one more iteration, stopped when
 //       |r| / b_norm <= tolerance; otherwise stopped with negative curvature (x = P z when no
 //       iteration was taken). The residual is |r| / b_norm in either case.
 //   void cg_direction(CgScalars& s, const Vector& r, const Vector& z, Vector& p) const;
-//       while running: rho' = r^T z, beta = rho' / rho, rho = rho', p = P z + beta p
+//       while running: rho' = r^T z, beta = rho' / rho (0 before the first step), rho = rho',
+//       p = P z + beta p
 //   z may be r itself (plain CG: pcg.hpp's IdentityPreconditioner), in all three; a backend may then
 //   form rho' = r^T r in cg_step with the residual, as the device does.
 // (r^T z = r^T P z and p^T hp = p^T P hp, r and p being projected: P is applied where a
@@ -125,11 +128,11 @@ class HostVectorOps {
     CgStatus status;
     double rho = 0, b_norm = 0, tolerance = 0;
   };
-  void cg_start(CgScalars& s, const Vector& r, const Vector& z, double b_norm, double tolerance) const {
+  void cg_start(CgScalars& s, const Vector& r, const Vector&, double tolerance) const {
     s = CgScalars{};
-    s.rho = dot(r, z);
-    s.b_norm = b_norm;
+    s.b_norm = norm(r);
     s.tolerance = tolerance;
+    s.status.stopped = s.b_norm == 0;
   }
   void cg_step(CgScalars& s, const Vector& p, const Vector& hp, const Vector& z, Vector& x, Vector& r) const {
     if (s.status.stopped) return;
@@ -153,7 +156,7 @@ class HostVectorOps {
   void cg_direction(CgScalars& s, const Vector& r, const Vector& z, Vector& p) const {
     if (s.status.stopped) return;
     const double rho = dot(r, z);
-    const double beta = rho / s.rho;
+    const double beta = s.status.iterations == 0 ? 0.0 : rho / s.rho;
     s.rho = rho;
     xpay(z, beta, p);
     project(p);
