@@ -31,12 +31,12 @@ class SparseCholesky {
   // null). Returns false when even the largest shift fails.
   bool factorise(const Eigen::SparseMatrix<double>& H, const std::uint8_t* fixed);
   // x = (H_ff + tau D)^{-1} b on the free DOFs, zero at fixed ones; [n] each. A supernodal
-  // factor of fewer than kSerialNonzeros nonzeros is swept here, supernode by supernode; a larger
-  // one by CHOLMOD's solve, whose BLAS calls per supernode (multithreaded) then pay.
+  // factor is swept here, supernode by supernode, on the calling thread; a simplicial one is
+  // solved by CHOLMOD.
   void solve(const std::vector<double>& b, std::vector<double>& x) const;
 
   bool factorised() const { return m_factorised; }
-  bool supernodal() const;  // CHOLMOD chose a supernodal factor (solve() sweeps a small one itself)
+  bool supernodal() const;  // CHOLMOD chose a supernodal factor (solve() sweeps it itself)
   double shift() const { return m_shift; }          // tau of the last factorisation (0: none)
   // The shifts as steps k of kShifts (-1: unshifted; solve/diagonal_shifts.hpp): the last
   // factorisation's, and the first shifted one the next factorisation tries (0 .. 9). A resumed
@@ -52,8 +52,8 @@ class SparseCholesky {
 
  private:
   class Factor;  // CHOLMOD's factorisation, with its factor's arrays readable (sparse_cholesky.cpp)
-  // OpenMP team for CHOLMOD and OpenBLAS on the analysed factor: one below kSerialNonzeros, at
-  // most kMaxFactorThreads above.
+  // OpenMP team for CHOLMOD and OpenBLAS on the analysed factor's factorisations (and CHOLMOD's
+  // simplicial solves): one below kSerialNonzeros, at most kMaxFactorThreads above.
   int team_size() const;
   std::unique_ptr<Factor> m_factor;
   std::vector<int> m_index;                        // [n] free index of each DOF, -1 if fixed
