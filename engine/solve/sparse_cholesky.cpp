@@ -16,17 +16,20 @@ namespace fascia {
 
 namespace {
 
-// A factor of fewer nonzeros (8 MB) is computed in a few milliseconds on one core, and its
-// factorisations run with one thread: CHOLMOD's and OpenBLAS's OpenMP regions (one per
-// supernode's BLAS call) would otherwise wake and park a team each time, which costs more than it
-// saves. Supernodal factors of any size are solved on one thread (supernodal_solve): CHOLMOD's
-// solve makes a multithreaded BLAS-2 call per supernode and column block, each a parallel region:
-// under the passive wait policy a region took 23-51 µs on a 16-core virtual machine (2 to 16
-// threads) and 70-100 µs on a 2-core one, far more than a supernode's arithmetic.
-constexpr double kSerialNonzeros = 1e6;
+// A supernodal factorisation runs on several threads only where its supernodes are large: on
+// average at least kParallelSupernodeFlops of CHOLMOD's flop count each. CHOLMOD's supernodal
+// factorisation is parallel only within its BLAS calls, a few per supernode, each an OpenMP
+// parallel region: under the passive wait policy a region took 23-51 µs on a 16-core virtual
+// machine (2 to 16 threads) and 70-100 µs on a 2-core one, while 1e7 flops take about 0.5 ms on
+// one core. The shipped scenes' tangents average 2e5 flops per supernode (the pelvis), the pelvis
+// with shells of 5,120 triangles 1.1e6 (its factorisation on two threads of the 2-core VM made
+// the step 30 % slower), the pelvis's tangent at 16 k and 56 k samples 1.9e7 and 9.9e7, the
+// consistent integration's systems 1e8 to 2.3e8. Supernodal factors of any size are solved on
+// one thread (supernodal_solve): CHOLMOD's solve makes a multithreaded BLAS-2 call per supernode
+// and column block, far less work than a region's cost.
+constexpr double kParallelSupernodeFlops = 1e7;
 
-// The most threads a larger factor's factorisations and solves run with. CHOLMOD's supernodal
-// factorisation is parallel only within its BLAS calls, one supernode at a time, and those gain
+// The most threads a factorisation runs with. Its BLAS calls, one supernode at a time, gain
 // little beyond four threads: the consistent integration's system of the pelvis with its finest
 // fasciae (n 9,068, 12.3 M nonzeros in L) factorised on an H200 host (16 cores, OpenBLAS's
 // SkylakeX kernels) in 0.68 s with 4 threads, 0.76 with 8, 1.05 with 16 and 0.89 with 2.
@@ -315,7 +318,10 @@ bool SparseCholesky::supernodal() const {
 }
 
 int SparseCholesky::team_size() const {
-  return m_factor->cholmod().lnz < kSerialNonzeros ? 1 : std::min(omp_get_max_threads(), kMaxFactorThreads);
+  const cholmod_factor* L = m_factor->factor();
+  const bool large = L && L->is_super && L->nsuper > 0 &&
+                     m_factor->cholmod().fl >= kParallelSupernodeFlops * static_cast<double>(L->nsuper);
+  return large ? std::min(omp_get_max_threads(), kMaxFactorThreads) : 1;
 }
 
 void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x) const {
@@ -339,7 +345,7 @@ void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x)
   Eigen::VectorXd rhs(free);
   for (int k = 0; k < free; ++k) rhs[k] = b[m_free_dofs[k]];
   {
-    const TeamSize team(team_size());
+    const TeamSize team(1);  // a simplicial factor: CHOLMOD's solve makes no BLAS calls
     rhs = m_factor->solve(rhs).eval();
   }
   x.assign(n, 0.0);

@@ -52,8 +52,8 @@ class SparseCholesky {
 
  private:
   class Factor;  // CHOLMOD's factorisation, with its factor's arrays readable (sparse_cholesky.cpp)
-  // OpenMP team for CHOLMOD and OpenBLAS on the analysed factor's factorisations (and CHOLMOD's
-  // simplicial solves): one below kSerialNonzeros, at most kMaxFactorThreads above.
+  // OpenMP team for CHOLMOD's and OpenBLAS's factorisation of the analysed factor: one, or at
+  // most kMaxFactorThreads where its supernodes are large (sparse_cholesky.cpp).
   int team_size() const;
   std::unique_ptr<Factor> m_factor;
   std::vector<int> m_index;                        // [n] free index of each DOF, -1 if fixed
