@@ -6,6 +6,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 using namespace fascia;
@@ -189,5 +190,45 @@ TEST_CASE("PCG reading its scalars only now and then returns what reading every 
         }
       }
     }
+  }
+}
+
+TEST_CASE("PCG with a right-hand side that projects to zero returns x = 0 in no iteration", "[solve][pcg]") {
+  // b is nonzero at the fixed DOFs only: P b = 0, so |b| = 0 and the solve stops as it starts,
+  // whether its scalars are read every iteration or now and then, and whatever its settings.
+  const int n = 12;
+  const DenseOperator A = three_eigenvalue_matrix(n);
+  std::vector<std::uint8_t> fixed(n, 0);
+  std::vector<double> b(n, 0.0);
+  for (int k : {2, 7}) fixed[k] = 1, b[k] = 3.0;
+  for (const bool fixed_iterations : {false, true}) {
+    CAPTURE(fixed_iterations);
+    PcgSettings settings;
+    settings.fixed_iterations = fixed_iterations;
+    settings.max_iterations = fixed_iterations ? 60 : 2000;
+    const HostVectorOps every(n, fixed.data());
+    const DeferredReadOps deferred(n, fixed.data());
+    std::vector<double> x_every(n, 5.0), x_deferred(n, 5.0);
+    const LinearResult a = pcg(every, A, IdentityPreconditioner<HostVectorOps>{every}, settings, b, x_every);
+    const LinearResult d =
+        pcg(deferred, A, IdentityPreconditioner<DeferredReadOps>{deferred}, settings, b, x_deferred);
+    for (const LinearResult* r : {&a, &d}) {
+      CHECK(r->converged);
+      CHECK(r->iterations == 0);
+      CHECK(r->relative_residual == 0.0);
+      CHECK_FALSE(r->negative_curvature);
+    }
+    // Preconditioned (z = 2 r, its own vector): the same.
+    std::vector<double> x_preconditioned(n, 5.0);
+    auto twice = [](const std::vector<double>& r, std::vector<double>& z) {
+      for (std::size_t k = 0; k < r.size(); ++k) z[k] = 2 * r[k];
+    };
+    const LinearResult p = pcg(every, A, twice, settings, b, x_preconditioned);
+    CHECK(p.converged);
+    CHECK(p.iterations == 0);
+    CHECK(p.relative_residual == 0.0);
+    CHECK(x_every == std::vector<double>(n, 0.0));
+    CHECK(x_deferred == std::vector<double>(n, 0.0));
+    CHECK(x_preconditioned == std::vector<double>(n, 0.0));
   }
 }
