@@ -106,7 +106,7 @@ class VectorOps {
   double* next_pending() const;
 
   mutable DeviceBuffer<double> m_partials, m_pending;  // m_pending: [kPendingTerms]
-  mutable DeviceBuffer<unsigned> m_counter;  // the PCG kernels' blocks done (zero between kernels)
+  mutable DeviceBuffer<unsigned> m_counter;  // a last-block reduction's blocks done (zero between kernels)
   mutable int m_pending_count = 0;
   double* m_host = nullptr;  // pinned [kPendingTerms]
   CgState* m_cg = nullptr;       // device
