@@ -308,21 +308,27 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   if (const int code = resolve_backend("run", options.backend, backend); code != kOk) return code;
   const ExistingOutput existing =
       options.resume ? ExistingOutput::resume : options.overwrite ? ExistingOutput::overwrite : ExistingOutput::refuse;
-  // An existing output named on the command line is refused before the scene is discretised.
-  if (!options.request.output.empty()) {
-    const std::string refusal = output_refusal({options.request.output}, {}, existing);
-    if (!refusal.empty()) {
-      std::cerr << "fascia: error: " << refusal << "\n";
-      return kCantCreate;
-    }
-  }
   // From here a stop signal is recorded; it takes effect once the run has a file to write to.
   install_stop_signals();
   const auto wall_start = std::chrono::steady_clock::now();
   if (options.max_wall) arm_max_wall(*options.max_wall);
 
+  // The output and its sidecars are refused (an existing file without --overwrite or --resume, an
+  // input of the run) once the scene is parsed, before it is discretised.
+  const auto refuse_outputs = [&](const dsl::SceneSpec& spec) -> int {
+    const std::string output = output_path(options.request, spec);
+    std::vector<std::string> outputs{output};
+    if (spec.output.xdmf) {
+      outputs.push_back(xdmf_path_for(output));
+      outputs.push_back(xdmf_path_for(output) + "2");  // the XDMF 2 sidecar (io/xdmf.hpp)
+    }
+    const std::string refusal = output_refusal(outputs, run_inputs(spec), existing);
+    if (refusal.empty()) return 0;
+    std::cerr << "fascia: error: " << refusal << "\n";
+    return kCantCreate;
+  };
   int code = 0;
-  std::unique_ptr<LoadedScene> scene = load_scene(options.request, code);
+  std::unique_ptr<LoadedScene> scene = load_scene(options.request, code, refuse_outputs);
   if (!scene) return code;
   dsl::BuiltScene& built = scene->built;
   built.settings.elasticity = backend.elasticity;
@@ -350,18 +356,6 @@ int run_scene(const RunOptions& options, RunFigures* run_figures) {
   const std::string output = output_path(options.request, scene->spec);
   const dsl::OutputSpec& out_spec = scene->spec.output;
   const std::string xmf = xdmf_path_for(output);
-  {
-    std::vector<std::string> outputs{output};
-    if (out_spec.xdmf) {
-      outputs.push_back(xmf);
-      outputs.push_back(xmf + "2");  // the XDMF 2 sidecar (io/xdmf.hpp)
-    }
-    const std::string refusal = output_refusal(outputs, run_inputs(scene->spec), existing);
-    if (!refusal.empty()) {
-      std::cerr << "fascia: error: " << refusal << "\n";
-      return kCantCreate;
-    }
-  }
   ResumePoint resume;
   std::error_code exists_error;
   if (options.resume && fs::exists(output, exists_error)) {

@@ -33,7 +33,8 @@ void report(const dsl::Diagnostics& diagnostics, const std::string& path) {
 
 }  // namespace
 
-std::unique_ptr<LoadedScene> load_scene(const SceneRequest& request, int& exit_code) {
+std::unique_ptr<LoadedScene> load_scene(const SceneRequest& request, int& exit_code,
+                                        const std::function<int(const dsl::SceneSpec&)>& before_build) {
   auto scene = std::make_unique<LoadedScene>();
   dsl::ResourceLimits limits;
   if (!request.max_memory.empty()) limits.max_memory = dsl::parse_bytes(request.max_memory);
@@ -48,6 +49,12 @@ std::unique_ptr<LoadedScene> load_scene(const SceneRequest& request, int& exit_c
       const dsl::Location where = request.output.empty() && file ? file->where : dsl::Location{"-o", 0, 0};
       diagnostics.error(where, "cannot write the output: " + problem, dsl::ExitCode::io_error);
       throw dsl::SceneError(diagnostics);
+    }
+    if (before_build) {
+      if (const int code = before_build(scene->spec); code != 0) {
+        exit_code = code;
+        return nullptr;
+      }
     }
     scene->built = dsl::build_scene(scene->spec, limits);
     dsl::Diagnostics diagnostics;

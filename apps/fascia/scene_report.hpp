@@ -6,6 +6,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -30,8 +31,10 @@ void add_scene_options(CLI::App& command, SceneRequest& request);
 
 // Parses, checks the output path, builds, checks the output's room on disk; on failure prints
 // the diagnostics (sorted, file:line:col) and sets exit_code to the matching sysexits code,
-// returning nullptr.
-std::unique_ptr<LoadedScene> load_scene(const SceneRequest& request, int& exit_code);
+// returning nullptr. `before_build` (may be empty) sees the parsed scene before it is
+// discretised: a nonzero code it returns (having printed why) ends the load with that code.
+std::unique_ptr<LoadedScene> load_scene(const SceneRequest& request, int& exit_code,
+                                        const std::function<int(const dsl::SceneSpec&)>& before_build = {});
 
 // The output file of a loaded scene: -o, else the scene's output.file.
 std::string output_path(const SceneRequest& request, const dsl::SceneSpec& spec);

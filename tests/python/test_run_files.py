@@ -64,3 +64,20 @@ def test_an_existing_output_is_refused_unless_overwrite(fascia_bin, scene_dir):
     r = fascia(fascia_bin, scene_dir, "run", "block_mesh.yaml", "-o", "out.h5", "--overwrite", *SHORT)
     assert r.returncode == 0, r.stderr
     assert (scene_dir / "out.h5").exists()
+
+
+def test_outputs_are_refused_before_the_scene_is_discretised(fascia_bin, scene_dir):
+    """The outputs are checked once the scene is parsed: with the scene's mesh unreadable, which
+    the discretisation would report, the run ends on the kept sidecar's refusal instead."""
+    (scene_dir / "out.xmf").write_text("a sidecar someone kept\n")
+    (scene_dir / "meshes" / "block_hex.vtk").write_text("not a mesh\n")
+    before = snapshot(scene_dir)
+    r = fascia(fascia_bin, scene_dir, "run", "block_mesh.yaml", "-o", "out.h5", *SHORT)
+    assert r.returncode == CANT_CREATE and "out.xmf exists" in r.stderr, r.stderr
+    assert "block_hex.vtk" not in r.stderr
+    assert snapshot(scene_dir) == before
+    # Without the sidecar the same run reaches the discretisation, which reports the mesh.
+    (scene_dir / "out.xmf").unlink()
+    r = fascia(fascia_bin, scene_dir, "run", "block_mesh.yaml", "-o", "out.h5", *SHORT)
+    assert r.returncode not in (0, CANT_CREATE) and "block_hex.vtk" in r.stderr, r.stderr
+    assert not (scene_dir / "out.h5").exists()
