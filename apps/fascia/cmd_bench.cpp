@@ -5,6 +5,7 @@
 #include "bench/step_bench.hpp"
 #include "cmd_bench_discretise.hpp"
 #include "cmd_bench_scenes.hpp"
+#include "number_checks.hpp"
 #if FASCIA_WITH_CUDA
 #include "cmd_bench_gpu.hpp"
 #endif
@@ -112,8 +113,8 @@ void register_bench(CLI::App& app, Action& action) {
   CLI::App* cpu = bench->add_subcommand("cpu", "ms per full implicit step on the CPU at the paper's Table 3 sizes");
   cpu->add_flag("--json", options->json, "One JSON object per line on stdout");
   cpu->add_option("--cg-iterations", options->cg_iterations, "CG iterations per step (paper: 60)")
-      ->check(CLI::PositiveNumber);
-  cpu->add_option("--min-seconds", options->min_seconds, "Minimum timed seconds per size")->check(CLI::PositiveNumber);
+      ->check(kPositiveNumber);
+  cpu->add_option("--min-seconds", options->min_seconds, "Minimum timed seconds per size")->check(kPositiveNumber);
   cpu->add_option("--samples", options->sizes, "Only these Table 3 sizes");
   cpu->add_option("--linear", options->linear, "cg (the paper's) | pcg (block Jacobi)")
       ->check(CLI::IsMember({"cg", "pcg"}));
@@ -125,15 +126,15 @@ void register_bench(CLI::App& app, Action& action) {
   step->add_option("--backend", step_options->backend, "cpu | cuda")->check(CLI::IsMember({"cpu", "cuda"}));
   step->add_flag("--json", step_options->json, "One JSON object per line on stdout");
   step->add_option("--cg-iterations", step_options->cg_iterations, "CG iterations per step (paper: 60)")
-      ->check(CLI::PositiveNumber);
+      ->check(kPositiveNumber);
   step->add_option("--linear", step_options->linear, "cg (the paper's) | pcg (block Jacobi)")
       ->check(CLI::IsMember({"cg", "pcg"}));
   step->add_option("--samples", step_options->sizes, "Only these Table 3 sizes");
   step->add_option("--min-seconds", step_options->min_seconds, "cpu: minimum timed seconds per size")
-      ->check(CLI::PositiveNumber);
+      ->check(kPositiveNumber);
   step->add_option("--precision", step_options->precision, "cuda: double | single")
       ->check(CLI::IsMember({"double", "single"}));
-  step->add_option("--repeats", step_options->repeats, "cuda: timed steps per size")->check(CLI::PositiveNumber);
+  step->add_option("--repeats", step_options->repeats, "cuda: timed steps per size")->check(kPositiveNumber);
   step->callback([step_options, &action] { action = [step_options] { return run_step(*step_options); }; });
   add_bench_discretise(*bench, action);
   add_bench_scenes(*bench, action);

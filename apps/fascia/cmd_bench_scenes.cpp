@@ -1,5 +1,6 @@
 #include "cmd_bench_scenes.hpp"
 
+#include "number_checks.hpp"
 #include "run_scene.hpp"
 
 #include <nlohmann/json.hpp>
@@ -129,14 +130,14 @@ void add_bench_scenes(CLI::App& bench, Action& action) {
   add_backend_options(*cmd, options->backend);
   cmd->add_flag("--json", options->json, "One JSON object per line on stdout");
   cmd->add_option("--steps", options->max_steps, "Steps per scene (at most the scene's own count)")
-      ->check(CLI::PositiveNumber);
+      ->check(kPositiveNumber);
   cmd->add_option("--scenes-dir", options->directory, "Folder of the scenes (default: scenes)");
   cmd->add_option("--only", options->only, "Only these scenes (file names without .yaml)");
   cmd->add_flag("!--no-fine", options->fine, "Skip the pelvis at finer resolutions");
   cmd->add_option("--set", options->overrides,
                   "Override a value in every scene: path=value, as fascia run --set (e.g. output.every=10)");
   cmd->add_option("--threads", options->threads, "CPU threads of each scene's step (0 = one per 500 samples and shell triangles, at most the cores; one fewer, left to the rows, where that is every core of several, under 1,000 per core, with a row after each fixed dynamic step; default: each scene's solver.threads)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(kNonNegativeNumber);
   cmd->callback([options, &action] { action = [options] { return run_bench(*options); }; });
 }
 

@@ -7,6 +7,7 @@
 // (unreadable file, no such field, step out of range) · 66 RUN.h5 missing · 69 Python or the
 // script missing · 74 the picture could not be written.
 #include "commands.hpp"
+#include "number_checks.hpp"
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -104,7 +105,7 @@ void register_render(CLI::App& app, Action& action) {
                   "Picture (.png) or movie (.gif, .mp4); default RUN.png, or RUN.mp4 with --every");
   CLI::Option* step = cmd->add_option("--step", options->step, "Step index to draw (default the last; negative from the end)");
   CLI::Option* every =
-      cmd->add_option("--every", options->every, "A movie of every N-th written step")->check(CLI::PositiveNumber);
+      cmd->add_option("--every", options->every, "A movie of every N-th written step")->check(kPositiveNumber);
   step->excludes(every);
   cmd->add_option("--field", options->field,
                   "Colouring field of the surfaces (default displacement; fascia info lists them): a scalar, "

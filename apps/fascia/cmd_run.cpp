@@ -10,6 +10,7 @@
 // exits 69 before anything is read or written.
 #include "backend.hpp"
 #include "commands.hpp"
+#include "number_checks.hpp"
 #include "output_check.hpp"
 #include "output_thread.hpp"
 #include "process_threads.hpp"
@@ -724,7 +725,7 @@ CLI::Option* add_duration(CLI::App& command, const std::string& name, std::optio
 void add_run_options(CLI::App& cmd, RunOptions& options) {
   add_backend_options(cmd, options.backend);
   cmd.add_option("--threads", options.threads, "CPU threads of the step (0 = one per 500 samples and shell triangles, at most the cores; one fewer, left to the rows, where that is every core of several, under 1,000 per core, with a row after each fixed dynamic step; default: the scene's solver.threads)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(kNonNegativeNumber);
   CLI::Option* overwrite =
       cmd.add_flag("--overwrite", options.overwrite, "Replace an existing output file (refused otherwise, exit 73)");
   cmd.add_flag("--resume", options.resume,
@@ -735,14 +736,14 @@ void add_run_options(CLI::App& cmd, RunOptions& options) {
   cmd.add_option_function<int>(
          "--checkpoint-every", [&options](const int& n) { options.checkpoint_every = n; },
          "Checkpoint every n-th step (0 = off; default: output.checkpoint.every)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(kNonNegativeNumber);
   add_duration(cmd, "--checkpoint-interval", options.checkpoint_interval,
                "Wall time between checkpoints (0 = off; default: output.checkpoint.interval)", true);
   cmd.add_flag("-q,--quiet", options.quiet, "No progress output");
   cmd.add_flag("--json", options.json, "Print a JSON summary on stdout at the end");
   cmd.add_option("--status-interval", options.status_interval,
                  "Seconds between status lines when stderr is not a terminal")
-      ->check(CLI::PositiveNumber);
+      ->check(kPositiveNumber);
 }
 
 void register_run(CLI::App& app, Action& action) {

@@ -3,6 +3,7 @@
 // the device step covers it, else with the volumetric elasticity on the device.
 #include "backend.hpp"
 #include "commands.hpp"
+#include "number_checks.hpp"
 #include "process_threads.hpp"
 
 #include "study/beam_study.hpp"
@@ -169,7 +170,7 @@ void register_study(CLI::App& app, Action& action) {
       ->check(CLI::IsMember({"frame-hex", "frame-tet", "fem-hex", "fem-tet", "frame-meshless-mls"}));
   beam->add_option("--resolution", options->resolutions, "Mesh-based cases: resolutions NXxNYxNZ (hexahedra per axis)");
   beam->add_option("--frame-spacing", options->frame_spacings, "Meshless cases: frame spacings r_f (m)")
-      ->check(CLI::PositiveNumber);
+      ->check(kPositiveNumber);
   beam->add_option("--samples-per-frame", options->samples_per_frame,
                    "Meshless cases: r_s = r_f / cbrt(this) (default 10)")
       ->check(CLI::Range(1.01, 1e6));
@@ -178,7 +179,7 @@ void register_study(CLI::App& app, Action& action) {
                    "and followed by the mean, spread and largest lateral component of the tip")
       ->expected(1, -1);
   beam->add_option("--threads", options->threads,
-                   "CPU threads of the whole study, the sparse factorisation's BLAS included (0 = all)")->check(CLI::NonNegativeNumber);
+                   "CPU threads of the whole study, the sparse factorisation's BLAS included (0 = all)")->check(kNonNegativeNumber);
   add_backend_options(*beam, options->backend);
   beam->callback([options, &action] { action = [options] { return run_beam(*options); }; });
 }
