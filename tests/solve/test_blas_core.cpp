@@ -9,6 +9,8 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <optional>
+#include <string>
 #include <vector>
 
 using namespace fascia;
@@ -38,6 +40,23 @@ double solve_error(const Eigen::MatrixXd& a) {
   return error.lpNorm<Eigen::Infinity>() / ref.lpNorm<Eigen::Infinity>();
 }
 
+// OPENBLAS_CORETYPE as the process has it (nullopt: unset).
+std::optional<std::string> coretype_variable() {
+  const char* value = std::getenv("OPENBLAS_CORETYPE");
+  return value ? std::optional<std::string>(value) : std::nullopt;
+}
+
+// Puts OPENBLAS_CORETYPE back as the test run found it (a user may have set it) at scope exit.
+struct CoretypeRestore {
+  std::optional<std::string> saved = coretype_variable();
+  ~CoretypeRestore() {
+    if (saved)
+      setenv("OPENBLAS_CORETYPE", saved->c_str(), 1);
+    else
+      unsetenv("OPENBLAS_CORETYPE");
+  }
+};
+
 }  // namespace
 
 TEST_CASE("blas core: the generic fallback gives way to the kernels the CPU supports", "[solve][blas]") {
@@ -52,7 +71,7 @@ TEST_CASE("blas core: the generic fallback gives way to the kernels the CPU supp
 
 TEST_CASE("blas core: a switch of kernels solves as before and restores OPENBLAS_CORETYPE", "[solve][blas]") {
   const std::string original = blas_core();
-  REQUIRE(std::getenv("OPENBLAS_CORETYPE") == nullptr);
+  const std::optional<std::string> variable = coretype_variable();  // a user's, or unset
   // Backward-stable Cholesky: relative error below about n u cond(A) = 300 * 1.1e-16 * 601 = 2e-11.
   const Eigen::MatrixXd a = dense_spd(300);
   const double before = solve_error(a);
@@ -66,7 +85,7 @@ TEST_CASE("blas core: a switch of kernels solves as before and restores OPENBLAS
   // Prescott's SSE3 kernels run on every x86-64 CPU.
   REQUIRE(set_blas_core("Prescott"));
   CHECK(blas_core() == "Prescott");
-  CHECK(std::getenv("OPENBLAS_CORETYPE") == nullptr);
+  CHECK(coretype_variable() == variable);
   CHECK(solve_error(a) < 2e-11);
   REQUIRE(set_blas_core(original));
   CHECK(blas_core() == original);
@@ -74,9 +93,9 @@ TEST_CASE("blas core: a switch of kernels solves as before and restores OPENBLAS
 }
 
 TEST_CASE("blas core: a user's OPENBLAS_CORETYPE is left in charge", "[solve][blas]") {
+  const CoretypeRestore restore;
   const std::string original = blas_core();
   setenv("OPENBLAS_CORETYPE", "Prescott", 1);
   CHECK(select_blas_core().empty());
   CHECK(blas_core() == original);
-  unsetenv("OPENBLAS_CORETYPE");
 }
