@@ -101,12 +101,16 @@ LinearResult LinearSolver::solve(const LinearSystem& system, const LinearSetting
     const LinearSystem& system;
     LinearResult factorise() { return solver.factorise(system); }
     bool factorised() const { return solver.m_cholesky->factorised(); }
-    void solve(const std::vector<double>& r, std::vector<double>& z) const { solver.m_cholesky->solve(r, z); }
+    // Direct solves read the factor's own values; PCG's preconditioner may read them in float.
+    void solve(const std::vector<double>& r, std::vector<double>& z) const {
+      solver.m_cholesky->solve(r, z, preconditioner);
+    }
     bool shifted() const { return solver.m_cholesky->shift() > 0; }
     bool stops_paying(const KeptFactorisation& k, int iterations) const {
       return fascia::stops_paying(k, iterations, kCholmodFactorisationCost);
     }
-  } kept{*this, system};
+    bool preconditioner;
+  } kept{*this, system, settings.method != LinearMethod::cholmod};
   if (settings.method == LinearMethod::cholmod) return direct_solve(ops, apply, kept, b, x);
   return pcg_with_kept_factorisation(ops, apply, kept, m_kept, settings, b, x);
 }

@@ -35,6 +35,13 @@ constexpr double kParallelSupernodeFlops = 1e7;
 // SkylakeX kernels) in 0.68 s with 4 threads, 0.76 with 8, 1.05 with 16 and 0.89 with 2.
 constexpr int kMaxFactorThreads = 4;
 
+// A supernodal factor of at least this many stored entries is swept, when it preconditions PCG,
+// with its values rounded to float (SparseCholesky::solve): such sweeps stream the factor from
+// memory twice per solve, and half its bytes is what bounds them; the pelvis's tangent at 56 k
+// samples has 1.2e7 entries (96 MB in double), at 16 k 2.7e6, the shipped scenes' about 2.7e5,
+// which stay in cache and in double.
+constexpr double kSinglePrecisionSweepEntries = 1e6;
+
 // Sets the calling thread's OpenMP team size for the scope and restores it after.
 class TeamSize {
  public:
@@ -65,18 +72,21 @@ class SerialRegions {
 };
 
 // A supernode's block: nsrow x nscol, column-major, its first nscol rows a lower triangle T and
-// the m = nsrow - nscol rows below them a rectangle B (cholmod.h's layout, below).
+// the m = nsrow - nscol rows below them a rectangle B (cholmod.h's layout, below); values of
+// type Value (double, or float for a preconditioner's sweeps), the arithmetic in double.
+template <class Value>
 struct SupernodeBlock {
-  const double* x;
+  const Value* x;
   int nsrow, nscol;
-  const double* column(int j) const { return x + static_cast<std::ptrdiff_t>(j) * nsrow; }
+  const Value* column(int j) const { return x + static_cast<std::ptrdiff_t>(j) * nsrow; }
 };
 
 // Forward over columns j0 .. j0 + 3 of a supernode, t [nsrow] holding the right-hand side at its
 // rows: the 4 x 4 triangle on the diagonal, then t_i -= sum_q L_{i,j0+q} t_{j0+q} for every row
 // below it, T's and B's alike, in one pass over the four columns.
-FASCIA_CLONE_INLINE void forward_panel(const SupernodeBlock& L, int j0, double* t) {
-  const double *c0 = L.column(j0), *c1 = L.column(j0 + 1), *c2 = L.column(j0 + 2), *c3 = L.column(j0 + 3);
+template <class Value>
+FASCIA_CLONE_INLINE void forward_panel(const SupernodeBlock<Value>& L, int j0, double* t) {
+  const Value *c0 = L.column(j0), *c1 = L.column(j0 + 1), *c2 = L.column(j0 + 2), *c3 = L.column(j0 + 3);
   const double v0 = t[j0] / c0[j0];
   const double v1 = (t[j0 + 1] - c0[j0 + 1] * v0) / c1[j0 + 1];
   const double v2 = (t[j0 + 2] - c0[j0 + 2] * v0 - c1[j0 + 2] * v1) / c2[j0 + 2];
@@ -87,8 +97,9 @@ FASCIA_CLONE_INLINE void forward_panel(const SupernodeBlock& L, int j0, double* 
 }
 
 // Forward over one column j.
-FASCIA_CLONE_INLINE void forward_column(const SupernodeBlock& L, int j, double* t) {
-  const double* c = L.column(j);
+template <class Value>
+FASCIA_CLONE_INLINE void forward_column(const SupernodeBlock<Value>& L, int j, double* t) {
+  const Value* c = L.column(j);
   const double v = t[j] / c[j];
   t[j] = v;
 #pragma omp simd
@@ -98,8 +109,9 @@ FASCIA_CLONE_INLINE void forward_column(const SupernodeBlock& L, int j, double* 
 // Backward over columns j0 .. j0 + 3, every row below them final: four dot products with those
 // rows (independent sums, so the pass is bound by the loads, not by an addition's latency), then
 // the 4 x 4 triangle transposed.
-FASCIA_CLONE_INLINE void backward_panel(const SupernodeBlock& L, int j0, double* t) {
-  const double *c0 = L.column(j0), *c1 = L.column(j0 + 1), *c2 = L.column(j0 + 2), *c3 = L.column(j0 + 3);
+template <class Value>
+FASCIA_CLONE_INLINE void backward_panel(const SupernodeBlock<Value>& L, int j0, double* t) {
+  const Value *c0 = L.column(j0), *c1 = L.column(j0 + 1), *c2 = L.column(j0 + 2), *c3 = L.column(j0 + 3);
   double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
 #pragma omp simd reduction(+ : s0, s1, s2, s3)
   for (int i = j0 + 4; i < L.nsrow; ++i) {
@@ -116,8 +128,9 @@ FASCIA_CLONE_INLINE void backward_panel(const SupernodeBlock& L, int j0, double*
 }
 
 // Backward over one column j.
-FASCIA_CLONE_INLINE void backward_column(const SupernodeBlock& L, int j, double* t) {
-  const double* c = L.column(j);
+template <class Value>
+FASCIA_CLONE_INLINE void backward_column(const SupernodeBlock<Value>& L, int j, double* t) {
+  const Value* c = L.column(j);
   double s = 0.0;
 #pragma omp simd reduction(+ : s)
   for (int i = j + 1; i < L.nsrow; ++i) s += c[i] * t[i];
@@ -134,15 +147,17 @@ FASCIA_CLONE_INLINE void backward_column(const SupernodeBlock& L, int j, double*
 // columns per supernode); a column at a time, the sweeps would wait on each column's division
 // and on each dot product's additions. These loops run in AVX2 where the CPU has it
 // (core/target_clones.hpp).
-FASCIA_CLONES void supernodal_solve(const cholmod_factor& factor, double* y, double* t) {
+// The sweeps of supernodal_solve over the factor's structure with values x (the factor's own,
+// or their float copy).
+template <class Value>
+FASCIA_CLONE_INLINE void sweep(const cholmod_factor& factor, const Value* x, double* y, double* t) {
   const int* super = static_cast<const int*>(factor.super);
   const int* pi = static_cast<const int*>(factor.pi);
   const int* px = static_cast<const int*>(factor.px);
   const int* rows = static_cast<const int*>(factor.s);
-  const double* x = static_cast<const double*>(factor.x);
   const int nsuper = static_cast<int>(factor.nsuper);
   for (int k = 0; k < nsuper; ++k) {  // y = L^{-1} y
-    const SupernodeBlock L{x + px[k], pi[k + 1] - pi[k], super[k + 1] - super[k]};
+    const SupernodeBlock<Value> L{x + px[k], pi[k + 1] - pi[k], super[k + 1] - super[k]};
     const int* r = rows + pi[k];
     for (int i = 0; i < L.nscol; ++i) t[i] = y[r[i]];
     for (int i = L.nscol; i < L.nsrow; ++i) t[i] = 0.0;
@@ -153,7 +168,7 @@ FASCIA_CLONES void supernodal_solve(const cholmod_factor& factor, double* y, dou
     for (int i = L.nscol; i < L.nsrow; ++i) y[r[i]] += t[i];
   }
   for (int k = nsuper - 1; k >= 0; --k) {  // y = L^{-T} y
-    const SupernodeBlock L{x + px[k], pi[k + 1] - pi[k], super[k + 1] - super[k]};
+    const SupernodeBlock<Value> L{x + px[k], pi[k + 1] - pi[k], super[k + 1] - super[k]};
     const int* r = rows + pi[k];
     for (int i = 0; i < L.nsrow; ++i) t[i] = y[r[i]];
     const int panels = L.nscol / 4 * 4;
@@ -161,6 +176,15 @@ FASCIA_CLONES void supernodal_solve(const cholmod_factor& factor, double* y, dou
     for (int j = panels - 4; j >= 0; j -= 4) backward_panel(L, j, t);
     for (int i = 0; i < L.nscol; ++i) y[r[i]] = t[i];
   }
+}
+
+FASCIA_CLONES void supernodal_solve(const cholmod_factor& factor, double* y, double* t) {
+  sweep(factor, static_cast<const double*>(factor.x), y, t);
+}
+
+// The same sweeps reading the factor's values rounded to float (values: [factor.xsize]).
+FASCIA_CLONES void supernodal_solve(const cholmod_factor& factor, const float* values, double* y, double* t) {
+  sweep(factor, values, y, t);
 }
 
 }  // namespace
@@ -324,7 +348,7 @@ int SparseCholesky::team_size() const {
   return large ? std::min(omp_get_max_threads(), kMaxFactorThreads) : 1;
 }
 
-void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x) const {
+void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x, bool preconditioner) const {
   const int n = static_cast<int>(m_index.size()), free = static_cast<int>(m_free_dofs.size());
   const cholmod_factor* L = m_factor->factor();
   if (L && L->is_super && L->is_ll && L->xtype == CHOLMOD_REAL) {
@@ -335,7 +359,16 @@ void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x)
     y.resize(static_cast<std::size_t>(free));
     t.resize(static_cast<std::size_t>(free));
     for (int k = 0; k < free; ++k) y[k] = b[m_free_dofs[perm[k]]];
-    supernodal_solve(*L, y.data(), t.data());
+    if (preconditioner && static_cast<double>(L->xsize) >= kSinglePrecisionSweepEntries) {
+      if (m_single_values_of != m_factorisations) {  // this factorisation's values in float, once
+        const double* values = static_cast<const double*>(L->x);
+        m_single_values.assign(values, values + L->xsize);
+        m_single_values_of = m_factorisations;
+      }
+      supernodal_solve(*L, m_single_values.data(), y.data(), t.data());
+    } else {
+      supernodal_solve(*L, y.data(), t.data());
+    }
     x.resize(n);
     for (int k = 0; k < n; ++k)
       if (m_index[k] < 0) x[k] = 0.0;

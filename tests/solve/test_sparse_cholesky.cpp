@@ -1,7 +1,7 @@
 // The sparse Cholesky factorisation of the free-free block: solves against a dense reference,
 // keeps its symbolic analysis for patterns inside the analysed one, refactorises a matrix of the
 // last pattern as a fresh factorisation would, shifts indefinite matrices (from a decade below
-// the last shift),
+// the last shift), preconditions with a large factor's values in float,
 // and leaves the caller's OpenMP team size and nesting limit unchanged.
 #include "solve/sparse_cholesky.hpp"
 #include "solve/diagonal_shifts.hpp"
@@ -95,6 +95,40 @@ TEST_CASE("a supernodal factor solves as a dense Cholesky does", "[solve]") {
   REQUIRE(chol.supernodal());
   // cond < 4: accurate to a few eps of |x| (about 0.3 here); 1e-13.
   CHECK(solve_error(chol, H, fixed) <= 1e-13);
+}
+
+TEST_CASE("a large factor preconditions with its values in float and solves with its own", "[solve]") {
+  // block_grid(64): 24,576 DOFs, a factor of more than 1e6 stored entries. Rounding L's values to
+  // float changes each by at most 2^-24 of itself, so L L^T by about 1e-7 of |H| (its rows have
+  // tens of entries) and the solution, cond < 4, by about 1e-6 of |x| at most. A direct solve
+  // reads the factor's own values; so does a small factor's preconditioning (block_grid(12)).
+  const Eigen::SparseMatrix<double> H = block_grid(64), S = block_grid(12);
+  const int n = static_cast<int>(H.rows()), m = static_cast<int>(S.rows());
+  const std::vector<std::uint8_t> fixed(n, 0), small_fixed(m, 0);
+  SparseCholesky chol, small;
+  REQUIRE(chol.factorise(H, fixed.data()));
+  REQUIRE(small.factorise(S, small_fixed.data()));
+  REQUIRE(chol.supernodal());
+  std::vector<double> b(n), exact, single, again;
+  for (int k = 0; k < n; ++k) b[k] = std::sin(1.0 + k);
+  chol.solve(b, exact);
+  chol.solve(b, single, true);
+  chol.solve(b, again, true);
+  double difference = 0, size = 0;
+  for (int k = 0; k < n; ++k) {
+    difference = std::max(difference, std::abs(single[k] - exact[k]));
+    size = std::max(size, std::abs(exact[k]));
+  }
+  CHECK(single != exact);   // the float values were read
+  CHECK(single == again);   // the same copy, the same bits
+  CHECK(difference <= 1e-6 * size);
+  CHECK(difference >= 1e-12 * size);
+  const Eigen::Map<const Eigen::VectorXd> x(exact.data(), n), bv(b.data(), n);
+  CHECK((H * x - bv).norm() <= 1e-12 * bv.norm());  // the direct solve: backward stable, cond < 4
+  std::vector<double> bs(b.begin(), b.begin() + m), small_exact, small_single;
+  small.solve(bs, small_exact);
+  small.solve(bs, small_single, true);
+  CHECK(small_single == small_exact);
 }
 
 TEST_CASE("the factorisation keeps its analysis while the pattern stays inside the analysed one", "[solve]") {
