@@ -39,8 +39,9 @@ struct Cusolver {
   decltype(&cublasDestroy_v2) blas_destroy = nullptr;
   decltype(&cublasSetStream_v2) blas_set_stream = nullptr;
   decltype(&cublasDtrsm_v2) trsm = nullptr;
-  decltype(&cublasDtrmm_v2) trmm = nullptr;
   decltype(&cublasDsyrk_v2) syrk = nullptr;
+  decltype(&cublasDsyrkx) syrkx = nullptr;
+  decltype(&cublasDgemm_v2) gemm = nullptr;
   std::string error;  // why they could not be loaded; empty when loaded
 };
 
@@ -73,8 +74,9 @@ const Cusolver& cusolver() {
     load(c.blas_destroy, "cublasDestroy_v2");
     load(c.blas_set_stream, "cublasSetStream_v2");
     load(c.trsm, "cublasDtrsm_v2");
-    load(c.trmm, "cublasDtrmm_v2");
     load(c.syrk, "cublasDsyrk_v2");
+    load(c.syrkx, "cublasDsyrkx");
+    load(c.gemm, "cublasDgemm_v2");
     return c;
   }();
   return api;
@@ -257,32 +259,29 @@ __global__ void __launch_bounds__(kTileThreads) k_symmetric_sums(const double* p
   if (t < kTile && i < n) z[i] = ((part_sums[0][t] + part_sums[1][t]) + part_sums[2][t]) + part_sums[3][t];
 }
 
-__global__ void k_unit_diagonal(double* A, long long n) {
+// A_ii = 1 for i < m (leading dimension ld).
+__global__ void k_unit_diagonal(double* A, long long m, long long ld) {
   const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
-  if (i < n) A[i * n + i] = 1.0;
+  if (i < m) A[i * ld + i] = 1.0;
 }
 
-}  // namespace
-
-// The order up to which a diagonal block of L is inverted by one triangular solve with the identity
-// (trsm), and the rows per rank-k update (syrk) of W^T W: wide enough for cuBLAS's BLAS-3 kernels to
-// run near their peak, narrow enough to skip most of W's zero triangle. An H200 inverts L of order
-// 10,962 in 17 ms recursively from blocks of 1024 (34 ms by trsm in panels of 1024 columns, 86 by
-// cuSOLVER's trtri) and forms W^T W in 12 ms.
-constexpr int kInversePanel = 1024;
-
-namespace {
-
-// The leading half of a block of order m > kInversePanel that invert_lower splits: m / 2 rounded up
-// to a multiple of 128 (cuBLAS's tiles); the trailing part has at most one row more.
+// The leading half of a block of order m > kDiagonalBlock that invert_spd splits: m / 2 rounded
+// up to a multiple of 128 (cuBLAS's tiles); the trailing part has at most one row more.
 int split_order(int m) { return (m / 2 + 127) / 128 * 128; }
 
-// Values of the panel L21 W11 for inverting L of order n: that of the first split, the largest
-// (the splits below it are of blocks of at most about half the order).
-size_t inverse_scratch(long long n) {
-  if (n <= kInversePanel) return 1;
-  const long long m1 = split_order(static_cast<int>(n));
-  return static_cast<size_t>(m1 * (n - m1));
+// The blocks of order <= kDiagonalBlock that invert_spd factorises for H of order m.
+int diagonal_blocks(int m) {
+  if (m <= DeviceCholesky::kDiagonalBlock) return 1;
+  const int m1 = split_order(m);
+  return diagonal_blocks(m1) + diagonal_blocks(m - m1);
+}
+
+// The full symmetric m x m block of B (leading dimension ld) from the lower triangle of the block
+// of A at the same place; one thread per entry, a column per blockIdx.y.
+__global__ void k_symmetric_copy(const double* A, double* B, int m, long long ld) {
+  const int i = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x), j = static_cast<int>(blockIdx.y);
+  if (i >= m) return;
+  B[j * ld + i] = i >= j ? A[j * ld + i] : A[static_cast<long long>(i) * ld + j];
 }
 
 }  // namespace
@@ -294,12 +293,11 @@ struct DeviceCholesky::Impl {
   std::uint64_t fingerprint = kFnv1aOffset;
   std::vector<int> bodies;  // the probed frames (TangentProbing::bodies)
   DeviceBuffer<int> block_rows, block_frames, body_blocks;
-  DeviceBuffer<double> A, W, diag, work, probe, product, blocks;  // W: L^{-1}
-  DeviceBuffer<double> panel;  // L21 W11 of invert_lower's largest split: inverse_scratch(n) values
+  DeviceBuffer<double> A, W, diag, work, probe, product, blocks;  // W: invert_spd's scratch
   DeviceBuffer<double> partials;  // the product's partial sums (k_symmetric_tiles)
   long long ld = 0;               // the leading dimension of H^{-1} in single precision
   int tiles = 0;                  // its tiles per row and column
-  DeviceBuffer<int> info;
+  DeviceBuffer<int> info;  // potrf's status per diagonal block of invert_spd
   int shift_step = -1, first_shift_step = 0;  // as SparseCholesky's
   cusolverDnHandle_t handle = nullptr;
   cublasHandle_t blas = nullptr;
@@ -324,26 +322,26 @@ struct DeviceCholesky::Impl {
     blocks.resize(36 * t.block_frames.size());
     A.resize(static_cast<size_t>(n) * static_cast<size_t>(n));
     W.resize(static_cast<size_t>(n) * static_cast<size_t>(n));
-    panel.resize(inverse_scratch(n));
     diag.resize(static_cast<size_t>(n));
     probe.resize(static_cast<size_t>(n));
     product.resize(static_cast<size_t>(n));
     ld = (n + 3) / 4 * 4;
     tiles = static_cast<int>((n + kTile - 1) / kTile);
     partials.resize(static_cast<size_t>(tiles) * static_cast<size_t>(tiles) * kTile);
-    info.resize(1);
+    info.resize(static_cast<size_t>(diagonal_blocks(static_cast<int>(n))));
     FASCIA_CUSOLVER(cusolver().create(&handle));
     FASCIA_CUSOLVER(cusolver().set_stream(handle, ops.stream()));
     FASCIA_CUBLAS(cusolver().blas_create(&blas));
     FASCIA_CUBLAS(cusolver().blas_set_stream(blas, ops.stream()));
-    FASCIA_CUSOLVER(cusolver().potrf_buffer_size(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(),
+    FASCIA_CUSOLVER(cusolver().potrf_buffer_size(handle, CUBLAS_FILL_MODE_LOWER,
+                                                static_cast<int>(std::min<long long>(n, kDiagonalBlock)), A.data(),
                                                 static_cast<int>(n), &lwork));
     work.resize(static_cast<size_t>(std::max(lwork, 1)));
     // cuSOLVER and cuBLAS load their kernels when they are first launched (CUDA's lazy module
     // loading), tens of milliseconds each: inverting the identity of order n here loads those of
     // this order with the model's setup rather than in its first step.
     FASCIA_CUDA(cudaMemsetAsync(A.data(), 0, sizeof(double) * static_cast<size_t>(n) * static_cast<size_t>(n), ops.stream()));
-    k_unit_diagonal<<<blocks_for(n), kThreads, 0, ops.stream()>>>(A.data(), n);
+    k_unit_diagonal<<<blocks_for(n), kThreads, 0, ops.stream()>>>(A.data(), n, n);
     FASCIA_CUDA(cudaGetLastError());
     if (!invert()) throw std::runtime_error("cuSOLVER potrf failed on the identity");
     // And the product of a solve, which the PCG iterations record as a CUDA graph (stream
@@ -371,64 +369,70 @@ struct DeviceCholesky::Impl {
     FASCIA_CUDA(cudaGetLastError());
   }
 
-  // W = L^{-1} for the lower triangular L of order m at L (leading dimension n), into W's block of
-  // the same place (its strict upper triangle zero, its diagonal one on entry). Recursively by
-  // halves: L = [L11 0; L21 L22] gives W = [W11 0; -W22 L21 W11  W22]; the two triangular
-  // products (trmm) run at cuBLAS's matrix-product rate, m^3/3 flops in all. Blocks of at most
-  // kInversePanel are one trsm with the identity.
-  void invert_lower(const double* L, double* Winv, int m) {
+  // H^{-1} for the symmetric block H of order m at Hb (leading dimension n; its lower triangle
+  // read and overwritten, its strict upper triangle untouched), with Wb, the block of W at the
+  // same place, as scratch; `block` counts the diagonal blocks factorised so far (their potrf
+  // status goes to info[block]). By Schur complements, H = [A B^T; B C] with A of order
+  // split_order(m):
+  //   X = B A^{-1}, S = C - X B^T, H^{-1} = [A^{-1} + X^T S^{-1} X, sym.; -S^{-1} X, S^{-1}],
+  // each inverse recursively, the products by cuBLAS (gemm, and syrkx where the product is known
+  // to be symmetric); X lies in W's block below A's, which the recursions' blocks do not reach.
+  // m^3 flops in all, as potrf, L^{-1} and L^{-T} L^{-1}, but in matrix products. H is positive
+  // definite iff every S and every A of the recursion is, that is iff every diagonal block's potrf
+  // succeeds. Blocks of order <= kDiagonalBlock: H = L L^T (potrf), W = L^{-1} (trsm with the
+  // identity), H^{-1} = W^T W (syrk).
+  void invert_spd(double* Hb, double* Wb, int m, int& block) {
     const int order = static_cast<int>(n);
-    const double one = 1.0, minus_one = -1.0;
-    if (m <= kInversePanel) {
+    const double one = 1.0, minus_one = -1.0, zero = 0.0;
+    const cudaStream_t stream = ops.stream();
+    if (m <= kDiagonalBlock) {
+      FASCIA_CUSOLVER(cusolver().potrf(handle, CUBLAS_FILL_MODE_LOWER, m, Hb, order, work.data(), lwork,
+                                       info.data() + block++));
+      const size_t pitch = sizeof(double) * static_cast<size_t>(order), width = sizeof(double) * static_cast<size_t>(m);
+      FASCIA_CUDA(cudaMemset2DAsync(Wb, pitch, 0, width, static_cast<size_t>(m), stream));
+      k_unit_diagonal<<<blocks_for(m), kThreads, 0, stream>>>(Wb, m, order);
+      FASCIA_CUDA(cudaGetLastError());
       FASCIA_CUBLAS(cusolver().trsm(blas, CUBLAS_SIDE_LEFT, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_N, CUBLAS_DIAG_NON_UNIT, m,
-                                    m, &one, L, order, Winv, order));
+                                    m, &one, Hb, order, Wb, order));
+      FASCIA_CUBLAS(cusolver().syrk(blas, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_T, m, m, &one, Wb, order, &zero, Hb, order));
       return;
     }
     const int m1 = split_order(m), m2 = m - m1;
     const size_t at = static_cast<size_t>(m1) * static_cast<size_t>(order) + static_cast<size_t>(m1);
-    invert_lower(L, Winv, m1);
-    invert_lower(L + at, Winv + at, m2);
-    // panel = L21 W11 (m2 x m1, leading dimension m2), then W21 = -W22 panel.
-    FASCIA_CUBLAS(cusolver().trmm(blas, CUBLAS_SIDE_RIGHT, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_N, CUBLAS_DIAG_NON_UNIT, m2,
-                                  m1, &one, Winv, order, L + m1, order, panel.data(), m2));
-    FASCIA_CUBLAS(cusolver().trmm(blas, CUBLAS_SIDE_LEFT, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_N, CUBLAS_DIAG_NON_UNIT, m2,
-                                  m1, &minus_one, Winv + at, order, panel.data(), m2, Winv + m1, order));
+    double *B = Hb + m1, *C = Hb + at, *X = Wb + m1;
+    invert_spd(Hb, Wb, m1, block);
+    k_symmetric_copy<<<dim3(blocks_for(m1), static_cast<unsigned>(m1)), kThreads, 0, stream>>>(Hb, Wb, m1, order);
+    FASCIA_CUDA(cudaGetLastError());
+    FASCIA_CUBLAS(cusolver().gemm(blas, CUBLAS_OP_N, CUBLAS_OP_N, m2, m1, m1, &one, B, order, Wb, order, &zero, X, order));
+    FASCIA_CUBLAS(cusolver().syrkx(blas, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_N, m2, m1, &minus_one, X, order, B, order, &one,
+                                   C, order));
+    invert_spd(C, Wb + at, m2, block);
+    k_symmetric_copy<<<dim3(blocks_for(m2), static_cast<unsigned>(m2)), kThreads, 0, stream>>>(C, Wb + at, m2, order);
+    FASCIA_CUDA(cudaGetLastError());
+    // B becomes -S^{-1} X, then A^{-1} += X^T S^{-1} X = -X^T B.
+    FASCIA_CUBLAS(cusolver().gemm(blas, CUBLAS_OP_N, CUBLAS_OP_N, m2, m1, m2, &minus_one, Wb + at, order, X, order, &zero,
+                                  B, order));
+    FASCIA_CUBLAS(cusolver().syrkx(blas, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_T, m1, m2, &minus_one, X, order, B, order, &one,
+                                   Hb, order));
   }
 
-  // potrf on A (H = L L^T); true when positive definite, and then A's lower triangle becomes
-  // that of H^{-1} = L^{-T} L^{-1}: W = L^{-1} (invert_lower), then W^T W by symmetric rank-k
-  // updates (syrk) in panels of kInversePanel rows over the part of W that is not zero (n^3 / 3
-  // flops instead of n^3). The strict upper triangle keeps H's.
+  // A's lower triangle becomes that of H^{-1} (invert_spd) and its single-precision copy is made;
+  // true when H is positive definite. The strict upper triangle keeps H's.
   bool invert() {
-    FASCIA_CUSOLVER(cusolver().potrf(handle, CUBLAS_FILL_MODE_LOWER, static_cast<int>(n), A.data(), static_cast<int>(n),
-                                     work.data(), lwork, info.data()));
-    if (const int status = read_info("potrf"); status != 0) return false;
-    const cudaStream_t stream = ops.stream();
-    FASCIA_CUDA(cudaMemsetAsync(W.data(), 0, sizeof(double) * static_cast<size_t>(n) * static_cast<size_t>(n), stream));
-    k_unit_diagonal<<<blocks_for(n), kThreads, 0, stream>>>(W.data(), n);
-    FASCIA_CUDA(cudaGetLastError());
-    const double one = 1.0, zero = 0.0;
-    const int order = static_cast<int>(n);
-    invert_lower(A.data(), W.data(), order);
-    // W^T W = sum over row panels r0 <= r < r1 of W[r0:r1, 0:r1]^T W[r0:r1, 0:r1] (W's columns from r1
-    // on are zero there), into A[0:r1, 0:r1]; the last panel first, which covers all of A.
-    for (int r0 = ((order - 1) / kInversePanel) * kInversePanel; r0 >= 0; r0 -= kInversePanel) {
-      const int r1 = std::min(order, r0 + kInversePanel);
-      const double beta = r1 == order ? zero : one;
-      FASCIA_CUBLAS(cusolver().syrk(blas, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_T, r1, r1 - r0, &one, W.data() + r0, order,
-                                    &beta, A.data(), order));
+    int block = 0;
+    invert_spd(A.data(), W.data(), static_cast<int>(n), block);
+    std::vector<int> status(static_cast<size_t>(block));
+    FASCIA_CUDA(cudaMemcpyAsync(status.data(), info.data(), sizeof(int) * status.size(), cudaMemcpyDeviceToHost,
+                                ops.stream()));
+    FASCIA_CUDA(cudaStreamSynchronize(ops.stream()));
+    for (int s : status) {
+      if (s < 0) throw std::runtime_error("cuSOLVER potrf: invalid argument " + std::to_string(-s));
+      if (s != 0) return false;
     }
-    k_lower_to_single<<<dim3(blocks_for(ld), static_cast<unsigned>(n)), kThreads, 0, stream>>>(A.data(), inverse(), n,
-                                                                                              ld);
+    k_lower_to_single<<<dim3(blocks_for(ld), static_cast<unsigned>(n)), kThreads, 0, ops.stream()>>>(A.data(), inverse(),
+                                                                                                     n, ld);
     FASCIA_CUDA(cudaGetLastError());
     return true;
-  }
-  int read_info(const char* what) {
-    int status = 0;
-    FASCIA_CUDA(cudaMemcpyAsync(&status, info.data(), sizeof(int), cudaMemcpyDeviceToHost, ops.stream()));
-    FASCIA_CUDA(cudaStreamSynchronize(ops.stream()));
-    if (status < 0) throw std::runtime_error(std::string("cuSOLVER ") + what + ": invalid argument " + std::to_string(-status));
-    return status;
   }
 };
 
@@ -454,8 +458,8 @@ std::string DeviceCholesky::refusal(long long dofs, long long pairs) {
 }
 
 double DeviceCholesky::dense_bytes(long long dofs) {
-  // A and W, the inversion's panel (n^2 / 4 values) and the product's partial sums (n^2 / 64)
-  return 18.125 * static_cast<double>(dofs) * static_cast<double>(dofs);
+  // A and W, and the product's partial sums (n^2 / 64 values)
+  return 16.125 * static_cast<double>(dofs) * static_cast<double>(dofs);
 }
 
 DeviceCholesky::DeviceCholesky(DevicePotential& potential) : m_impl(std::make_unique<Impl>(potential)) {}

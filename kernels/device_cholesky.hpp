@@ -5,16 +5,15 @@
 // H is recovered into a dense n x n matrix from its blocks between unknowns, assembled on the
 // device from the samples, the shell triangles and the frame terms, and six products per rigid
 // body for the bodies' rows and columns (integrate/tangent_probing.hpp; none without bodies),
-// factorised by cuSOLVER's potrf (H = L L^T) and inverted from the factor by cuBLAS, W = L^{-1}
-// (recursively by halves: triangular products, trmm, and trsm with the identity on blocks of 1024)
-// then H^{-1} = W^T W (syrk); the preconditioner is then a symmetric product with the lower
+// inverted by Schur complements, recursively by halves (the products by cuBLAS; diagonal blocks of
+// at most 1024 by cuSOLVER's potrf, H = L L^T, and cuBLAS's L^{-T} L^{-1}); the preconditioner is then a symmetric product with the lower
 // triangle of H^{-1} rounded to single precision, in double arithmetic, one pass over its tiles
 // (n^2/2 floats) at the device's memory bandwidth (where potrs's two triangular solves, sequential
 // by blocks, took 1.7 ms at 11,460 DOFs on an H100, and a product with both triangles in double
 // 0.37 ms). The rounding (relative 6e-8 per entry) perturbs the preconditioner, not the system PCG
-// solves: its residuals and tolerances stay in double. The inverse costs about 2n^3/3 flops more per
-// factorisation (29 ms at 10,962 DOFs on an H200, potrf 15 ms), which the tens to hundreds of CG
-// iterations each factorisation serves repay. Dense, because the scenes' reduced tangents are
+// solves: its residuals and tolerances stay in double. The inverse costs n^3 flops, three times a
+// factorisation's (38.5 ms at 10,962 DOFs on an H200), which the tens to hundreds of CG iterations
+// each factorisation serves repay. Dense, because the scenes' reduced tangents are
 // small (2,148 DOFs for the pelvis, 10,962 with its finest fasciae: 1 GB, about n^3/3 = 4e11
 // flops per factorisation) while their sparse factors have deep elimination trees that
 // triangular solves on a GPU walk level by level. A model whose dense factor would not fit is refused (refusal()):
@@ -22,12 +21,12 @@
 //
 // Not positive definite: shifted like the CPU's, H + tau diag|H| for tau = 1e-6, 1e-5, ... 1e3,
 // tried after an unshifted try from a decade below the last factorisation's shift
-// (solve/diagonal_shifts.hpp; the strict upper triangle, which potrf and syrk leave untouched,
+// (solve/diagonal_shifts.hpp; the strict upper triangle, which the inversion leaves untouched,
 // restores the lower one between tries).
 // cuSOLVER's and cuBLAS's kernels for the model's order are loaded when the object is made (an
 // inversion of the identity and a product), not in the first step.
 // Fixed DOFs are identity rows and columns. All work is enqueued on the stream of `ops`; a
-// factorisation reads back one status word per try.
+// factorisation reads back the status words of its diagonal blocks once per try.
 #pragma once
 
 #include "device_potential.hpp"
@@ -44,8 +43,13 @@ namespace fascia::gpu {
 
 class DeviceCholesky {
  public:
-  // The largest dense factor the device keeps: n <= 32,768 DOFs (8 GiB, as much for L^{-1} and a
-  // quarter of that for the inversion's panel), all within half the free device memory with the
+  // The largest diagonal block that the inversion factorises (potrf, trsm with the identity,
+  // syrk) rather than splits: wide enough for cuBLAS's BLAS-3 kernels to run near their peak. An
+  // H200 inverts H of order 10,962 in 38.5 ms with blocks of 768-2048 (39.9 with 512, 41.2 with
+  // 3072; 45.1 by potrf of the whole, L^{-1} and L^{-T} L^{-1}), of order 4,950 in 7.9 ms.
+  static constexpr int kDiagonalBlock = 1024;
+  // The largest dense factor the device keeps: n <= 32,768 DOFs (8 GiB, and as much for the
+  // inversion's scratch), all within half the free device memory with the
   // pairs' material columns the elastic blocks are formed from (432 bytes per sample pair:
   // DeviceElasticity::set_tangent_blocks); cuSOLVER and cuBLAS (libcusolver, libcublas) must load.
   // Empty when a model of `dofs` DOFs and `pairs` sample pairs can be factorised now, else the
@@ -77,9 +81,9 @@ class DeviceCholesky {
   int products() const;
   // A factorisation's cost in CG iterations, for the renewal rule of solve/kept_factorisation.hpp:
   // products() tangent products and the factorisation with its inverse, about n/40 products (an
-  // H200: 2.4 ms at 2,148 DOFs, 44 ms at 10,962, against a product of 50 and 150 us); a CG
-  // iteration costs one product and one product with H^{-1}. bench scenes on an H200 (pelvis at
-  // three resolutions) measures the same time with n/80.
+  // H200 inverts 10,962 DOFs in about 40 ms, against a product of 150 us); a CG iteration costs
+  // one product and one product with H^{-1}. bench scenes on an H200 (pelvis at three
+  // resolutions) measures the same time with n/80, and more with n/25 or n/60.
   double cost() const;
   // A fingerprint of the probed bodies and the block pattern (FNV-1a): equal for one model and
   // build.
