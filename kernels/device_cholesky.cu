@@ -269,13 +269,6 @@ __global__ void k_unit_diagonal(double* A, long long m, long long ld) {
 // up to a multiple of 128 (cuBLAS's tiles); the trailing part has at most one row more.
 int split_order(int m) { return (m / 2 + 127) / 128 * 128; }
 
-// The blocks of order <= kDiagonalBlock that invert_spd factorises for H of order m.
-int diagonal_blocks(int m) {
-  if (m <= DeviceCholesky::kDiagonalBlock) return 1;
-  const int m1 = split_order(m);
-  return diagonal_blocks(m1) + diagonal_blocks(m - m1);
-}
-
 // The full symmetric m x m block of B (leading dimension ld) from the lower triangle of the block
 // of A at the same place; one thread per entry, a column per blockIdx.y.
 __global__ void k_symmetric_copy(const double* A, double* B, int m, long long ld) {
@@ -297,7 +290,7 @@ struct DeviceCholesky::Impl {
   DeviceBuffer<double> partials;  // the product's partial sums (k_symmetric_tiles)
   long long ld = 0;               // the leading dimension of H^{-1} in single precision
   int tiles = 0;                  // its tiles per row and column
-  DeviceBuffer<int> info;  // potrf's status per diagonal block of invert_spd
+  DeviceBuffer<int> info;
   int shift_step = -1, first_shift_step = 0;  // as SparseCholesky's
   cusolverDnHandle_t handle = nullptr;
   cublasHandle_t blas = nullptr;
@@ -328,7 +321,7 @@ struct DeviceCholesky::Impl {
     ld = (n + 3) / 4 * 4;
     tiles = static_cast<int>((n + kTile - 1) / kTile);
     partials.resize(static_cast<size_t>(tiles) * static_cast<size_t>(tiles) * kTile);
-    info.resize(static_cast<size_t>(diagonal_blocks(static_cast<int>(n))));
+    info.resize(1);
     FASCIA_CUSOLVER(cusolver().create(&handle));
     FASCIA_CUSOLVER(cusolver().set_stream(handle, ops.stream()));
     FASCIA_CUBLAS(cusolver().blas_create(&blas));
@@ -371,8 +364,8 @@ struct DeviceCholesky::Impl {
 
   // H^{-1} for the symmetric block H of order m at Hb (leading dimension n; its lower triangle
   // read and overwritten, its strict upper triangle untouched), with Wb, the block of W at the
-  // same place, as scratch; `block` counts the diagonal blocks factorised so far (their potrf
-  // status goes to info[block]). By Schur complements, H = [A B^T; B C] with A of order
+  // same place, as scratch; false, with the rest of the recursion not run, where a diagonal block's
+  // potrf fails (each one's status is read back before going on). By Schur complements, H = [A B^T; B C] with A of order
   // split_order(m):
   //   X = B A^{-1}, S = C - X B^T, H^{-1} = [A^{-1} + X^T S^{-1} X, sym.; -S^{-1} X, S^{-1}],
   // each inverse recursively, the products by cuBLAS (gemm, and syrkx where the product is known
@@ -381,13 +374,13 @@ struct DeviceCholesky::Impl {
   // definite iff every S and every A of the recursion is, that is iff every diagonal block's potrf
   // succeeds. Blocks of order <= kDiagonalBlock: H = L L^T (potrf), W = L^{-1} (trsm with the
   // identity), H^{-1} = W^T W (syrk).
-  void invert_spd(double* Hb, double* Wb, int m, int& block) {
+  bool invert_spd(double* Hb, double* Wb, int m) {
     const int order = static_cast<int>(n);
     const double one = 1.0, minus_one = -1.0, zero = 0.0;
     const cudaStream_t stream = ops.stream();
     if (m <= kDiagonalBlock) {
-      FASCIA_CUSOLVER(cusolver().potrf(handle, CUBLAS_FILL_MODE_LOWER, m, Hb, order, work.data(), lwork,
-                                       info.data() + block++));
+      FASCIA_CUSOLVER(cusolver().potrf(handle, CUBLAS_FILL_MODE_LOWER, m, Hb, order, work.data(), lwork, info.data()));
+      if (read_info() != 0) return false;
       const size_t pitch = sizeof(double) * static_cast<size_t>(order), width = sizeof(double) * static_cast<size_t>(m);
       FASCIA_CUDA(cudaMemset2DAsync(Wb, pitch, 0, width, static_cast<size_t>(m), stream));
       k_unit_diagonal<<<blocks_for(m), kThreads, 0, stream>>>(Wb, m, order);
@@ -395,18 +388,18 @@ struct DeviceCholesky::Impl {
       FASCIA_CUBLAS(cusolver().trsm(blas, CUBLAS_SIDE_LEFT, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_N, CUBLAS_DIAG_NON_UNIT, m,
                                     m, &one, Hb, order, Wb, order));
       FASCIA_CUBLAS(cusolver().syrk(blas, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_T, m, m, &one, Wb, order, &zero, Hb, order));
-      return;
+      return true;
     }
     const int m1 = split_order(m), m2 = m - m1;
     const size_t at = static_cast<size_t>(m1) * static_cast<size_t>(order) + static_cast<size_t>(m1);
     double *B = Hb + m1, *C = Hb + at, *X = Wb + m1;
-    invert_spd(Hb, Wb, m1, block);
+    if (!invert_spd(Hb, Wb, m1)) return false;
     k_symmetric_copy<<<dim3(blocks_for(m1), static_cast<unsigned>(m1)), kThreads, 0, stream>>>(Hb, Wb, m1, order);
     FASCIA_CUDA(cudaGetLastError());
     FASCIA_CUBLAS(cusolver().gemm(blas, CUBLAS_OP_N, CUBLAS_OP_N, m2, m1, m1, &one, B, order, Wb, order, &zero, X, order));
     FASCIA_CUBLAS(cusolver().syrkx(blas, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_N, m2, m1, &minus_one, X, order, B, order, &one,
                                    C, order));
-    invert_spd(C, Wb + at, m2, block);
+    if (!invert_spd(C, Wb + at, m2)) return false;
     k_symmetric_copy<<<dim3(blocks_for(m2), static_cast<unsigned>(m2)), kThreads, 0, stream>>>(C, Wb + at, m2, order);
     FASCIA_CUDA(cudaGetLastError());
     // B becomes -S^{-1} X, then A^{-1} += X^T S^{-1} X = -X^T B.
@@ -414,25 +407,25 @@ struct DeviceCholesky::Impl {
                                   B, order));
     FASCIA_CUBLAS(cusolver().syrkx(blas, CUBLAS_FILL_MODE_LOWER, CUBLAS_OP_T, m1, m2, &minus_one, X, order, B, order, &one,
                                    Hb, order));
+    return true;
   }
 
   // A's lower triangle becomes that of H^{-1} (invert_spd) and its single-precision copy is made;
   // true when H is positive definite. The strict upper triangle keeps H's.
   bool invert() {
-    int block = 0;
-    invert_spd(A.data(), W.data(), static_cast<int>(n), block);
-    std::vector<int> status(static_cast<size_t>(block));
-    FASCIA_CUDA(cudaMemcpyAsync(status.data(), info.data(), sizeof(int) * status.size(), cudaMemcpyDeviceToHost,
-                                ops.stream()));
-    FASCIA_CUDA(cudaStreamSynchronize(ops.stream()));
-    for (int s : status) {
-      if (s < 0) throw std::runtime_error("cuSOLVER potrf: invalid argument " + std::to_string(-s));
-      if (s != 0) return false;
-    }
+    if (!invert_spd(A.data(), W.data(), static_cast<int>(n))) return false;
     k_lower_to_single<<<dim3(blocks_for(ld), static_cast<unsigned>(n)), kThreads, 0, ops.stream()>>>(A.data(), inverse(),
                                                                                                      n, ld);
     FASCIA_CUDA(cudaGetLastError());
     return true;
+  }
+  // potrf's status word (0: positive definite), read back.
+  int read_info() {
+    int status = 0;
+    FASCIA_CUDA(cudaMemcpyAsync(&status, info.data(), sizeof(int), cudaMemcpyDeviceToHost, ops.stream()));
+    FASCIA_CUDA(cudaStreamSynchronize(ops.stream()));
+    if (status < 0) throw std::runtime_error("cuSOLVER potrf: invalid argument " + std::to_string(-status));
+    return status;
   }
 };
 

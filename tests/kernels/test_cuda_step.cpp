@@ -236,6 +236,7 @@ TEST_CASE("device potential equals StepPotential: value, gradient, Hessian produ
   std::printf("[device potential %s %s] preconditioner rel. diff %.2e\n", step_label(dynamic, beta),
               to_string(kind), relative_difference(z_dev, z_cpu));
   CHECK(relative_difference(z_dev, z_cpu) <= 1e-10);
+
 }
 
 TEST_CASE("device tangent blocks equal the CPU's assembled step tangent between frames that are not bodies", "[gpu]") {
@@ -296,7 +297,7 @@ TEST_CASE("device Cholesky factor solves the step tangent as CHOLMOD does", "[gp
   const int which = GENERATE(0, 1, 2, 3);
   const Kind kind = which == 3 ? Kind::tissue : std::array{Kind::tissue, Kind::rigid, Kind::coupled}[which];
   const Model model = which < 3 ? test_model(kind) : [] {
-    Model m = small_box_model(CellType::tetrahedron, MaterialLaw::neo_hookean, 9, 6, 5);
+    Model m = small_box_model(CellType::tetrahedron, MaterialLaw::neo_hookean, 12, 8, 6);
     fix_frames(m, [](double x, double, double) { return x < 1e-9; });
     return m;
   }();
@@ -307,8 +308,10 @@ TEST_CASE("device Cholesky factor solves the step tangent as CHOLMOD does", "[gp
   set_step(model, cpu, dev, dynamic);
   DeviceCholesky factor(dev);
   DeviceFrames q = dev.make_state();
-  // Two states: the kept factor, refactorised at the second, must solve with that state's tangent.
+  // Two states: the kept factor, refactorised at the second, must solve with that state's tangent
+  // (the large block: one state, its bound's n solves with CHOLMOD being the test's cost).
   for (const int seed : {11, 13}) {
+    if (which == 3 && seed != 11) continue;
     State state = random_state(model, seed, 0.001, 0.1, 0.4);
     RigidMapping(model).sync(state);
     q.upload(state);
