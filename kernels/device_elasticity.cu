@@ -373,7 +373,10 @@ class System final : public DeviceElasticity::Impl {
   const double* positions_on_device() const override { return m_positions.data(); }
   const double* orientations_on_device() const override { return m_orientations.data(); }
 
-  void gradient_on_device(double* g) override { enqueue_gradient_pass(g); }
+  // An energy alone (g null) at the last pass's state is that pass's: its force pass is skipped (a
+  // step's reported energy, at the state whose gradient Newton took last). A gradient is always
+  // formed anew: the tangent products overwrite the slot partials it is summed from.
+  void gradient_on_device(double* g) override { enqueue_gradient_pass(g, g == nullptr); }
 
   const double* energy_on_device() const override { return &m_scalars.data()->energy; }
 
@@ -392,7 +395,7 @@ class System final : public DeviceElasticity::Impl {
     if (m_block_count == 0) return;
     k_pair_columns<R><<<grid_for(m_p, kThreads), kThreads, 0, m_stream>>>(m_view, m_frame_view, m_pair_columns.data());
     check_launch();
-    k_tangent_blocks<R><<<grid_for(6LL * m_block_count, kThreads), kThreads, 0, m_stream>>>(
+    k_tangent_blocks<R><<<grid_for(32LL * m_block_count, kTangentBlockThreads), kTangentBlockThreads, 0, m_stream>>>(
         m_view, m_frame_view, m_block_count, m_contribution_offsets.data(), m_contributions.data(),
         m_pair_columns.data(), blocks);
     check_launch();

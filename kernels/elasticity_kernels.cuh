@@ -218,20 +218,26 @@ __global__ void k_pair_columns(ModelView<R> m, FrameView<R> f, double* columns) 
 
 // The elastic tangent's blocks between frames that share a sample, sum_s v B_a^T C[B_b] (eq. 11,
 // 21-26, without the rotational geometric blocks), written into blocks [B][36] (H entry
-// (6a + r, 6b + c) of block p at 36 p + 6 r + c; a block without terms, b > a, as zero). Six
-// threads per block, thread c its column c: the sum over the block's terms in the fixed order of its
-// list (contributions [C][2]: the pairs (p_a, p_b) of one sample with frames a and b, over
-// [contribution_offsets[p], contribution_offsets[p + 1])) of B_a^T (v C[B_b e_c]), from p_b's
-// columns (k_pair_columns): no atomics, the same bits on every run. A thread per column keeps 6
-// sums in registers where a thread per block kept 36, and the blocks' threads many more.
+// (6a + r, 6b + c) of block p at 36 p + 6 r + c; a block without terms, b > a, as zero). A warp
+// per block: lane l sums the terms l, l + 32, ... of the block's list (contributions [C][2]: the
+// pairs (p_a, p_b) of one sample with frames a and b, over [contribution_offsets[p],
+// contribution_offsets[p + 1])), each term B_a^T (v C[B_b e_c]) for the six columns c from p_b's
+// columns (k_pair_columns), and an xor butterfly adds the lanes' 36 sums: no atomics, the same
+// bits on every run. The lanes' terms are independent loads, where a thread per column walked its
+// block's list (about 150 terms in the pelvis at 56 k samples) one dependent load after another.
+constexpr int kTangentBlockThreads = 128;  // k_tangent_blocks: threads per block, four warps
+
 template <class R>
-__global__ void k_tangent_blocks(ModelView<R> m, FrameView<R> f, int block_count, const int* contribution_offsets,
-                                 const int* contributions, const double* columns, double* blocks) {
+__global__ void __launch_bounds__(kTangentBlockThreads)
+    k_tangent_blocks(ModelView<R> m, FrameView<R> f, int block_count, const int* contribution_offsets,
+                     const int* contributions, const double* columns, double* blocks) {
   const long long t = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
-  const int p = static_cast<int>(t / 6), c = static_cast<int>(t % 6);
-  if (p >= block_count) return;
-  double acc[6] = {0, 0, 0, 0, 0, 0};
-  for (int k = contribution_offsets[p]; k < contribution_offsets[p + 1]; ++k) {
+  const int p = static_cast<int>(t / 32), lane = static_cast<int>(t % 32);
+  if (p >= block_count) return;  // the warp's lanes alike
+  double acc[36];
+#pragma unroll
+  for (int e = 0; e < 36; ++e) acc[e] = 0;
+  for (int k = contribution_offsets[p] + lane; k < contribution_offsets[p + 1]; k += 32) {
     const int pa = contributions[2LL * k], pb = contributions[2LL * k + 1], s = m.pair_samples[pa];
     const Vec3T<R> ps{sample_value(f.sample_state, m.samples, 0, s), sample_value(f.sample_state, m.samples, 1, s),
                       sample_value(f.sample_state, m.samples, 2, s)};
@@ -240,13 +246,21 @@ __global__ void k_tangent_blocks(ModelView<R> m, FrameView<R> f, int block_count
     for (int r = 0; r < 3; ++r)
       for (int e = 0; e < 3; ++e) M.m[r][e] = static_cast<double>(qa.M.m[r][e]);
     const Vec3 g{static_cast<double>(qa.g.x), static_cast<double>(qa.g.y), static_cast<double>(qa.g.z)};
-    double out[6];
-    pair_lever_virtual_work(ldm(columns + static_cast<long long>(kPairColumns) * pb + 9 * c), g, M, out);
+    const double* column = columns + static_cast<long long>(kPairColumns) * pb;
 #pragma unroll
-    for (int r = 0; r < 6; ++r) acc[r] += out[r];
+    for (int c = 0; c < 6; ++c) {
+      double out[6];
+      pair_lever_virtual_work(ldm(column + 9 * c), g, M, out);
+#pragma unroll
+      for (int r = 0; r < 6; ++r) acc[6 * r + c] += out[r];
+    }
   }
 #pragma unroll
-  for (int r = 0; r < 6; ++r) blocks[36LL * p + 6 * r + c] = acc[r];
+  for (int e = 0; e < 36; ++e)
+    for (int o = 16; o > 0; o >>= 1) acc[e] += __shfl_xor_sync(0xffffffffu, acc[e], o);
+#pragma unroll
+  for (int e = 0; e < 36; ++e)
+    if (e % 32 == lane) blocks[36LL * p + e] = acc[e];
 }
 
 // blocks[p] += the rotational geometric block Kr of frame i (geo [N][9], row-major) in its rotation

@@ -237,6 +237,21 @@ TEST_CASE("device potential equals StepPotential: value, gradient, Hessian produ
               to_string(kind), relative_difference(z_dev, z_cpu));
   CHECK(relative_difference(z_dev, z_cpu) <= 1e-10);
 
+  // The elastic energy (a step's report) at the state of the last force pass, after the tangent
+  // products: the pass is skipped and its energy stands (DeviceElasticity::gradient_on_device);
+  // at another state, and back, a new pass's. The same bound as the value's.
+  State other = random_state(model, 13, 0.004, 0.3, 0.4);
+  RigidMapping(model).sync(other);
+  DeviceFrames q_other = dev.make_state();
+  q_other.upload(other);
+  const double e_cpu = cpu.elastic_energy(state), e_other_cpu = cpu.elastic_energy(other);
+  const double e_dev = dev.elastic_energy(q), e_other_dev = dev.elastic_energy(q_other), e_back = dev.elastic_energy(q);
+  std::printf("[device potential %s %s] elastic energy %.17g / %.17g, at another state %.17g / %.17g\n",
+              step_label(dynamic, beta), to_string(kind), e_cpu, e_dev, e_other_cpu, e_other_dev);
+  REQUIRE(std::abs(e_other_cpu - e_cpu) > 1e-6 * std::abs(e_cpu));
+  CHECK(std::abs(e_dev - e_cpu) <= 1e-12 * std::abs(e_cpu));
+  CHECK(std::abs(e_other_dev - e_other_cpu) <= 1e-12 * std::abs(e_other_cpu));
+  CHECK(e_back == e_dev);
 }
 
 TEST_CASE("device tangent blocks equal the CPU's assembled step tangent between frames that are not bodies", "[gpu]") {
