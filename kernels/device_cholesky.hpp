@@ -6,8 +6,9 @@
 // device from the samples, the shell triangles and the frame terms, and six products per rigid
 // body for the bodies' rows and columns (integrate/tangent_probing.hpp; none without bodies),
 // inverted by Schur complements, recursively by halves (the products by cuBLAS; diagonal blocks of
-// at most 2048 by cuSOLVER's potrf, H = L L^T, and cuBLAS's L^{-T} L^{-1}); the preconditioner is then a symmetric product with the lower
-// triangle of H^{-1} rounded to single precision, in double arithmetic, one pass over its tiles
+// at most kDiagonalBlock rows by cuSOLVER's potrf, H = L L^T, and cuBLAS's L^{-T} L^{-1}); the
+// preconditioner is then a symmetric product with the lower triangle of H^{-1} rounded to single
+// precision, in double arithmetic, one pass over its tiles
 // (n^2/2 floats) at the device's memory bandwidth (where potrs's two triangular solves, sequential
 // by blocks, took 1.7 ms at 11,460 DOFs on an H100, and a product with both triangles in double
 // 0.37 ms). The rounding (relative 6e-8 per entry) perturbs the preconditioner, not the system PCG
@@ -45,7 +46,8 @@ class DeviceCholesky {
  public:
   // The largest diagonal block that the inversion factorises (potrf, trsm with the identity,
   // syrk) rather than splits: wide enough for cuBLAS's BLAS-3 kernels to run near their peak, and
-  // the shipped scenes' tangents of about 1,000 DOFs are one block. An H200 inverts H of order
+  // the shipped scenes' tangents of up to 1,080 DOFs (the beams, which factorise at every Newton
+  // iteration) are one block, the pelvis's and coupling's two. An H200 inverts H of order
   // 10,962 in 38.5-38.8 ms with blocks of 768-2048 (39.9 with 512, 41.2 with 3072; 45.1 by potrf of
   // the whole, L^{-1} and L^{-T} L^{-1}), of order 4,950 in 7.9 ms.
   static constexpr int kDiagonalBlock = 2048;
