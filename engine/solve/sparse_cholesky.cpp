@@ -301,6 +301,7 @@ bool SparseCholesky::factorise(const Eigen::SparseMatrix<double>& H, const std::
   for (std::size_t k = 0; k < m_scatter.size(); ++k)
     if (m_scatter[k] >= 0) values[m_scatter[k]] += h_values[k];
   ++m_factorisations;
+  m_single_values.clear();  // the next preconditioning sweep copies this factorisation's values
   const int threads = team_size();
   const TeamSize team(threads);
   std::optional<SerialRegions> serial;
@@ -360,10 +361,9 @@ void SparseCholesky::solve(const std::vector<double>& b, std::vector<double>& x,
     t.resize(static_cast<std::size_t>(free));
     for (int k = 0; k < free; ++k) y[k] = b[m_free_dofs[perm[k]]];
     if (preconditioner && static_cast<double>(L->xsize) >= kSinglePrecisionSweepEntries) {
-      if (m_single_values_of != m_factorisations) {  // this factorisation's values in float, once
+      if (m_single_values.empty()) {  // this factorisation's values in float, once
         const double* values = static_cast<const double*>(L->x);
         m_single_values.assign(values, values + L->xsize);
-        m_single_values_of = m_factorisations;
       }
       supernodal_solve(*L, m_single_values.data(), y.data(), t.data());
     } else {

@@ -72,10 +72,9 @@ class SparseCholesky {
   int m_shift_step = -1, m_first_shift_step = 0;
   std::uint64_t m_pattern_fingerprint = 0;
   int m_analyses = 0, m_factorisations = 0;
-  // The last factorisation's values in float, for preconditioning sweeps (solve), and the
-  // factorisation they were copied after (m_factorisations then; -1: none).
+  // The last factorisation's values in float, for preconditioning sweeps (solve); emptied by
+  // each factorisation, copied at its first such sweep.
   mutable std::vector<float> m_single_values;
-  mutable int m_single_values_of = -1;
 };
 
 }  // namespace fascia

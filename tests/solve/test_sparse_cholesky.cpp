@@ -125,6 +125,15 @@ TEST_CASE("a large factor preconditions with its values in float and solves with
   CHECK(difference >= 1e-12 * size);
   const Eigen::Map<const Eigen::VectorXd> x(exact.data(), n), bv(b.data(), n);
   CHECK((H * x - bv).norm() <= 1e-12 * bv.norm());  // the direct solve: backward stable, cond < 4
+  // A new factorisation's sweeps read its own values in float: of 2 H, half the solution (within
+  // the same bound), not the last copy's.
+  const Eigen::SparseMatrix<double> H2 = 2.0 * H;
+  REQUIRE(chol.factorise(H2, fixed.data()));
+  std::vector<double> halved;
+  chol.solve(b, halved, true);
+  double difference2 = 0;
+  for (int k = 0; k < n; ++k) difference2 = std::max(difference2, std::abs(halved[k] - 0.5 * exact[k]));
+  CHECK(difference2 <= 1e-6 * size);
   std::vector<double> bs(b.begin(), b.begin() + m), small_exact, small_single;
   small.solve(bs, small_exact);
   small.solve(bs, small_single, true);
