@@ -108,17 +108,15 @@ class CudaStep final : public StepBackend {
       DeviceVariational& step = variational_step(o.dt);
       step.set_start(o.start, {});
       step.set_kinetic_blocks(m_state);
-      const DeviceFrames& midpoint = step.midpoint(m_state);
-      m_potential.prepare_hessian(midpoint, false);
-      m_factor->factorise(m_potential, midpoint);
+      m_potential.prepare_hessian(step.midpoint(m_state), false);
     } else {
       if (settings.integrator == Integrator::static_equilibrium)
         m_potential.set_equilibrium();
       else
         m_potential.set_dynamic(o.start, o.dt, settings.rayleigh_mass);
       m_potential.prepare_hessian(m_state, false);
-      m_factor->factorise(m_potential, m_state);
     }
+    m_factor->factorise(m_potential);
     m_potential.set_load_scale(1.0);
     m_origin = o;
     if (!m_factor->factorised()) return false;

@@ -288,7 +288,6 @@ struct DeviceCholesky::Impl {
   DeviceBuffer<int> block_rows, block_frames, body_blocks;
   DeviceBuffer<double> A, W, diag, work, probe, product, blocks;  // W: invert_spd's scratch
   DeviceBuffer<double> partials;  // the product's partial sums (k_symmetric_tiles)
-  DeviceBuffer<double> orientations;  // [N][4] the factorised state's
   long long ld = 0;               // the leading dimension of H^{-1} in single precision
   int tiles = 0;                  // its tiles per row and column
   DeviceBuffer<int> info;
@@ -322,7 +321,6 @@ struct DeviceCholesky::Impl {
     ld = (n + 3) / 4 * 4;
     tiles = static_cast<int>((n + kTile - 1) / kTile);
     partials.resize(static_cast<size_t>(tiles) * static_cast<size_t>(tiles) * kTile);
-    orientations.resize(4 * static_cast<size_t>(n / 6));
     info.resize(1);
     FASCIA_CUSOLVER(cusolver().create(&handle));
     FASCIA_CUSOLVER(cusolver().set_stream(handle, ops.stream()));
@@ -469,13 +467,11 @@ std::uint64_t DeviceCholesky::fingerprint() const { return m_impl->fingerprint; 
 
 double DeviceCholesky::cost() const { return products() + static_cast<double>(m_impl->n) / 40.0; }
 
-LinearResult DeviceCholesky::factorise(DevicePotential& potential, const DeviceFrames& q) {
+LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
   Impl& m = *m_impl;
   const cudaStream_t stream = m.ops.stream();
   const long long n = m.n;
   m.factorised = false;
-  FASCIA_CUDA(cudaMemcpyAsync(m.orientations.data(), q.orientations(), sizeof(double) * m.orientations.size(),
-                              cudaMemcpyDeviceToDevice, stream));
   FASCIA_CUDA(cudaMemsetAsync(m.A.data(), 0, sizeof(double) * static_cast<size_t>(n) * static_cast<size_t>(n), stream));
   const long long entries = static_cast<long long>(m.blocks.size());
   if (entries > 0) potential.tangent_blocks(m.blocks.data());
@@ -545,7 +541,5 @@ void DeviceCholesky::set_first_shift_step(int k) {
 }
 
 void DeviceCholesky::solve(const double* r, double* z) const { m_impl->product_with_inverse(r, z); }
-
-const double* DeviceCholesky::factorised_orientations() const { return m_impl->orientations.data(); }
 
 }  // namespace fascia::gpu

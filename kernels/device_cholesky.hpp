@@ -68,11 +68,11 @@ class DeviceCholesky {
   DeviceCholesky(const DeviceCholesky&) = delete;
   DeviceCholesky& operator=(const DeviceCholesky&) = delete;
 
-  // Recovers the Hessian H that potential.prepare_hessian prepared at q from its assembled blocks
+  // Recovers the Hessian H that potential.prepare_hessian prepared from its assembled blocks
   // (DevicePotential::tangent_blocks) and its products (DevicePotential::apply), and factorises
-  // it; keeps q's orientations (factorised_orientations). .factorised = true; .shifted and
-  // .message when shifted; .message alone when every shift failed.
-  LinearResult factorise(DevicePotential& potential, const DeviceFrames& q);
+  // it. .factorised = true; .shifted and .message when shifted; .message alone when every shift
+  // failed.
+  LinearResult factorise(DevicePotential& potential);
   bool factorised() const;
   // The last factorisation's shift step (-1: unshifted or none), and the first shifted step the
   // next one tries (a resumed run's: as SparseCholesky's).
@@ -80,9 +80,6 @@ class DeviceCholesky {
   void set_first_shift_step(int k);
   // z = H^{-1} r (device arrays of 6N; z's fixed DOFs equal r's). Enqueued only: no read back.
   void solve(const double* r, double* z) const;
-  // [N][4] the orientations of the state of the last factorisation (device memory), which the
-  // preconditioner's rotation reads (solve/factorised_solve.hpp).
-  const double* factorised_orientations() const;
   // Probe products per factorisation (6 per rigid body).
   int products() const;
   // A factorisation's cost in CG iterations, for the renewal rule of solve/kept_factorisation.hpp:

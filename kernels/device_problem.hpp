@@ -77,15 +77,11 @@ class DeviceProblem {
         const State& q;
         LinearResult factorise() {
           if (problem.m_factorising) problem.m_factorising(q);
-          return problem.m_factor->factorise(problem.m_potential, q);
+          return problem.m_factor->factorise(problem.m_potential);
         }
         bool factorised() const { return problem.m_factor->factorised(); }
         void solve(const Vector& r, Vector& z) const { problem.m_factor->solve(r.data(), z.data()); }
         bool shifted() const { return problem.m_factor->shift_step() >= 0; }
-        FrameWarp warp() const {
-          if (problem.m_potential.model().rotations_locked) return {};
-          return {q.orientations(), problem.m_factor->factorised_orientations()};
-        }
         bool stops_paying(const KeptFactorisation& k, int iterations) const {
           return fascia::stops_paying(k, iterations, problem.m_factor->cost());
         }

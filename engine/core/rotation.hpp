@@ -66,18 +66,4 @@ FASCIA_HD Mat3 rotation_matrix(const Quat& q) {
 // Applies a world-axis increment: q <- normalise(exp(dr) q).
 FASCIA_HD Quat apply_increment(const Quat& q, const Vec3& dr) { return normalized(quat_exp(dr) * q); }
 
-// y = Q x, or Q^T x with `transpose`, for one frame's increment x = [dx, dr] (6 values, world
-// axes): Q = R(q) R(q_ref)^T = R(q q_ref^*), the rotation that carries orientation q_ref to q,
-// applied to the translation and to the rotation vector alike. y may be x.
-FASCIA_HD void rotate_increment(const Quat& q, const Quat& q_ref, const double* x, double* y, bool transpose) {
-  const Mat3 Q = rotation_matrix(q * conjugate(q_ref));
-  for (int h = 0; h < 6; h += 3) {
-    const Vec3 v{x[h], x[h + 1], x[h + 2]};
-    const Vec3 w = transpose ? fascia::transpose(Q) * v : Q * v;
-    y[h] = w.x;
-    y[h + 1] = w.y;
-    y[h + 2] = w.z;
-  }
-}
-
 }  // namespace fascia

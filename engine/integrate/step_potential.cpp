@@ -177,7 +177,6 @@ LinearSystem StepPotential::system() {
   LinearSystem sys;
   sys.size = m_model.dof_count();
   sys.fixed = m_fixed.data();
-  if (!m_model.rotations_locked) sys.orientations = m_prepared.orientations.data();
   const int n = m_model.frame_count();
   // Diagonal mass-like term per frame: (1 + alpha h)/h^2 [m I3, I_n] (dynamic only).
   auto inertia_block = [this](int i, double* block6x6) {
