@@ -212,7 +212,7 @@ class System final : public DeviceElasticity::Impl {
     m_partials.resize(6 * static_cast<size_t>(m_slots));
     m_cache.resize(10 * static_cast<size_t>(m_s));
     upload_coalesced(model, L);
-    // ELL entries held in registers per sample (more are read again): 2 in double, where 4 spills,
+    // ELL entries held in registers per lane (more are read again): 2 in double, where 4 spills,
     // and where samples have at most 2 pairs; else 4 in single.
     m_keep = m_max_neighbours <= 2 || std::is_same_v<R, double> ? 2 : 4;
     if (grouped_refusal.empty()) {
@@ -485,7 +485,7 @@ class System final : public DeviceElasticity::Impl {
     m_ell_pos.upload(std::vector<unsigned short>(L.ell_pos.begin(), L.ell_pos.end()));
     m_levers.resize(kLeverRecord * static_cast<size_t>(m_n));
     m_sample_state.resize(kSampleState * static_cast<size_t>(m_s));
-    for (int keep : {2, 4, 8})
+    for (int keep : {2, 4})
       for (int lanes : {1, kSampleLanes})
         FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep, lanes)),
                                          cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
@@ -651,18 +651,17 @@ class System final : public DeviceElasticity::Impl {
   using ForceKernel = void (*)(ModelView<R>, FrameView<R>, R*, R*, R*, R*, Reduction, R*, const int*);
   ForceKernel force_kernel() const { return m_lanes == 1 ? &k_fused_samples<R, 1> : &k_fused_samples<R, kSampleLanes>; }
 
-  // The launched coalesced tangent kernel for `keep` held ELL entries per lane (2, 4, else 8) and
-  // `lanes` threads per sample (1, else kSampleLanes).
+  // The launched coalesced tangent kernel for `keep` held ELL entries per lane (2, else 4; double
+  // holds 2) and `lanes` threads per sample (1, else kSampleLanes).
   using EllTangentKernel = void (*)(ModelView<R>, FrameView<R>, const R*, R*, int);
   static const void* frame_sums_kernel(int lanes) {
     return lanes == 1 ? reinterpret_cast<const void*>(&k_frame_sums<R, 1>)
                       : reinterpret_cast<const void*>(&k_frame_sums<R, kFrameLanes>);
   }
   static EllTangentKernel ell_tangent_kernel(int keep, int lanes) {
-    if (lanes == 1) return keep == 2 ? &k_ell_tangent<R, 2, 1> : keep == 4 ? &k_ell_tangent<R, 4, 1> : &k_ell_tangent<R, 8, 1>;
-    return keep == 2   ? &k_ell_tangent<R, 2, kSampleLanes>
-           : keep == 4 ? &k_ell_tangent<R, 4, kSampleLanes>
-                       : &k_ell_tangent<R, 8, kSampleLanes>;
+    constexpr int kMost = std::is_same_v<R, double> ? 2 : 4;
+    if (keep == 2 || kMost == 2) return lanes == 1 ? &k_ell_tangent<R, 2, 1> : &k_ell_tangent<R, 2, kSampleLanes>;
+    return lanes == 1 ? &k_ell_tangent<R, kMost, 1> : &k_ell_tangent<R, kMost, kSampleLanes>;
   }
 
   // Blocks of `kernel` (`threads` each) that fit on the device at once, at most `blocks`.

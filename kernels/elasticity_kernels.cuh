@@ -390,8 +390,8 @@ __device__ void ell_tangent_block(const ModelView<R>& m, const FrameView<R>& f, 
 constexpr int kDenseThreads = 128;
 template <class R>
 constexpr int dense_blocks_per_sm(int keep) {
-  if (sizeof(R) == sizeof(float)) return keep == 2 ? 8 : keep == 4 ? 6 : 4;
-  return keep == 2 ? 4 : keep == 4 ? 3 : 2;
+  if (sizeof(R) == sizeof(float)) return keep == 2 ? 8 : 6;
+  return 4;
 }
 
 // Coalesced tangent pass, one block of kDenseThreads threads per sample block.
