@@ -211,10 +211,10 @@ class System final : public DeviceElasticity::Impl {
     m_frame_slots.upload(L.frame_slots);
     m_partials.resize(6 * static_cast<size_t>(m_slots));
     m_cache.resize(10 * static_cast<size_t>(m_s));
-    upload_coalesced(model, L);
     // ELL entries held in registers per lane (more are read again): 2 in double, where 4 spills,
     // and where samples have at most 2 pairs; else 4 in single.
     m_keep = m_max_neighbours <= 2 || std::is_same_v<R, double> ? 2 : 4;
+    upload_coalesced(model, L);
     if (grouped_refusal.empty()) {
       upload_groups(model);
       grouped = true;
@@ -485,10 +485,8 @@ class System final : public DeviceElasticity::Impl {
     m_ell_pos.upload(std::vector<unsigned short>(L.ell_pos.begin(), L.ell_pos.end()));
     m_levers.resize(kLeverRecord * static_cast<size_t>(m_n));
     m_sample_state.resize(kSampleState * static_cast<size_t>(m_s));
-    for (int keep : {2, 4})
-      for (int lanes : {1, kSampleLanes})
-        FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(keep, lanes)),
-                                         cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
+    FASCIA_CUDA(cudaFuncSetAttribute(reinterpret_cast<const void*>(ell_tangent_kernel(m_keep, m_lanes)),
+                                     cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(m_ell_bytes)));
   }
 
   // The grouped pass's tables (group_layout.hpp) for a model in group order whose groups average
@@ -659,9 +657,9 @@ class System final : public DeviceElasticity::Impl {
                       : reinterpret_cast<const void*>(&k_frame_sums<R, kFrameLanes>);
   }
   static EllTangentKernel ell_tangent_kernel(int keep, int lanes) {
-    constexpr int kMost = std::is_same_v<R, double> ? 2 : 4;
-    if (keep == 2 || kMost == 2) return lanes == 1 ? &k_ell_tangent<R, 2, 1> : &k_ell_tangent<R, 2, kSampleLanes>;
-    return lanes == 1 ? &k_ell_tangent<R, kMost, 1> : &k_ell_tangent<R, kMost, kSampleLanes>;
+    if constexpr (!std::is_same_v<R, double>)
+      if (keep == 4) return lanes == 1 ? &k_ell_tangent<R, 4, 1> : &k_ell_tangent<R, 4, kSampleLanes>;
+    return lanes == 1 ? &k_ell_tangent<R, 2, 1> : &k_ell_tangent<R, 2, kSampleLanes>;
   }
 
   // Blocks of `kernel` (`threads` each) that fit on the device at once, at most `blocks`.
