@@ -78,14 +78,6 @@ void CudaElasticity::tangent_diagonal_blocks(double* blocks) {
     std::fill(blocks, blocks + 36 * m_model.frame_count(), 0.0);
 }
 
-void CudaElasticity::material_rotations(double* q) {
-  restore_prepared();
-  if (m_device)
-    m_device->material_rotations(q);
-  else
-    std::copy(m_prepared.orientations.begin(), m_prepared.orientations.end(), q);
-}
-
 const Elasticity& CudaElasticity::prepared_reference() {
   if (!m_has_prepared) throw std::logic_error("CudaElasticity: prepared_reference() before prepare()");
   if (!m_reference) m_reference = std::make_unique<Elasticity>(m_model, m_threads);

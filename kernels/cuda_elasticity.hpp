@@ -40,7 +40,6 @@ class CudaElasticity final : public VolumetricElasticity {
   double prepare(const State& state) override;
   void apply_tangent(const double* d, double* out, const double* frame_diagonal = nullptr) override;
   void tangent_diagonal_blocks(double* blocks) override;
-  void material_rotations(double* q) override;
   // A CPU Elasticity prepared at the last prepare()'s state, built on first use and prepared at
   // most once per prepare(): the assembled tangent (CHOLMOD) costs one CPU prepare per Newton
   // iteration on top of the assembly itself.

@@ -288,8 +288,6 @@ struct DeviceCholesky::Impl {
   DeviceBuffer<int> block_rows, block_frames, body_blocks;
   DeviceBuffer<double> A, W, diag, work, probe, product, blocks;  // W: invert_spd's scratch
   DeviceBuffer<double> partials;  // the product's partial sums (k_symmetric_tiles)
-  DeviceBuffer<double> rotations;  // [N][4] the factorised state's material rotations
-  bool rotated = false;            // the potential had them
   long long ld = 0;               // the leading dimension of H^{-1} in single precision
   int tiles = 0;                  // its tiles per row and column
   DeviceBuffer<int> info;
@@ -323,7 +321,6 @@ struct DeviceCholesky::Impl {
     ld = (n + 3) / 4 * 4;
     tiles = static_cast<int>((n + kTile - 1) / kTile);
     partials.resize(static_cast<size_t>(tiles) * static_cast<size_t>(tiles) * kTile);
-    rotations.resize(4 * static_cast<size_t>(n / 6));
     info.resize(1);
     FASCIA_CUSOLVER(cusolver().create(&handle));
     FASCIA_CUSOLVER(cusolver().set_stream(handle, ops.stream()));
@@ -475,10 +472,6 @@ LinearResult DeviceCholesky::factorise(DevicePotential& potential) {
   const cudaStream_t stream = m.ops.stream();
   const long long n = m.n;
   m.factorised = false;
-  m.rotated = potential.material_rotations() != nullptr;
-  if (m.rotated)
-    FASCIA_CUDA(cudaMemcpyAsync(m.rotations.data(), potential.material_rotations(), sizeof(double) * m.rotations.size(),
-                                cudaMemcpyDeviceToDevice, stream));
   FASCIA_CUDA(cudaMemsetAsync(m.A.data(), 0, sizeof(double) * static_cast<size_t>(n) * static_cast<size_t>(n), stream));
   const long long entries = static_cast<long long>(m.blocks.size());
   if (entries > 0) potential.tangent_blocks(m.blocks.data());
@@ -548,9 +541,5 @@ void DeviceCholesky::set_first_shift_step(int k) {
 }
 
 void DeviceCholesky::solve(const double* r, double* z) const { m_impl->product_with_inverse(r, z); }
-
-const double* DeviceCholesky::factorised_rotations() const {
-  return m_impl->rotated ? m_impl->rotations.data() : nullptr;
-}
 
 }  // namespace fascia::gpu

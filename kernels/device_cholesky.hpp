@@ -70,8 +70,8 @@ class DeviceCholesky {
 
   // Recovers the Hessian H that potential.prepare_hessian prepared from its assembled blocks
   // (DevicePotential::tangent_blocks) and its products (DevicePotential::apply), and factorises
-  // it; keeps the potential's material rotations (factorised_rotations). .factorised = true;
-  // .shifted and .message when shifted; .message alone when every shift failed.
+  // it. .factorised = true; .shifted and .message when shifted; .message alone when every shift
+  // failed.
   LinearResult factorise(DevicePotential& potential);
   bool factorised() const;
   // The last factorisation's shift step (-1: unshifted or none), and the first shifted step the
@@ -80,10 +80,6 @@ class DeviceCholesky {
   void set_first_shift_step(int k);
   // z = H^{-1} r (device arrays of 6N; z's fixed DOFs equal r's). Enqueued only: no read back.
   void solve(const double* r, double* z) const;
-  // [N][4] the material rotations of the last factorisation's state (device memory; null where
-  // the potential has none), which the preconditioner's rotation reads
-  // (solve/factorised_solve.hpp).
-  const double* factorised_rotations() const;
   // Probe products per factorisation (6 per rigid body).
   int products() const;
   // A factorisation's cost in CG iterations, for the renewal rule of solve/kept_factorisation.hpp:

@@ -115,8 +115,6 @@ struct DeviceElasticity::Impl {
                                   const std::vector<int>& diagonal_blocks) = 0;
   virtual void tangent_blocks_on_device(double* blocks) = 0;
   virtual const double* diagonal_blocks_on_device() const = 0;
-  virtual void material_rotations_on_device(double* q) = 0;
-  virtual int frames() const = 0;
   virtual double time_tangent_ms(int repeats) = 0;
   virtual double tangent_bytes() const = 0;
   virtual KernelResources tangent_kernel_resources() const = 0;
@@ -394,15 +392,6 @@ class System final : public DeviceElasticity::Impl {
   }
 
   const double* diagonal_blocks_on_device() const override { return m_diag.data(); }
-
-  int frames() const override { return m_n; }
-
-  void material_rotations_on_device(double* q) override {
-    if (m_n == 0) return;
-    k_material_rotations<R><<<grid_for(32LL * m_n, kThreads), kThreads, 0, m_stream>>>(m_view, m_F.data(),
-                                                                                    m_orientations.data(), q);
-    check_launch();
-  }
 
   void tangent_blocks_on_device(double* blocks) override {
     if (m_block_count == 0) return;
@@ -774,14 +763,6 @@ void DeviceElasticity::apply_tangent_on_device(const double* d, double* out, con
   m_impl->apply_tangent_on_device(d, out, frame_diagonal);
 }
 const double* DeviceElasticity::diagonal_blocks_on_device() const { return m_impl->diagonal_blocks_on_device(); }
-void DeviceElasticity::material_rotations_on_device(double* q) { m_impl->material_rotations_on_device(q); }
-void DeviceElasticity::material_rotations(double* q) {
-  DeviceBuffer<double> buffer;
-  buffer.resize(4 * static_cast<size_t>(m_impl->frames()));
-  m_impl->material_rotations_on_device(buffer.data());
-  FASCIA_CUDA(cudaStreamSynchronize(static_cast<cudaStream_t>(m_impl->stream())));
-  buffer.download(q);
-}
 void DeviceElasticity::set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
                                           const std::vector<int>& diagonal_blocks) {
   m_impl->set_tangent_blocks(block_offsets, block_frames, diagonal_blocks);

@@ -97,8 +97,6 @@ class DeviceElasticity {
   void apply_tangent(const double* d, double* out);
   // K_ii [N][36] row-major, as Elasticity::tangent_diagonal_blocks.
   void tangent_diagonal_blocks(double* blocks);
-  // The frames' material rotations [N][4] (host memory), as Elasticity::material_rotations.
-  void material_rotations(double* q);
 
   // The same on device memory, for the device-resident step (device_potential.hpp): every
   // pointer is a device array of doubles, the work is enqueued in order on stream() (a
@@ -113,9 +111,6 @@ class DeviceElasticity {
   const double* energy_on_device() const;
   void apply_tangent_on_device(const double* d, double* out, const double* frame_diagonal = nullptr);
   const double* diagonal_blocks_on_device() const;
-  // The frames' material rotations (mechanics/material_rotation.hpp) at the last prepare()'s
-  // state into q [N][4] (device memory; enqueued, from the tangent's storage).
-  void material_rotations_on_device(double* q);
   // The elastic tangent's blocks between frames that share a sample, sum_s v B_a^T C[B_b], and on
   // the diagonal blocks (a, a) the rotational geometric blocks, of the last prepare(), for the
   // blocks (a, b) of the pattern set by set_tangent_blocks (host CSR over rows a: block_offsets

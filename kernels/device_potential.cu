@@ -365,7 +365,6 @@ struct DevicePotential::Impl {
   DeviceBuffer<double> expanded, full_g;  // rigid mapping: d with mapped frames filled in, unreduced gradient
   DeviceBuffer<std::uint8_t> fixed;
   DeviceBuffer<int> diagonal_blocks;  // [N] each frame's block (a, a) of the tangent block pattern, -1: none
-  DeviceBuffer<double> rotations;     // [N][4] material rotations of the last prepare_hessian
 };
 
 DevicePotential::DevicePotential(const Model& model, const ExternalLoads& loads, const DeviceOptions& options,
@@ -469,14 +468,6 @@ void DevicePotential::prepare_hessian(const DeviceFrames& q, bool preconditioner
     m.select(*m.elasticity, q);
     m.elasticity->prepare_on_device(preconditioner);
   }
-  if (!m_model.rotations_locked) {
-    m.rotations.resize(4 * static_cast<size_t>(n));
-    if (m.elasticity)
-      m.elasticity->material_rotations_on_device(m.rotations.data());
-    else
-      FASCIA_CUDA(cudaMemcpyAsync(m.rotations.data(), q.orientations(), sizeof(double) * m.rotations.size(),
-                                  cudaMemcpyDeviceToDevice, m.stream));
-  }
   m.shells.prepare(q.positions(), q.orientations(), m.stream);
   m.stabilised = m.equilibrium;
   if (m.stabilised) m.stabilisation.prepare(q.orientations(), m.stream);
@@ -560,10 +551,6 @@ void DevicePotential::tangent_blocks(double* blocks) {
     k_add_blocks<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.diagonal_blocks.data(), m.frame_blocks, blocks);
     check();
   }
-}
-
-const double* DevicePotential::material_rotations() const {
-  return m_impl->rotations.size() > 0 ? m_impl->rotations.data() : nullptr;
 }
 
 const double* DevicePotential::preconditioner() const {

@@ -82,10 +82,6 @@ class DevicePotential {
   void set_tangent_blocks(const std::vector<int>& block_offsets, const std::vector<int>& block_frames,
                           const std::vector<int>& diagonal_blocks);
   void tangent_blocks(double* blocks);
-  // The frames' material rotations (mechanics/material_rotation.hpp) at the state of the last
-  // prepare_hessian, [N][4] device array; null where the model's frames do not turn, or before
-  // prepare_hessian.
-  const double* material_rotations() const;
   // Inverse 6x6 diagonal blocks of H [N][36] (block Jacobi; fixed DOFs identity rows), or null
   // before prepare_hessian.
   const double* preconditioner() const;

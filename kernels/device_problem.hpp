@@ -82,11 +82,6 @@ class DeviceProblem {
         bool factorised() const { return problem.m_factor->factorised(); }
         void solve(const Vector& r, Vector& z) const { problem.m_factor->solve(r.data(), z.data()); }
         bool shifted() const { return problem.m_factor->shift_step() >= 0; }
-        FrameWarp warp() const {
-          const double* factorised = problem.m_factor->factorised_rotations();
-          if (!factorised) return {};
-          return {problem.m_potential.material_rotations(), factorised};
-        }
         bool stops_paying(const KeptFactorisation& k, int iterations) const {
           return fascia::stops_paying(k, iterations, problem.m_factor->cost());
         }

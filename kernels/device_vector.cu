@@ -2,8 +2,6 @@
 
 #include "device_vector.cuh"
 
-#include "core/rotation.hpp"
-
 #include <cmath>
 #include <functional>
 #include <stdexcept>
@@ -77,17 +75,6 @@ __global__ void k_block_apply(int frames, const double* blocks, const double* x,
     for (int c = 0; c < 6; ++c) s += blocks[36 * i + 6 * r + c] * xi[c];
     y[6 * i + r] = s;
   }
-}
-
-// y_i = Q_i x_i (Q_i^T x_i with transpose), Q_i = R(q_i q_ref,i^*) (core/rotation.hpp), for the
-// frames' 6-vectors; y may be x. One thread per frame.
-__global__ void k_rotate_frames(int frames, const double* orientations, const double* reference, const double* x,
-                                bool transpose, double* y) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= frames) return;
-  double xi[6];
-  for (int c = 0; c < 6; ++c) xi[c] = x[6 * i + c];
-  rotate_increment(load_quat(orientations + 4 * i), load_quat(reference + 4 * i), xi, y + 6 * i, transpose);
 }
 
 // x = a x
@@ -313,14 +300,6 @@ void VectorOps::project(double* x, const std::uint8_t* fixed, long long n) const
 void VectorOps::block_apply(const double* blocks, const double* x, double* y, int frames, bool add) const {
   if (frames <= 0) return;
   k_block_apply<<<vector_grid(frames), kVectorThreads, 0, m_stream>>>(frames, blocks, x, add, y);
-  check();
-}
-
-void VectorOps::rotate_frames(const double* orientations, const double* reference, const double* x, double* y,
-                              int frames, bool transpose) const {
-  if (frames <= 0) return;
-  k_rotate_frames<<<vector_grid(frames), kVectorThreads, 0, m_stream>>>(frames, orientations, reference, x, transpose,
-                                                                        y);
   check();
 }
 

@@ -67,10 +67,6 @@ class VectorOps {
   void project(double* x, const std::uint8_t* fixed, long long n) const;
   // y_i = B_i x_i for 6-vectors and 6x6 row-major blocks B [frames][36]; y_i += B_i x_i where add.
   void block_apply(const double* blocks, const double* x, double* y, int frames, bool add = false) const;
-  // y_i = Q_i x_i (Q_i^T x_i with transpose) for 6-vectors, Q_i = R(q_i) R(q_ref,i)^T from
-  // orientations and reference [frames][4] (core/rotation.hpp, rotate_increment); y may be x.
-  void rotate_frames(const double* orientations, const double* reference, const double* x, double* y, int frames,
-                     bool transpose) const;
   // sum_k x_k y_k; y null: sum_k x_k.
   double dot(const double* x, const double* y, long long n) const;
   // Sums the kReduceBlocks partials that a fused kernel left in partials() and returns the sum.
@@ -144,11 +140,6 @@ class DeviceVectorOps {
   double norm(const Vector& x) const;
   void project(Vector& x) const { m_ops.project(x.data(), m_fixed, m_n); }
   const std::uint8_t* fixed() const { return m_fixed; }
-  void rotate_frames(const double* orientations, const double* reference, const Vector& x, Vector& y,
-                     bool transpose) const {
-    resize(y);
-    m_ops.rotate_frames(orientations, reference, x.data(), y.data(), static_cast<int>(m_n / 6), transpose);
-  }
 
   static constexpr bool kScalarsOnHost = false;
   struct CgScalars {};  // held by the VectorOps (one solve at a time per stream)

@@ -8,7 +8,6 @@
 
 #include "device_elasticity.hpp"
 #include "elasticity_phases.hpp"
-#include "mechanics/material_rotation.hpp"
 
 #include <cuda_runtime.h>
 
@@ -508,29 +507,6 @@ __global__ void k_frame_finish(int frames, const double* sums, R* geo, double* d
   Mat3 Kr;
   unpack_prepare_sums(sums + kPrepareSums * static_cast<size_t>(i), K, Kr);
   frame_prepare_blocks(i, K, Kr, geo, diag);
-}
-
-// q [N][4]: the frames' material rotations (mechanics/material_rotation.hpp) from the prepared F
-// [S][9] and the orientations [N][4]. A warp per frame: its lanes sum interleaved pairs of the
-// frame's reverse table, the lanes' sums are reduced in a fixed butterfly order, lane 0 takes the
-// polar rotation.
-template <class R>
-__global__ void k_material_rotations(ModelView<R> m, const R* F, const double* orientations, double* q) {
-  const int lane = static_cast<int>(threadIdx.x) % 32;
-  const int i = static_cast<int>((blockIdx.x * blockDim.x + threadIdx.x) / 32);
-  if (i >= m.frames) return;  // the whole warp: i is the warp's
-  Mat3 A = zero3<double>();
-  for (int k = m.rev_offsets[i] + lane; k < m.rev_offsets[i + 1]; k += 32) {
-    const int p = m.rev_pairs[k], s = m.pair_samples[k];
-    add_material_share(A, static_cast<double>(m.weights[p]) * static_cast<double>(m.volumes[s]),
-                       F + 9 * static_cast<size_t>(s));
-  }
-#pragma unroll
-  for (int r = 0; r < 3; ++r)
-#pragma unroll
-    for (int c = 0; c < 3; ++c)
-      for (int offset = 16; offset > 0; offset /= 2) A.m[r][c] += __shfl_xor_sync(0xffffffffu, A.m[r][c], offset);
-  if (lane == 0) store_quat(q + 4 * static_cast<size_t>(i), material_rotation(A, load_quat(orientations + 4 * static_cast<size_t>(i))));
 }
 
 }  // namespace fascia::gpu

@@ -66,45 +66,4 @@ FASCIA_HD Mat3 rotation_matrix(const Quat& q) {
 // Applies a world-axis increment: q <- normalise(exp(dr) q).
 FASCIA_HD Quat apply_increment(const Quat& q, const Vec3& dr) { return normalized(quat_exp(dr) * q); }
 
-// The rotation of A's polar decomposition A = R U (U symmetric positive definite where det A > 0;
-// in general the rotation maximising tr(R^T A)), as a unit quaternion, by the iteration of
-// Mueller, Bender, Chentanez & Macklin, "A robust method to extract the rotational part of
-// deformations" (MIG 2016, Alg. 1) started from `q`: each turn rotates R by
-// omega = sum_k r_k x a_k / |sum_k r_k . a_k| (r_k, a_k the columns of R and of A / |A|_F), which
-// vanishes where R^T A is symmetric; it stops below 1e-9 rad or after `max_iterations`. A = 0
-// returns q.
-FASCIA_HD Quat polar_rotation(const Mat3& A, Quat q, int max_iterations = 64) {
-  const double scale = std::sqrt(ddot(A, A));
-  if (!(scale > 0)) return q;
-  const Mat3 a = (1.0 / scale) * A;
-  for (int it = 0; it < max_iterations; ++it) {
-    const Mat3 R = rotation_matrix(q);
-    Vec3 num{0, 0, 0};
-    double den = 0;
-    for (int k = 0; k < 3; ++k) {
-      const Vec3 r{R.m[0][k], R.m[1][k], R.m[2][k]}, c{a.m[0][k], a.m[1][k], a.m[2][k]};
-      num += cross(r, c);
-      den += dot(r, c);
-    }
-    const Vec3 omega = (1.0 / (std::abs(den) + 1e-9)) * num;
-    if (!(norm(omega) >= 1e-9)) break;
-    q = normalized(quat_exp(omega) * q);
-  }
-  return q;
-}
-
-// y = Q x, or Q^T x with `transpose`, for one frame's increment x = [dx, dr] (6 values, world
-// axes): Q = R(q) R(q_ref)^T = R(q q_ref^*), the rotation that carries orientation q_ref to q,
-// applied to the translation and to the rotation vector alike. y may be x.
-FASCIA_HD void rotate_increment(const Quat& q, const Quat& q_ref, const double* x, double* y, bool transpose) {
-  const Mat3 Q = rotation_matrix(q * conjugate(q_ref));
-  for (int h = 0; h < 6; h += 3) {
-    const Vec3 v{x[h], x[h + 1], x[h + 2]};
-    const Vec3 w = transpose ? fascia::transpose(Q) * v : Q * v;
-    y[h] = w.x;
-    y[h + 1] = w.y;
-    y[h + 2] = w.z;
-  }
-}
-
 }  // namespace fascia

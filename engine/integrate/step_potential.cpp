@@ -164,10 +164,6 @@ void StepPotential::prepare_hessian(const State& state) {
     m_mapping.set_geometric(same ? last.g.data() : m_scratch.data());
   }
   elasticity().prepare(state);
-  if (!m_model.rotations_locked) {
-    m_material_rotations.resize(4 * static_cast<size_t>(m_model.frame_count()));
-    elasticity().material_rotations(m_material_rotations.data());
-  }
   for (auto& field : m_fields) field->prepare(state);
   m_stabilised = stabilised();
   if (m_stabilised) m_stabilisation->prepare(state);
@@ -181,7 +177,6 @@ LinearSystem StepPotential::system() {
   LinearSystem sys;
   sys.size = m_model.dof_count();
   sys.fixed = m_fixed.data();
-  if (!m_model.rotations_locked) sys.rotations = m_material_rotations.data();
   const int n = m_model.frame_count();
   // Diagonal mass-like term per frame: (1 + alpha h)/h^2 [m I3, I_n] (dynamic only).
   auto inertia_block = [this](int i, double* block6x6) {

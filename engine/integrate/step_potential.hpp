@@ -135,7 +135,6 @@ class StepPotential : public Potential {
   std::vector<double> m_expanded;     // d with mapped frames filled in
   std::vector<double> m_frame_diagonal;  // [N][10] translational t_i and rotational Q_i of the system
   State m_prepared;                      // the state of the last prepare_hessian()
-  std::vector<double> m_material_rotations;  // [N][4] the frames' material rotations there
   TangentOrigin m_assembled_at;
 };
 

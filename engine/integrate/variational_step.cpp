@@ -220,7 +220,6 @@ LinearSystem VariationalStep::approximate_jacobian(const State& start, const Sta
   LinearSystem sys;
   sys.size = K.size;
   sys.fixed = m_fixed.data();
-  sys.rotations = K.rotations;
   sys.apply = [this, n, K](const double* d, double* out) {
     K.apply(d, out);
     m_expanded.assign(d, d + 6 * n);

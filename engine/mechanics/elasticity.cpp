@@ -3,7 +3,6 @@
 #include "core/target_clones.hpp"
 
 #include "mechanics/frame_sample.hpp"
-#include "mechanics/material_rotation.hpp"
 
 #include <cmath>
 #include <omp.h>
@@ -167,20 +166,6 @@ double Elasticity::prepare(const State& state) {
   m_prepared.orientations = state.orientations;
   m_prepared.energy = w;
   return w;
-}
-
-void Elasticity::material_rotations(double* q) {
-  const int n = m_model.frame_count();
-  const ReverseTable& rev = m_model.reverse;
-#pragma omp parallel for schedule(static) num_threads(m_threads) if (n > kParallelMin)
-  for (int i = 0; i < n; ++i) {
-    Mat3 A = zero3<double>();
-    for (int k = rev.offsets[i]; k < rev.offsets[i + 1]; ++k) {
-      const int p = rev.pairs[k], s = rev.pair_samples[k];
-      add_material_share(A, m_model.neighbours.weights[p] * m_model.samples.volumes[s], &m_F[9 * static_cast<size_t>(s)]);
-    }
-    store_quat(q + 4 * i, material_rotation(A, load_quat(&m_prepared.orientations[4 * static_cast<size_t>(i)])));
-  }
 }
 
 double Elasticity::gradient(const State& state, double* gradient) {

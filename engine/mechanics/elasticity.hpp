@@ -48,8 +48,6 @@ class Elasticity final : public VolumetricElasticity {
   // The 6x6 diagonal blocks K_ii, [N][36] row-major, for block-Jacobi preconditioning.
   void tangent_diagonal_blocks(double* blocks) override;
 
-  void material_rotations(double* q) override;
-
   // The 9x9 matrix D_s = d^2 psi / dF^2 of sample s at the prepared state (row k = vec(dP[E_k]),
   // vec row-major), and the pair's 9x6 Jacobian B_p (columns: dF for unit dx and dr, eq. 11).
   void material_matrix(int s, double* D) const;

@@ -43,10 +43,6 @@ class VolumetricElasticity {
   // K_ii, [N][36] row-major.
   virtual void tangent_diagonal_blocks(double* blocks) = 0;
 
-  // The frames' material rotations (mechanics/material_rotation.hpp) at the state of the last
-  // prepare(), q [N][4].
-  virtual void material_rotations(double* q) = 0;
-
   // A CPU Elasticity prepared at the state of the last prepare(), for what needs the per-sample
   // matrices (TangentAssembler: material_matrix, pair_jacobian). The CPU reference returns
   // itself; a device backend prepares a host copy, once per prepare() (the cost of one CPU

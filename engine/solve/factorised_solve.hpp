@@ -8,21 +8,9 @@
 // (Newton iterations and steps), renewed before the next solve once the factorisation says it
 // stops paying (the CPU's rule: solve/kept_factorisation.hpp), and computed again at once when
 // the reused one could not reach the tolerance within the cap. The state between solves is a
-// KeptFactorisation, which a checkpoint keeps.
-//
-// A kept factorisation F is of the tangent at the state where it was computed; the later solves'
-// tangents are at other iterates, where the material has turned. An elastic energy is invariant
-// under rotations, so where a frame's neighbourhood turns rigidly by Q_i = R_i R^_i^T (R_i its
-// material rotation, mechanics/material_rotation.hpp, at the iterate; R^_i at the factorisation)
-// its rows and columns of the tangent turn with it, in world axes: H ~ Q H^ Q^T, Q = diag(Q_i) on
-// each frame's translation and rotation increments. PCG is preconditioned by Q F^{-1} Q^T instead
-// of F^{-1} (stiffness warping, Mueller et al., "Stable real-time deformations", SCA 2002,
-// applied to the factor): symmetric positive definite as F^{-1} is (Q is orthogonal, and each
-// frame's translation or rotation is fixed as a whole), and exact for a rigid turn of the whole
-// model.
-//
-// Where H is indefinite (PCG meets non-positive curvature) and the factor is of a shifted
-// H + tau diag|H|, the solve returns that matrix's step F^{-1} b instead of CG's truncated iterate: the modified Newton step (Nocedal & Wright,
+// KeptFactorisation, which a checkpoint keeps. Where H is indefinite (PCG meets non-positive
+// curvature) and the factor is of a shifted H + tau diag|H|, the solve returns that matrix's
+// step F^{-1} b instead of CG's truncated iterate: the modified Newton step (Nocedal & Wright,
 // Numerical Optimization, 2nd ed., §3.4), a descent direction since F is positive definite, and
 // the step direct_solve takes (a truncated iterate of a few CG iterations moves the state only a
 // little along the negative curvature per Newton iteration).
@@ -34,9 +22,6 @@
 //   bool factorised() const;                  a factor is held
 //   void solve(const Vector& r, Vector& z);   z = F^{-1} r
 //   bool shifted() const;                     the factor held is of H + tau diag|H|, tau > 0
-//   FrameWarp warp() const;                   the material rotations of the iterate the solve is
-//                                             at and of the state factorised (FrameWarp; null:
-//                                             F^{-1} is applied as it is)
 //   bool stops_paying(const KeptFactorisation& kept, int iterations) const;
 //                                             after a solve of `iterations` that `kept` has
 //                                             counted: whether to renew the factorisation before
@@ -48,14 +33,6 @@
 #include "solve/pcg.hpp"
 
 namespace fascia {
-
-// The frames' material rotations [N][4] (on the backend's side) of the iterate a solve is at and
-// of the state whose tangent the kept factorisation holds, for the preconditioner Q F^{-1} Q^T
-// (above); null where the model's frames do not turn.
-struct FrameWarp {
-  const double* rotations = nullptr;
-  const double* factorised = nullptr;
-};
 
 // The PCG settings of an iterative solve by `linear` (its tolerance, cap and fixed-iteration mode).
 inline PcgSettings pcg_settings(const LinearSettings& linear) {
@@ -104,23 +81,13 @@ LinearResult pcg_with_kept_factorisation(const Ops& ops, Apply&& apply, Factoris
     fresh = factorise();
     if (!factor.factorised()) return fresh;
   }
-  // z = Q F^{-1} Q^T r; Q = I (no rotation) where F was computed at this iterate.
-  FrameWarp warp = was_stale ? FrameWarp{} : factor.warp();
-  Vector rotated;
-  if (warp.rotations) ops.resize(rotated);
-  auto precondition = [&](const Vector& r, Vector& z) {
-    if (!warp.rotations) return factor.solve(r, z);
-    ops.rotate_frames(warp.rotations, warp.factorised, r, rotated, true);
-    factor.solve(rotated, z);
-    ops.rotate_frames(warp.rotations, warp.factorised, z, z, false);
-  };
+  auto precondition = [&](const Vector& r, Vector& z) { factor.solve(r, z); };
   LinearResult r = pcg(ops, apply, precondition, pcg_settings, b, x);
   int served = r.iterations;  // by the factorisation held now
   if (!r.converged && !was_stale && !settings.fixed_iterations) {
     const int spent = r.iterations;
     fresh = factorise();
     if (!factor.factorised()) return fresh;
-    warp = FrameWarp{};
     r = pcg(ops, apply, precondition, pcg_settings, b, x);
     served = r.iterations;
     r.iterations += spent;
@@ -129,8 +96,7 @@ LinearResult pcg_with_kept_factorisation(const Ops& ops, Apply&& apply, Factoris
     Vector rhs;
     ops.copy(b, rhs);
     ops.project(rhs);
-    ops.resize(x);
-    precondition(rhs, x);
+    factor.solve(rhs, x);
     ops.project(x);
     r.message = "non-positive curvature in CG; the step of the shifted tangent's factor";
   }

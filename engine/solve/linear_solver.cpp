@@ -49,10 +49,6 @@ LinearSolver::~LinearSolver() = default;
 LinearResult LinearSolver::factorise(const LinearSystem& system) {
   LinearResult r;
   r.factorised = true;
-  if (system.rotations)
-    m_factorised_rotations.assign(system.rotations, system.rotations + 4 * static_cast<size_t>(system.size / 6));
-  else
-    m_factorised_rotations.clear();
   if (!m_cholesky->factorise(system.assemble(), system.fixed)) {
     r.message = "CHOLMOD: tangent could not be factorised even with a diagonal shift";
     return r;
@@ -110,10 +106,6 @@ LinearResult LinearSolver::solve(const LinearSystem& system, const LinearSetting
       solver.m_cholesky->solve(r, z, preconditioner);
     }
     bool shifted() const { return solver.m_cholesky->shift() > 0; }
-    FrameWarp warp() const {
-      if (!system.rotations || solver.m_factorised_rotations.empty()) return {};
-      return {system.rotations, solver.m_factorised_rotations.data()};
-    }
     bool stops_paying(const KeptFactorisation& k, int iterations) const {
       return fascia::stops_paying(k, iterations, kCholmodFactorisationCost);
     }

@@ -57,10 +57,6 @@ struct LinearSystem {
   std::function<void(const double*, double*)> apply;           // out = H d
   std::function<void(double*)> diagonal_blocks;                 // [N][36]
   std::function<Eigen::SparseMatrix<double>()> assemble;        // H, both triangles
-  // [N][4] the frames' material rotations (mechanics/material_rotation.hpp) at the state H is the
-  // tangent at, or null where the frames do not turn (a kept factorisation's preconditioner
-  // follows them: solve/factorised_solve.hpp)
-  const double* rotations = nullptr;
 };
 
 // Solves with the method of the settings. Keeps the sparse factorisation between solves (pcg +
@@ -98,7 +94,6 @@ class LinearSolver {
 
   std::unique_ptr<SparseCholesky> m_cholesky;
   KeptFactorisation m_kept;  // pcg + cholmod: the held factorisation's state
-  std::vector<double> m_factorised_rotations;  // [N][4] LinearSystem::rotations at factorise()
 };
 
 }  // namespace fascia

@@ -17,11 +17,6 @@
 //                                                            a given build (reproducible runs)
 //   double norm(const Vector& x) const;              sqrt(x^T x)
 //   void project(Vector& x) const;                   x_k = 0 at every fixed DOF k
-//   void rotate_frames(const double* orientations, const double* reference, const Vector& x,
-//                      Vector& y, bool transpose) const;
-//       y_i = Q_i x_i (Q_i^T x_i with transpose) for each frame i's six values (n = 6N),
-//       Q_i = R(q_i) R(q_ref,i)^T from orientations and reference [N][4] where the backend
-//       computes (core/rotation.hpp, rotate_increment); y may be x
 //
 // and the scalars of a PCG iteration (solve/pcg.hpp), kept where the backend computes:
 //
@@ -56,7 +51,6 @@
 // HostVectorOps below is the CPU backend: std::vector<double>, SIMD loops.
 #pragma once
 
-#include "core/rotation.hpp"
 #include "solve/linear_result.hpp"
 
 #include <cmath>
@@ -118,14 +112,6 @@ class HostVectorOps {
   }
 
   const std::uint8_t* fixed() const { return m_fixed; }
-
-  void rotate_frames(const double* orientations, const double* reference, const Vector& x, Vector& y,
-                     bool transpose) const {
-    y.resize(x.size());
-    for (int i = 0; i < m_n / 6; ++i)
-      rotate_increment(load_quat(orientations + 4 * i), load_quat(reference + 4 * i), x.data() + 6 * i,
-                       y.data() + 6 * i, transpose);
-  }
 
   // y = y + a P x.
   void axpy_projected(double a, const Vector& x, Vector& y) const {

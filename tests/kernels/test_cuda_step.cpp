@@ -13,7 +13,6 @@
 #include "cuda_elasticity.hpp"
 #include "cuda_step.hpp"
 #include "device_cholesky.hpp"
-#include "device_problem.hpp"
 #include "device_potential.hpp"
 #include "integrate/step_potential.hpp"
 #include "integrate/tangent_probing.hpp"
@@ -373,47 +372,6 @@ TEST_CASE("device Cholesky factor solves the step tangent as CHOLMOD does", "[gp
                 dynamic ? "dynamic" : "static", to_string(kind), model.dof_count(), seed, factor.products(),
                 f.shifted ? "shifted" : "not shifted", relative_difference(z_dev, z_cpu), worst);
     CHECK(worst <= 1.0);
-  }
-}
-
-TEST_CASE("the device's kept factor preconditions the model turned rigidly as well as its own state", "[gpu]") {
-  // As on the CPU (tests/solve/test_linear_solver.cpp): the tangent at a rigidly turned state is
-  // Q H Q^T, and the kept factor of H, rotated by the frames' turn, solves it in the iterations
-  // the fresh factor takes (its inverse is in float: three iterations to 1e-10 at most).
-  Model model = small_box_model(CellType::tetrahedron, MaterialLaw::stvk, 4, 2, 2);
-  fix_frames(model, [](double x, double, double) { return x <= 1e-12; });
-  const ExternalLoads loads;
-  DevicePotential dev(model, loads);
-  DeviceCholesky factor(dev);
-  KeptFactorisation kept;
-  LinearSettings linear;
-  linear.method = LinearMethod::pcg;
-  linear.preconditioner = Preconditioner::cholmod;
-  linear.tolerance = 1e-10;
-  const Quat turn = quat_exp(Vec3{0.6, -0.8, 0.5});
-  auto turned = [&](State s) {
-    const Mat3 Q = rotation_matrix(turn);
-    for (int i = 0; i < s.frame_count(); ++i) {
-      const Vec3 x = Q * Vec3{s.positions[3 * i], s.positions[3 * i + 1], s.positions[3 * i + 2]};
-      s.positions[3 * i] = x.x, s.positions[3 * i + 1] = x.y, s.positions[3 * i + 2] = x.z;
-      store_quat(&s.orientations[4 * i], turn * load_quat(&s.orientations[4 * i]));
-    }
-    return s;
-  };
-  const State start = rest_state(model), state = random_state(model, 5, 0.002, 0.05);
-  DeviceFrames q = dev.make_state();
-  for (const bool turn_it : {false, true}) {
-    dev.set_dynamic(turn_it ? turned(start) : start, 0.01, 0.0);
-    q.upload(turn_it ? turned(state) : state);
-    DeviceProblem problem(dev, linear, &factor, kept);
-    DeviceVector g, d;
-    problem.gradient(q, g);
-    problem.ops().scale(-1.0, g);
-    const LinearResult r = problem.solve(q, g, d, linear);
-    INFO("turned " << turn_it << ": " << r.iterations << " iterations");
-    REQUIRE(r.converged);
-    REQUIRE(r.factorised == !turn_it);
-    REQUIRE(r.iterations <= 3);
   }
 }
 

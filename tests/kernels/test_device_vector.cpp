@@ -1,7 +1,6 @@
 // The device's vector operations (kernels/device_vector.hpp): the terms of one scalar, reduced on
-// the device and read back together; the frames' rotation as the host's.
+// the device and read back together.
 #include "device_vector.hpp"
-#include "solve/vector_ops.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -41,38 +40,6 @@ TEST_CASE("pending terms are read back together and summed in the order they wer
     for (int k = 0; k < VectorOps::kPendingTerms; ++k) ops.copy_pending(b.data());
     CHECK_THROWS_AS(ops.copy_pending(b.data()), std::logic_error);
     CHECK(ops.read_pending() == static_cast<double>(VectorOps::kPendingTerms));
-  }
-  cudaStreamDestroy(stream);
-}
-
-TEST_CASE("the device turns the frames' increments as the host does", "[gpu]") {
-  cudaStream_t stream = nullptr;
-  REQUIRE(cudaStreamCreate(&stream) == cudaSuccess);
-  {
-    const VectorOps ops(stream);
-    const int frames = 300;
-    std::vector<double> q(4 * frames), q_ref(4 * frames), x(6 * frames);
-    for (int i = 0; i < frames; ++i) {
-      store_quat(&q[4 * i], normalized(Quat{std::cos(0.1 * i), std::sin(0.3 * i), 0.2, -0.5}));
-      store_quat(&q_ref[4 * i], normalized(Quat{0.4, std::cos(0.7 * i), std::sin(0.2 * i), 0.1}));
-    }
-    for (int k = 0; k < 6 * frames; ++k) x[k] = std::sin(0.37 * k);
-    DeviceBuffer<double> qd, rd, xd, yd(6 * frames);
-    qd.upload(q);
-    rd.upload(q_ref);
-    xd.upload(x);
-    const HostVectorOps host(6 * frames, nullptr);
-    for (const bool transpose : {false, true}) {
-      std::vector<double> expected, got(6 * frames);
-      host.rotate_frames(q.data(), q_ref.data(), x, expected, transpose);
-      ops.rotate_frames(qd.data(), rd.data(), xd.data(), yd.data(), frames, transpose);
-      REQUIRE(cudaMemcpyAsync(got.data(), yd.data(), sizeof(double) * got.size(), cudaMemcpyDeviceToHost, stream) ==
-              cudaSuccess);
-      REQUIRE(cudaStreamSynchronize(stream) == cudaSuccess);
-      // The same arithmetic (core/rotation.hpp); the device may fuse multiply-adds: a few
-      // roundings of entries of size 1.
-      for (int k = 0; k < 6 * frames; ++k) REQUIRE(std::abs(got[k] - expected[k]) <= 1e-15 * 8);
-    }
   }
   cudaStreamDestroy(stream);
 }

@@ -97,14 +97,13 @@ def test_a_stopped_run_resumes_to_the_same_bits(fascia_bin, root, tmp_path, refe
     # reach the file some steps after those steps are taken.
     (["scenes/bone.yaml", "--set", "run.duration=2 s"], [50, 53, 56, 59]),
     # The variational integrator's iteration matrix (start and end states of the step). Steps of
-    # 4 ms: undamped, the pulled tissue's Newton stops converging between 0.4 and 0.5 s with steps
-    # of 10 ms and near 0.59 s with 5 ms (where depends on rounding); with 4 ms it runs past
-    # 0.7 s. About one step in six holds no factorisation, and the rows reach the file in bursts
-    # (on a 2-core VM the stops after 10 and 12 rows both landed after row 12, a step that holds
-    # none), so the stops are spread over 30 rows. 150 steps: at least 118 (about 1.2 s on one
-    # thread of that VM) are left after the last stop's rows for the signal to land before the
-    # run ends.
-    (["scenes/tool_pull.yaml", "--set", "run.duration=0.6 s", "--set", "solver.dt=4 ms", "--set",
+    # 5 ms: undamped, with steps of 10 ms, the pulled tissue's Newton stops converging between 0.4
+    # and 0.5 s (where depends on rounding), with 5 ms it runs past 0.6 s. About one step in six
+    # holds no factorisation, and the rows reach the file in bursts (on a 2-core VM the stops
+    # after 10 and 12 rows both landed after row 12, a step that holds none), so the stops are
+    # spread over 30 rows. 120 steps: at least 88 (about 1.5 s on one thread of that VM) are left
+    # after the last stop's rows for the signal to land before the run ends.
+    (["scenes/tool_pull.yaml", "--set", "run.duration=0.6 s", "--set", "solver.dt=5 ms", "--set",
       "solver.integrator=variational", "--set", "solver.rayleigh_mass=0"], [8, 14, 20, 26, 32]),
 ])
 def test_the_reused_factorisation_is_resumed(fascia_bin, root, tmp_path, scene, stops):

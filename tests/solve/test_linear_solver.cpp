@@ -103,49 +103,6 @@ TEST_CASE("PCG reuses its factorisation at a new state and refreshes it when it 
   REQUIRE(solver.factorisation().analyses() == 1);
 }
 
-TEST_CASE("a kept factorisation preconditions the same model turned rigidly as well as its own state", "[solve]") {
-  // The elastic energy and the inertia are invariant under a rigid turn Q of the whole model (and
-  // of the step's start with it), so the tangent at the turned state is Q H Q^T in world axes,
-  // Q = diag(Q) on every frame's translation and rotation increments. The factorisation of H,
-  // rotated by the frames' turn (solve/factorised_solve.hpp), is then the exact inverse there too:
-  // one or two iterations to 1e-10, as the fresh factorisation takes. Applied unrotated it is
-  // not: a turn of 1.1 rad leaves tens of iterations.
-  Model model = small_box_model(CellType::tetrahedron, MaterialLaw::stvk, 4, 2, 2);
-  fix_frames(model, [](double x, double, double) { return x <= 1e-12; });
-  const ExternalLoads loads;  // no gravity: it alone would tell the turned state apart
-  StepPotential potential(model, loads);
-  const Quat turn = quat_exp(Vec3{0.6, -0.8, 0.5});
-  auto turned = [&](State s) {
-    const Mat3 Q = rotation_matrix(turn);
-    for (int i = 0; i < s.frame_count(); ++i) {
-      const Vec3 x = Q * Vec3{s.positions[3 * i], s.positions[3 * i + 1], s.positions[3 * i + 2]};
-      s.positions[3 * i] = x.x, s.positions[3 * i + 1] = x.y, s.positions[3 * i + 2] = x.z;
-      store_quat(&s.orientations[4 * i], turn * load_quat(&s.orientations[4 * i]));
-    }
-    return s;
-  };
-  const State start = rest_state(model), state = random_state(model, 5, 0.002, 0.05);
-  LinearSolver solver;
-  LinearSettings settings;
-  settings.method = LinearMethod::pcg;
-  settings.preconditioner = Preconditioner::cholmod;
-  settings.tolerance = 1e-10;
-  std::vector<double> g, x;
-  for (const bool turn_it : {false, true}) {
-    potential.set_dynamic(turn_it ? turned(start) : start, 0.01, 0.0, 0.0);
-    const State at = turn_it ? turned(state) : state;
-    potential.gradient(at, g);
-    potential.prepare_hessian(at);
-    for (size_t k = 0; k < g.size(); ++k) g[k] = model.fixed_dofs[k] ? 0.0 : -g[k];
-    const LinearResult r = solver.solve(potential.system(), settings, g, x);
-    INFO("turned " << turn_it << ": " << r.iterations << " iterations");
-    REQUIRE(r.converged);
-    REQUIRE(r.factorised == !turn_it);
-    REQUIRE(r.iterations <= 2);
-  }
-  REQUIRE(solver.factorisation().factorisations() == 1);
-}
-
 TEST_CASE("a kept factorisation is renewed after the first solve that costs more than the mean", "[solve]") {
   // Cost 20 iterations; solves of 2, 4, 6, ... iterations: after solve k the cycle has cost
   // 20 + k (k + 1) over k solves, and solve k's 2k iterations exceed that mean first at k = 6
