@@ -19,6 +19,15 @@ inline void cuda_check(cudaError_t e, const char* what) {
 void count_device_buffer_bytes(long long delta);
 
 // A device array of T, move-only. upload() converts element types (double -> float).
+//
+// kernels/ enqueues its work on non-blocking streams, which do not wait for the legacy default
+// stream that cudaMemcpy and cudaMemset use; and a cudaMemcpy from pageable host memory returns
+// once the data is staged, with its copy to the device possibly still queued (CUDA runtime API,
+// "API synchronization behavior"). So upload(host) and zero() wait for the legacy stream before
+// returning: their data is on the device for any stream's later work. upload(host, stream) is
+// ordered on `stream` instead, without a wait: cudaMemcpyAsync from pageable memory stages the
+// data before it returns, so the host array may change at once. download() waits for its copy
+// but not for the streams: the caller synchronises the stream that wrote the buffer first.
 template <class T>
 class DeviceBuffer {
  public:
@@ -41,10 +50,7 @@ class DeviceBuffer {
   }
   template <class U>
   void upload(const std::vector<U>& host) {
-    resize(host.size());
-    if (host.empty()) return;
-    std::vector<T> tmp(host.begin(), host.end());
-    FASCIA_CUDA(cudaMemcpy(m_data, tmp.data(), tmp.size() * sizeof(T), cudaMemcpyHostToDevice));
+    upload(host.data(), host.size());
   }
   template <class U>
   void upload(const U* host, std::size_t n) {
@@ -52,6 +58,18 @@ class DeviceBuffer {
     if (n == 0) return;
     std::vector<T> tmp(host, host + n);
     FASCIA_CUDA(cudaMemcpy(m_data, tmp.data(), n * sizeof(T), cudaMemcpyHostToDevice));
+    FASCIA_CUDA(cudaStreamSynchronize(cudaStreamLegacy));
+  }
+  template <class U>
+  void upload(const std::vector<U>& host, cudaStream_t stream) {
+    upload(host.data(), host.size(), stream);
+  }
+  template <class U>
+  void upload(const U* host, std::size_t n, cudaStream_t stream) {
+    resize(n);
+    if (n == 0) return;
+    std::vector<T> tmp(host, host + n);
+    FASCIA_CUDA(cudaMemcpyAsync(m_data, tmp.data(), n * sizeof(T), cudaMemcpyHostToDevice, stream));
   }
   template <class U>
   void download(U* host) const {
@@ -61,7 +79,9 @@ class DeviceBuffer {
     for (std::size_t k = 0; k < m_size; ++k) host[k] = static_cast<U>(tmp[k]);
   }
   void zero() {
-    if (m_size) FASCIA_CUDA(cudaMemset(m_data, 0, m_size * sizeof(T)));
+    if (m_size == 0) return;
+    FASCIA_CUDA(cudaMemset(m_data, 0, m_size * sizeof(T)));
+    FASCIA_CUDA(cudaStreamSynchronize(cudaStreamLegacy));
   }
 
   T* data() { return m_data; }

@@ -310,20 +310,21 @@ class System final : public DeviceElasticity::Impl {
 
   void set_state(const State& state) override {
     if (state.frame_count() != m_n) throw std::invalid_argument("DeviceElasticity: state has the wrong frame count");
-    m_positions.upload(state.positions);
-    m_orientations.upload(state.orientations);
+    m_positions.upload(state.positions, m_stream);
+    m_orientations.upload(state.orientations, m_stream);
     mark_changed();
   }
 
   // The next preparation takes a force pass (the state came from the host).
   void mark_changed() {
     const int changed = 1;
-    m_changed.upload(&changed, 1);
+    m_changed.upload(&changed, 1, m_stream);
   }
 
   void get_state(State& state) const override {
     state.positions.resize(3 * static_cast<size_t>(m_n));
     state.orientations.resize(4 * static_cast<size_t>(m_n));
+    FASCIA_CUDA(cudaStreamSynchronize(m_stream));
     m_positions.download(state.positions.data());
     m_orientations.download(state.orientations.data());
   }
@@ -353,7 +354,7 @@ class System final : public DeviceElasticity::Impl {
   }
 
   void apply_tangent(const double* d, double* out) override {
-    m_d.upload(d, 6 * static_cast<size_t>(m_n));
+    m_d.upload(d, 6 * static_cast<size_t>(m_n), m_stream);
     enqueue_tangent(m_d.data(), m_out.data(), nullptr);
     FASCIA_CUDA(cudaStreamSynchronize(m_stream));
     m_out.download(out);

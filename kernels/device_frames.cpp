@@ -29,9 +29,11 @@ void DeviceFrames::upload(const State& state) {
     throw std::invalid_argument("DeviceFrames: the state has the wrong frame count");
   FASCIA_CUDA(cudaMemcpyAsync(m_x.data(), state.positions.data(), 3 * sizeof(double) * m_frames,
                               cudaMemcpyHostToDevice, m_stream));
+  // From pageable memory the copies stage the arrays before they return (CUDA runtime API, "API
+  // synchronization behavior"): the host arrays may change at once, and the copies are ordered
+  // before the stream's later work.
   FASCIA_CUDA(cudaMemcpyAsync(m_q.data(), state.orientations.data(), 4 * sizeof(double) * m_frames,
                               cudaMemcpyHostToDevice, m_stream));
-  FASCIA_CUDA(cudaStreamSynchronize(m_stream));  // the host arrays may change after return
 }
 
 void DeviceFrames::download(State& state) const {

@@ -398,11 +398,11 @@ void DevicePotential::set_dynamic(const State& start, double dt, double rayleigh
   m.frame_blocks = nullptr;
   m.dynamic = true;
   m.equilibrium = false;
-  m.start_x.upload(start.positions);
-  m.start_q.upload(start.orientations);
+  m.start_x.upload(start.positions, m.stream);
+  m.start_q.upload(start.orientations, m.stream);
   std::vector<double> v = start.velocities;
   v.resize(6 * static_cast<size_t>(n), 0.0);
-  m.start_v.upload(v);
+  m.start_v.upload(v, m.stream);
   k_world_inertia<<<frame_grid(n), kFrameThreads, 0, m.stream>>>(n, m.start_q.data(), m.inertia0.data(),
                                                                   m.inertia.data());
   check();

@@ -124,10 +124,7 @@ struct DeviceSampleFields::Impl {
     rest_offsets.upload(t.rest_offsets);
     rest_positions.upload(model.samples.rest_positions);
     sample_materials.upload(model.samples.materials);
-    materials.resize(model.materials.size());
-    if (!model.materials.empty())
-      FASCIA_CUDA(cudaMemcpy(materials.data(), model.materials.data(), sizeof(Material) * model.materials.size(),
-                             cudaMemcpyHostToDevice));
+    materials.upload(model.materials);
     const int n = model.frame_count(), samples = model.sample_count();
     x.resize(3 * static_cast<size_t>(n));
     R.resize(9 * static_cast<size_t>(n));

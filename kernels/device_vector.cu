@@ -252,7 +252,7 @@ VectorOps::VectorOps(cudaStream_t stream) : m_stream(stream) {
   m_partials.resize(kReduceBlocks);
   m_pending.resize(kPendingTerms);
   m_counter.resize(1);
-  FASCIA_CUDA(cudaMemset(m_counter.data(), 0, sizeof(unsigned)));
+  FASCIA_CUDA(cudaMemsetAsync(m_counter.data(), 0, sizeof(unsigned), m_stream));
   FASCIA_CUDA(cudaMallocHost(&m_host, sizeof(double) * kPendingTerms));
   FASCIA_CUDA(cudaMalloc(reinterpret_cast<void**>(&m_cg), sizeof(CgState)));
   FASCIA_CUDA(cudaMallocHost(reinterpret_cast<void**>(&m_cg_host), sizeof(CgState)));
