@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace fascia::gpu {
@@ -25,9 +26,10 @@ void count_device_buffer_bytes(long long delta);
 // once the data is staged, with its copy to the device possibly still queued (CUDA runtime API,
 // "API synchronization behavior"). So upload(host) and zero() wait for the legacy stream before
 // returning: their data is on the device for any stream's later work. upload(host, stream) is
-// ordered on `stream` instead, without a wait: cudaMemcpyAsync from pageable memory stages the
-// data before it returns, so the host array may change at once. download() waits for its copy
-// but not for the streams: the caller synchronises the stream that wrote the buffer first.
+// ordered on `stream` instead, without a wait: cudaMemcpyAsync from pageable memory (the host
+// arrays here are; pinned memory would have to outlive the copy) stages the data before it
+// returns, so the host array may change at once. download() waits for its copy but not for the
+// streams: the caller synchronises the stream that wrote the buffer first.
 template <class T>
 class DeviceBuffer {
  public:
@@ -54,10 +56,7 @@ class DeviceBuffer {
   }
   template <class U>
   void upload(const U* host, std::size_t n) {
-    resize(n);
-    if (n == 0) return;
-    std::vector<T> tmp(host, host + n);
-    FASCIA_CUDA(cudaMemcpy(m_data, tmp.data(), n * sizeof(T), cudaMemcpyHostToDevice));
+    upload(host, n, cudaStreamLegacy);
     FASCIA_CUDA(cudaStreamSynchronize(cudaStreamLegacy));
   }
   template <class U>
@@ -68,8 +67,12 @@ class DeviceBuffer {
   void upload(const U* host, std::size_t n, cudaStream_t stream) {
     resize(n);
     if (n == 0) return;
-    std::vector<T> tmp(host, host + n);
-    FASCIA_CUDA(cudaMemcpyAsync(m_data, tmp.data(), n * sizeof(T), cudaMemcpyHostToDevice, stream));
+    if constexpr (std::is_same_v<T, U>) {
+      FASCIA_CUDA(cudaMemcpyAsync(m_data, host, n * sizeof(T), cudaMemcpyHostToDevice, stream));
+    } else {
+      const std::vector<T> converted(host, host + n);
+      FASCIA_CUDA(cudaMemcpyAsync(m_data, converted.data(), n * sizeof(T), cudaMemcpyHostToDevice, stream));
+    }
   }
   template <class U>
   void download(U* host) const {
