@@ -23,10 +23,18 @@
 //
 // Inexact Newton (Eisenstat & Walker, SIAM J. Sci. Comput. 17, 1996; Kelley, Iterative Methods
 // for Linear and Nonlinear Equations, 1995, §6.1): an iterative solve stops at
-// |H d + g| <= eta_k |g| with the forcing term eta_k = min(kForcingMax, kForcing |g_k| / scale),
-// never below settings.linear.tolerance. eta_k proportional to |g_k| keeps Newton's quadratic
+// |H d + g| <= eta_k |g| with the forcing term
+//
+//   eta_k = min(kForcingMax, max(kForcing r_k, kForcingFloor tolerance / r_k)),   r_k = |g_k| / scale,
+//
+// never below settings.linear.tolerance. eta_k proportional to r_k keeps Newton's quadratic
 // local convergence; far from the solution a loose solve costs few CG iterations and loses
-// nothing, since the linearisation itself is that far off.
+// nothing, since the linearisation itself is that far off. Near the solution the floor (Kelley,
+// eq. 6.20) asks the solve for no more than the Newton tolerance: a step solved to eta_k leaves a
+// residual of about eta_k r_k plus the linearisation's O(r_k^2), so eta_k = kForcingFloor
+// tolerance / r_k ends the solve at half the tolerance, where kForcing r_k would end it orders of
+// magnitude below (r_k = 1e-4 and tolerance 1e-6: 5e-3 instead of 1e-5, half the CG iterations
+// of that last solve).
 //
 // Convergence: |g_free| <= tolerance * max(reference force, |g_free(q_0)|). Line search: halve
 // alpha until Phi(q (+) alpha d) <= Phi(q) + armijo alpha g.d (Nocedal & Wright, eq. 3.4); near
@@ -66,9 +74,19 @@ namespace fascia {
 
 // The forcing term's constants (see above). On the shipped scenes eta_k = 0.1 |g_k| / scale
 // capped at 1e-2 takes 45 % fewer CG iterations than 1e-8 throughout, at the same Newton
-// iterations within 3 %; a cap of 1e-1 adds up to a quarter more Newton iterations.
+// iterations within 3 %; a cap of 1e-1 adds up to a quarter more Newton iterations. The floor's
+// 0.5 is Kelley's; 0.25 and 1 take the same CG iterations within 5 % on the shipped scenes (an
+// H200, docs/benchmarks.md).
 constexpr double kForcing = 0.1;
 constexpr double kForcingMax = 1e-2;
+constexpr double kForcingFloor = 0.5;
+
+// The forcing term eta_k of Newton's iteration at relative residual r_k = |g_k| / scale for the
+// Newton tolerance `tolerance` (above), before the linear tolerance's floor.
+inline double forcing_term(double r_k, double tolerance) {
+  if (!(r_k > 0)) return kForcingMax;  // g = 0 (fixed-iteration runs): any solve is exact
+  return std::min(kForcingMax, std::max(kForcing * r_k, kForcingFloor * tolerance / r_k));
+}
 
 // Newton-Krylov directions (see above). The difference step eps |z| = 1e-7 (m and rad of the
 // increments) balances the quotient's truncation, about 1e-7 of J's scale over the variation of J
@@ -184,7 +202,7 @@ NewtonResult newton(Problem& problem, typename Problem::State& state, const Newt
     ops.copy(g, rhs);
     ops.scale(-1.0, rhs);
     LinearSettings linear = settings.linear;
-    linear.tolerance = std::max(settings.linear.tolerance, std::min(kForcingMax, kForcing * result.residual));
+    linear.tolerance = std::max(settings.linear.tolerance, forcing_term(result.residual, settings.tolerance));
     const LinearResult lin =
         krylov ? newton_krylov_direction(problem, state, g, rhs, d, linear, probe) : problem.solve(state, rhs, d, linear);
     result.cg_iterations += lin.iterations;

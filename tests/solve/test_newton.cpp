@@ -288,7 +288,7 @@ TEST_CASE("Newton's accepted full steps cost one gradient each and no separate v
   }
 }
 
-TEST_CASE("Newton's forcing term: loose solves far from the minimum, tight near it, at the same convergence",
+TEST_CASE("Newton's forcing term: loose far from the minimum, tighter near it, the tolerance's last",
           "[solve][newton]") {
   NewtonSettings settings;
   settings.tolerance = 1e-10;
@@ -299,17 +299,30 @@ TEST_CASE("Newton's forcing term: loose solves far from the minimum, tight near 
   const NewtonResult r = newton(inexact, x, settings, 1.0);
   REQUIRE(r_exact.converged());
   REQUIRE(r.converged());
-  // Solve k was asked for eta_k = min(kForcingMax, kForcing |g_k| / scale), at least the linear
-  // tolerance, with scale = max(reference 1 N, |g_0|) and |g_k| = |rhs_k|.
+  // Solve k was asked for eta_k = min(kForcingMax, max(kForcing r_k, kForcingFloor tol / r_k)),
+  // at least the linear tolerance, with r_k = |g_k| / scale, scale = max(reference 1 N, |g_0|)
+  // and |g_k| = |rhs_k|.
   REQUIRE(inexact.rhs_norms.size() == inexact.tolerances.size());
+  REQUIRE(inexact.rhs_norms.size() >= 3);
   const double scale = std::max(1.0, inexact.rhs_norms.front());
   for (size_t k = 0; k < inexact.tolerances.size(); ++k) {
-    const double expected =
-        std::max(settings.linear.tolerance, std::min(kForcingMax, kForcing * (inexact.rhs_norms[k] / scale)));
+    const double r_k = inexact.rhs_norms[k] / scale;
+    const double expected = std::max(
+        settings.linear.tolerance, std::min(kForcingMax, std::max(kForcing * r_k, kForcingFloor * settings.tolerance / r_k)));
     REQUIRE(inexact.tolerances[k] == Approx(expected).epsilon(1e-15));
   }
   REQUIRE(inexact.tolerances.front() == kForcingMax);  // |g_0| = scale: the cap
-  REQUIRE(inexact.tolerances.back() < 1e-6);           // the last, near the minimum: tight
+  int proportional = 0;  // solves between the cap and the floor: kForcing r_k, shrinking with r_k
+  for (size_t k = 0; k < inexact.tolerances.size(); ++k) {
+    const double r_k = inexact.rhs_norms[k] / scale;
+    if (inexact.tolerances[k] < kForcingMax && inexact.tolerances[k] == Approx(kForcing * r_k).epsilon(1e-15)) ++proportional;
+  }
+  REQUIRE(proportional >= 1);
+  // The last solve, near the minimum, is asked for the Newton tolerance and no more: its eta is
+  // the floor, kForcingFloor tol / r_k, above kForcing r_k.
+  const double r_last = inexact.rhs_norms.back() / scale;
+  REQUIRE(kForcingFloor * settings.tolerance / r_last > kForcing * r_last);
+  REQUIRE(inexact.tolerances.back() == Approx(kForcingFloor * settings.tolerance / r_last).epsilon(1e-15));
   // Residuals of eta_k |g_k| keep the quadratic convergence: at most one more iteration than
   // exact solves, and the same minimiser to the tolerance.
   REQUIRE(r.iterations <= r_exact.iterations + 1);
