@@ -75,8 +75,8 @@ namespace fascia {
 // The forcing term's constants (see above). On the shipped scenes eta_k = 0.1 |g_k| / scale
 // capped at 1e-2 takes 45 % fewer CG iterations than 1e-8 throughout, at the same Newton
 // iterations within 3 %; a cap of 1e-1 adds up to a quarter more Newton iterations. The floor's
-// 0.5 is Kelley's; 0.25 and 1 take the same CG iterations within 5 % on the shipped scenes (an
-// H200, docs/benchmarks.md).
+// 0.5 is Kelley's; 0.25 and 1 take CG iterations within 7 % of its on the shipped scenes but for
+// tool_pull at 1, 17 % more (an H200, docs/benchmarks.md).
 constexpr double kForcing = 0.1;
 constexpr double kForcingMax = 1e-2;
 constexpr double kForcingFloor = 0.5;
