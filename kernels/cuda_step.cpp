@@ -149,10 +149,17 @@ class CudaStep final : public StepBackend {
   TangentOrigin m_origin;
 };
 
-// Why the dense factor the settings ask for does not fit (empty where it fits or is not asked
-// for): the device keeps it where DeviceProblem::factorises(linear) and this is empty.
+// Why the dense factor the settings ask for is not used (empty where it is or is not asked for):
+// it does not fit, or, as pcg's preconditioner, it would cost more than block Jacobi
+// (DeviceCholesky::kPreconditionerDofs). The device keeps it where DeviceProblem::factorises(linear)
+// and this is empty.
 std::string dense_refusal(const Model& model, const LinearSettings& linear) {
-  return DeviceProblem::factorises(linear) ? DeviceCholesky::refusal(model.dof_count(), model.pair_count()) : std::string();
+  if (!DeviceProblem::factorises(linear)) return {};
+  if (linear.method == LinearMethod::pcg && model.dof_count() > DeviceCholesky::kPreconditionerDofs)
+    return "at " + std::to_string(model.dof_count()) + " DOFs (more than " +
+           std::to_string(DeviceCholesky::kPreconditionerDofs) +
+           ") the dense factor's renewals cost more than block Jacobi's extra iterations";
+  return DeviceCholesky::refusal(model.dof_count(), model.pair_count());
 }
 
 // Why the whole step does not run on the device for model and settings (empty when it does): the
@@ -175,7 +182,7 @@ StepBackendFactory cuda_step_factory(const DeviceOptions& options) {
                    std::string& why) -> std::unique_ptr<StepBackend> {
     why = device_step_refusal(model, settings);
     if (!why.empty()) return nullptr;
-    // Where the dense factor does not fit, pcg is preconditioned by block Jacobi.
+    // Where the dense factor is not used, pcg is preconditioned by block Jacobi.
     const LinearSettings& linear = settings.newton.linear;
     const std::string dense = dense_refusal(model, linear);
     if (!dense.empty()) std::cerr << "fascia: note: the device preconditions pcg by block Jacobi: " << dense << "\n";

@@ -51,6 +51,13 @@ class DeviceCholesky {
   // 10,962 in 38.5-38.8 ms with blocks of 768-2048 (39.9 with 512, 41.2 with 3072; 45.1 by potrf of
   // the whole, L^{-1} and L^{-T} L^{-1}), of order 4,950 in 7.9 ms.
   static constexpr int kDiagonalBlock = 2048;
+  // The largest model whose pcg the dense factor preconditions: above it the factor's n^3
+  // renewals and n^2 products cost more than block Jacobi's extra iterations. The pelvis with
+  // 56,179 samples and finer frames, `bench scenes --backend cuda --steps 30` on an H200, ms per
+  // step (CG per step), block Jacobi against the factor: 16,194 DOFs 57.9 (390) against 26.8 (34),
+  // 19,218 61.0 (411) against 37.8 (39), 23,046 63.8 (422) against 56.8 (42), 27,216 66.2 (429)
+  // against 206.1 (51).
+  static constexpr long long kPreconditionerDofs = 24000;
   // The largest dense factor the device keeps: n <= 32,768 DOFs (8 GiB, and as much for the
   // inversion's scratch), all within half the free device memory with the
   // pairs' material columns the elastic blocks are formed from (432 bytes per sample pair:
