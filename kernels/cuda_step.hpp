@@ -9,9 +9,10 @@
 // and their attached frames). pcg is preconditioned by block Jacobi or, with
 // solver.linear.preconditioner: cholmod (the default), by the device's dense Cholesky factor kept
 // across Newton iterations and steps (device_cholesky.hpp), or by block Jacobi where that factor
-// would not fit or the model has more than DeviceCholesky::kPreconditionerDofs DOFs. The cholmod method without room for that factor is refused: the factory returns
-// null with the reason, and Simulation runs the CPU engine with the volumetric elasticity on the
-// device (cuda_elasticity.hpp).
+// would not fit or the model has more than DeviceCholesky::kPreconditionerDofs DOFs. The cholmod
+// method without room for that factor is refused: the factory returns null with the reason, and
+// Simulation runs the CPU engine with the volumetric elasticity on the device
+// (cuda_elasticity.hpp).
 #pragma once
 
 #include "device_elasticity.hpp"
